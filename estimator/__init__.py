@@ -1,0 +1,1 @@
+"""Oil-flow estimation: the augmented-state Extended Kalman Filter and the starvation alarm."""

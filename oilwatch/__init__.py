@@ -1,0 +1,1 @@
+"""oilwatch: the co-simulation master, the scenarios and the command line."""

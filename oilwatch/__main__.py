@@ -1,0 +1,5 @@
+import sys
+
+from oilwatch.cli import main
+
+sys.exit(main())
