@@ -1,0 +1,196 @@
+"""The rotor on its two fluid-film bearings: Eqs. 2-10 of the paper, in full or reduced coordinates.
+
+Each bearing's film force on the journal is linearized about the equilibrium ``e0(q)`` that the
+coefficient table gives for the bearing's share of the static load ``W_b`` (Lund's convention, see
+``models.bearing``)::
+
+    f = f0 - K(q) (r_b - e0(q)) - C(q) dr_b/dt,    f0 = (0, W_b).
+
+With the rotor's gravity load g and the unbalance force of Eqs. 5-6 this gives::
+
+    M r'' + (C_s + Omega G + C_b(q)) r' + (K_s + K_b(q)) r
+        = g + sum_b P_b^T (f0 + K_b e0) + Re(F_u exp(i Omega t))
+
+where ``P_b`` picks bearing b's (x, y) dofs. The state r is absolute (measured from the bearing
+centres), so the measured output ``H s`` of Eq. 8 is the shaft position in each bearing, static
+eccentricity included. The paper's Eq. 2 omits ``f0``; without it the journal would not sit at the
+table's equilibrium under the load the table was computed for, so it is kept here.
+
+With a ``ReductionBasis`` the coordinates are ``r = T eta``; the bearing dofs are its first coordinates.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+from scipy.linalg import lu_factor, lu_solve, solve
+
+from ..rotor.assembly import Rotor
+from ..validation import InputError, require_positive
+from .discretization import harmonic_input_map, zero_order_hold
+from .reduction import ReductionBasis
+
+if TYPE_CHECKING:
+    from ..bearing.table import CoefficientTable
+
+
+@dataclass(frozen=True)
+class BearingState:
+    """The linearized film of one bearing at a flowrate (SI): ``e0`` (2,), ``K`` (2, 2), ``C`` (2, 2)."""
+
+    equilibrium_m: np.ndarray
+    stiffness: np.ndarray
+    damping: np.ndarray
+
+
+class RotorBearingSystem:
+    """Second-order and state-space model of the rotor on fluid-film bearings at one speed.
+
+    Parameters
+    ----------
+    rotor : the finite-element rotor.
+    tables : one coefficient table per bearing, in the order of ``rotor.bearing_nodes``, all at ``speed_hz``.
+    speed_hz : spin speed [Hz]; must equal the tables' speed.
+    basis : optional reduction; ``None`` keeps all ``rotor.n_dof`` physical dofs.
+    """
+
+    def __init__(
+        self,
+        rotor: Rotor,
+        tables: Sequence[CoefficientTable],
+        speed_hz: float,
+        basis: ReductionBasis | None = None,
+    ) -> None:
+        speed_hz = require_positive("speed_hz", speed_hz, "Hz")
+        if len(tables) != len(rotor.bearing_nodes):
+            raise InputError(
+                f"tables: need one coefficient table per bearing ({len(rotor.bearing_nodes)}), "
+                f"got {len(tables)}"
+            )
+        for table in tables:
+            if not np.isclose(table.speed_hz, speed_hz, rtol=1e-9):
+                raise InputError(
+                    f"speed_hz = {speed_hz:g} Hz has no coefficient table: the table is for "
+                    f"{table.speed_hz:g} Hz (compute one with `oilwatch bearing-table --speed-hz`)"
+                )
+        self.rotor = rotor
+        self.tables = tuple(tables)
+        self.speed_hz = speed_hz
+        self.omega_rad_s = 2.0 * np.pi * speed_hz
+        self.basis = basis
+        transform = np.eye(rotor.n_dof) if basis is None else basis.basis
+        self.transform = transform
+        self.mass = transform.T @ rotor.mass_matrix @ transform
+        self.stiffness = transform.T @ rotor.stiffness_matrix @ transform
+        self.damping = transform.T @ (
+            rotor.damping_matrix + self.omega_rad_s * rotor.gyroscopic_matrix
+        ) @ transform
+        self.gravity_force = transform.T @ rotor.gravity_force
+        self.unbalance_force = transform.T @ rotor.unbalance_amplitude(self.omega_rad_s)
+        dofs = np.array([[rotor.dof(node, "x"), rotor.dof(node, "y")] for node in rotor.bearing_nodes])
+        self.bearing_dofs = dofs
+        # (n_bearings, 2, n): bearing (x, y) displacements from the coordinates.
+        self.bearing_maps = transform[dofs, :]
+        self.static_loads_n = np.asarray(rotor.bearing_static_loads_n, dtype=float)
+        self.n_coordinates = transform.shape[1]
+        self.n_states = 2 * self.n_coordinates
+        self._mass_lu = lu_factor(self.mass)
+        self.output_matrix = np.hstack(
+            [self.bearing_maps.reshape(-1, self.n_coordinates), np.zeros((2 * len(dofs), self.n_coordinates))]
+        )
+
+    @property
+    def flowrate_bounds_m3_s(self) -> tuple[float, float]:
+        """The flowrate range common to all bearing tables [m^3/s]."""
+        lows, highs = zip(*(table.flowrate_range_m3_s for table in self.tables), strict=True)
+        return max(lows), min(highs)
+
+    def bearing_states(self, flowrates_m3_s: Sequence[float]) -> list[BearingState]:
+        """Interpolated equilibrium and coefficients of each bearing at its supply flowrate."""
+        if len(flowrates_m3_s) != len(self.tables):
+            raise InputError(
+                f"flowrates: need one per bearing ({len(self.tables)}), got {len(flowrates_m3_s)}"
+            )
+        states = []
+        for table, q in zip(self.tables, flowrates_m3_s, strict=True):
+            c = table.evaluate(q)
+            states.append(BearingState(np.asarray(c.eccentricity_m), c.stiffness, c.damping))
+        return states
+
+    def second_order(
+        self, flowrates_m3_s: Sequence[float]
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Return ``(M, D, K, f_static)`` at the flowrates.
+
+        ``D`` and ``K`` include the bearings, ``f_static`` (n,) is the constant load (gravity, ``f0`` and
+        ``K_b e0`` terms). The harmonic unbalance load is ``self.unbalance_force`` (complex, (n,)).
+        """
+        damping = self.damping.copy()
+        stiffness = self.stiffness.copy()
+        force = self.gravity_force.copy()
+        for p, state, load in zip(
+            self.bearing_maps, self.bearing_states(flowrates_m3_s), self.static_loads_n, strict=True
+        ):
+            stiffness += p.T @ state.stiffness @ p
+            damping += p.T @ state.damping @ p
+            force += p.T @ (np.array([0.0, load]) + state.stiffness @ state.equilibrium_m)
+        return self.mass, damping, stiffness, force
+
+    def state_space(self, flowrates_m3_s: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
+        """Return ``(A, b)``: A (2n, 2n) of Eq. 9 and the input columns b (2n, 3) = B @ [f_static, F_c, F_s].
+
+        The load is ``f_static + F_c cos(Omega t) + F_s sin(Omega t)`` with ``F_u = F_c - i F_s``.
+        """
+        _, damping, stiffness, force = self.second_order(flowrates_m3_s)
+        n = self.n_coordinates
+        a = np.zeros((2 * n, 2 * n))
+        a[:n, n:] = np.eye(n)
+        a[n:, :n] = -lu_solve(self._mass_lu, stiffness)
+        a[n:, n:] = -lu_solve(self._mass_lu, damping)
+        loads = np.column_stack([force, self.unbalance_force.real, -self.unbalance_force.imag])
+        b = np.zeros((2 * n, 3))
+        b[n:] = lu_solve(self._mass_lu, loads)
+        return a, b
+
+    def discrete_map(
+        self, flowrates_m3_s: Sequence[float], dt_s: float, hold: str = "harmonic"
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """One-step map ``s_{k+1} = A_d s_k + G w_k`` with ``w_k = [1, cos(Omega t_k), sin(Omega t_k)]``.
+
+        ``hold="harmonic"`` integrates the loads exactly; ``hold="zoh"`` is the paper's Eq. 13 with the load
+        sampled at ``t_{k+1}`` (Eq. 11) and held over the step.
+        """
+        a, b = self.state_space(flowrates_m3_s)
+        if hold == "harmonic":
+            return harmonic_input_map(a, b, self.omega_rad_s, dt_s)
+        if hold == "zoh":
+            a_d, b_d = zero_order_hold(a, b, dt_s)
+            phase = self.omega_rad_s * dt_s
+            rotate = np.array(
+                [[1.0, 0.0, 0.0], [0.0, np.cos(phase), -np.sin(phase)], [0.0, np.sin(phase), np.cos(phase)]]
+            )
+            return a_d, b_d @ rotate
+        raise InputError(f"hold must be 'harmonic' or 'zoh', got {hold!r}")
+
+    def static_coordinates(self, flowrates_m3_s: Sequence[float]) -> np.ndarray:
+        """Static coordinates (n,) under gravity and the bearing loads at the flowrates."""
+        _, _, stiffness, force = self.second_order(flowrates_m3_s)
+        return solve(stiffness, force)
+
+    def unbalance_coordinates(self, flowrates_m3_s: Sequence[float]) -> np.ndarray:
+        """Complex amplitude (n,) of the steady unbalance response: ``r(t) = Re(X exp(i Omega t))``."""
+        _, damping, stiffness, _ = self.second_order(flowrates_m3_s)
+        w = self.omega_rad_s
+        return solve(stiffness - w * w * self.mass + 1j * w * damping, self.unbalance_force)
+
+    def bearing_positions(self, coordinates: np.ndarray) -> np.ndarray:
+        """Bearing (x, y) displacements (n_bearings, 2) of the coordinates (real or complex)."""
+        return np.einsum("bin,n->bi", self.bearing_maps, coordinates)
+
+    def exogenous(self, time_s: float) -> np.ndarray:
+        """The exogenous input ``w = [1, cos(Omega t), sin(Omega t)]`` at a time [s]."""
+        phase = self.omega_rad_s * time_s
+        return np.array([1.0, np.cos(phase), np.sin(phase)])
