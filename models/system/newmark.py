@@ -126,11 +126,7 @@ class NewmarkIntegrator:
         else:
             for t, f in zip(times, flows, strict=True):
                 blocks = self._bearing_blocks(f)
-                load = (
-                    self.system.gravity_force
-                    + self._select.T @ blocks[2]
-                    + self._harmonic_load(t)
-                )
+                load = self.system.gravity_force + self._select.T @ blocks[2] + self._harmonic_load(t)
                 self.state = self._trapezoid(self.state, load, blocks)
         self.time_s += self.dt_s
         return self.state[: self.n]
@@ -166,9 +162,7 @@ class NewmarkIntegrator:
     def _constant_step(self, flows: tuple[float, float]) -> np.ndarray:
         """The whole period at constant flowrates, by the cached linear propagator."""
         cached = self._propagator_flowrates
-        if cached is None or np.any(
-            np.abs(np.subtract(cached, flows)) > CONSTANT_FLOW_RTOL * np.abs(flows)
-        ):
+        if cached is None or np.any(np.abs(np.subtract(cached, flows)) > CONSTANT_FLOW_RTOL * np.abs(flows)):
             self._propagator = self._build_propagator(flows)
             self._propagator_flowrates = flows
         transition, forcing = self._propagator

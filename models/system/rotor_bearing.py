@@ -85,9 +85,9 @@ class RotorBearingSystem:
         self.transform = transform
         self.mass = transform.T @ rotor.mass_matrix @ transform
         self.stiffness = transform.T @ rotor.stiffness_matrix @ transform
-        self.damping = transform.T @ (
-            rotor.damping_matrix + self.omega_rad_s * rotor.gyroscopic_matrix
-        ) @ transform
+        self.damping = (
+            transform.T @ (rotor.damping_matrix + self.omega_rad_s * rotor.gyroscopic_matrix) @ transform
+        )
         self.gravity_force = transform.T @ rotor.gravity_force
         self.unbalance_force = transform.T @ rotor.unbalance_amplitude(self.omega_rad_s)
         dofs = np.array([[rotor.dof(node, "x"), rotor.dof(node, "y")] for node in rotor.bearing_nodes])

@@ -13,7 +13,7 @@ import sys
 from models.validation import InputError
 
 # Subcommand modules under oilwatch.cli, in the order --help lists them.
-SUBCOMMANDS: tuple[str, ...] = ()
+SUBCOMMANDS: tuple[str, ...] = ("rotor", "modes", "campbell", "speed_sweep", "orbits", "report")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -1,0 +1,76 @@
+"""The paper's model figures, recomputed by oilwatch: weight, flows, critical speeds, Tables 4 and 5.
+
+``paper_comparison`` returns ours and the paper's figures side by side; ``oilwatch report`` prints them.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..bearing.equilibrium import static_equilibrium
+from ..bearing.supply import ML_MIN_PER_M3_S, SupplyPressure
+from ..machine import load_machine
+from .factory import build_system, load_speed_sweeps
+from .sensitivity import DEFINITIONS, PAPER_TABLE4, PAPER_TABLE5, orbit_variation_table, paper_rows
+from .stability import stability_map
+
+PAPER = {
+    "rotor_weight_n": 6545.6,
+    "flooded_threshold_ml_min": 546.0,
+    "nominal_flow_ml_min": 596.3,
+    "first_critical_hz": 55.0,
+    "instability_threshold_hz": 95.0,
+}
+SCALAR_KEYS = tuple(PAPER)
+
+
+def paper_comparison(machine_file: str | Path | None = None) -> dict:
+    """Our model figures, the paper's, and their relative differences (JSON-ready, field units).
+
+    Keys: the scalar figures of ``PAPER`` (ours), ``table4`` and ``table5`` (ours, rows of
+    ``orbit_variation_table``), ``paper`` (the paper's scalars and tables), ``difference_pct`` (ours vs
+    the paper's scalars), ``definitions``, ``mesh`` and ``speeds_hz`` (what the figures were computed with).
+    """
+    machine = load_machine(machine_file)
+    system = build_system(machine, reduced=False)
+    rotor = system.rotor
+    load = float(rotor.bearing_static_loads_n[0])
+    mesh = system.tables[0].mesh
+    flows = {
+        key: static_equilibrium(machine.bearing, load, system.speed_hz, SupplyPressure(pressure), mesh)
+        for key, pressure in (("flooded_threshold_ml_min", 0.0), ("nominal_flow_ml_min", 50e3))
+    }
+    sweeps = load_speed_sweeps(machine, rotor)
+    speeds = sweeps[0].speeds_hz
+    stability = stability_map(rotor, sweeps, speeds)
+    nominal = machine.lubrication.nominal_flowrate_m3_s
+    ours = {
+        "rotor_weight_n": rotor.weight_n,
+        **{key: eq.supply_flow_m3_s * ML_MIN_PER_M3_S for key, eq in flows.items()},
+        "first_critical_hz": stability.first_critical_hz,
+        "instability_threshold_hz": stability.instability_threshold_hz,
+    }
+    difference = {
+        key: None if ours[key] is None else 100.0 * (ours[key] - PAPER[key]) / PAPER[key]
+        for key in SCALAR_KEYS
+    }
+    return {
+        **ours,
+        "table4": orbit_variation_table(system, nominal, both_bearings=True),
+        "table5": orbit_variation_table(system, nominal, both_bearings=False),
+        "paper": {**PAPER, "table4": paper_rows(PAPER_TABLE4), "table5": paper_rows(PAPER_TABLE5)},
+        "difference_pct": difference,
+        "definitions": {
+            **DEFINITIONS,
+            "first_critical": "lowest speed where a forward-whirl damped frequency crosses the 1x line",
+            "instability_threshold": "lowest speed where the least-stable mode's log decrement crosses zero",
+            "flooded_threshold": "supply flow drawn at zero gauge groove pressure",
+            "nominal_flow": "supply flow drawn at 0.5 bar groove pressure",
+        },
+        "speed_hz": system.speed_hz,
+        "sweep_speeds_hz": [float(s) for s in speeds],
+        "least_log_decrement": [float(v) for v in np.asarray(stability.least_log_decrement)],
+        "mesh": {"n_circ": mesh.n_circ, "n_axial": mesh.n_axial},
+    }

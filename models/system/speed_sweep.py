@@ -1,0 +1,136 @@
+"""Bearing coefficients over spin speed at one supply flowrate, for the speed-dependent stability analysis.
+
+The flowrate coefficient table is computed at one speed. The first critical speed and the instability
+threshold need the film's stiffness and damping at every speed of a sweep; this module computes them at a
+fixed supply flowrate (the machine's nominal one by default) and stores them, with provenance, in a JSON file
+that ``oilwatch speed-sweep`` writes and ``oilwatch report`` reads.
+"""
+
+from __future__ import annotations
+
+import datetime
+import json
+import platform
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from tqdm import tqdm
+
+from .. import __version__
+from ..bearing.equilibrium import coefficients_at, static_equilibrium
+from ..bearing.geometry import JournalBearing
+from ..bearing.grid import Mesh
+from ..bearing.supply import ML_MIN_PER_M3_S, SupplyFlow
+from ..validation import InputError, require_in_range, require_positive
+
+
+@dataclass(frozen=True)
+class SpeedSweep:
+    """Equilibrium and coefficients of one bearing over speed at a fixed supply flowrate (SI units).
+
+    Attributes
+    ----------
+    speeds_hz : (n,) spin speeds [Hz], increasing.
+    flowrate_m3_s : the supply flowrate [m^3/s].
+    load_n : the bearing load [N].
+    eccentricity_m : (n, 2) equilibrium positions [m].
+    stiffness : (n, 2, 2) [N/m]; damping : (n, 2, 2) [N s/m] (Lund's convention).
+    provenance : how the sweep was computed (mesh, squeeze model, version, date, command).
+    """
+
+    speeds_hz: np.ndarray
+    flowrate_m3_s: float
+    load_n: float
+    eccentricity_m: np.ndarray
+    stiffness: np.ndarray
+    damping: np.ndarray
+    provenance: dict
+
+    def coefficients(self, speed_hz: float) -> tuple[np.ndarray, np.ndarray]:
+        """K and C at ``speed_hz`` by linear interpolation between sweep points; outside the sweep: error."""
+        speed = require_in_range(
+            "speed_hz", speed_hz, float(self.speeds_hz[0]), float(self.speeds_hz[-1]), "Hz"
+        )
+        k = np.empty((2, 2))
+        c = np.empty((2, 2))
+        for i in range(2):
+            for j in range(2):
+                k[i, j] = np.interp(speed, self.speeds_hz, self.stiffness[:, i, j])
+                c[i, j] = np.interp(speed, self.speeds_hz, self.damping[:, i, j])
+        return k, c
+
+    def save(self, path: str | Path) -> None:
+        """Write the sweep as JSON, units in the key names."""
+        data = {
+            "description": "journal bearing equilibrium and linearized coefficients over spin speed",
+            "provenance": self.provenance,
+            "flowrate_ml_min": self.flowrate_m3_s * ML_MIN_PER_M3_S,
+            "load_n": self.load_n,
+            "speed_hz": self.speeds_hz.tolist(),
+            "eccentricity_um": (self.eccentricity_m * 1e6).tolist(),
+            "stiffness_n_per_m": self.stiffness.tolist(),
+            "damping_n_s_per_m": self.damping.tolist(),
+        }
+        Path(path).write_text(json.dumps(data, indent=1) + "\n")
+
+    @classmethod
+    def load(cls, path: str | Path) -> SpeedSweep:
+        """Read a sweep written by :meth:`save`; a missing or malformed file raises InputError."""
+        try:
+            data = json.loads(Path(path).read_text())
+            return cls(
+                speeds_hz=np.asarray(data["speed_hz"], dtype=float),
+                flowrate_m3_s=float(data["flowrate_ml_min"]) / ML_MIN_PER_M3_S,
+                load_n=float(data["load_n"]),
+                eccentricity_m=np.asarray(data["eccentricity_um"], dtype=float) * 1e-6,
+                stiffness=np.asarray(data["stiffness_n_per_m"], dtype=float),
+                damping=np.asarray(data["damping_n_s_per_m"], dtype=float),
+                provenance=dict(data.get("provenance", {})),
+            )
+        except (OSError, ValueError, KeyError, TypeError) as error:
+            raise InputError(f"speed sweep file {path}: cannot be read ({error})") from None
+
+
+def compute_speed_sweep(
+    bearing: JournalBearing,
+    load_n: float,
+    speeds_hz: np.ndarray,
+    flowrate_m3_s: float,
+    mesh: Mesh | None = None,
+    command: str = "",
+    progress: bool = True,
+) -> SpeedSweep:
+    """Equilibrium and coefficients at each speed of ``speeds_hz`` [Hz] for supply flowrate [m^3/s]."""
+    speeds = np.asarray(speeds_hz, dtype=float)
+    if speeds.ndim != 1 or speeds.size < 2 or np.any(np.diff(speeds) <= 0):
+        raise InputError("speeds_hz must hold at least 2 increasing speeds")
+    for speed in speeds:
+        require_positive("speed_hz", speed, "Hz")
+    mesh = mesh or Mesh()
+    supply = SupplyFlow(flowrate_m3_s)
+    positions, stiffness, damping = [], [], []
+    guess = None
+    for speed in tqdm(speeds, desc="speed sweep", unit="speed", disable=not progress):
+        eq = static_equilibrium(bearing, load_n, speed, supply, mesh, initial_guess_m=guess)
+        k, c = coefficients_at(bearing, eq, speed, supply, mesh)
+        guess = eq.eccentricity_m
+        positions.append(eq.eccentricity_m)
+        stiffness.append(k)
+        damping.append(c)
+    provenance = {
+        "command": command,
+        "oilwatch_version": __version__,
+        "date_utc": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+        "mesh": {"n_circ": mesh.n_circ, "n_axial": mesh.n_axial},
+        "python": platform.python_version(),
+    }
+    return SpeedSweep(
+        speeds,
+        float(flowrate_m3_s),
+        float(load_n),
+        np.array(positions),
+        np.array(stiffness),
+        np.array(damping),
+        provenance,
+    )

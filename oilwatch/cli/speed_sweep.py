@@ -1,0 +1,64 @@
+"""``oilwatch speed-sweep``: bearing coefficients over spin speed at one supply flowrate."""
+
+from __future__ import annotations
+
+import argparse
+import shlex
+import sys
+from pathlib import Path
+
+from models.validation import InputError, require_positive
+
+from .modes import add_machine_option, load_rotor
+
+
+def register(subparsers) -> None:
+    """Add the ``speed-sweep`` subcommand."""
+    parser = subparsers.add_parser(
+        "speed-sweep",
+        help="bearing equilibrium, stiffness and damping over speed (for the stability analysis)",
+        description=(
+            "Compute each bearing's equilibrium and linearized coefficients at every speed of a sweep, at "
+            "one supply flowrate (default: the machine's nominal), and write them with provenance to "
+            "tables/<machine>_speed_sweep.json next to the machine file. `oilwatch report` reads it."
+        ),
+    )
+    add_machine_option(parser)
+    parser.add_argument("--q-ml-min", type=float, default=None, help="supply flowrate [ml/min]")
+    parser.add_argument("--speed-min-hz", type=float, default=30.0, help="lowest speed [Hz] (30)")
+    parser.add_argument("--speed-max-hz", type=float, default=130.0, help="highest speed [Hz] (130)")
+    parser.add_argument("--step-hz", type=float, default=5.0, help="speed step [Hz] (5)")
+    parser.add_argument("--out", default=None, help="output file (default: next to the machine file)")
+    parser.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Compute and write the sweep."""
+    import numpy as np
+
+    from models.bearing.supply import ML_MIN_PER_M3_S
+    from models.system.factory import speed_sweep_path
+    from models.system.speed_sweep import compute_speed_sweep
+
+    machine, rotor = load_rotor(args)
+    low = require_positive("--speed-min-hz", args.speed_min_hz, "Hz")
+    high = require_positive("--speed-max-hz", args.speed_max_hz, "Hz")
+    step = require_positive("--step-hz", args.step_hz, "Hz")
+    if high <= low:
+        raise InputError(f"--speed-max-hz ({high:g}) must exceed --speed-min-hz ({low:g})")
+    q_ml_min = machine.lubrication.nominal_flowrate_m3_s * ML_MIN_PER_M3_S
+    if args.q_ml_min is not None:
+        q_ml_min = require_positive("--q-ml-min", args.q_ml_min, "ml/min")
+    speeds = np.arange(low, high + 0.5 * step, step)
+    sweep = compute_speed_sweep(
+        machine.bearing,
+        float(rotor.bearing_static_loads_n[0]),
+        speeds,
+        q_ml_min / ML_MIN_PER_M3_S,
+        command="oilwatch " + shlex.join(sys.argv[1:]),
+    )
+    out_path = Path(args.out) if args.out else speed_sweep_path(machine)
+    out_path.parent.mkdir(parents=True, exist_ok=True)
+    sweep.save(out_path)
+    print(f"wrote {out_path} ({speeds.size} speeds, {q_ml_min:g} ml/min)", file=sys.stderr)
+    return 0
