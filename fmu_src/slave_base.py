@@ -1,0 +1,248 @@
+"""A pythonfmu slave base class: declared variables with units, checked parameters, full state.
+
+What pythonfmu 0.7.0 does, and what this class does about it (verified with fmpy 0.3.32):
+
+- A Python exception in any slave method makes its C++ wrapper return ``fmi2Fatal`` and log
+  ``Fatal py exception encountered: [exitInitializationMode] PyObject_CallMethod`` plus the
+  exception's repr. If the slave queued log messages during the same call, the repr is lost and the
+  line reads ``unknown error``. So this class logs every failure itself (status ``error``, category
+  ``logStatusError``) before raising: the host always sees a message that names the parameter.
+  After the fatal status, ``fmi2FreeInstance`` and ``fmi2Reset`` still work with pythonfmu; the FMI
+  standard allows neither after ``fmi2Fatal``, so a careful host calls nothing more.
+- ``do_step`` returning False gives ``fmi2Discard``.
+- ``fmi2GetFMUstate`` returns whatever ``_get_fmu_state`` returns (a Python object held by
+  reference; the default saves registered variables only). Here the state also holds deep copies of
+  the attributes named in :attr:`OilwatchSlave.state_attributes` (numpy arrays, a
+  ``numpy.random.Generator``), copied again on restore so that one saved state can be restored any
+  number of times. Serialization uses pickle instead of pythonfmu's JSON (arrays are not JSON).
+
+Subclasses declare variables in ``__init__`` with :meth:`declare_real` and friends, check their
+parameters in :meth:`validate_parameters` (raise ``InputError``) and build their model in
+:meth:`setup`; both run in ``exit_initialization_mode``.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+import pickle
+import traceback
+from typing import Any, ClassVar
+from xml.etree.ElementTree import Element
+
+from pythonfmu import Fmi2Slave
+from pythonfmu.enums import Fmi2Causality, Fmi2Status
+
+from models.validation import InputError
+
+from .fmi_variables import (
+    DescribedBoolean,
+    DescribedString,
+    RangedInteger,
+    UnitReal,
+    unit_definitions_xml,
+    variable_attributes,
+)
+
+
+class SlaveInitializationError(RuntimeError):
+    """Raised out of ``exit_initialization_mode`` after the reasons were logged to the host."""
+
+
+class OilwatchSlave(Fmi2Slave):
+    """Base class of the oilwatch FMI 2.0 co-simulation slaves (see the module docstring)."""
+
+    #: Names of attributes (beyond registered variables) saved by fmi2GetFMUstate.
+    state_attributes: ClassVar[tuple[str, ...]] = ()
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        self._declared: list = []
+        self.start_time = 0.0
+        self.stop_time: float | None = None
+
+    # ----------------------------------------------------------------- declarations
+    def _declare(self, variable, start) -> None:
+        low, high = getattr(variable, "minimum", None), getattr(variable, "maximum", None)
+        if (low is not None and start < low) or (high is not None and start > high):
+            raise ValueError(f"variable {variable.name}: start {start} outside [{low}, {high}]")
+        setattr(self, variable.local_name, start)
+        self.register_variable(variable)
+        self._declared.append(variable)
+
+    def declare_real(
+        self,
+        name: str,
+        causality: str,
+        *,
+        start: float,
+        unit: str,
+        description: str,
+        minimum: float | None = None,
+        maximum: float | None = None,
+        variability: str | None = None,
+    ) -> None:
+        """Declare a Real variable, set ``self.<name> = start`` and register it."""
+        attributes = variable_attributes(causality, "Real", variability)
+        start = float(start)
+        variable = UnitReal(
+            name,
+            unit=unit,
+            minimum=minimum,
+            maximum=maximum,
+            description=description,
+            start=start,
+            **attributes,
+        )
+        self._declare(variable, start)
+
+    def declare_integer(
+        self,
+        name: str,
+        causality: str,
+        *,
+        start: int,
+        description: str,
+        minimum: int | None = None,
+        maximum: int | None = None,
+        variability: str | None = None,
+    ) -> None:
+        """Declare an Integer variable, set ``self.<name> = start`` and register it."""
+        attributes = variable_attributes(causality, "Integer", variability)
+        variable = RangedInteger(
+            name,
+            minimum=minimum,
+            maximum=maximum,
+            description=description,
+            start=int(start),
+            **attributes,
+        )
+        self._declare(variable, int(start))
+
+    def declare_boolean(
+        self,
+        name: str,
+        causality: str,
+        *,
+        start: bool,
+        description: str,
+        variability: str | None = None,
+    ) -> None:
+        """Declare a Boolean variable, set ``self.<name> = start`` and register it."""
+        attributes = variable_attributes(causality, "Boolean", variability)
+        variable = DescribedBoolean(name, description=description, start=bool(start), **attributes)
+        self._declare(variable, bool(start))
+
+    def declare_string(
+        self,
+        name: str,
+        causality: str,
+        *,
+        start: str,
+        description: str,
+        variability: str | None = None,
+    ) -> None:
+        """Declare a String variable, set ``self.<name> = start`` and register it."""
+        attributes = variable_attributes(causality, "String", variability)
+        variable = DescribedString(name, description=description, start=str(start), **attributes)
+        self._declare(variable, str(start))
+
+    def to_xml(self, model_options: dict[str, str] | None = None) -> Element:
+        """pythonfmu's modelDescription plus ``<UnitDefinitions>`` after ``<CoSimulation>``."""
+        root = super().to_xml(model_options or {})
+        units = {v.unit for v in self.vars.values() if getattr(v, "unit", None)}
+        if units:
+            position = list(root).index(root.find("CoSimulation")) + 1
+            root.insert(position, unit_definitions_xml(units))
+        return root
+
+    # --------------------------------------------------------------- initialization
+    def validate_parameters(self) -> None:
+        """Check parameters beyond their declared ranges; raise ``InputError`` naming the input."""
+
+    def setup(self) -> None:
+        """Build the model from the (validated) parameters; runs at the end of initialization."""
+
+    def _range_problems(self) -> list[str]:
+        problems = []
+        for variable in self._declared:
+            if variable.causality != Fmi2Causality.parameter:
+                continue
+            value = getattr(self, variable.local_name)
+            low, high = getattr(variable, "minimum", None), getattr(variable, "maximum", None)
+            if isinstance(variable, UnitReal) and not math.isfinite(value):
+                problems.append(f"{variable.name} must be finite, got {value!r}")
+                continue
+            if low is None and high is None:
+                continue
+            unit = f" {variable.unit}" if getattr(variable, "unit", None) else ""
+            if (low is not None and value < low) or (high is not None and value > high):
+                low_text = "-inf" if low is None else f"{low:g}"
+                high_text = "inf" if high is None else f"{high:g}"
+                problems.append(
+                    f"{variable.name} must lie in [{low_text}, {high_text}]{unit}, got {value:g}{unit}"
+                )
+        return problems
+
+    def fail(self, problems: list[str], call: str) -> None:
+        """Log each problem at status error, then raise (pythonfmu turns it into fmi2Fatal)."""
+        for problem in problems:
+            self.log(f"{self.instance_name}: {problem}", Fmi2Status.error)
+        raise SlaveInitializationError(f"{call}: " + "; ".join(problems))
+
+    def setup_experiment(self, start_time: float, stop_time=None, tolerance=None):
+        """Keep the experiment's start and stop times [s] (pythonfmu calls this on entering
+        initialization mode)."""
+        self.start_time = float(start_time)
+        self.stop_time = None if stop_time is None else float(stop_time)
+
+    def exit_initialization_mode(self):
+        problems = self._range_problems()
+        if not problems:
+            try:
+                self.validate_parameters()
+                self.setup()
+            except InputError as error:
+                problems = [str(error)]
+            except Exception as error:
+                problems = [f"internal error {type(error).__name__}: {error}"]
+                self.log(traceback.format_exc(), Fmi2Status.error)
+        if problems:
+            self.fail(problems, "initialization")
+
+    def do_step(self, current_time: float, step_size: float) -> bool:
+        """Advance by ``step_size`` [s]; exceptions of :meth:`step` are logged, then re-raised."""
+        try:
+            return self.step(current_time, step_size) is not False
+        except Exception as error:
+            self.log(
+                f"{self.instance_name}: do_step at t = {current_time:.9g} s failed: "
+                f"{type(error).__name__}: {error}",
+                Fmi2Status.error,
+            )
+            raise
+
+    def step(self, current_time: float, step_size: float) -> bool | None:
+        """The slave's step; return False to report fmi2Discard."""
+        raise NotImplementedError
+
+    # ------------------------------------------------------------------------ state
+    def _get_fmu_state(self) -> dict[str, Any]:
+        state = super()._get_fmu_state()
+        state["__attributes__"] = {name: copy.deepcopy(getattr(self, name)) for name in self.state_attributes}
+        return state
+
+    def _set_fmu_state(self, state: dict[str, Any]):
+        state = dict(state)
+        attributes = state.pop("__attributes__", {})
+        super()._set_fmu_state(state)
+        for name, value in attributes.items():
+            setattr(self, name, copy.deepcopy(value))
+
+    @staticmethod
+    def _fmu_state_to_bytes(state: dict[str, Any]) -> bytes:
+        return pickle.dumps(state, protocol=pickle.HIGHEST_PROTOCOL)
+
+    @staticmethod
+    def _fmu_state_from_bytes(state: bytes) -> dict[str, Any]:
+        return pickle.loads(state)

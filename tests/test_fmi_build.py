@@ -1,0 +1,45 @@
+"""build.py: the command line, its errors, and the SSP system it writes after the FMUs."""
+
+from __future__ import annotations
+
+import zipfile
+
+import pytest
+from fixtures.fmu_subprocess import run_python
+from fixtures.toy_fmus import toy_fmu_dir
+
+
+@pytest.fixture(scope="module")
+def toys(tmp_path_factory):
+    return toy_fmu_dir(tmp_path_factory)
+
+
+def test_build_writes_the_fmus_and_the_ssp_system(toys):
+    assert (toys / "ToyPlant.fmu").is_file() and (toys / "ToyFilter.fmu").is_file()
+    with zipfile.ZipFile(toys / "ToySystem.ssp") as archive:
+        ssd = archive.read("SystemStructure.ssd").decode()
+        assert "resources/ToyPlant.fmu" in archive.namelist()
+    assert 'startElement="plant" startConnector="y_um"' in ssd
+    assert 'ssv:Real value="0.05"' in ssd
+
+
+def test_unknown_fmu_name_is_a_one_line_error_with_exit_code_2(tmp_path):
+    process = run_python(
+        f"import sys, build; sys.exit(build.main(['--out', {str(tmp_path)!r}, '--only', 'Nope']))"
+    )
+    assert process.returncode == 2
+    assert "unknown FMU ['Nope']" in process.stderr
+    assert "Traceback" not in process.stderr
+
+
+def test_missing_slave_script_is_reported_before_anything_is_built(tmp_path):
+    process = run_python(
+        "import sys, build\n"
+        "entry = build.FmuEntry('Ghost', 'fmu_src/ghost_slave.py', ('fmu_src',), 'ghost')\n"
+        "try:\n"
+        f"    build.build_fmus({str(tmp_path)!r}, extra=[entry], only=['Ghost'])\n"
+        "except build.InputError as error:\n"
+        "    print(error)\n"
+    )
+    assert "slave script(s) missing" in process.stdout and "ghost_slave.py" in process.stdout
+    assert not any(tmp_path.iterdir())

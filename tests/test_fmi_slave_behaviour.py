@@ -1,0 +1,160 @@
+"""pythonfmu slaves built on fmu_src.slave_base, driven through fmpy in fresh processes:
+state save/restore, parameter errors at initialization, failures in do_step, two FMUs at once."""
+
+from __future__ import annotations
+
+import pytest
+from fixtures.fmu_subprocess import run_json
+from fixtures.toy_fmus import toy_fmu_dir
+
+PRELUDE = """
+from ctypes import byref
+from fmpy import extract, read_model_description
+from fmpy.fmi1 import FMICallException
+from fmpy.fmi2 import (FMU2Slave, calloc, free, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE,
+                       fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE)
+from fmpy.logging import addLoggerProxy
+
+LOG = []
+
+def _logger(env, instance, status, category, message):
+    LOG.append((status, message.decode()))
+
+CALLBACKS = fmi2CallbackFunctions()
+CALLBACKS.logger = fmi2CallbackLoggerTYPE(_logger)
+CALLBACKS.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+CALLBACKS.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+addLoggerProxy(byref(CALLBACKS))
+
+def load(path, name="inst"):
+    md = read_model_description(path)
+    slave = FMU2Slave(guid=md.guid, unzipDirectory=extract(path),
+                      modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name)
+    slave.instantiate(callbacks=CALLBACKS, loggingOn=True)
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    return slave, vr
+
+def init(slave, vr, reals=None, integers=None):
+    slave.setupExperiment(startTime=0.0)
+    slave.enterInitializationMode()
+    for name, value in (reals or {}).items():
+        slave.setReal([vr[name]], [value])
+    for name, value in (integers or {}).items():
+        slave.setInteger([vr[name]], [value])
+    slave.exitInitializationMode()
+"""
+
+
+@pytest.fixture(scope="module")
+def toys(tmp_path_factory):
+    return toy_fmu_dir(tmp_path_factory)
+
+
+def test_state_restore_is_bit_identical_including_rng_and_arrays(toys):
+    result = run_json(
+        PRELUDE
+        + """
+plant, vr = load({plant!r})
+init(plant, vr, {{"noise_um": 1.0}}, {{"seed": 7}})
+h = 1e-3
+out = [vr["y_um"], vr["sum_um"]]
+for k in range(500):
+    plant.doStep(k * h, h)
+state = plant.getFMUstate()
+
+def run_from_500():
+    rows = []
+    for k in range(500, 700):
+        plant.doStep(k * h, h)
+        rows.append(plant.getReal(out))
+    return rows
+
+first = run_from_500()
+plant.setFMUstate(state)
+second = run_from_500()
+plant.setFMUstate(state)
+third = run_from_500()
+serialized = plant.serializeFMUstate(state)
+restored = plant.deSerializeFMUstate(serialized)
+plant.setFMUstate(restored)
+fourth = run_from_500()
+plant.freeFMUstate(state)
+plant.terminate()
+plant.freeInstance()
+result = {{"first": first, "second": second, "third": third, "fourth": fourth}}
+""".format(plant=str(toys / "ToyPlant.fmu"))
+    )
+    assert result["first"] == result["second"] == result["third"] == result["fourth"]
+    # The noise is really random and the array state really advances.
+    ys = [row[0] for row in result["first"]]
+    assert len(set(ys)) == len(ys)
+
+
+@pytest.mark.parametrize(
+    ("reals", "name"),
+    [
+        ('{"width_s": -1.0}', "width_s"),
+        ('{"noise_um": float("nan")}', "noise_um"),
+        ('{"y0_um": 30.0}', "y1_um"),
+    ],
+)
+def test_bad_parameter_fails_initialization_with_its_name_and_the_host_survives(toys, reals, name):
+    result = run_json(
+        PRELUDE
+        + """
+plant, vr = load({plant!r})
+try:
+    init(plant, vr, {reals})
+    outcome = "initialized"
+except FMICallException as error:
+    outcome = [error.function, error.status]
+plant.freeInstance()
+result = {{"outcome": outcome, "log": LOG}}
+""".format(plant=str(toys / "ToyPlant.fmu"), reals=reals)
+    )
+    assert result["outcome"] == ["fmi2ExitInitializationMode", 4]
+    errors = [message for status, message in result["log"] if status == 3]
+    assert any(name in message and message.startswith("inst: ") for message in errors), result
+    # The message states the allowed range or rule, not just the name.
+    assert any(("must" in m) for m in errors)
+
+
+def test_exception_in_do_step_is_reported_not_crashing(toys):
+    result = run_json(
+        PRELUDE
+        + """
+plant, vr = load({plant!r})
+init(plant, vr, {{"y0_um": -2e6}})
+try:
+    plant.doStep(0.0, 1e-3)
+    outcome = "stepped"
+except FMICallException as error:
+    outcome = [error.function, error.status]
+result = {{"outcome": outcome, "log": LOG}}
+""".format(plant=str(toys / "ToyPlant.fmu"))
+    )
+    assert result["outcome"] == ["fmi2DoStep", 4]
+    assert any("toy failure requested by y0_um" in m for s, m in result["log"] if s == 3)
+
+
+def test_two_fmus_in_one_process_use_separate_module_copies(toys):
+    result = run_json(
+        """
+import sys
+from oilwatch.cosim import FmuSpec, Master, SystemDescription
+system = SystemDescription([FmuSpec("plant", {plant!r}), FmuSpec("filt", {filt!r})])
+with Master(system) as master:
+    run = master.run(stop_time=0.01, step_size=1e-3)
+    files = {{name: sys.modules[name].__file__ for name in
+             ("toyplant_fmu_src.slave_base", "toyfilter_fmu_src.slave_base",
+              "toyplant_models.validation", "toyfilter_models.validation")}}
+result = {{"files": files, "fmu_src_loaded": "fmu_src" in sys.modules,
+          "rows": len(run.recorder.rows)}}
+""".format(plant=str(toys / "ToyPlant.fmu"), filt=str(toys / "ToyFilter.fmu"))
+    )
+    files = result["files"]
+    assert files["toyplant_fmu_src.slave_base"] != files["toyfilter_fmu_src.slave_base"]
+    assert "oilwatch_plant_" in files["toyplant_fmu_src.slave_base"]
+    assert "oilwatch_filt_" in files["toyfilter_fmu_src.slave_base"]
+    assert not result["fmu_src_loaded"]
+    assert result["rows"] == 11
