@@ -17,7 +17,7 @@ from collections.abc import Callable
 import numpy as np
 from scipy.linalg import expm_frechet, pinv
 
-from ..validation import require_in_range, require_positive
+from ..validation import InputError, require_positive
 from .flowrate_grid import FlowrateGrid
 from .rotor_bearing import RotorBearingSystem
 
@@ -134,7 +134,10 @@ class GridAugmentedModel(_AugmentedModelBase):
     system : the rotor-bearing system (usually reduced).
     dt_s : sampling period [s].
     hold : "harmonic" (exact loads) or "zoh" (Eq. 13).
-    grid_step_ml_min : grid spacing [ml/min]; the interpolation error falls with its fourth power.
+    subdivisions : grid intervals per interval of the coefficient tables. The tables interpolate with
+        PCHIP, smooth between their nodes but only C1 at them, so the grid's nodes include the tables'
+        nodes (when these are uniform, as ``oilwatch bearing-table`` writes them) and the interpolation
+        error stays at the fourth-order level inside each table interval.
     progress : called with the number of maps computed so far, for a progress bar.
     """
 
@@ -143,15 +146,15 @@ class GridAugmentedModel(_AugmentedModelBase):
         system: RotorBearingSystem,
         dt_s: float = 1e-3,
         hold: str = "harmonic",
-        grid_step_ml_min: float = 20.0,
+        subdivisions: int = 5,
         progress: Callable[[int], None] | None = None,
     ) -> None:
         super().__init__(system, dt_s, hold)
+        if isinstance(subdivisions, bool) or not isinstance(subdivisions, int) or not 1 <= subdivisions <= 50:
+            raise InputError(f"subdivisions must be an integer in [1, 50], got {subdivisions!r}")
         low, high = self.flowrate_bounds_m3_s
-        span_ml_min = (high - low) / ML_MIN
-        step = require_in_range("grid_step_ml_min", grid_step_ml_min, 1e-3, span_ml_min, "ml/min")
-        n_nodes = int(np.ceil(span_ml_min / step)) + 1
-        nodes = np.linspace(low, high, n_nodes)
+        n_table = max(len(table.flowrates_m3_s) for table in system.tables)
+        nodes = np.linspace(low, high, (n_table - 1) * subdivisions + 1)
         self.grid = FlowrateGrid.build(
             lambda q1, q2: system.discrete_map((q1, q2), self.dt_s, hold), nodes, nodes, progress
         )

@@ -76,11 +76,14 @@ def build_system(
     reduced: bool = True,
     cutoff_hz: float = DEFAULT_CUTOFF_HZ,
     table_path: str | Path | None = None,
+    unbalance_moment_kg_m: float | None = None,
+    unbalance_phase_rad: float | None = None,
 ) -> RotorBearingSystem:
     """The rotor-bearing system of a loaded machine at ``speed_hz`` (default: its nominal speed).
 
     ``reduced`` selects the Craig-Bampton model (bearing dofs, fixed-interface modes below ``cutoff_hz``,
-    static correction for gravity and unbalance); otherwise all physical dofs are kept.
+    static correction for gravity and unbalance); otherwise all physical dofs are kept. The unbalance
+    arguments override the machine file's unbalance moment and phase.
     """
     speed = machine.nominal_speed_hz if speed_hz is None else require_positive("speed_hz", speed_hz, "Hz")
     rotor = Rotor.from_machine(machine)
@@ -91,7 +94,7 @@ def build_system(
         unit_unbalance = rotor.unbalance_amplitude(1.0)
         loads = np.column_stack([rotor.gravity_force, unit_unbalance.real, unit_unbalance.imag])
         basis = craig_bampton(rotor.mass_matrix, rotor.stiffness_matrix, bearing_dofs, cutoff_hz, loads)
-    return RotorBearingSystem(rotor, tables, speed, basis)
+    return RotorBearingSystem(rotor, tables, speed, basis, unbalance_moment_kg_m, unbalance_phase_rad)
 
 
 def load_system(
@@ -101,8 +104,16 @@ def load_system(
     reduced: bool = True,
     cutoff_hz: float = DEFAULT_CUTOFF_HZ,
     table_path: str | Path | None = None,
+    unbalance_moment_kg_m: float | None = None,
+    unbalance_phase_rad: float | None = None,
 ) -> RotorBearingSystem:
     """:func:`build_system` for a machine file (None: the bundled generic turbine)."""
     return build_system(
-        load_machine(machine_file), speed_hz, reduced=reduced, cutoff_hz=cutoff_hz, table_path=table_path
+        load_machine(machine_file),
+        speed_hz,
+        reduced=reduced,
+        cutoff_hz=cutoff_hz,
+        table_path=table_path,
+        unbalance_moment_kg_m=unbalance_moment_kg_m,
+        unbalance_phase_rad=unbalance_phase_rad,
     )

@@ -47,8 +47,7 @@ class SigmoidFlowrate:
     def __call__(self, time_s: float | np.ndarray) -> float | np.ndarray:
         """The flowrate [m^3/s] at time(s) ``time_s`` [s]."""
         x = (np.asarray(time_s, dtype=float) - self.centre_s) / self.time_constant_s
-        # The logistic written with exp of a non-positive argument never overflows.
-        decay = np.exp(-np.abs(x))
-        fraction = np.where(x >= 0.0, 1.0 / (1.0 + decay), decay / (1.0 + decay))
+        # 1 / (1 + exp(-x)) = (1 + tanh(x / 2)) / 2, which never overflows.
+        fraction = 0.5 + 0.5 * np.tanh(0.5 * x)
         value = self.initial_m3_s + (self.final_m3_s - self.initial_m3_s) * fraction
         return float(value) if np.ndim(value) == 0 else value

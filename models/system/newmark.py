@@ -24,7 +24,8 @@ from scipy.linalg import inv, solve
 from ..validation import InputError, require_positive
 from .rotor_bearing import RotorBearingSystem
 
-FlowSchedule = Callable[[float], tuple[float, float]]
+FlowSchedule = Callable[[np.ndarray], np.ndarray]
+"""``schedule(times_s (m,)) -> flowrates (m, 2)`` [m^3/s]: the bearings' supply flowrates at the times."""
 BETA, GAMMA = 0.25, 0.5
 # Flowrates closer than this (relative) count as constant over a period. A logistic transition never becomes
 # exactly constant in floating point; a 1e-9 relative flow change moves the shaft by ~1e-14 m.
@@ -63,12 +64,16 @@ class NewmarkIntegrator:
         self._base_stiffness = stiffness - self._scatter(self._reference_blocks[0])
         effective = stiffness + GAMMA / (BETA * self.h) * damping + mass / (BETA * self.h**2)
         self._effective_inverse = inv(effective)
+        self._mass_inverse = inv(mass)
+        self._substep_offsets = self.h * np.arange(0, self.substeps + 1)
+        self._acceleration_current = True
         self._select = system.bearing_maps.reshape(-1, n)
         self._z = self._effective_inverse @ self._select.T
         self._s = self._select @ self._z
         self.mass = mass
         self._propagator_flowrates: tuple[float, float] | None = None
         self._propagator: tuple[np.ndarray, np.ndarray] | None = None
+        self._last_flowrates: tuple[float, float] | None = None
         self.time_s = 0.0
         self.state = np.zeros(3 * n)
 
@@ -108,26 +113,58 @@ class NewmarkIntegrator:
         acceleration = solve(self.mass, load - damping @ velocity - stiffness @ coordinates)
         self.state = np.concatenate([coordinates, velocity, acceleration])
         self.time_s = time_s
+        self._last_flowrates = tuple(float(q) for q in flowrates_m3_s)
+        self.flowrates_m3_s = self._last_flowrates
+        self._acceleration_current = True
+
+    def snapshot(self) -> dict:
+        """Everything that determines the future outputs (for FMU state save and restore)."""
+        return {
+            "state": self.state.copy(),
+            "time_s": self.time_s,
+            "last_flowrates": self._last_flowrates,
+            "propagator_flowrates": self._propagator_flowrates,
+            "propagator": self._propagator,
+            "flowrates": self.flowrates_m3_s,
+            "acceleration_current": self._acceleration_current,
+        }
+
+    def restore(self, snapshot: dict) -> None:
+        """Return to a :meth:`snapshot`; the integration then continues bit-identically."""
+        self.state = snapshot["state"].copy()
+        self.time_s = snapshot["time_s"]
+        self._last_flowrates = snapshot["last_flowrates"]
+        self._propagator_flowrates = snapshot["propagator_flowrates"]
+        self._propagator = snapshot["propagator"]
+        self.flowrates_m3_s = snapshot["flowrates"]
+        self._acceleration_current = snapshot["acceleration_current"]
 
     def _harmonic_load(self, time_s: float) -> np.ndarray:
         phase = self.system.omega_rad_s * time_s
         return (self.system.unbalance_force * np.exp(1j * phase)).real
 
     def advance(self, schedule: FlowSchedule) -> np.ndarray:
-        """Integrate one period ``dt_s``; ``schedule(t) -> (q1, q2)`` [m^3/s] gives the flowrates at time t.
+        """Integrate one period ``dt_s``; ``schedule`` gives the flowrates at the sub-step times.
 
         Returns the new coordinates (n,) (a view of the internal state).
         """
-        times = self.time_s + self.h * np.arange(1, self.substeps + 1)
-        flows = [tuple(float(q) for q in schedule(t)) for t in times]
-        samples = np.array([schedule(self.time_s), *flows])
-        if np.all(np.abs(samples - samples[0]) <= CONSTANT_FLOW_RTOL * np.abs(samples[0])):
-            self.state = self._constant_step(flows[-1])
+        times = self.time_s + self._substep_offsets
+        samples = np.asarray(schedule(times), dtype=float)
+        final = (float(samples[-1, 0]), float(samples[-1, 1]))
+        steady = bool((np.abs(samples - samples[-1]) <= CONSTANT_FLOW_RTOL * np.abs(samples[-1])).all())
+        # A propagator costs a few milliseconds: build one only for flowrates that have held for a
+        # whole period already (or reuse the cached one), not for flowrates that change every period.
+        if steady and (_close(self._propagator_flowrates, final) or _close(self._last_flowrates, final)):
+            self.state = self._constant_step(final)
         else:
-            for t, f in zip(times, flows, strict=True):
+            self._refresh_acceleration()
+            flows = [(float(a), float(b)) for a, b in samples[1:]]
+            for t, f in zip(times[1:], flows, strict=True):
                 blocks = self._bearing_blocks(f)
                 load = self.system.gravity_force + self._select.T @ blocks[2] + self._harmonic_load(t)
                 self.state = self._trapezoid(self.state, load, blocks)
+        self._last_flowrates = final if steady else None
+        self.flowrates_m3_s = final
         self.time_s += self.dt_s
         return self.state[: self.n]
 
@@ -160,33 +197,67 @@ class NewmarkIntegrator:
         return np.concatenate([r_new, v_new, a_new])
 
     def _constant_step(self, flows: tuple[float, float]) -> np.ndarray:
-        """The whole period at constant flowrates, by the cached linear propagator."""
-        cached = self._propagator_flowrates
-        if cached is None or np.any(np.abs(np.subtract(cached, flows)) > CONSTANT_FLOW_RTOL * np.abs(flows)):
+        """The whole period at constant flowrates, by the cached linear propagator on (r, v).
+
+        The acceleration is left stale (it follows from equilibrium) until the sub-step path needs it.
+        """
+        if not _close(self._propagator_flowrates, flows):
             self._propagator = self._build_propagator(flows)
             self._propagator_flowrates = flows
         transition, forcing = self._propagator
-        return transition @ self.state + forcing @ self.system.exogenous(self.time_s)
+        state = self.state.copy()
+        state[: 2 * self.n] = transition @ self.state[: 2 * self.n] + forcing @ self.system.exogenous(
+            self.time_s
+        )
+        self._acceleration_current = False
+        return state
+
+    def _equilibrium_acceleration(self, state: np.ndarray, flows: tuple[float, float], load: np.ndarray):
+        """``M^-1 (load - D v - K r)`` for states (3n,) or (3n, m) at the flowrates."""
+        _, damping, stiffness, _ = self.system.second_order(flows)
+        n = self.n
+        return self._mass_inverse @ (load - damping @ state[n : 2 * n] - stiffness @ state[:n])
+
+    def _refresh_acceleration(self) -> None:
+        """Recompute a stale acceleration from equilibrium at the current time and flowrates."""
+        if self._acceleration_current:
+            return
+        flows = self.flowrates_m3_s
+        _, _, _, constant = self.system.second_order(flows)
+        load = constant + self._harmonic_load(self.time_s)
+        self.state[2 * self.n :] = self._equilibrium_acceleration(self.state, flows, load)
+        self._acceleration_current = True
 
     def _build_propagator(self, flows: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
-        """Linear map ``(state, w(t_k)) -> state after one period`` at constant flowrates.
+        """Linear map ``((r, v), w(t_k)) -> (r, v) after one period`` at constant flowrates.
 
-        The sub-step recursion is affine, so pushing the identity (no load) and the three unit exogenous loads
-        (zero state) through it, all columns at once, gives the transition and forcing matrices exactly.
+        The sub-step recursion is affine and the Newmark acceleration satisfies equilibrium at every step, so
+        pushing unit (r, v) states (no load) and the three unit exogenous loads (zero r, v), each with its
+        equilibrium acceleration, through it, all columns at once, gives the matrices exactly.
         """
-        n3 = 3 * self.n
+        n, n2 = self.n, 2 * self.n
         blocks = self._bearing_blocks(flows)
         constant = self.system.gravity_force + self._select.T @ blocks[2]
         cosine, sine = self.system.unbalance_force.real, -self.system.unbalance_force.imag
-        columns = np.zeros((n3, n3 + 3))
-        columns[:n3, :n3] = np.eye(n3)
+        columns = np.zeros((3 * n, n2 + 3))
+        columns[:n2, :n2] = np.eye(n2)
+        initial_load = np.zeros((n, n2 + 3))
+        initial_load[:, n2:] = np.column_stack([constant, cosine, sine])
+        columns[n2:] = self._equilibrium_acceleration(columns, flows, initial_load)
         wh = self.system.omega_rad_s * self.h
         for i in range(1, self.substeps + 1):
             c, s = np.cos(i * wh), np.sin(i * wh)
-            load = np.zeros((self.n, n3 + 3))
-            # Column n3 + j responds to w(t_k) = e_j; its load at t_k + i h follows by rotating the phase.
-            load[:, n3] = constant
-            load[:, n3 + 1] = c * cosine + s * sine
-            load[:, n3 + 2] = -s * cosine + c * sine
+            load = np.zeros((n, n2 + 3))
+            # Column n2 + j responds to w(t_k) = e_j; its load at t_k + i h follows by rotating the phase.
+            load[:, n2] = constant
+            load[:, n2 + 1] = c * cosine + s * sine
+            load[:, n2 + 2] = -s * cosine + c * sine
             columns = self._trapezoid(columns, load, blocks)
-        return columns[:, :n3], columns[:, n3:]
+        return columns[:n2, :n2], columns[:n2, n2:]
+
+
+def _close(cached: tuple[float, float] | None, flows: tuple[float, float]) -> bool:
+    """True if ``cached`` flowrates equal ``flows`` within ``CONSTANT_FLOW_RTOL``."""
+    return cached is not None and all(
+        abs(a - b) <= CONSTANT_FLOW_RTOL * abs(b) for a, b in zip(cached, flows, strict=True)
+    )

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from ..bearing.equilibrium import static_equilibrium
+from ..bearing.grid import Mesh
 from ..bearing.supply import ML_MIN_PER_M3_S, SupplyPressure
 from ..machine import load_machine
 from .factory import build_system, load_speed_sweeps
@@ -37,7 +38,7 @@ def paper_comparison(machine_file: str | Path | None = None) -> dict:
     system = build_system(machine, reduced=False)
     rotor = system.rotor
     load = float(rotor.bearing_static_loads_n[0])
-    mesh = system.tables[0].mesh
+    mesh = Mesh(**system.tables[0].metadata["mesh"])
     flows = {
         key: static_equilibrium(machine.bearing, load, system.speed_hz, SupplyPressure(pressure), mesh)
         for key, pressure in (("flooded_threshold_ml_min", 0.0), ("nominal_flow_ml_min", 50e3))

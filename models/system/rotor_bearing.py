@@ -29,7 +29,7 @@ import numpy as np
 from scipy.linalg import lu_factor, lu_solve, solve
 
 from ..rotor.assembly import Rotor
-from ..validation import InputError, require_positive
+from ..validation import InputError, require_finite, require_non_negative, require_positive
 from .discretization import harmonic_input_map, zero_order_hold
 from .reduction import ReductionBasis
 
@@ -55,6 +55,8 @@ class RotorBearingSystem:
     tables : one coefficient table per bearing, in the order of ``rotor.bearing_nodes``, all at ``speed_hz``.
     speed_hz : spin speed [Hz]; must equal the tables' speed.
     basis : optional reduction; ``None`` keeps all ``rotor.n_dof`` physical dofs.
+    unbalance_moment_kg_m, unbalance_phase_rad : override the rotor's unbalance (Eqs. 5-6) at its
+        unbalance node; ``None`` keeps the machine file's.
     """
 
     def __init__(
@@ -63,6 +65,8 @@ class RotorBearingSystem:
         tables: Sequence[CoefficientTable],
         speed_hz: float,
         basis: ReductionBasis | None = None,
+        unbalance_moment_kg_m: float | None = None,
+        unbalance_phase_rad: float | None = None,
     ) -> None:
         speed_hz = require_positive("speed_hz", speed_hz, "Hz")
         if len(tables) != len(rotor.bearing_nodes):
@@ -89,7 +93,16 @@ class RotorBearingSystem:
             transform.T @ (rotor.damping_matrix + self.omega_rad_s * rotor.gyroscopic_matrix) @ transform
         )
         self.gravity_force = transform.T @ rotor.gravity_force
-        self.unbalance_force = transform.T @ rotor.unbalance_amplitude(self.omega_rad_s)
+        moment = rotor.unbalance_moment_kg_m if unbalance_moment_kg_m is None else unbalance_moment_kg_m
+        phase = rotor.unbalance_phase_rad if unbalance_phase_rad is None else unbalance_phase_rad
+        self.unbalance_moment_kg_m = require_non_negative("unbalance moment", moment, "kg m")
+        self.unbalance_phase_rad = require_finite("unbalance phase", phase)
+        # Eqs. 5-6 as Re(F exp(i Omega t)): F_x = m Omega^2 e^{i phi}, F_y = -i m Omega^2 e^{i phi}.
+        amplitude = np.zeros(rotor.n_dof, dtype=complex)
+        rotating = self.unbalance_moment_kg_m * self.omega_rad_s**2 * np.exp(1j * self.unbalance_phase_rad)
+        amplitude[rotor.dof(rotor.unbalance_node, "x")] = rotating
+        amplitude[rotor.dof(rotor.unbalance_node, "y")] = -1j * rotating
+        self.unbalance_force = transform.T @ amplitude
         dofs = np.array([[rotor.dof(node, "x"), rotor.dof(node, "y")] for node in rotor.bearing_nodes])
         self.bearing_dofs = dofs
         # (n_bearings, 2, n): bearing (x, y) displacements from the coordinates.

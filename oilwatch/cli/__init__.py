@@ -13,7 +13,17 @@ import sys
 from models.validation import InputError
 
 # Subcommand modules under oilwatch.cli, in the order --help lists them.
-SUBCOMMANDS: tuple[str, ...] = ("rotor", "modes", "campbell", "speed_sweep", "orbits", "report")
+SUBCOMMANDS: tuple[str, ...] = (
+    "rotor",
+    "modes",
+    "campbell",
+    "speed_sweep",
+    "orbits",
+    "report",
+    "bearing",
+    "bearing_table",
+    "study",
+)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -1,0 +1,218 @@
+"""Cost of one EKF step (predict + update) of oilwatch's OilFlowEKF against filterpy's ExtendedKalmanFilter.
+
+Prints the median microseconds per step, the real-time factor at 1 kHz (1000 us / cost) and the speed-up over
+the baseline, all measured in the same run. The baseline is filterpy's ExtendedKalmanFilter driven by the same
+model's transition and Jacobians with the full-order size (168 dynamic states + 2 flowrates).
+
+Two model families, each at the reduced and the full size; both filters only see the
+:class:`estimator.model.AugmentedModel` protocol:
+
+* synthetic: dense linear rotor-like systems of 30 and 168 states (lightly damped modes between 20 and 480 Hz
+  mixed by a random orthogonal change of coordinates), with a transition matrix affine in the flowrates. The
+  model costs little, so the figures are the filters' own cost.
+* system: the rotor-bearing model of ``models.system`` (Craig-Bampton reduced model on its fine flowrate
+  grid; the full 168-state model on a coarse grid, which changes the accuracy but not the cost of an
+  evaluation), when its coefficient table is found (``--table``, default: the machine's table next to the
+  machine file). Here the model's own evaluation is part of each step, as it would be in the estimator.
+
+Usage: ``OPENBLAS_NUM_THREADS=1 python benchmarks/ekf_step.py [--steps 3000] [--repeats 5] [--table JSON]``
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import numpy as np
+from filterpy.kalman import ExtendedKalmanFilter
+
+from estimator.config import NOMINAL_FLOWRATE_M3_S, EKFConfig
+from estimator.ekf import OilFlowEKF
+from models.machine import load_machine
+from models.system.augmented import GridAugmentedModel
+from models.system.factory import flowrate_table_path, load_system
+
+
+class SyntheticRotorModel:
+    """A dense linear model with the AugmentedModel interface: ``s+ = A(q) s + G w_k``,
+    ``A(q) = A0 + sum_i (q_i / q_nom - 1) A_i``."""
+
+    def __init__(self, n_states: int, dt_s: float = 1.0e-3, seed: int = 0) -> None:
+        rng = np.random.default_rng(seed)
+        self.n_states = n_states
+        self.dt_s = dt_s
+        self.flowrate_bounds_m3_s = (0.45 * NOMINAL_FLOWRATE_M3_S, 1.4 * NOMINAL_FLOWRATE_M3_S)
+        modes = n_states // 2
+        base = np.zeros((n_states, n_states))
+        for j, frequency in enumerate(np.linspace(20.0, 480.0, modes)):
+            radius = np.exp(-0.05 * 2 * np.pi * frequency * dt_s)
+            angle = 2 * np.pi * frequency * dt_s
+            c, s = radius * np.cos(angle), radius * np.sin(angle)
+            base[2 * j : 2 * j + 2, 2 * j : 2 * j + 2] = [[c, -s], [s, c]]
+        mixing, _ = np.linalg.qr(rng.standard_normal((n_states, n_states)))
+        self._a0 = mixing @ base @ mixing.T
+        self._a_q = [1e-4 * rng.standard_normal((n_states, n_states)) for _ in range(2)]
+        self._inputs = 1e-6 * rng.standard_normal((n_states, 3))
+        self.output_matrix = rng.standard_normal((4, n_states))
+        self.velocity_output_matrix = 300.0 * rng.standard_normal((4, n_states))
+        self._omega_dt = 2 * np.pi * 75.0 * dt_s
+        self._a = np.empty_like(self._a0)
+        self._flow_jacobian = np.empty((n_states, 2))
+
+    def transition(self, state, flowrate_m3_s, step):
+        r = np.asarray(flowrate_m3_s) / NOMINAL_FLOWRATE_M3_S - 1.0
+        np.copyto(self._a, self._a0)
+        self._a += r[0] * self._a_q[0]
+        self._a += r[1] * self._a_q[1]
+        phase = self._omega_dt * step
+        next_state = self._a @ state + self._inputs @ np.array([1.0, np.cos(phase), np.sin(phase)])
+        self._flow_jacobian[:, 0] = self._a_q[0] @ state / NOMINAL_FLOWRATE_M3_S
+        self._flow_jacobian[:, 1] = self._a_q[1] @ state / NOMINAL_FLOWRATE_M3_S
+        return next_state, self._a, self._flow_jacobian
+
+    def physical_covariance(self, displacement_std_m, velocity_std_m_s):
+        half = self.n_states // 2
+        return np.diag([displacement_std_m**2] * half + [velocity_std_m_s**2] * half)
+
+
+def measurements(model: SyntheticRotorModel, steps: int, seed: int = 1) -> np.ndarray:
+    """A (steps, 4) record from the model's own response at 80 % flow, with 1 um noise."""
+    rng = np.random.default_rng(seed)
+    state = np.zeros(model.n_states)
+    q = np.full(2, 0.8 * NOMINAL_FLOWRATE_M3_S)
+    record = np.empty((steps, 4))
+    for k in range(steps):
+        record[k] = model.output_matrix @ state + 1e-6 * rng.standard_normal(4)
+        state = model.transition(state, q, k)[0]
+    return record
+
+
+class FilterpyBaseline:
+    """filterpy's ExtendedKalmanFilter on the augmented state [s; q/q_nom], displacement channels only."""
+
+    def __init__(self, model: SyntheticRotorModel, config: EKFConfig) -> None:
+        n = model.n_states
+        self.model = model
+        self.n = n
+        ekf = ExtendedKalmanFilter(dim_x=n + 2, dim_z=4)
+        ekf.x = np.zeros(n + 2)
+        ekf.x[n:] = 1.0
+        ekf.P = np.eye(n + 2) * 1e-8
+        ekf.Q = np.zeros((n + 2, n + 2))
+        ekf.Q[:n, :n] = model.physical_covariance(
+            config.displacement_process_std_m, config.velocity_process_std_m_s
+        )
+        ekf.Q[n:, n:] = (config.flowrate_process_std_m3_s / NOMINAL_FLOWRATE_M3_S) ** 2 * np.eye(2)
+        ekf.R = config.noise_std_m**2 * np.eye(4)
+        self.observation = np.zeros((4, n + 2))
+        self.observation[:, :n] = model.output_matrix
+        self.ekf = ekf
+        self.k = 0
+
+    def step(self, z: np.ndarray) -> None:
+        ekf, n = self.ekf, self.n
+        if self.k > 0:
+            q = ekf.x[n:] * NOMINAL_FLOWRATE_M3_S
+            next_state, state_jac, flow_jac = self.model.transition(ekf.x[:n], q, self.k - 1)
+            jacobian = np.eye(n + 2)
+            jacobian[:n, :n] = state_jac
+            jacobian[:n, n:] = flow_jac * NOMINAL_FLOWRATE_M3_S
+            ekf.F = jacobian
+            ekf.x = np.concatenate([next_state, ekf.x[n:]])
+            ekf.P = ekf.F @ ekf.P @ ekf.F.T + ekf.Q
+        observation = self.observation
+        ekf.update(z, lambda _x: observation, lambda x: observation @ x)
+        self.k += 1
+
+
+def time_per_step(make_filter, record: np.ndarray, repeats: int) -> tuple[float, float]:
+    """Median and minimum over ``repeats`` of the mean wall time per step [us] of a fresh filter."""
+    samples = []
+    for _ in range(repeats):
+        step = make_filter().step
+        start = time.perf_counter()
+        for z in record:
+            step(z)
+        samples.append((time.perf_counter() - start) / len(record) * 1e6)
+    return float(np.median(samples)), float(np.min(samples))
+
+
+class _ModelOnly:
+    """Calls only the model's transition, to separate the model's cost from the filter's."""
+
+    def __init__(self, model) -> None:
+        self.model = model
+        self.state = np.zeros(model.n_states)
+        self.flowrate = np.full(2, 0.8 * NOMINAL_FLOWRATE_M3_S)
+        self.k = 0
+
+    def step(self, _z: np.ndarray) -> None:
+        self.model.transition(self.state, self.flowrate, self.k)
+        self.k += 1
+
+
+def make_models(table: str | None) -> dict[str, dict[str, object]]:
+    """Model families to time, each {"reduced": model, "full": model}."""
+    families: dict[str, dict[str, object]] = {
+        "synthetic": {"reduced": SyntheticRotorModel(30), "full": SyntheticRotorModel(168)}
+    }
+    path = table if table is not None else flowrate_table_path(load_machine(), 75.0)
+    if os.path.exists(path):
+        families["system"] = {
+            "reduced": GridAugmentedModel(load_system(reduced=True, table_path=path)),
+            "full": GridAugmentedModel(load_system(reduced=False, table_path=path), subdivisions=1),
+        }
+    else:
+        print(f"no coefficient table at {path}: timing the synthetic models only\n")
+    return families
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--steps", type=int, default=3000)
+    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--table", default=None, help="bearing coefficient table JSON for the system model")
+    args = parser.parse_args()
+
+    rows = []
+    headline = []
+    for family, models in make_models(args.table).items():
+        costs = {}
+        for size, model in models.items():
+            label = f"{family} {size} ({model.n_states} states)"
+            record = measurements(model, args.steps)
+            cost = time_per_step(lambda m=model: _ModelOnly(m), record, args.repeats)
+            rows.append((f"model transition alone, {label}", cost))
+            for mode in ("displacement-only", "correlated"):
+                config = EKFConfig(velocity_noise=mode, gate_tail_probability=0.0)
+                OilFlowEKF(model, config).run(record[:10])  # compile the kernels outside the timing
+                cost = time_per_step(lambda m=model, c=config: OilFlowEKF(m, c), record, args.repeats)
+                rows.append((f"OilFlowEKF, {label}, {mode}", cost))
+                costs[(size, mode)] = cost[0]
+            steps = min(args.steps, 1000)
+            cost = time_per_step(
+                lambda m=model: FilterpyBaseline(m, EKFConfig()), record[:steps], args.repeats
+            )
+            rows.append((f"filterpy EKF, {label}, 4 channels", cost))
+            costs[(size, "filterpy")] = cost[0]
+        headline.append((family, costs))
+
+    print(f"{'step (model included unless alone)':<66} {'median us':>10} {'min us':>8} {'RTF@1kHz':>9}")
+    for label, (median, best) in rows:
+        print(f"{label:<66} {median:10.1f} {best:8.1f} {1000.0 / median:9.1f}")
+    print("(RTF from the median; machine shared, so the minimum is the better cost estimate)\n")
+    for family, costs in headline:
+        baseline = costs[("full", "filterpy")]
+        ours = costs[("reduced", "displacement-only")]
+        same = costs[("full", "displacement-only")]
+        print(
+            f"{family}: filterpy on the full model {baseline:.0f} us/step; OilFlowEKF on the reduced model "
+            f"{ours:.1f} us/step: {baseline / ours:.1f}x faster (same full model: {baseline / same:.1f}x)"
+        )
+
+
+if __name__ == "__main__":
+    main()

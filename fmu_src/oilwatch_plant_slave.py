@@ -1,0 +1,252 @@
+"""RotorBearingPlant: the rotor on its fluid-film bearings, with a sigmoid oil-flow fault, as an FMU.
+
+A thin FMI 2.0 co-simulation shell (pythonfmu) around ``models.system.plant.RotorBearingPlant``: it declares
+the variables in the field's units, checks the parameters at initialization and maps them to SI, and steps
+the plant. The plant integrates the full finite-element model with its own sub-stepped trapezoidal rule,
+not with the estimator's discrete map, and starts in the steady orbit of its initial flowrates.
+
+Fault: each bearing's supply flowrate follows ``q(t) = q_initial + (q_final - q_initial) /
+(1 + exp(-(t - fault_time_s) / tau))`` with ``tau = fault_duration_s / (2 ln 9)``: ``fault_duration_s`` is
+the 10 %-90 % transition time. ``flow_source = 1`` replaces the schedule with the inputs ``q1_in_ml_min``
+and ``q2_in_ml_min`` (held over each communication step), so that an oil-system model can drive them.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from pythonfmu import DefaultExperiment
+
+from fmu_src.slave_base import OilwatchSlave
+from models.bearing.supply import ML_MIN_PER_M3_S
+from models.machine import BUNDLED_MACHINE, load_machine
+from models.system.factory import build_system
+from models.system.fault import SigmoidFlowrate
+from models.system.plant import RotorBearingPlant as PlantModel
+from models.validation import InputError
+
+NOMINAL_ML_MIN = 596.3
+SAMPLING_PERIOD_S = 1e-3
+OUTPUTS = ("x1", "y1", "x2", "y2")
+
+
+class RotorBearingPlant(OilwatchSlave):
+    """FMI slave of the rotor-bearing plant (see the module docstring)."""
+
+    author = "oilwatch"
+    description = (
+        "Rotor on two fluid-film bearings (Timoshenko FE rotor, p-theta bearing tables) with a sigmoid "
+        "supply-flowrate fault; outputs the shaft position in each bearing as proximity probes measure it"
+    )
+    default_experiment = DefaultExperiment(start_time=0.0, stop_time=20.0, step_size=SAMPLING_PERIOD_S)
+    state_attributes = ("plant_snapshot",)
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        self.plant = None
+        real = self.declare_real
+        real(
+            "speed_hz",
+            "parameter",
+            start=75.0,
+            unit="Hz",
+            minimum=1.0,
+            maximum=1000.0,
+            description="Spin speed; a coefficient table must exist for it",
+        )
+        for b in (1, 2):
+            for stage, text in (("initial", "before"), ("final", "after")):
+                real(
+                    f"q{b}_{stage}_ml_min",
+                    "parameter",
+                    start=NOMINAL_ML_MIN,
+                    unit="ml/min",
+                    minimum=0.0,
+                    description=f"Supply flowrate of bearing {b} {text} the fault (sigmoid schedule)",
+                )
+        real(
+            "fault_time_s",
+            "parameter",
+            start=10.0,
+            unit="s",
+            description="Centre of the sigmoid flowrate transition (half the change done)",
+        )
+        real(
+            "fault_duration_s",
+            "parameter",
+            start=0.1,
+            unit="s",
+            minimum=1e-6,
+            description="10 %-90 % transition time of the sigmoid",
+        )
+        real(
+            "noise_um",
+            "parameter",
+            start=1.0,
+            unit="um",
+            minimum=0.0,
+            description="Std of the white measurement noise added to each probe",
+        )
+        self.declare_integer(
+            "seed", "parameter", start=1, minimum=0, description="Seed of the measurement-noise generator"
+        )
+        real(
+            "unbalance_g_mm",
+            "parameter",
+            start=-1.0,
+            unit="g.mm",
+            minimum=-1.0,
+            description="Unbalance moment at the machine's unbalance node; -1: the machine file's ISO grade",
+        )
+        real(
+            "unbalance_phase_deg",
+            "parameter",
+            start=0.0,
+            unit="deg",
+            description="Unbalance phase phi of Eqs. 5-6",
+        )
+        self.declare_string(
+            "machine_file",
+            "parameter",
+            start="",
+            description="Machine file (TOML); empty: the bundled generic turbine",
+        )
+        self.declare_integer(
+            "flow_source",
+            "parameter",
+            start=0,
+            minimum=0,
+            maximum=1,
+            description="0: sigmoid fault schedule; 1: flowrates from q1_in_ml_min, q2_in_ml_min",
+        )
+        for b in (1, 2):
+            real(
+                f"q{b}_in_ml_min",
+                "input",
+                start=NOMINAL_ML_MIN,
+                unit="ml/min",
+                minimum=0.0,
+                description=f"Supply flowrate of bearing {b} when flow_source = 1",
+            )
+        for name in OUTPUTS:
+            axis, b = name[0], name[1]
+            real(
+                f"{name}_um",
+                "output",
+                start=0.0,
+                unit="um",
+                description=f"Measured {axis} position of the shaft in bearing {b} (true + noise)",
+            )
+        for name in OUTPUTS:
+            axis, b = name[0], name[1]
+            real(
+                f"{name}_true_um",
+                "output",
+                start=0.0,
+                unit="um",
+                description=f"True {axis} position of the shaft in bearing {b}, from the bearing centre",
+            )
+        for b in (1, 2):
+            real(
+                f"q{b}_ml_min",
+                "output",
+                start=NOMINAL_ML_MIN,
+                unit="ml/min",
+                description=f"True supply flowrate of bearing {b}",
+            )
+
+    @property
+    def plant_snapshot(self):
+        """The plant's full state (for fmi2GetFMUstate / fmi2SetFMUstate)."""
+        return None if self.plant is None else self.plant.snapshot()
+
+    @plant_snapshot.setter
+    def plant_snapshot(self, snapshot) -> None:
+        if snapshot is not None:
+            self.plant.restore(snapshot)
+
+    def validate_parameters(self) -> None:
+        if self.machine_file and not Path(self.machine_file).is_file():
+            raise InputError(f"machine_file: no such file: {self.machine_file!r}")
+        if self.flow_source == 0:
+            for b in (1, 2):
+                for stage in ("initial", "final"):
+                    if getattr(self, f"q{b}_{stage}_ml_min") <= 0.0:
+                        raise InputError(f"q{b}_{stage}_ml_min must be > 0 ml/min")
+
+    def setup(self) -> None:
+        machine = load_machine(self.machine_file or bundled_machine_file(self.resources))
+        moment = None if self.unbalance_g_mm < 0.0 else self.unbalance_g_mm * 1e-6
+        system = build_system(
+            machine,
+            self.speed_hz,
+            reduced=False,
+            unbalance_moment_kg_m=moment,
+            unbalance_phase_rad=math.radians(self.unbalance_phase_deg),
+        )
+        schedules = None
+        if self.flow_source == 0:
+            schedules = tuple(
+                SigmoidFlowrate(
+                    getattr(self, f"q{b}_initial_ml_min") / ML_MIN_PER_M3_S,
+                    getattr(self, f"q{b}_final_ml_min") / ML_MIN_PER_M3_S,
+                    self.fault_time_s,
+                    self.fault_duration_s,
+                )
+                for b in (1, 2)
+            )
+        inputs = (self.q1_in_ml_min / ML_MIN_PER_M3_S, self.q2_in_ml_min / ML_MIN_PER_M3_S)
+        try:
+            self.plant = PlantModel(
+                system,
+                SAMPLING_PERIOD_S,
+                schedules,
+                self.noise_um * 1e-6,
+                self.seed,
+                initial_flowrates_m3_s=inputs,
+                start_time_s=self.start_time,
+            )
+        except InputError as error:
+            raise InputError(_fmu_names(str(error))) from None
+        self._publish(self.plant.current_sample())
+
+    def step(self, current_time: float, step_size: float) -> bool:
+        if abs(step_size - self.plant.dt_s) > 1e-12 * step_size:
+            self.plant.set_period(step_size)
+        inputs = None
+        if self.flow_source == 1:
+            inputs = (self.q1_in_ml_min / ML_MIN_PER_M3_S, self.q2_in_ml_min / ML_MIN_PER_M3_S)
+        self._publish(self.plant.step(inputs))
+        return True
+
+    def _publish(self, sample) -> None:
+        for name, measured, true in zip(
+            OUTPUTS, sample.measured_position_m, sample.true_position_m, strict=True
+        ):
+            setattr(self, f"{name}_um", measured * 1e6)
+            setattr(self, f"{name}_true_um", true * 1e6)
+        self.q1_ml_min = sample.flowrate_m3_s[0] * ML_MIN_PER_M3_S
+        self.q2_ml_min = sample.flowrate_m3_s[1] * ML_MIN_PER_M3_S
+
+
+def _fmu_names(message: str) -> str:
+    """Name the FMU's parameters in a model-level message."""
+    for b in (1, 2):
+        message = message.replace(f"q{b} initial", f"q{b}_initial_ml_min")
+        message = message.replace(f"q{b} final", f"q{b}_final_ml_min")
+        message = message.replace(f"q{b} input", f"q{b}_in_ml_min")
+    return message
+
+
+def bundled_machine_file(resources: str | None) -> Path:
+    """The bundled machine file inside this instance's resources folder.
+
+    Found through the instance's own ``resources`` path, not the module's ``__file__``: a host that loads the
+    FMU twice imports the (relocated) package once, from the first extraction folder, which it may have
+    deleted since.
+    """
+    if not resources:
+        return BUNDLED_MACHINE
+    package = load_machine.__module__.split(".")[0]
+    return Path(resources) / package / BUNDLED_MACHINE.name

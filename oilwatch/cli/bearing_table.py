@@ -1,0 +1,137 @@
+"""``oilwatch bearing-table``: the bearing coefficient table over supply flowrate.
+
+Computes the flooded threshold q_t (groove full at zero gauge pressure), then the equilibrium and
+the eight coefficients at ``--points`` flowrates evenly spread between the machine file's table
+fractions of q_t (paper: 7 points, 50 % to 150 %), and writes them with units and provenance as
+JSON, by default next to the machine file as ``tables/<machine stem>_bearing_<speed>hz.json``
+(bundled turbine: models/tables/turbine_bearing_75hz.json), where ``models.system`` looks for it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import shlex
+import sys
+from pathlib import Path
+
+from .bearing import add_common_arguments, machine_setup
+
+
+def register(subparsers) -> None:
+    """Add the ``bearing-table`` subcommand."""
+    parser = subparsers.add_parser(
+        "bearing-table",
+        help="compute the bearing coefficient table over supply flowrate",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    add_common_arguments(parser)
+    parser.add_argument("--points", type=int, default=7, help="number of flowrates (>= 2)")
+    parser.add_argument(
+        "--out", help="output JSON file; default <machine dir>/tables/<stem>_bearing_<f>hz.json"
+    )
+    parser.add_argument("--plot", metavar="FILE", help="also draw the table against flowrate")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    parser.set_defaults(func=run)
+
+
+def run(args) -> int:
+    """Compute, write and optionally plot the table."""
+    import numpy as np
+
+    from models.bearing.supply import ML_MIN_PER_M3_S
+    from models.bearing.table import compute_table, flooded_threshold
+    from models.validation import InputError
+
+    if args.points < 2:
+        raise InputError(f"--points must be >= 2, got {args.points}")
+    setup = machine_setup(args)
+    lub = setup["lubrication"]
+    bearing, load, speed, mesh = (setup[k] for k in ("bearing", "load_n", "speed_hz", "mesh"))
+    q_t, _ = flooded_threshold(bearing, load, speed, mesh)
+    flows = q_t * np.linspace(
+        lub.table_min_fraction_of_threshold, lub.table_max_fraction_of_threshold, args.points
+    )
+    table = compute_table(
+        bearing,
+        load,
+        speed,
+        flows,
+        mesh,
+        progress=not args.quiet,
+        flooded_threshold_m3_s=q_t,
+        provenance={
+            "command_line": command_line(args),
+            "machine_file": str(setup["machine"].source_path),
+        },
+    )
+    source = setup["machine"].source_path
+    default = source.parent / "tables" / f"{source.stem}_bearing_{speed:g}hz.json"
+    out = Path(args.out) if args.out else default
+    out.parent.mkdir(parents=True, exist_ok=True)
+    table.save(out)
+    print(
+        f"q_t = {q_t * ML_MIN_PER_M3_S:.2f} ml/min at {speed:g} Hz; {args.points} points written to {out}",
+        file=sys.stderr,
+    )
+    if args.plot:
+        plot_table(table, q_t, args.plot)
+    return 0
+
+
+def command_line(args) -> str:
+    """The command that reproduces this table (from the parsed options, not sys.argv)."""
+    parts = ["oilwatch", "bearing-table"]
+    for key in ("machine", "speed_hz", "load_n", "points", "out", "plot"):
+        value = getattr(args, key)
+        if value is not None:
+            parts += [f"--{key.replace('_', '-')}", str(value)]
+    if args.mesh is not None:
+        parts += ["--mesh", *map(str, args.mesh)]
+    return shlex.join(parts)
+
+
+def plot_table(table, q_t: float, path: str) -> None:
+    """Eccentricity, attitude, K and C against flowrate, q_t marked."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from models.bearing.supply import ML_MIN_PER_M3_S
+
+    q_lo, q_hi = table.flowrate_range_m3_s
+    fine = np.linspace(q_lo, q_hi, 200)
+    curves = [table.evaluate(q) for q in fine]
+    qf = fine * ML_MIN_PER_M3_S
+    qn = table.flowrates_m3_s * ML_MIN_PER_M3_S
+    fig, axes = plt.subplots(2, 2, figsize=(11, 8), sharex=True)
+    ax = axes[0, 0]
+    ax.plot(qn, table.eccentricity_ratio, "o-", label="eccentricity ratio")
+    ax.set_ylabel("eccentricity ratio [-]")
+    ax2 = ax.twinx()
+    ax2.plot(qn, table.attitude_deg, "s--", color="tab:red", label="attitude")
+    ax2.set_ylabel("attitude angle [deg]", color="tab:red")
+    ax = axes[0, 1]
+    ax.plot(qn, table.supply_pressure_pa / 1e5, "o-")
+    ax.set_ylabel("groove pressure [bar]")
+    for k, name in enumerate(("xx", "xy", "yx", "yy")):
+        i, j = divmod(k, 2)
+        axes[1, 0].plot(qf, [c.stiffness[i, j] for c in curves], label=f"K{name}")
+        axes[1, 0].plot(qn, table.stiffness[:, i, j], "k.")
+        style = "--" if name == "yx" else "-"  # Cyx = Cxy for the full-film squeeze treatment
+        axes[1, 1].plot(qf, [c.damping[i, j] for c in curves], style, label=f"C{name}")
+        axes[1, 1].plot(qn, table.damping[:, i, j], "k.")
+    axes[1, 0].set_ylabel("stiffness [N/m]")
+    axes[1, 1].set_ylabel("damping [N s/m]")
+    for ax in axes.ravel():
+        ax.axvline(q_t * ML_MIN_PER_M3_S, color="gray", lw=0.8, ls=":")
+        ax.grid(alpha=0.3)
+    for ax in axes[1]:
+        ax.set_xlabel("supply flowrate [ml/min] (dotted: flooded threshold q_t)")
+        ax.legend(fontsize=8)
+    fig.suptitle(f"bearing coefficients at {table.speed_hz:g} Hz, load {table.load_n:.1f} N")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)

@@ -1,0 +1,60 @@
+"""The case models a study can run, by name (``oilwatch study --case NAME``).
+
+Only working case functions are registered: ``direct`` (the plant model and the EKF in-process) and
+``synthetic`` (machinery tests). The co-simulated case (plant FMU + EKF FMU through the master, issue 7) goes
+in as one more entry, see :mod:`oilwatch.study.case_cosim`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from models.validation import InputError
+
+from .case_cosim import ModelCrlb
+from .case_direct import run_direct_case
+from .cases import CaseResult, SyntheticCase
+from .grid import Case
+
+DEFAULT_CASE = "cosim"
+
+
+@dataclass(frozen=True)
+class CaseModel:
+    """A case function and, optionally, the Cramer-Rao bound that goes with it.
+
+    run_case: ``(Case) -> CaseResult``, picklable (it runs on Dask workers).
+    crlb: ``(Case) -> (2,)`` bound on the std of q1, q2 [ml/min], or None.
+    """
+
+    run_case: Callable[[Case], CaseResult]
+    crlb: Callable[[Case], np.ndarray] | None = None
+    description: str = ""
+
+
+_SYNTHETIC = SyntheticCase()
+
+CASE_MODELS: dict[str, CaseModel] = {
+    "direct": CaseModel(
+        run_direct_case,
+        ModelCrlb(),
+        "plant model (full, Newmark) and EKF (reduced grid model) in-process, without FMI",
+    ),
+    "synthetic": CaseModel(
+        _SYNTHETIC,
+        _SYNTHETIC.crlb,
+        "synthetic estimate records (tests the study machinery; not oilwatch's estimator)",
+    ),
+}
+
+
+def get_case_model(name: str) -> CaseModel:
+    """The registered case model called ``name``; an InputError lists the available ones."""
+    if name not in CASE_MODELS:
+        available = ", ".join(sorted(CASE_MODELS))
+        hint = " (the co-simulated case is not plugged in yet, issue 7)" if name == DEFAULT_CASE else ""
+        raise InputError(f"--case {name!r} is not available{hint}; available: {available}")
+    return CASE_MODELS[name]

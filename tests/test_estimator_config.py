@@ -1,0 +1,111 @@
+"""Configuration and model-contract validation of the oil-flow EKF: every bad value names its field."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from estimator.config import ML_MIN, AlarmConfig, EKFConfig
+from estimator.ekf import OilFlowEKF
+from estimator.model import AugmentedModel
+from estimator.toy_model import ToyRotor
+from models.validation import InputError
+
+
+@pytest.mark.parametrize(
+    ("field", "value"),
+    [
+        ("noise_std_m", 0.0),
+        ("noise_std_m", float("nan")),
+        ("velocity_noise", "both"),
+        ("initial_state", "random"),
+        ("displacement_process_std_m", -1e-6),
+        ("velocity_process_std_m_s", float("inf")),
+        ("flowrate_process_std_m3_s", -1.0),
+        ("q_nominal_m3_s", 0.0),
+        ("q_initial_m3_s", -1.0),
+        ("q_initial_m3_s", (1e-5, 1e-5, 1e-5)),
+        ("q_initial_m3_s", "lots"),
+        ("initial_displacement_std_m", 0.0),
+        ("initial_flowrate_std_m3_s", -1.0),
+        ("gate_tail_probability", 0.7),
+        ("gate_max_consecutive_rejections", -1),
+        ("gate_max_consecutive_rejections", 2.5),
+        ("converged_window_s", 0.0),
+        ("converged_std_fraction", -0.1),
+        ("alarm", {"on_fraction": 0.9}),
+    ],
+)
+def test_bad_config_field_is_named(field, value):
+    with pytest.raises(InputError, match=field):
+        EKFConfig(**{field: value})
+
+
+@pytest.mark.parametrize(
+    ("field", "value"),
+    [
+        ("on_fraction", 0.0),
+        ("off_fraction", 2.0),
+        ("confidence_z", -1.0),
+        ("hold_on_s", -0.1),
+        ("hold_off_s", float("nan")),
+    ],
+)
+def test_bad_alarm_field_is_named(field, value):
+    with pytest.raises(InputError, match=field):
+        AlarmConfig(**{field: value})
+
+
+def test_alarm_hysteresis_order_is_enforced():
+    with pytest.raises(InputError, match="off_fraction"):
+        AlarmConfig(on_fraction=0.9, off_fraction=0.85)
+
+
+def test_defaults_are_the_papers():
+    config = EKFConfig()
+    assert config.displacement_process_std_m == 10e-6
+    assert config.velocity_process_std_m_s == 10e-6
+    assert config.flowrate_process_std_m3_s == pytest.approx(0.1 * ML_MIN)
+    assert config.q_initial_pair() == pytest.approx((596.3 * ML_MIN, 596.3 * ML_MIN))
+    assert config.initial_state == "zero"
+
+
+def test_toy_satisfies_the_protocol():
+    assert isinstance(ToyRotor(), AugmentedModel)
+
+
+def test_initial_flowrate_outside_the_table_is_refused():
+    with pytest.raises(InputError, match="q_initial_m3_s"):
+        OilFlowEKF(ToyRotor(), EKFConfig(q_initial_m3_s=900.0 * ML_MIN))
+
+
+def test_model_with_wrong_output_shape_is_refused():
+    model = ToyRotor()
+    model.output_matrix = np.eye(4, 7)
+    with pytest.raises(InputError, match="output_matrix"):
+        OilFlowEKF(model)
+
+
+def test_static_start_needs_a_model_with_static_state():
+    class NoStatic:
+        n_states = 2
+        dt_s = 1e-3
+        output_matrix = np.zeros((4, 2))
+        velocity_output_matrix = np.zeros((4, 2))
+        flowrate_bounds_m3_s = (1e-6, 1e-4)
+
+        def transition(self, state, flowrate_m3_s, step):
+            return state, np.eye(2), np.zeros((2, 2))
+
+        def physical_covariance(self, displacement_std_m, velocity_std_m_s):
+            return np.diag([displacement_std_m**2, velocity_std_m_s**2])
+
+    OilFlowEKF(NoStatic())
+    with pytest.raises(InputError, match="initial_state"):
+        OilFlowEKF(NoStatic(), EKFConfig(initial_state="static"))
+
+
+def test_measurement_of_wrong_shape_is_refused():
+    ekf = OilFlowEKF(ToyRotor())
+    with pytest.raises(InputError, match="displacement_m"):
+        ekf.step(np.zeros(3))
