@@ -147,6 +147,14 @@ class RotorBearingPlant(OilwatchSlave):
                 unit="um",
                 description=f"True {axis} position of the shaft in bearing {b}, from the bearing centre",
             )
+        real(
+            "t_sample_s",
+            "output",
+            start=0.0,
+            unit="s",
+            description="Time the position outputs refer to (the end of the last step); an estimator uses it "
+            "to stay aligned whatever the master's ordering",
+        )
         for b in (1, 2):
             real(
                 f"q{b}_ml_min",
@@ -226,6 +234,7 @@ class RotorBearingPlant(OilwatchSlave):
         ):
             setattr(self, f"{name}_um", measured * 1e6)
             setattr(self, f"{name}_true_um", true * 1e6)
+        self.t_sample_s = self.plant.time_s
         self.q1_ml_min = sample.flowrate_m3_s[0] * ML_MIN_PER_M3_S
         self.q2_ml_min = sample.flowrate_m3_s[1] * ML_MIN_PER_M3_S
 

@@ -32,9 +32,10 @@ def flowrate_table_path(machine: Machine, speed_hz: float) -> Path:
     return machine.source_path.parent / "tables" / f"{machine.source_path.stem}_bearing_{speed_hz:g}hz.json"
 
 
-def speed_sweep_path(machine: Machine) -> Path:
-    """Default path of the machine's speed sweep."""
-    return machine.source_path.parent / "tables" / f"{machine.source_path.stem}_speed_sweep.json"
+def speed_sweep_path(machine: Machine, squeeze: str = "full-film") -> Path:
+    """Default path of the machine's speed sweep (a suffix names a non-default squeeze model)."""
+    suffix = "" if squeeze == "full-film" else f"_squeeze_{squeeze}"
+    return machine.source_path.parent / "tables" / f"{machine.source_path.stem}_speed_sweep{suffix}.json"
 
 
 def load_tables(machine: Machine, rotor: Rotor, speed_hz: float, path: str | Path | None = None):
@@ -55,9 +56,11 @@ def load_tables(machine: Machine, rotor: Rotor, speed_hz: float, path: str | Pat
     return [table] * len(rotor.bearing_nodes)
 
 
-def load_speed_sweeps(machine: Machine, rotor: Rotor, path: str | Path | None = None) -> list[SpeedSweep]:
+def load_speed_sweeps(
+    machine: Machine, rotor: Rotor, path: str | Path | None = None, squeeze: str = "full-film"
+) -> list[SpeedSweep]:
     """One speed sweep per bearing (all bearings of a machine file share the geometry and the load)."""
-    sweep_path = Path(path) if path is not None else speed_sweep_path(machine)
+    sweep_path = Path(path) if path is not None else speed_sweep_path(machine, squeeze)
     if not sweep_path.exists():
         raise InputError(f"no speed sweep at {sweep_path}; compute it with `oilwatch speed-sweep`")
     sweep = SpeedSweep.load(sweep_path)

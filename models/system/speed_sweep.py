@@ -20,7 +20,7 @@ from tqdm import tqdm
 from .. import __version__
 from ..bearing.equilibrium import coefficients_at, static_equilibrium
 from ..bearing.geometry import JournalBearing
-from ..bearing.grid import Mesh
+from ..bearing.grid import PRODUCTION_MESH, Mesh
 from ..bearing.supply import ML_MIN_PER_M3_S, SupplyFlow
 from ..validation import InputError, require_in_range, require_positive
 
@@ -100,20 +100,24 @@ def compute_speed_sweep(
     mesh: Mesh | None = None,
     command: str = "",
     progress: bool = True,
+    squeeze: str = "full-film",
 ) -> SpeedSweep:
-    """Equilibrium and coefficients at each speed of ``speeds_hz`` [Hz] for supply flowrate [m^3/s]."""
+    """Equilibrium and coefficients at each speed of ``speeds_hz`` [Hz] for supply flowrate [m^3/s].
+
+    ``squeeze`` selects the squeeze-term model of the film solver (see ``models.bearing.film``).
+    """
     speeds = np.asarray(speeds_hz, dtype=float)
     if speeds.ndim != 1 or speeds.size < 2 or np.any(np.diff(speeds) <= 0):
         raise InputError("speeds_hz must hold at least 2 increasing speeds")
     for speed in speeds:
         require_positive("speed_hz", speed, "Hz")
-    mesh = mesh or Mesh()
+    mesh = mesh or PRODUCTION_MESH
     supply = SupplyFlow(flowrate_m3_s)
     positions, stiffness, damping = [], [], []
     guess = None
     for speed in tqdm(speeds, desc="speed sweep", unit="speed", disable=not progress):
-        eq = static_equilibrium(bearing, load_n, speed, supply, mesh, initial_guess_m=guess)
-        k, c = coefficients_at(bearing, eq, speed, supply, mesh)
+        eq = static_equilibrium(bearing, load_n, speed, supply, mesh, squeeze=squeeze, initial_guess_m=guess)
+        k, c = coefficients_at(bearing, eq, speed, supply, mesh, squeeze=squeeze)
         guess = eq.eccentricity_m
         positions.append(eq.eccentricity_m)
         stiffness.append(k)
@@ -123,6 +127,7 @@ def compute_speed_sweep(
         "oilwatch_version": __version__,
         "date_utc": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
         "mesh": {"n_circ": mesh.n_circ, "n_axial": mesh.n_axial},
+        "squeeze": squeeze,
         "python": platform.python_version(),
     }
     return SpeedSweep(

@@ -20,9 +20,8 @@ import numpy as np
 
 from ..rotor.assembly import Rotor
 from ..rotor.modal import CampbellDiagram, campbell_diagram
-from ..rotor.supports import LinearBearing
-from ..validation import InputError
 from .speed_sweep import SpeedSweep
+from .supports import swept_bearings
 
 
 @dataclass(frozen=True)
@@ -38,25 +37,11 @@ class StabilityMap:
     instability_threshold_hz: float | None
 
 
-def fluid_film_bearings(rotor: Rotor, sweeps: Sequence[SpeedSweep]):
-    """A callable ``speed_hz -> [LinearBearing, ...]`` with each bearing's coefficients at that speed."""
-    if len(sweeps) != len(rotor.bearing_nodes):
-        raise InputError(f"need one speed sweep per bearing ({len(rotor.bearing_nodes)}), got {len(sweeps)}")
-
-    def bearings_at(speed_hz: float) -> list[LinearBearing]:
-        return [
-            LinearBearing(node, *sweep.coefficients(speed_hz))
-            for node, sweep in zip(rotor.bearing_nodes, sweeps, strict=True)
-        ]
-
-    return bearings_at
-
-
 def stability_map(
     rotor: Rotor, sweeps: Sequence[SpeedSweep], speeds_hz: np.ndarray, n_modes: int = 8
 ) -> StabilityMap:
     """Damped modes over ``speeds_hz`` [Hz] with the swept bearing coefficients, and the derived speeds."""
-    campbell = campbell_diagram(rotor, speeds_hz, fluid_film_bearings(rotor, sweeps), n_modes)
+    campbell = campbell_diagram(rotor, speeds_hz, swept_bearings(rotor, sweeps), n_modes)
     least = np.nanmin(campbell.log_decrements, axis=1)
     criticals = campbell.critical_speeds_hz()
     return StabilityMap(

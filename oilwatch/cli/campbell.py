@@ -6,7 +6,16 @@ import argparse
 import json
 import sys
 
-from .modes import add_bearing_options, add_machine_option, bearings_for, load_rotor, require_count
+from .modes import (
+    add_bearing_options,
+    add_machine_option,
+    bearings_for,
+    load_rotor,
+    require_count,
+    uses_fluid_film,
+)
+
+LOG_DECREMENT_AXIS_MAX = 2.0
 
 
 def register(subparsers) -> None:
@@ -17,7 +26,12 @@ def register(subparsers) -> None:
         description="Damped lateral modes over a speed range, plotted with the synchronous (1x) "
         "line; forward-whirl crossings of the 1x line are the critical speeds.",
     )
-    parser.add_argument("--speed-min-hz", type=float, default=0.0, help="lowest speed [Hz]")
+    parser.add_argument(
+        "--speed-min-hz",
+        type=float,
+        default=None,
+        help="lowest speed [Hz] (default: 0, or the speed sweep's lowest speed with fluid-film bearings)",
+    )
     parser.add_argument(
         "--speed-max-hz",
         type=float,
@@ -63,6 +77,19 @@ def plot_campbell(diagram, out_path: str, title: str) -> None:
     ax_f.legend(loc="upper left")
     ax_f.grid(alpha=0.3)
     ax_d.axhline(0.0, color="k", lw=1)
+    # Heavily damped film modes (log decrements of tens) would flatten the region where stability is
+    # decided, so the axis stops at LOG_DECREMENT_AXIS_MAX and says what it leaves out.
+    finite = diagram.log_decrements[np.isfinite(diagram.log_decrements)]
+    if finite.size and finite.max() > LOG_DECREMENT_AXIS_MAX:
+        ax_d.set_ylim(min(-0.1, 1.1 * finite.min()), LOG_DECREMENT_AXIS_MAX)
+        ax_d.text(
+            0.01,
+            0.95,
+            f"modes with log decrement > {LOG_DECREMENT_AXIS_MAX:g} off scale",
+            transform=ax_d.transAxes,
+            va="top",
+            fontsize=8,
+        )
     ax_d.set_ylabel("log decrement [-]")
     ax_d.set_xlabel("spin speed [Hz]")
     ax_d.grid(alpha=0.3)
@@ -79,14 +106,17 @@ def run(args: argparse.Namespace) -> int:
     from models.validation import InputError, require_non_negative
 
     machine, rotor = load_rotor(args)
-    low = require_non_negative("--speed-min-hz", args.speed_min_hz, "Hz")
+    bearings_at, description = bearings_for(args, machine, rotor, over_speed=True)
+    low = args.speed_min_hz
+    if low is None:
+        low = _sweep_start_hz(machine, rotor) if uses_fluid_film(args) else 0.0
+    low = require_non_negative("--speed-min-hz", low, "Hz")
     high = 1.6 * machine.nominal_speed_hz if args.speed_max_hz is None else args.speed_max_hz
     high = require_non_negative("--speed-max-hz", high, "Hz")
     if high <= low:
         raise InputError(f"--speed-max-hz must exceed --speed-min-hz ({low:g} Hz), got {high:g}")
     n_speeds = require_count("--n-speeds", args.n_speeds, 2)
     n_modes = require_count("--n-modes", args.n_modes, 1)
-    bearings_at, description = bearings_for(args, machine, rotor)
     diagram = campbell_diagram(
         rotor,
         np.linspace(low, high, n_speeds),
@@ -125,3 +155,10 @@ def run(args: argparse.Namespace) -> int:
     )
     print(f"plot written to {args.out}")
     return 0
+
+
+def _sweep_start_hz(machine, rotor) -> float:
+    """Lowest speed of the machine's speed sweep [Hz]."""
+    from models.system.factory import load_speed_sweeps
+
+    return float(load_speed_sweeps(machine, rotor)[0].speeds_hz[0])

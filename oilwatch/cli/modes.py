@@ -24,22 +24,31 @@ def add_machine_option(parser: argparse.ArgumentParser) -> None:
 
 
 def add_bearing_options(parser: argparse.ArgumentParser) -> None:
-    """``--bearing-k`` and ``--bearing-c``: isotropic linear bearings at every bearing node."""
+    """``--q1-pct``/``--q2-pct`` (fluid-film bearings, the default) or ``--bearing-k``/``--bearing-c``
+    (isotropic linear bearings at every bearing node)."""
+    for b in (1, 2):
+        parser.add_argument(
+            f"--q{b}-pct",
+            type=float,
+            default=100.0,
+            metavar="PCT",
+            help=f"supply flowrate of bearing {b}, %% of nominal (fluid-film bearings; default 100)",
+        )
     parser.add_argument(
         "--bearing-k",
         type=float,
         default=None,
         metavar="N_PER_M",
-        help="isotropic linear bearing stiffness kxx = kyy at each bearing [N/m] "
-        f"(default {DEFAULT_BEARING_STIFFNESS_N_M:g})",
+        help="use isotropic linear bearings instead of the fluid film: stiffness kxx = kyy [N/m] "
+        f"(default with --bearing-c: {DEFAULT_BEARING_STIFFNESS_N_M:g})",
     )
     parser.add_argument(
         "--bearing-c",
         type=float,
         default=None,
         metavar="N_S_PER_M",
-        help="isotropic linear bearing damping cxx = cyy at each bearing [N s/m] "
-        f"(default {DEFAULT_BEARING_DAMPING_N_S_M:g})",
+        help="use isotropic linear bearings instead of the fluid film: damping cxx = cyy [N s/m] "
+        f"(default with --bearing-k: {DEFAULT_BEARING_DAMPING_N_S_M:g})",
     )
 
 
@@ -52,16 +61,42 @@ def load_rotor(args: argparse.Namespace):
     return machine, Rotor.from_machine(machine)
 
 
-def bearings_for(args: argparse.Namespace, machine, rotor):
+def uses_fluid_film(args: argparse.Namespace) -> bool:
+    """True unless ``--bearing-k`` or ``--bearing-c`` asks for linear isotropic bearings."""
+    return args.bearing_k is None and args.bearing_c is None
+
+
+def bearings_for(args: argparse.Namespace, machine, rotor, over_speed: bool = False):
     """The bearings the rotor sits on, as a callable speed_hz -> list of LinearBearing, and a
     JSON-ready description of them.
 
-    Today: isotropic linear bearings (kxx = kyy = k, cxx = cyy = c, no cross terms) at every
-    bearing node of the machine.
+    Default: the fluid-film bearings at ``--q1-pct``/``--q2-pct`` of the nominal flowrate (from the
+    flowrate table at the speed, or the speed sweep; ``over_speed`` always uses the sweep, so a
+    Campbell diagram has one source). With ``--bearing-k``/``--bearing-c``: isotropic linear bearings
+    (kxx = kyy = k, cxx = cyy = c, no cross terms) at every bearing node.
     """
     from models.rotor.supports import isotropic_bearings
-    from models.validation import require_non_negative
+    from models.system.supports import fluid_film_bearings, fluid_film_bearings_over_speed
+    from models.validation import InputError, require_non_negative, require_positive
 
+    if uses_fluid_film(args):
+        pct = [require_positive(f"--q{b}-pct", getattr(args, f"q{b}_pct"), "%") for b in (1, 2)]
+        nominal = machine.lubrication.nominal_flowrate_m3_s
+        flowrates = [nominal * p / 100.0 for p in pct]
+        description = {
+            "model": "fluid film (p-theta tables, linearized)",
+            "nodes": list(rotor.bearing_nodes),
+            "q_pct": pct,
+            "q_ml_min": [q * 6e7 for q in flowrates],
+        }
+        if over_speed:
+            if pct != [100.0, 100.0]:
+                raise InputError(
+                    "--q1-pct/--q2-pct: a Campbell diagram with fluid-film bearings uses the speed sweep, "
+                    "which holds the nominal flowrate (100 %) only"
+                )
+            return fluid_film_bearings_over_speed(machine, rotor), description
+        return (lambda speed_hz: fluid_film_bearings(machine, rotor, speed_hz, flowrates)), description
     k = DEFAULT_BEARING_STIFFNESS_N_M if args.bearing_k is None else args.bearing_k
     c = DEFAULT_BEARING_DAMPING_N_S_M if args.bearing_c is None else args.bearing_c
     k = require_non_negative("--bearing-k", k, "N/m")
@@ -74,6 +109,15 @@ def bearings_for(args: argparse.Namespace, machine, rotor):
         "damping_n_s_m": c,
     }
     return (lambda speed_hz: bearings), description
+
+
+def describe_bearings(description: dict) -> str:
+    """One line saying which bearings were used."""
+    where = f"{description['model']} at nodes {description['nodes']}"
+    if "q_ml_min" in description:
+        flows = ", ".join(f"{q:.1f}" for q in description["q_ml_min"])
+        return f"{where}, supply flowrates {flows} ml/min"
+    return f"{where}, k = {description['stiffness_n_m']:g} N/m, c = {description['damping_n_s_m']:g} N s/m"
 
 
 def require_count(name: str, value: int, minimum: int) -> int:
@@ -135,10 +179,7 @@ def run(args: argparse.Namespace) -> int:
         print(json.dumps(payload, indent=2))
         return 0
     print(f"{machine.name}: damped lateral modes at {speed_hz:g} Hz ({speed_hz * 60:g} rpm)")
-    print(
-        f"bearings: {description['model']} at nodes {description['nodes']}, "
-        f"k = {description['stiffness_n_m']:g} N/m, c = {description['damping_n_s_m']:g} N s/m"
-    )
+    print(f"bearings: {describe_bearings(description)}")
     print(f"{'mode':>4}  {'frequency [Hz]':>14}  {'log decrement':>13}  {'zeta [%]':>8}  whirl")
     for i, m in enumerate(modes, start=1):
         flag = "  UNSTABLE" if m.log_decrement < 0.0 else ""

@@ -26,8 +26,14 @@ def register(subparsers) -> None:
     add_machine_option(parser)
     parser.add_argument("--q-ml-min", type=float, default=None, help="supply flowrate [ml/min]")
     parser.add_argument("--speed-min-hz", type=float, default=30.0, help="lowest speed [Hz] (30)")
-    parser.add_argument("--speed-max-hz", type=float, default=130.0, help="highest speed [Hz] (130)")
+    parser.add_argument("--speed-max-hz", type=float, default=200.0, help="highest speed [Hz] (200)")
     parser.add_argument("--step-hz", type=float, default=5.0, help="speed step [Hz] (5)")
+    parser.add_argument(
+        "--squeeze",
+        choices=("full-film", "everywhere"),
+        default="full-film",
+        help="squeeze-term model of the film (default full-film; see models.bearing.film)",
+    )
     parser.add_argument("--out", default=None, help="output file (default: next to the machine file)")
     parser.set_defaults(func=run)
 
@@ -56,8 +62,9 @@ def run(args: argparse.Namespace) -> int:
         speeds,
         q_ml_min / ML_MIN_PER_M3_S,
         command="oilwatch " + shlex.join(sys.argv[1:]),
+        squeeze=args.squeeze,
     )
-    out_path = Path(args.out) if args.out else speed_sweep_path(machine)
+    out_path = Path(args.out) if args.out else speed_sweep_path(machine, args.squeeze)
     out_path.parent.mkdir(parents=True, exist_ok=True)
     sweep.save(out_path)
     print(f"wrote {out_path} ({speeds.size} speeds, {q_ml_min:g} ml/min)", file=sys.stderr)

@@ -1,0 +1,219 @@
+"""The RotorBearingPlant FMU (issue 5), driven through fmpy in fresh processes.
+
+The FMU is built once per module by ``python build.py`` in its own process; every check loads it in
+another fresh process, so none of this runs in the process that built it.
+"""
+
+import subprocess
+import sys
+
+import pytest
+from fixtures.fmu_subprocess import REPO_ROOT, run_json
+
+HEADER = """
+import numpy as np
+from oilwatch.cosim import FmuSpec, Master, SystemDescription
+FMU = {fmu!r}
+ML = 1e-6 / 60.0
+
+def simulate(parameters, stop, record):
+    system = SystemDescription([FmuSpec("plant", FMU, parameters)], connections=[])
+    with Master(system) as master:
+        result = master.run(stop_time=stop, step_size=1e-3, record=["plant." + r for r in record])
+    arrays = result.recorder.arrays()
+    return arrays["time"], {{r: arrays["plant." + r] for r in record}}
+"""
+TRUE = ["x1_true_um", "y1_true_um", "x2_true_um", "y2_true_um"]
+MEASURED = ["x1_um", "y1_um", "x2_um", "y2_um"]
+
+
+@pytest.fixture(scope="module")
+def fmu(tmp_path_factory):
+    out = tmp_path_factory.mktemp("plant_fmu")
+    subprocess.run(
+        [sys.executable, "build.py", "--out", str(out), "--only", "RotorBearingPlant"],
+        cwd=REPO_ROOT,
+        check=True,
+        capture_output=True,
+    )
+    return str(out / "RotorBearingPlant.fmu")
+
+
+def _run(fmu, body, timeout=300):
+    return run_json(HEADER.format(fmu=fmu) + body, timeout)
+
+
+def test_fmpy_validate_reports_no_problem_and_every_variable_has_unit_and_description(fmu):
+    result = _run(
+        fmu,
+        """
+from fmpy import read_model_description
+from fmpy.validation import validate_fmu
+md = read_model_description(FMU)
+result = {
+    "problems": validate_fmu(FMU),
+    "missing": [v.name for v in md.modelVariables
+                if not v.description or (v.type == "Real" and not v.unit)],
+    "experiment": [md.defaultExperiment.stopTime, md.defaultExperiment.stepSize],
+}
+""",
+    )
+    assert result["problems"] == []
+    assert result["missing"] == []
+    assert [float(v) for v in result["experiment"]] == [20.0, 0.001]
+
+
+def test_orbit_after_the_transient_matches_the_harmonic_unbalance_response(fmu):
+    result = _run(
+        fmu,
+        """
+from models.system.factory import load_system
+q = (0.9 * 596.3 * ML, 0.85 * 596.3 * ML)
+params = {"noise_um": 0.0, "q1_initial_ml_min": 0.9 * 596.3, "q1_final_ml_min": 0.9 * 596.3,
+          "q2_initial_ml_min": 0.85 * 596.3, "q2_final_ml_min": 0.85 * 596.3}
+t, out = simulate(params, 1.0, ["x1_true_um", "y1_true_um", "x2_true_um", "y2_true_um", "x1_um"])
+system = load_system(reduced=False)
+static = system.bearing_positions(system.static_coordinates(q)).ravel()
+amplitude = system.bearing_positions(system.unbalance_coordinates(q)).ravel()
+tail = slice(-200, None)
+expected = static + (amplitude[None, :] * np.exp(1j * system.omega_rad_s * t[tail])[:, None]).real
+got = np.column_stack([out[k][tail] for k in ("x1_true_um", "y1_true_um", "x2_true_um", "y2_true_um")]) * 1e-6
+result = {"error": float(np.abs(got - expected).max()), "orbit": float(np.abs(amplitude).max()),
+          "noise_free": float(np.abs(out["x1_um"] - out["x1_true_um"]).max())}
+""",
+    )
+    assert result["error"] < 0.01 * result["orbit"]
+    assert result["noise_free"] == 0.0
+
+
+def test_measurement_noise_is_white_with_the_requested_std_and_seeded(fmu):
+    result = _run(
+        fmu,
+        """
+def noise(seed):
+    t, out = simulate({"noise_um": 2.0, "seed": seed}, 10.0, ["x1_um", "y1_um", "x2_um", "y2_um",
+                      "x1_true_um", "y1_true_um", "x2_true_um", "y2_true_um"])
+    return np.concatenate([out[m] - out[m[:2] + "_true_um"] for m in ("x1_um", "y1_um", "x2_um", "y2_um")])
+a, b, c = noise(3), noise(3), noise(4)
+lag1 = float(np.corrcoef(a[:-1], a[1:])[0, 1])
+result = {"mean": float(a.mean()), "std": float(a.std()), "same_seed": bool(np.array_equal(a, b)),
+          "other_seed": bool(np.array_equal(a, c)), "lag1": lag1, "n": int(a.size)}
+""",
+    )
+    assert abs(result["mean"]) < 0.05  # 4 x 10001 samples: the mean's std is 0.01 um
+    assert abs(result["std"] / 2.0 - 1.0) < 0.05
+    assert abs(result["lag1"]) < 0.05
+    assert result["same_seed"] and not result["other_seed"]
+
+
+def test_flowrate_outputs_follow_the_sigmoid_formula_exactly(fmu):
+    result = _run(
+        fmu,
+        """
+params = {"q1_final_ml_min": 447.2, "q2_initial_ml_min": 596.3, "q2_final_ml_min": 745.4,
+          "fault_time_s": 1.0, "fault_duration_s": 0.4, "noise_um": 0.0}
+t, out = simulate(params, 2.0, ["q1_ml_min", "q2_ml_min"])
+tau = 0.4 / (2.0 * np.log(9.0))
+sigmoid = 1.0 / (1.0 + np.exp(-(t - 1.0) / tau))
+result = {"q1": float(np.abs(out["q1_ml_min"] - (596.3 + (447.2 - 596.3) * sigmoid)).max()),
+          "q2": float(np.abs(out["q2_ml_min"] - (596.3 + (745.4 - 596.3) * sigmoid)).max())}
+""",
+    )
+    assert result["q1"] < 1e-9 and result["q2"] < 1e-9
+
+
+def test_a_flowrate_step_moves_the_static_position_by_the_table_prediction(fmu):
+    result = _run(
+        fmu,
+        """
+from models.system.factory import load_system
+params = {"q1_final_ml_min": 0.8 * 596.3, "fault_time_s": 0.5, "fault_duration_s": 0.02, "noise_um": 0.0}
+t, out = simulate(params, 3.0, TRUE_NAMES)
+revolutions = 40  # 3 revolutions at 75 Hz: the orbit averages out
+before = np.array([out[k][400:440].mean() for k in TRUE_NAMES]) * 1e-6
+after = np.array([out[k][-revolutions:].mean() for k in TRUE_NAMES]) * 1e-6
+system = load_system(reduced=False)
+start = system.bearing_positions(system.static_coordinates((596.3 * ML, 596.3 * ML))).ravel()
+end = system.bearing_positions(system.static_coordinates((0.8 * 596.3 * ML, 596.3 * ML))).ravel()
+result = {"shift": (after - before).tolist(), "predicted": (end - start).tolist()}
+""".replace("TRUE_NAMES", repr(TRUE)),
+    )
+    shift, predicted = result["shift"], result["predicted"]
+    assert max(abs(p) for p in predicted) > 0.5e-6  # the step moves the journal by a measurable amount
+    assert max(abs(s - p) for s, p in zip(shift, predicted, strict=True)) < 0.02e-6
+
+
+def test_flow_source_inputs_drive_the_flowrates(fmu):
+    result = _run(
+        fmu,
+        """
+t, out = simulate({"flow_source": 1, "q1_in_ml_min": 500.0, "q2_in_ml_min": 650.0}, 0.2,
+                  ["q1_ml_min", "q2_ml_min"])
+result = [float(out["q1_ml_min"][-1]), float(out["q2_ml_min"][-1])]
+""",
+    )
+    assert result == [500.0, 650.0]
+
+
+def test_state_save_and_restore_is_bit_identical(fmu):
+    result = _run(
+        fmu,
+        """
+from fmpy import extract, read_model_description
+from fmpy.fmi2 import FMU2Slave
+md = read_model_description(FMU)
+refs = {v.name: v.valueReference for v in md.modelVariables}
+slave = FMU2Slave(guid=md.guid, unzipDirectory=extract(FMU), modelIdentifier="RotorBearingPlant",
+                  instanceName="plant")
+slave.instantiate()
+slave.setupExperiment(startTime=0.0)
+slave.enterInitializationMode()
+# A drop in progress at the save point, so the integrator's sub-step path and noise are both exercised.
+slave.setReal([refs["q1_final_ml_min"], refs["fault_time_s"], refs["fault_duration_s"]], [450.0, 5.2, 0.5])
+slave.exitInitializationMode()
+outputs = [refs[n] for n in MEASURED + TRUE + ["q1_ml_min"]]
+for k in range(5000):
+    slave.doStep(k * 1e-3, 1e-3)
+state = slave.getFMUstate()
+def run_to_6_s():
+    rows = []
+    for k in range(5000, 6000):
+        slave.doStep(k * 1e-3, 1e-3)
+        rows.append(slave.getReal(outputs))
+    return rows
+first = run_to_6_s()
+slave.setFMUstate(state)
+second = run_to_6_s()
+slave.freeFMUstate(state)
+slave.terminate()
+slave.freeInstance()
+result = {"identical": first == second, "moved": first[0] != first[-1]}
+""".replace("MEASURED", repr(MEASURED)).replace("TRUE", repr(TRUE)),
+    )
+    assert result == {"identical": True, "moved": True}
+
+
+@pytest.mark.parametrize(
+    ("parameter", "value", "named"),
+    [
+        ("q1_initial_ml_min", -5.0, "q1_initial_ml_min"),
+        ("noise_um", -1.0, "noise_um"),
+        ("speed_hz", 60.0, "speed_hz"),
+        ("q2_final_ml_min", 5000.0, "q2_final_ml_min"),
+        ("machine_file", "/nonexistent/machine.toml", "machine_file"),
+    ],
+)
+def test_bad_parameter_fails_initialization_naming_it_without_crashing_the_host(fmu, parameter, value, named):
+    result = _run(
+        fmu,
+        f"""
+from oilwatch.cosim import SlaveError
+try:
+    simulate({{{parameter!r}: {value!r}}}, 0.01, ["x1_um"])
+    result = {{"raised": None}}
+except SlaveError as error:
+    result = {{"raised": str(error) + " " + " ".join(map(str, error.log))}}
+""",
+    )
+    assert result["raised"] is not None
+    assert named in result["raised"]
