@@ -54,8 +54,8 @@ class FlowrateGrid:
                 raise InputError(f"{name} must be at least 2 increasing, uniformly spaced nodes")
         a0, g0 = discrete_map(q1[0], q2[0])
         n = a0.shape[0]
-        transition = np.empty((q1.size + 2, q2.size + 2, n, n))
-        forcing = np.empty((q1.size + 2, q2.size + 2, n, g0.shape[1]))
+        transition = np.zeros((q1.size + 2, q2.size + 2, n, n))
+        forcing = np.zeros((q1.size + 2, q2.size + 2, n, g0.shape[1]))
         for i, q1_value in enumerate(q1):
             for j, q2_value in enumerate(q2):
                 a, g = (a0, g0) if i == j == 0 else discrete_map(q1_value, q2_value)
