@@ -1,8 +1,10 @@
 """Cost of one EKF step (predict + update) of oilwatch's OilFlowEKF against filterpy's ExtendedKalmanFilter.
 
 Prints the median microseconds per step, the real-time factor at 1 kHz (1000 us / cost) and the speed-up over
-the baseline, all measured in the same run. The baseline is filterpy's ExtendedKalmanFilter driven by the same
-model's transition and Jacobians with the full-order size (168 dynamic states + 2 flowrates).
+the baseline, all measured in the same run, and the OilFlowEKF FMU under fmpy (a plain ``FMU2Slave`` loop:
+setReal of the four positions, doStep, getReal of the estimates and stds, getBoolean of the flags). The
+baseline is filterpy's ExtendedKalmanFilter driven by the same model's transition and Jacobians with the
+full-order size (168 dynamic states + 2 flowrates).
 
 Two model families, each at the reduced and the full size; both filters only see the
 :class:`estimator.model.AugmentedModel` protocol:
@@ -15,14 +17,21 @@ Two model families, each at the reduced and the full size; both filters only see
   evaluation), when its coefficient table is found (``--table``, default: the machine's table next to the
   machine file). Here the model's own evaluation is part of each step, as it would be in the estimator.
 
-Usage: ``OPENBLAS_NUM_THREADS=1 python benchmarks/ekf_step.py [--steps 3000] [--repeats 5] [--table JSON]``
+The FMU is ``--fmu`` (default: built into a temporary folder with ``build.build_fmus``); its line needs the
+system family, whose reduced-model response feeds it.
+
+Usage: ``OPENBLAS_NUM_THREADS=1 python benchmarks/ekf_step.py [--steps 3000] [--repeats 5] [--table JSON]
+[--fmu OilFlowEKF.fmu]``
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import sys
+import tempfile
 import time
+from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
@@ -154,6 +163,59 @@ class _ModelOnly:
         self.k += 1
 
 
+def time_fmu(fmu_path: Path, record: np.ndarray, repeats: int) -> tuple[float, float]:
+    """Median and minimum over ``repeats`` passes of ``record`` of the cost per FMU step [us], including
+    setReal of the four positions, doStep, getReal of four outputs and getBoolean of four flags.
+
+    ``record[k]`` is the model's output at t_k = k dt; doStep(t, dt) gets the sample of t + dt (the FMU's
+    unconnected ``t_sample_s``), so the filter sees aligned data. One instance runs on through the passes.
+    """
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave
+
+    md = read_model_description(str(fmu_path))
+    fmu = FMU2Slave(
+        guid=md.guid,
+        unzipDirectory=extract(str(fmu_path)),
+        modelIdentifier=md.coSimulation.modelIdentifier,
+        instanceName="ekf",
+    )
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    inputs = [vr[n] for n in ("x1_um", "y1_um", "x2_um", "y2_um")]
+    reals = [vr[n] for n in ("q1_est_ml_min", "q2_est_ml_min", "q1_std_ml_min", "q2_std_ml_min")]
+    flags = [vr[n] for n in ("starved1", "starved2", "converged", "measurement_ok")]
+    fmu.instantiate()
+    fmu.setupExperiment(startTime=0.0)
+    fmu.enterInitializationMode()
+    fmu.exitInitializationMode()  # builds the model and compiles (or loads) the numba kernels
+    dt = 1.0e-3
+    samples = (record * 1e6).tolist()
+    steps = len(samples) - 1
+    samples_us, k = [], 0
+    for _ in range(repeats):
+        start = time.perf_counter()
+        for j in range(steps):
+            fmu.setReal(inputs, samples[j + 1])
+            fmu.doStep(k * dt, dt)
+            fmu.getReal(reals)
+            fmu.getBoolean(flags)
+            k += 1
+        samples_us.append((time.perf_counter() - start) / steps * 1e6)
+    fmu.terminate()
+    fmu.freeInstance()
+    return float(np.median(samples_us)), float(np.min(samples_us))
+
+
+def ekf_fmu(path: str | None, out_dir: str) -> Path:
+    """The EKF FMU to time: ``path``, or one built now into ``out_dir``."""
+    if path is not None:
+        return Path(path)
+    sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+    from build import build_fmus
+
+    return next(p for p in build_fmus(out_dir, only=["OilFlowEKF"]) if p.suffix == ".fmu")
+
+
 def make_models(table: str | None) -> dict[str, dict[str, object]]:
     """Model families to time, each {"reduced": model, "full": model}."""
     families: dict[str, dict[str, object]] = {
@@ -175,6 +237,7 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=3000)
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--table", default=None, help="bearing coefficient table JSON for the system model")
+    parser.add_argument("--fmu", default=None, help="OilFlowEKF.fmu to time (default: build one)")
     args = parser.parse_args()
 
     rows = []
@@ -198,6 +261,12 @@ def main() -> None:
             )
             rows.append((f"filterpy EKF, {label}, 4 channels", cost))
             costs[(size, "filterpy")] = cost[0]
+        if family == "system":
+            with tempfile.TemporaryDirectory(prefix="oilwatch_bench_") as folder:
+                record = measurements(models["reduced"], args.steps)
+                cost = time_fmu(ekf_fmu(args.fmu, folder), record, args.repeats)
+            rows.append(("OilFlowEKF FMU under fmpy, with setReal/getReal, 4 channels", cost))
+            costs[("fmu", "fmpy")] = cost[0]
         headline.append((family, costs))
 
     print(f"{'step (model included unless alone)':<66} {'median us':>10} {'min us':>8} {'RTF@1kHz':>9}")
@@ -212,6 +281,13 @@ def main() -> None:
             f"{family}: filterpy on the full model {baseline:.0f} us/step; OilFlowEKF on the reduced model "
             f"{ours:.1f} us/step: {baseline / ours:.1f}x faster (same full model: {baseline / same:.1f}x)"
         )
+        if ("fmu", "fmpy") in costs:
+            fmu = costs[("fmu", "fmpy")]
+            print(
+                f"{family}: the OilFlowEKF FMU under fmpy {fmu:.1f} us/step (real-time factor "
+                f"{1000.0 / fmu:.1f} at 1 kHz), {fmu / ours:.1f}x the library's cost, {baseline / fmu:.1f}x "
+                "faster than filterpy on the full model"
+            )
 
 
 if __name__ == "__main__":
