@@ -35,7 +35,6 @@ from __future__ import annotations
 
 import math
 import time
-from pathlib import Path
 
 import numpy as np
 from pythonfmu import DefaultExperiment
@@ -48,10 +47,9 @@ from estimator.config import (
 )
 from estimator.ekf import OilFlowEKF as FlowFilter
 from estimator.ekf import StepReport
+from fmu_src.machine_parameters import rotor_bearing_system
 from fmu_src.slave_base import OilwatchSlave
-from models.machine import BUNDLED_MACHINE, load_machine
 from models.system.augmented import GridAugmentedModel
-from models.system.factory import build_system
 from models.validation import InputError
 
 NOMINAL_ML_MIN = 596.3
@@ -242,8 +240,6 @@ class OilFlowEKF(OilwatchSlave):
             self.filter.set_state(state)
 
     def validate_parameters(self) -> None:
-        if self.machine_file and not Path(self.machine_file).is_file():
-            raise InputError(f"machine_file: no such file: {self.machine_file!r}")
         if not self.q_nominal_ml_min > 0.0:
             raise InputError(f"q_nominal_ml_min must be > 0 ml/min, got {self.q_nominal_ml_min:g}")
         if self.q_std_velocity_um_s < 0.0 and self.q_std_velocity_um_s != -1.0:
@@ -266,14 +262,13 @@ class OilFlowEKF(OilwatchSlave):
 
     def setup(self) -> None:
         started = time.perf_counter()
-        machine = load_machine(self.machine_file or bundled_machine_file(self.resources))
-        moment = None if self.unbalance_g_mm < 0.0 else self.unbalance_g_mm * 1e-6
-        system = build_system(
-            machine,
+        system = rotor_bearing_system(
+            self.machine_file,
+            self.resources,
             self.speed_hz,
+            self.unbalance_g_mm,
+            self.unbalance_phase_deg,
             reduced=True,
-            unbalance_moment_kg_m=moment,
-            unbalance_phase_rad=math.radians(self.unbalance_phase_deg),
         )
         low, high = (bound / ML_MIN for bound in system.flowrate_bounds_m3_s)
         if not low <= self.q_initial_ml_min <= high:
@@ -378,16 +373,3 @@ class OilFlowEKF(OilwatchSlave):
             if steps == 0
             else self.filter.config.first_sample_time_s + (steps - 1) * self.sample_period_s
         )
-
-
-def bundled_machine_file(resources: str | None) -> Path:
-    """The bundled machine file inside this instance's resources folder.
-
-    Found through the instance's own ``resources`` path, not the module's ``__file__``: a host that loads the
-    FMU twice imports the (relocated) package once, from the first extraction folder, which it may have
-    deleted since.
-    """
-    if not resources:
-        return BUNDLED_MACHINE
-    package = load_machine.__module__.split(".")[0]
-    return Path(resources) / package / BUNDLED_MACHINE.name

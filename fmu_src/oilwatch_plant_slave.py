@@ -13,15 +13,11 @@ and ``q2_in_ml_min`` (held over each communication step), so that an oil-system 
 
 from __future__ import annotations
 
-import math
-from pathlib import Path
-
 from pythonfmu import DefaultExperiment
 
+from fmu_src.machine_parameters import rotor_bearing_system
 from fmu_src.slave_base import OilwatchSlave
 from models.bearing.supply import ML_MIN_PER_M3_S
-from models.machine import BUNDLED_MACHINE, load_machine
-from models.system.factory import build_system
 from models.system.fault import SigmoidFlowrate
 from models.system.plant import RotorBearingPlant as PlantModel
 from models.validation import InputError
@@ -175,8 +171,6 @@ class RotorBearingPlant(OilwatchSlave):
             self.plant.restore(snapshot)
 
     def validate_parameters(self) -> None:
-        if self.machine_file and not Path(self.machine_file).is_file():
-            raise InputError(f"machine_file: no such file: {self.machine_file!r}")
         if self.flow_source == 0:
             for b in (1, 2):
                 for stage in ("initial", "final"):
@@ -184,14 +178,13 @@ class RotorBearingPlant(OilwatchSlave):
                         raise InputError(f"q{b}_{stage}_ml_min must be > 0 ml/min")
 
     def setup(self) -> None:
-        machine = load_machine(self.machine_file or bundled_machine_file(self.resources))
-        moment = None if self.unbalance_g_mm < 0.0 else self.unbalance_g_mm * 1e-6
-        system = build_system(
-            machine,
+        system = rotor_bearing_system(
+            self.machine_file,
+            self.resources,
             self.speed_hz,
+            self.unbalance_g_mm,
+            self.unbalance_phase_deg,
             reduced=False,
-            unbalance_moment_kg_m=moment,
-            unbalance_phase_rad=math.radians(self.unbalance_phase_deg),
         )
         schedules = None
         if self.flow_source == 0:
@@ -246,16 +239,3 @@ def _fmu_names(message: str) -> str:
         message = message.replace(f"q{b} final", f"q{b}_final_ml_min")
         message = message.replace(f"q{b} input", f"q{b}_in_ml_min")
     return message
-
-
-def bundled_machine_file(resources: str | None) -> Path:
-    """The bundled machine file inside this instance's resources folder.
-
-    Found through the instance's own ``resources`` path, not the module's ``__file__``: a host that loads the
-    FMU twice imports the (relocated) package once, from the first extraction folder, which it may have
-    deleted since.
-    """
-    if not resources:
-        return BUNDLED_MACHINE
-    package = load_machine.__module__.split(".")[0]
-    return Path(resources) / package / BUNDLED_MACHINE.name
