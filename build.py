@@ -107,12 +107,44 @@ class SspEntry:
     step_size: float
 
 
+# OilStarvation: the paper's sudden drop (``oilwatch run sudden-drop``; tests/test_cosim_scenarios.py
+# checks these bindings against oilwatch.scenarios): both supply flowrates 596.3 -> 447.225 ml/min
+# (100 -> 75 %), 0.1 s 10-90 % transition centred at 10 s of 20 s, 1 um noise, the bundled turbine's
+# unbalance on both sides. Connected by name: x1_um..y2_um and t_sample_s (the sample time stamp that
+# keeps the estimator aligned under any master's ordering).
 SYSTEMS: tuple[SspEntry, ...] = (
     SspEntry(
         name="OilStarvation",
         components=(
-            ("plant", "RotorBearingPlant", {"speed_hz": 75.0, "noise_um": 1.0}),
-            ("ekf", "OilFlowEKF", {"speed_hz": 75.0, "noise_um": 1.0}),
+            (
+                "plant",
+                "RotorBearingPlant",
+                {
+                    "speed_hz": 75.0,
+                    "q1_initial_ml_min": 596.3,
+                    "q1_final_ml_min": 447.225,
+                    "q2_initial_ml_min": 596.3,
+                    "q2_final_ml_min": 447.225,
+                    "fault_time_s": 10.0,
+                    "fault_duration_s": 0.1,
+                    "noise_um": 1.0,
+                    "seed": 1,
+                    "unbalance_g_mm": -1.0,
+                    "unbalance_phase_deg": 0.0,
+                },
+            ),
+            (
+                "ekf",
+                "OilFlowEKF",
+                {
+                    "speed_hz": 75.0,
+                    "noise_um": 1.0,
+                    "q_initial_ml_min": 596.3,
+                    "q_nominal_ml_min": 596.3,
+                    "unbalance_g_mm": -1.0,
+                    "unbalance_phase_deg": 0.0,
+                },
+            ),
         ),
         stop_time=20.0,
         step_size=1e-3,

@@ -1,5 +1,3 @@
-import sys
+from oilwatch.cli import console_main
 
-from oilwatch.cli import main
-
-sys.exit(main())
+console_main()

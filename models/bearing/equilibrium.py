@@ -9,6 +9,7 @@ in the direction of rotation.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -18,19 +19,23 @@ from ..validation import InputError, require_positive
 from .film import MAX_ECCENTRICITY_RATIO, FilmSolution, solve_film
 from .geometry import JournalBearing
 from .grid import Mesh
-from .supply import Supply
+from .supply import Supply, SupplyFlow
 
-DISPLACEMENT_STEP_RATIO = 1.0e-2
+DISPLACEMENT_STEP_RATIO = 1.0e-3
 """Central-difference displacement step as a fraction of the radial clearance.
 
-The discrete film force is piecewise smooth in the journal position: volumes switch between full
-and cavitated as the cavitation boundaries move, so the slope of each smooth piece differs from
-the mesh-independent envelope by about 1 % on the production mesh, and steps below about 0.7 % of
-c sample single pieces. Larger steps carry the truncation error step^2 F3 / 6 of central
-differences. At 1 % of c, halving the step changes the stiffness by < 0.5 % at the nominal flow
-(tested), 0.1-1 % across the table, and 1.8 % at the q_t node, where the groove is just full and
-the force has a real kink (starved on one side, flooded on the other).
+The stiffness is the derivative of the discrete film force along the smooth solution branch
+through the equilibrium: the film is re-solved at e0 +- step with the equilibrium's full/cavitated
+partition held (``solve_film(hold_partition=True)``), see :func:`coefficients_at`. That branch is
+smooth, so the central difference converges as step^2: halving 1e-3 c changes no stiffness by
+more than about 1e-5 relative across the table (tested at every table flowrate).
 """
+
+THRESHOLD_TOLERANCE = 1.0e-9
+"""Groove fill 1 - theta_g or pressure p_g / (mu Omega R^2 / c^2) below which the groove is taken
+to sit exactly on the flooded threshold (the table's q_t node): see :func:`coefficients_at`."""
+
+GROOVE_SIDES = ("starved", "flooded")
 
 
 @dataclass(frozen=True, eq=False)
@@ -80,8 +85,9 @@ def static_equilibrium(
 ) -> Equilibrium:
     """Journal position where the film carries ``load_n`` [N] (along -y) at ``speed_hz`` [Hz].
 
-    Newton's method on (e_x, e_y) with a forward-difference Jacobian (warm-started film solves) and
-    step halving; converged when |F - F0| < force_tolerance * load_n.
+    Newton's method on (e_x, e_y) with a forward-difference Jacobian taken on the current film's
+    partition (one sparse solve per column, the derivative of the discrete force) and step halving;
+    converged when |F - F0| < force_tolerance * load_n.
     """
     load = require_positive("load_n", load_n, "N")
     require_positive("speed_hz", speed_hz, "Hz")
@@ -106,6 +112,7 @@ def static_equilibrium(
                 mesh=mesh,
                 squeeze=squeeze,
                 warm_start=film,
+                hold_partition=True,
             )
             jac[:, j] = (moved.force_n - film.force_n) / step
         delta = -np.linalg.solve(jac, residual)
@@ -155,6 +162,54 @@ def _equilibrium(e: np.ndarray, film: FilmSolution, iterations: int, c: float) -
     )
 
 
+def on_flooded_threshold(film: FilmSolution, supply: Supply, speed_hz: float) -> bool:
+    """True when a flow-fed groove is just full at zero gauge pressure (theta_g = 1, p_g = 0).
+
+    ``speed_hz`` [Hz] sets the pressure scale mu Omega R^2 / c^2 of :data:`THRESHOLD_TOLERANCE`.
+    """
+    if not isinstance(supply, SupplyFlow):
+        return False
+    g = film.grid.groove_node
+    bearing = film.grid.bearing
+    omega = 2.0 * math.pi * speed_hz
+    p_ref = bearing.viscosity_pa_s * omega * bearing.radius_m**2 / bearing.clearance_m**2
+    if film.full[g]:
+        return film.supply_pressure_pa <= THRESHOLD_TOLERANCE * p_ref
+    return film.groove_fill_fraction >= 1.0 - THRESHOLD_TOLERANCE
+
+
+def one_sided_coefficients(
+    bearing: JournalBearing,
+    equilibrium: Equilibrium,
+    speed_hz: float,
+    supply: Supply,
+    mesh: Mesh | None = None,
+    *,
+    squeeze: str = "full-film",
+    step_ratio: float = DISPLACEMENT_STEP_RATIO,
+) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """{"starved": (K, C), "flooded": (K, C)}: the two one-sided limits on the flooded threshold.
+
+    Only for an equilibrium on the threshold (:func:`on_flooded_threshold`): the groove partition is
+    set to cavitated (starved branch, theta_g free) or full (flooded branch, p_g free) and the
+    coefficients are taken on each branch.
+    """
+    if not on_flooded_threshold(equilibrium.film, supply, speed_hz):
+        raise InputError(
+            "one_sided_coefficients needs an equilibrium on the flooded threshold (theta_g = 1, p_g = 0)"
+        )
+    g = equilibrium.film.grid.groove_node
+    sides = {}
+    for side in GROOVE_SIDES:
+        full = equilibrium.film.full.copy()
+        full[g] = side == "flooded"
+        film = dataclasses.replace(equilibrium.film, full=full)
+        sides[side] = _branch_coefficients(
+            bearing, equilibrium.eccentricity_m, film, speed_hz, supply, mesh, squeeze, step_ratio
+        )
+    return sides
+
+
 def coefficients_at(
     bearing: JournalBearing,
     equilibrium: Equilibrium,
@@ -167,17 +222,41 @@ def coefficients_at(
 ) -> tuple[np.ndarray, np.ndarray]:
     """K (2, 2) [N/m] and C (2, 2) [N s/m] at ``equilibrium`` by central differences.
 
-    Stiffness: steady films re-solved at e0 +- step_ratio * c (the cavitation boundaries move:
-    quasi-static stiffness), see :data:`DISPLACEMENT_STEP_RATIO`. Velocity steps are ``step_ratio * c *
-    Omega``. With ``squeeze="full-film"`` the velocity response is taken on the equilibrium
-    partition with the film content frozen (see :mod:`models.bearing.film`); it is then linear in
-    the velocity and the central difference is exact, the small-velocity limit of the full
-    frozen-content response. With ``squeeze="everywhere"`` the quasi-steady film is re-solved.
+    Stiffness: films re-solved at e0 +- step_ratio * c with the equilibrium's full/cavitated
+    partition held. The discrete problem is a complementarity problem: wherever no volume switches,
+    its solution is that of the held partition, so the held central difference is the derivative of
+    the discrete solution; the free re-solve instead jumps slightly each time a boundary volume
+    switches, and its central differences do not converge as the step shrinks (0.1-1 % scatter
+    under step halving on the production mesh). Moving cavitation boundaries add nothing at first
+    order: the pressure vanishes on them, so the force gained or lost in a swept strip is second
+    order (the held stiffness agrees with free re-solves at moderate steps and converges with the
+    mesh; tests/test_bearing_coefficients.py). Velocity steps are ``step_ratio * c * Omega``.
+    With ``squeeze="full-film"`` the velocity response is taken on the equilibrium partition with
+    the film content frozen (see :mod:`models.bearing.film`); it is linear in the velocity and the
+    central difference is exact. With ``squeeze="everywhere"`` the quasi-steady film is re-solved on
+    the held partition (a free re-solve would scatter like the free stiffness).
+
+    On the flooded threshold (groove just full at zero pressure, the table's q_t node) the force
+    has a genuine kink in the journal position and velocity: starved on one side, flooded on the
+    other, and K, C jump across q_t. There the mean of the two one-sided limits is returned
+    (:func:`one_sided_coefficients`): the limit of symmetric central differences through the kink,
+    i.e. the coefficient seen by a small orbit about that equilibrium, and the midpoint of the jump
+    through which the table interpolates.
     """
+    if on_flooded_threshold(equilibrium.film, supply, speed_hz):
+        sides = one_sided_coefficients(
+            bearing, equilibrium, speed_hz, supply, mesh, squeeze=squeeze, step_ratio=step_ratio
+        )
+        return tuple(0.5 * (sides["starved"][k] + sides["flooded"][k]) for k in range(2))
+    return _branch_coefficients(
+        bearing, equilibrium.eccentricity_m, equilibrium.film, speed_hz, supply, mesh, squeeze, step_ratio
+    )
+
+
+def _branch_coefficients(bearing, e0, base, speed_hz, supply, mesh, squeeze, step_ratio):
+    """K and C by central differences on the partition of ``base`` (the film at ``e0``)."""
     dx = step_ratio * bearing.clearance_m
     dv = dx * 2.0 * math.pi * speed_hz
-    e0 = equilibrium.eccentricity_m
-    base = equilibrium.film
     stiffness = np.empty((2, 2))
     damping = np.empty((2, 2))
     for j in range(2):
@@ -192,6 +271,7 @@ def coefficients_at(
                 mesh=mesh,
                 squeeze=squeeze,
                 warm_start=base,
+                hold_partition=True,
             ).force_n
             for sign in (1.0, -1.0)
         ]

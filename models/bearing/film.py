@@ -25,7 +25,9 @@ pressure, while its full volumes take dh/dt and either stay pressurized or ruptu
 growing cavity): an LCP with an M-matrix, same active-set method. A cavitated volume cannot refill
 instantly. ``hold_partition=True`` keeps every full volume pressurized: the response is then
 linear in the velocity, which is the small-velocity limit used for the damping coefficients (and
-makes C symmetric, as C = W^T A^-1 W with the symmetric Poiseuille operator A).
+makes C symmetric, as C = W^T A^-1 W with the symmetric Poiseuille operator A). Without a velocity,
+``hold_partition=True`` re-solves a displaced journal on the reference partition: the smooth branch
+of the discrete solution whose derivative is the stiffness.
 
 ``squeeze="everywhere"`` applies theta dh/dt in every volume and re-solves the quasi-steady film
 (fills and cavitation boundaries re-adjust at once, as if the squeeze had lasted for ever). In the
@@ -164,9 +166,13 @@ def solve_film(
     :class:`SupplyPressure`; ``mesh`` the finite-volume mesh (default ``PRODUCTION_MESH``);
     ``warm_start`` a neighbouring solution on the same mesh whose full/cavitated partition starts
     the iteration.
-    ``hold_partition`` (``squeeze="full-film"`` with a velocity only): keep every steady-full volume
-    pressurized, i.e. the response linear in the velocity, which is the limit of small velocities
-    used for the damping coefficients.
+    ``hold_partition``: keep the partition of the reference film ``warm_start`` (groove state
+    included) instead of settling a new one: one sparse solve on that partition, pressures and
+    fills not clipped, i.e. the smooth branch of the discrete solution through ``warm_start``,
+    whose derivative is the stiffness (see :mod:`models.bearing.equilibrium`). Required without a
+    velocity. With a velocity and ``squeeze="full-film"`` every steady-full volume also stays
+    pressurized, so the response is linear in the velocity: the small-velocity limit used for the
+    damping; with ``squeeze="everywhere"`` the quasi-steady film is solved on that partition.
     """
     mesh = PRODUCTION_MESH if mesh is None else mesh
     if not isinstance(mesh, Mesh):
@@ -177,15 +183,28 @@ def solve_film(
     grid = film_grid(bearing, mesh)
     op = film_operator(grid, (ex, ey), (float(velocity_m_s[0]), float(velocity_m_s[1])), omega)
     moving = bool(np.any(op.squeeze_m3_s != 0.0))
+    if hold_partition and not moving:
+        if warm_start is None or warm_start.grid is not grid:
+            raise InputError("hold_partition without a velocity needs a warm_start on the same mesh")
+        zero = np.zeros(grid.n_nodes)
+        full, p, theta = _held_partition_solve(op, supply, warm_start.full, zero)
+        return _finish(op, supply, full, p, theta, 1, zero)
     if squeeze == "everywhere" and moving:
+        if hold_partition and warm_start is not None and warm_start.grid is grid:
+            full, p, theta = _held_partition_solve(op, supply, warm_start.full, op.squeeze_m3_s, True)
+            return _finish(op, supply, full, p, theta, 1, theta * op.squeeze_m3_s)
         full, p, theta, iterations = _active_set_newton(
             op, supply, ex, ey, op.squeeze_m3_s, True, warm_start, max_iterations
         )
         return _finish(op, supply, full, p, theta, iterations, theta * op.squeeze_m3_s)
     zero = np.zeros(grid.n_nodes)
-    full, p, theta, iterations = _active_set_newton(
-        op, supply, ex, ey, zero, False, warm_start, max_iterations
-    )
+    if hold_partition and warm_start is not None and warm_start.grid is grid:
+        full, p, theta = _held_partition_solve(op, supply, warm_start.full, zero)
+        iterations = 1
+    else:
+        full, p, theta, iterations = _active_set_newton(
+            op, supply, ex, ey, zero, False, warm_start, max_iterations
+        )
     if not moving:
         return _finish(op, supply, full, p, theta, iterations, zero)
     active, p, more = _frozen_content_response(op, supply, full, theta, max_iterations, hold_partition)
@@ -254,6 +273,36 @@ def _active_set_newton(op, supply, ex, ey, squeeze_m3_s, everywhere, warm_start,
         f"p-theta active-set iteration did not converge in {max_iterations} sparse solves "
         f"(mesh {grid.mesh.n_circ} x {grid.mesh.n_axial})"
     )
+
+
+def _held_partition_solve(op, supply, full, squeeze_m3_s, everywhere=False):
+    """One sparse solve of the steady balance on a given partition; (full, p, theta) unclipped.
+
+    ``everywhere``: the squeeze acts as theta dh/dt in cavitated volumes too (``squeeze="everywhere"``).
+
+    Cells of the partition that would switch in a free solve show up as p < 0 or theta > 1: the
+    result is the analytic continuation of the smooth solution branch on that partition.
+    """
+    grid = op.grid
+    slots = grid.slots
+    rows, cols = slots["rows"], slots["columns"]
+    n = grid.n_nodes
+    p_ref = _reference_pressure(op)
+    fixed = isinstance(supply, SupplyPressure)
+    full = full.copy()
+    if fixed:
+        full[grid.groove_node] = True
+    source = np.zeros(n)
+    if not fixed:
+        source[grid.groove_node] = supply.q_m3_s
+    data = np.where(full[cols], op.ap_data * p_ref, op.at_data)
+    if everywhere:
+        data[slots["diag"]] += squeeze_m3_s * ~full
+    rhs = source - np.bincount(rows, weights=op.at_data * full[cols], minlength=n) - squeeze_m3_s * full
+    if fixed:
+        _fix_groove_pressure(grid, data, rhs, supply.p_pa / p_ref)
+    u = _sparse_solve(grid, data, rhs)
+    return full, np.where(full, u * p_ref, 0.0), np.where(full, 1.0, u)
 
 
 def _frozen_content_response(op, supply, full0, theta0, max_iterations, hold_partition):

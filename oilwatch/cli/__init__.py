@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 
 from models.validation import InputError
@@ -23,6 +24,8 @@ SUBCOMMANDS: tuple[str, ...] = (
     "bearing",
     "bearing_table",
     "study",
+    "run",
+    "demo",
 )
 
 
@@ -52,5 +55,20 @@ def main(argv: list[str] | None = None) -> int:
         return 130
 
 
+def console_main() -> None:
+    """The console script: :func:`main`, then exit without interpreter finalization if an FMU was loaded.
+
+    pythonfmu 0.7's binary runs its own interpreter teardown when the process ends and may corrupt the
+    heap there ("free(): corrupted unsorted chunks", PythonFMU issue #228), turning a finished run's exit
+    code into SIGABRT. Every file is closed and both streams are flushed before ``os._exit``.
+    """
+    code = main()
+    if "oilwatch.cosim.loading" in sys.modules and sys.modules["oilwatch.cosim.loading"].instantiated_any():
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(code)
+    sys.exit(code)
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    console_main()

@@ -102,3 +102,21 @@ def _master_example(name: str) -> str:
         "with Master(system) as master:\n"
         "    result = master.run(stop_time=1.0, step_size=1e-3)\n"
     )
+
+
+def variables_markdown(fmu_path: str | Path) -> str:
+    """The FMU's variables as a Markdown table (for a README), straight from its modelDescription.xml."""
+    md = read_model_description(str(fmu_path))
+    lines = ["| " + " | ".join(_COLUMNS) + " |", "|" + "---|" * len(_COLUMNS)]
+    for variable in md.modelVariables:
+        cells = [cell.replace("|", "\\|") for cell in _row(variable)]
+        cells[0] = f"`{cells[0]}`"
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    import sys
+
+    for argument in sys.argv[1:]:
+        print(variables_markdown(argument))

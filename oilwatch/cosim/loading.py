@@ -10,7 +10,6 @@ from __future__ import annotations
 import itertools
 import logging
 import shutil
-import tempfile
 import weakref
 import zipfile
 from collections import deque
@@ -18,7 +17,7 @@ from ctypes import byref, c_double, c_int, c_uint
 from dataclasses import dataclass
 from pathlib import Path
 
-from fmpy import extract, read_model_description
+from fmpy import read_model_description
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import (
     FMU2Slave,
@@ -32,12 +31,23 @@ from fmpy.fmi2 import (
 from fmpy.logging import addLoggerProxy
 
 from .errors import SlaveError, SystemDescriptionError
+from .extraction import extract_fmu
 
 LOGGER = logging.getLogger("oilwatch.cosim")
 STATUS_NAMES = ("ok", "warning", "discard", "error", "fatal", "pending")
 _CTYPES = {"Real": c_double, "Integer": c_int, "Boolean": c_int, "Enumeration": c_int}
 _LOG_KEYS = itertools.count(1)
 _LOG_SINKS: weakref.WeakValueDictionary = weakref.WeakValueDictionary()
+_ORPHANED_CALLBACKS: list = []
+_INSTANTIATED_ANY = False
+
+
+def instantiated_any() -> bool:
+    """Whether this process has instantiated an FMU (its binary stays loaded until the process ends)."""
+    return _INSTANTIATED_ANY
+
+
+"""Callback structs of instances that died with fmi2Fatal: never freed, the FMU may still hold them."""
 
 
 def _dispatch_log(environment, _instance, status, _category, message) -> None:
@@ -106,9 +116,10 @@ class Slave:
         self.time: float | None = None
         self.dead = False
         self.instantiated = False
-        self._unzip_dir = Path(tempfile.mkdtemp(prefix=f"oilwatch_{name}_"))
+        self._unzip_dir, self._persistent = None, False
         try:
-            extract(str(self.path), unzipdir=self._unzip_dir)
+            # A persistent folder per FMU content keeps numba's on-disk cache valid across runs.
+            self._unzip_dir, self._persistent = extract_fmu(self.path, name)
             self.fmu = FMU2Slave(
                 guid=md.guid,
                 unzipDirectory=str(self._unzip_dir),
@@ -116,12 +127,14 @@ class Slave:
                 instanceName=name,
             )
         except Exception as error:
-            shutil.rmtree(self._unzip_dir, ignore_errors=True)
+            self._remove_extraction()
             raise SystemDescriptionError(
                 f"FMU file {self.path} is corrupt or has no binary for this platform ({error})"
             ) from None
         self._callbacks = self._make_callbacks()
         # pythonfmu drops every message, errors included, unless loggingOn is true.
+        global _INSTANTIATED_ANY
+        _INSTANTIATED_ANY = True
         self.call("fmi2Instantiate", self.fmu.instantiate, callbacks=self._callbacks, loggingOn=True)
         self.instantiated = True
         self.component = self.fmu.component
@@ -243,11 +256,20 @@ class Slave:
         self.call("fmi2Terminate", self.fmu.terminate)
 
     def close(self) -> None:
-        """Free the instance (unless it died with fmi2Fatal) and remove the extracted files."""
+        """Free the instance (unless it died with fmi2Fatal) and remove the extracted files (unless
+        they are the shared persistent folder of :mod:`~oilwatch.cosim.extraction`)."""
         if self.instantiated and not self.dead:
             self.fmu.freeInstance()
+        elif self.instantiated:
+            # fmi2FreeInstance may not be called after fmi2Fatal, so the FMU keeps pointers into the
+            # callback struct (and may log through it until the process ends): it must outlive the Slave.
+            _ORPHANED_CALLBACKS.append(self._callbacks)
         self.instantiated = False
-        shutil.rmtree(self._unzip_dir, ignore_errors=True)
+        self._remove_extraction()
+
+    def _remove_extraction(self) -> None:
+        if self._unzip_dir is not None and not self._persistent:
+            shutil.rmtree(self._unzip_dir, ignore_errors=True)
 
 
 class Port:

@@ -110,7 +110,8 @@ class Master:
         self.close()
 
     def close(self) -> None:
-        """Free every FMU instance and delete the extracted files."""
+        """Free every FMU instance and delete its extracted files (except the shared persistent folders
+        of :mod:`~oilwatch.cosim.extraction`)."""
         for slave in self.slaves.values():
             slave.close()
 

@@ -1,26 +1,33 @@
-"""The study's physics-side pieces for the co-simulated case: the model's Cramer-Rao bound per case.
+"""The co-simulated case: the plant FMU and the estimator FMU through oilwatch's fmpy master.
 
-Where the real case goes: the co-simulated case is a module-level function here,
-``run_cosim_case(case: Case) -> CaseResult``, which runs the plant FMU and the EKF FMU through the master
-(``oilwatch.cosim.Master``) for ``case.duration_s`` with the case's flowrates, ``case.noise_um`` and the
-noise seed ``case.rng_seed``, records time, the two flowrate estimates and their stds, and returns
-``reduce_record(case, times, estimates, stds, wall_s)``. Plugging it in is the one line in
-``oilwatch/study/registry.py``::
+The study's default case model (``oilwatch study --case cosim``): each case runs RotorBearingPlant.fmu and
+OilFlowEKF.fmu, connected by name (``x1_um`` ... ``y2_um``, ``t_sample_s``), with the Gauss-Seidel master
+at the 1 ms sampling step for ``case.duration_s``:
 
-    "cosim": CaseModel(run_cosim_case, ModelCrlb(), "plant FMU + EKF FMU through the fmpy master"),
+* plant: both flowrates held at the case's values (``q*_initial_ml_min = q*_final_ml_min``), started in
+  the steady orbit of those flowrates, white noise of ``case.noise_um`` seeded from ``case.rng_seed``;
+* estimator: the FMU's defaults (the recommended tuning, initial estimate 596.3 ml/min, as the paper)
+  with ``noise_um = case.noise_um``;
+* the estimates after every step (t = dt ... T) are reduced by :func:`oilwatch.study.cases.reduce_record`.
 
-after which ``oilwatch study`` (default ``--case cosim``) and ``benchmarks/study_scaling.py --case cosim``
-use it. The bound below needs only the physics model, not the co-simulation.
+A worker process loads the two FMUs once and reuses them for every case it runs (``fmi2Reset`` between
+runs, see :class:`oilwatch.cosim.Master`). The FMUs' folder must be visible at the same path on every
+worker (a local cluster, or a shared file system on a remote one).
+
+The case's Cramer-Rao bound (:class:`ModelCrlb`) needs only the physics model, not the co-simulation.
 """
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 from models.system.identifiability import cramer_rao_bound
 
+from .cases import CaseFailure, CaseResult, reduce_record
 from .grid import NOMINAL_Q_ML_MIN, SAMPLE_DT_S, Case
 
 ML_MIN_TO_M3_S = 1.0 / 6.0e7
@@ -61,3 +68,83 @@ class ModelCrlb:
     def __call__(self, case: Case) -> np.ndarray:
         system = self.system if self.system is not None else full_system(self.machine_file, self.table_path)
         return case_crlb(system, case)
+
+
+_MASTERS: dict[str, object] = {}
+"""Per-process masters with their two FMUs loaded, by FMU folder."""
+_RECORD = ["ekf.q1_est_ml_min", "ekf.q2_est_ml_min", "ekf.q1_std_ml_min", "ekf.q2_std_ml_min"]
+FMI_SEED_MODULUS = 2**31
+"""The plant's ``seed`` is an FMI Integer (32-bit signed): the case's 63-bit seed is reduced modulo this."""
+
+
+def _master(fmu_dir: str):
+    from ..cosim import FmuSpec, Master, SystemDescription
+    from ..scenarios.fmus import EKF_FMU, PLANT_FMU
+
+    if fmu_dir not in _MASTERS:
+        folder = Path(fmu_dir)
+        system = SystemDescription(
+            [FmuSpec("plant", folder / PLANT_FMU), FmuSpec("ekf", folder / EKF_FMU)],
+            connections=None,
+            name="study",
+        )
+        _MASTERS[fmu_dir] = Master(system)
+    return _MASTERS[fmu_dir]
+
+
+def case_parameters(case: Case) -> dict[str, dict[str, object]]:
+    """The FMU parameters of one case, by instance name (``plant``, ``ekf``)."""
+    plant = {
+        "q1_initial_ml_min": case.q1_ml_min,
+        "q1_final_ml_min": case.q1_ml_min,
+        "q2_initial_ml_min": case.q2_ml_min,
+        "q2_final_ml_min": case.q2_ml_min,
+        "noise_um": case.noise_um,
+        "seed": case.rng_seed % FMI_SEED_MODULUS,
+    }
+    return {"plant": plant, "ekf": {"noise_um": case.noise_um}}
+
+
+@dataclass(frozen=True)
+class CosimCase:
+    """The co-simulated case as a picklable callable: ``CosimCase(fmu_dir)(case) -> CaseResult``.
+
+    fmu_dir: folder with RotorBearingPlant.fmu and OilFlowEKF.fmu (``python build.py --out DIR``); None:
+    the automatic build of :func:`oilwatch.scenarios.fmus.ensure_fmus` (resolve it once, before a study,
+    with :meth:`resolved`, so that workers do not build).
+    """
+
+    fmu_dir: str | None = None
+
+    def resolved(self) -> CosimCase:
+        """This case model with its FMU folder found (built when needed)."""
+        from ..scenarios.fmus import ensure_fmus
+
+        return CosimCase(str(ensure_fmus(self.fmu_dir).resolve()))
+
+    def __call__(self, case: Case) -> CaseResult:
+        from ..cosim import MemoryRecorder, SlaveError
+
+        fmu_dir = self.fmu_dir if self.fmu_dir is not None else self.resolved().fmu_dir
+        start = time.perf_counter()
+        recorder = MemoryRecorder()
+        master = _master(fmu_dir)
+        try:
+            master.run(
+                stop_time=case.duration_s,
+                step_size=SAMPLE_DT_S,
+                start_time=0.0,
+                order=["plant", "ekf"],
+                record=_RECORD,
+                recorder=recorder,
+                parameters=case_parameters(case),
+            )
+        except SlaveError as error:
+            # The instances are dead after an FMI error: the next case of this worker loads them anew.
+            _MASTERS.pop(fmu_dir, None)
+            master.close()
+            raise CaseFailure(f"case {case.case_id}: {error}") from None
+        columns = recorder.arrays()
+        estimates = np.column_stack([columns[name] for name in _RECORD[:2]])[1:]
+        stds = np.column_stack([columns[name] for name in _RECORD[2:]])[1:]
+        return reduce_record(case, columns["time"][1:], estimates, stds, time.perf_counter() - start)

@@ -1,8 +1,7 @@
 """The case models a study can run, by name (``oilwatch study --case NAME``).
 
-Only working case functions are registered: ``direct`` (the plant model and the EKF in-process) and
-``synthetic`` (machinery tests). The co-simulated case (plant FMU + EKF FMU through the master, issue 7) goes
-in as one more entry, see :mod:`oilwatch.study.case_cosim`.
+``cosim`` (the default: the plant FMU and the EKF FMU through the master), ``direct`` (the same plant model
+and EKF in-process, without FMI; a cross-check of the FMU path) and ``synthetic`` (machinery tests).
 """
 
 from __future__ import annotations
@@ -14,7 +13,7 @@ import numpy as np
 
 from models.validation import InputError
 
-from .case_cosim import ModelCrlb
+from .case_cosim import CosimCase, ModelCrlb
 from .case_direct import run_direct_case
 from .cases import CaseResult, SyntheticCase
 from .grid import Case
@@ -38,6 +37,11 @@ class CaseModel:
 _SYNTHETIC = SyntheticCase()
 
 CASE_MODELS: dict[str, CaseModel] = {
+    "cosim": CaseModel(
+        CosimCase(),
+        ModelCrlb(),
+        "plant FMU (full model) and EKF FMU (reduced grid model) through oilwatch's fmpy master",
+    ),
     "direct": CaseModel(
         run_direct_case,
         ModelCrlb(),
@@ -55,6 +59,5 @@ def get_case_model(name: str) -> CaseModel:
     """The registered case model called ``name``; an InputError lists the available ones."""
     if name not in CASE_MODELS:
         available = ", ".join(sorted(CASE_MODELS))
-        hint = " (the co-simulated case is not plugged in yet, issue 7)" if name == DEFAULT_CASE else ""
-        raise InputError(f"--case {name!r} is not available{hint}; available: {available}")
+        raise InputError(f"--case {name!r} is not available; available: {available}")
     return CASE_MODELS[name]

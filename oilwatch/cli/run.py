@@ -1,0 +1,186 @@
+"""``oilwatch run SCENARIO``: one of the paper's real-time scenarios through the two FMUs (Figs. 10-12)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+SCENARIO_NAMES = (
+    "constant",
+    "slow-drop",
+    "intermediate-drop",
+    "sudden-drop",
+    "drop-b1",
+    "drop-b2",
+    "clog-b1",
+    "clog-b2",
+)
+"""The names of ``oilwatch.scenarios.SCENARIOS`` (kept here so that --help imports nothing heavy)."""
+
+
+def register(subparsers) -> None:
+    """Add the ``run`` subcommand."""
+    parser = subparsers.add_parser(
+        "run",
+        help="simulate a starvation scenario: plant FMU + estimator FMU, result.csv, summary, plot",
+        description=(
+            "Simulate one of the paper's real-time scenarios (section 3.2.2): the RotorBearingPlant FMU "
+            "and the OilFlowEKF FMU co-simulated by oilwatch's fmpy master (Gauss-Seidel, 1 ms steps). "
+            "Flowrates are percentages of 596.3 ml/min; the sigmoid transition is centred at half the "
+            "duration. Writes DIR/result.csv (flushed every row), DIR/summary.json and "
+            "DIR/estimates.png. The FMUs are built on first use into ~/.cache/oilwatch/build/<source "
+            "hash>/ ($OILWATCH_CACHE overrides ~/.cache/oilwatch) unless --fmu-dir or --ssp is given. "
+            "Exit code 2 on bad input, 130 when interrupted (result.csv keeps the steps done)."
+        ),
+        epilog=(
+            "scenarios: constant (--q1-pct, --q2-pct; default 100); slow-drop, intermediate-drop, "
+            "sudden-drop (both bearings 100 -> 75 %); drop-b1, drop-b2 (one bearing 100 -> 75 %, "
+            "the other nominal); clog-b1, clog-b2 (one bearing 100 -> 75 %, the other 100 -> 125 %)"
+        ),
+    )
+    parser.add_argument("scenario", metavar="SCENARIO", help=f"one of: {', '.join(SCENARIO_NAMES)}")
+    parser.add_argument(
+        "--noise-um", type=float, default=1.0, help="measurement noise std of each probe [um] (default: 1)"
+    )
+    parser.add_argument("--duration-s", type=float, default=20.0, help="record length [s] (default: 20)")
+    parser.add_argument("--seed", type=int, default=1, help="seed of the measurement noise (default: 1)")
+    parser.add_argument(
+        "--q1-pct",
+        type=float,
+        default=100.0,
+        help="constant: bearing 1 flowrate [%% of nominal] (default: 100)",
+    )
+    parser.add_argument(
+        "--q2-pct",
+        type=float,
+        default=100.0,
+        help="constant: bearing 2 flowrate [%% of nominal] (default: 100)",
+    )
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="FMU.NAME=VALUE",
+        help="another FMU parameter, e.g. ekf.alarm_hold_on_s=0.5 or ekf.alarm_on_fraction=0.85 (repeatable)",
+    )
+    parser.add_argument(
+        "--paper-tuning",
+        action="store_true",
+        help="the paper's filter: ekf.q_std_displacement_um=10, ekf.q_std_velocity_um_s=10, "
+        "ekf.velocity_channels=1 (default: the estimator's recommended tuning)",
+    )
+    parser.add_argument("--out", metavar="DIR", help="output folder (default: oilwatch_runs/SCENARIO)")
+    source = parser.add_mutually_exclusive_group()
+    source.add_argument(
+        "--fmu-dir",
+        metavar="DIR",
+        help="use the FMUs in DIR (from 'python build.py --out DIR'); never builds",
+    )
+    source.add_argument(
+        "--ssp",
+        metavar="FILE",
+        help="run the system of an SSP file (e.g. OilStarvation.ssp); the scenario's parameters override "
+        "its bindings",
+    )
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    parser.add_argument("--json", action="store_true", help="print summary.json on stdout (and nothing else)")
+    parser.set_defaults(func=run)
+
+
+def execute(run_settings, out: Path, fmu_dir: str | None, ssp: str | None, progress: bool, command: str):
+    """Find or build the FMUs, run, and return the summary; report an interruption on stderr and re-raise.
+
+    Shared by ``oilwatch run`` and ``oilwatch demo``.
+    """
+    from oilwatch.cosim.errors import SystemDescriptionError
+    from oilwatch.scenarios.fmus import ensure_fmus
+    from oilwatch.scenarios.runner import run_scenario
+
+    def log(text: str) -> None:
+        print(f"oilwatch {command}: {text}", file=sys.stderr)
+
+    if ssp is not None:
+        ssp_path, folder = Path(ssp), None
+        if not ssp_path.is_file():
+            raise SystemDescriptionError(f"--ssp: SSP file {ssp_path} does not exist")
+    else:
+        ssp_path, folder = None, ensure_fmus(fmu_dir, log)
+    try:
+        return run_scenario(run_settings, out, fmu_dir=folder, ssp=ssp_path, progress=progress)
+    except KeyboardInterrupt:
+        csv_path = out / "result.csv"
+        rows = max(0, len(csv_path.read_text().splitlines()) - 1) if csv_path.is_file() else 0
+        log(f"interrupted; {csv_path} keeps the {rows} samples done")
+        raise
+
+
+def describe(summary: dict) -> list[str]:
+    """Human-readable lines for a run's summary."""
+
+    def pct(value):
+        return "n/a" if value is None else f"{value:.2f} %"
+
+    lines = [f"{summary['title']} ({summary['scenario']}), noise {summary['noise_um']:g} um, "
+             f"{summary['duration_s']:g} s"]  # fmt: skip
+    for b in (1, 2):
+        delay = summary[f"alarm_delay_s_b{b}"]
+        alarm = "no alarm" if delay is None else f"alarm {delay:+.3f} s from the sigmoid centre"
+        if summary[f"false_alarm_s_b{b}"] is not None:
+            alarm += f" (FALSE ALARM at {summary[f'false_alarm_s_b{b}']:.3f} s)"
+        settle = summary[f"q{b}_settle_s"]
+        settled = "not within 2 % at the end" if settle is None else f"within 2 % from {settle:+.2f} s"
+        lines.append(
+            f"  bearing {b}: error {pct(summary[f'q{b}_err_pct_before'])} before, "
+            f"{pct(summary[f'q{b}_err_pct_after'])} after ({settled}); {alarm}"
+        )
+    lines.append(
+        f"  real-time factor {summary['realtime_factor']:.2f} (simulation {summary['wall_s']:.1f} s, "
+        f"set-up {summary['setup_s']:.1f} s)"
+    )
+    return lines
+
+
+def parse_settings(items: list[str]) -> dict[str, dict[str, object]]:
+    """``["ekf.alarm_hold_on_s=0.5", ...]`` -> ``{"ekf": {"alarm_hold_on_s": 0.5}}`` (numbers as float,
+    other values as text; the FMU converts to its variable's type)."""
+    from models.validation import InputError
+
+    result: dict[str, dict[str, object]] = {}
+    for item in items:
+        target, equals, text = item.partition("=")
+        role, dot, name = target.partition(".")
+        if not (equals and dot and role and name):
+            raise InputError(f"--set {item!r}: expected FMU.NAME=VALUE, e.g. ekf.alarm_hold_on_s=0.5")
+        try:
+            value: object = float(text)
+        except ValueError:
+            value = text
+        result.setdefault(role, {})[name] = value
+    return result
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the scenario, write the files and print the summary."""
+    from oilwatch.cosim import SlaveError
+    from oilwatch.scenarios import PAPER_TUNING, make_run
+
+    overrides = parse_settings(args.set)
+    if args.paper_tuning:
+        overrides["ekf"] = {**PAPER_TUNING, **overrides.get("ekf", {})}
+    settings = make_run(
+        args.scenario, args.noise_um, args.duration_s, args.seed, args.q1_pct, args.q2_pct, overrides
+    )
+    out = Path(args.out) if args.out else Path("oilwatch_runs") / args.scenario
+    try:
+        summary = execute(settings, out, args.fmu_dir, args.ssp, not args.no_progress, "run")
+    except SlaveError as error:
+        print(f"oilwatch run: error: {error}", file=sys.stderr)
+        return 2
+    if args.json:
+        print(json.dumps(summary, indent=2))
+        return 0
+    print("\n".join(describe(summary)))
+    print(f"  wrote {out / 'result.csv'}, {out / 'summary.json'}, {out / 'estimates.png'}")
+    return 0

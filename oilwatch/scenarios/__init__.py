@@ -1,0 +1,208 @@
+"""The paper's real-time oil-starvation scenarios (section 3.2.2, Figs. 10-12) as runnable settings.
+
+Every flowrate is a percentage of the nominal 596.3 ml/min (0.5 bar groove pressure). Each bearing's
+supply flowrate follows the plant FMU's sigmoid from its initial to its final value, centred at half the
+record (``fault_time_s = duration_s / 2``: 10 s for the paper's 20 s) with the 10 %-90 % transition time
+``fault_duration_s`` of :data:`models.system.fault.SCENARIO_DURATIONS_S` (slow 4 s, intermediate 1 s,
+sudden 0.1 s).
+
+=====================  ==========================  ==========================  =============
+scenario               bearing 1                   bearing 2                   transition
+=====================  ==========================  ==========================  =============
+constant               --q1-pct (100)              --q2-pct (100)              none
+slow-drop              100 -> 75 %                 100 -> 75 %                 slow
+intermediate-drop      100 -> 75 %                 100 -> 75 %                 intermediate
+sudden-drop            100 -> 75 %                 100 -> 75 %                 sudden
+drop-b1 / drop-b2      100 -> 75 % (one bearing)   100 % (the other)           intermediate
+clog-b1 / clog-b2      100 -> 75 % (one bearing)   100 -> 125 % (the other)    intermediate
+=====================  ==========================  ==========================  =============
+
+The paper names only the speed of the generalized drops (Fig. 10); for the single-bearing and clogged-line
+cases (Figs. 11-12) it says "intermediate", which is used here.
+
+Windows used by the summary (:mod:`oilwatch.scenarios.summary`): the transition starts at
+``transition_start_s = fault_time_s - fault_duration_s``, where the sigmoid has done 1/82 = 1.2 % of its
+change (``tau = D / (2 ln 9)``, so ``D / tau = 4.39`` and ``1 / (1 + e^4.39) = 0.012``); "before" is the
+2 s before it, "after" the last 2 s of the record.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from models.system.fault import SCENARIO_DURATIONS_S
+from models.validation import InputError, require_in_range
+
+NOMINAL_ML_MIN = 596.3
+"""Nominal supply flowrate [ml/min] (0.5 bar groove pressure, paper section 3.1)."""
+STARVED_PCT = 75.0
+FLOODED_PCT = 125.0
+WINDOW_S = 2.0
+"""Length [s] of the before and after error windows."""
+SAMPLE_PERIOD_S = 1e-3
+"""Macro step = sampling period of the probes [s] (1 kHz, as in the paper)."""
+NOISE_RANGE_UM = (1e-3, 50.0)
+DURATION_RANGE_S = (1.0, 3600.0)
+PCT_RANGE = (1.0, 200.0)
+PROTECTED = {
+    "plant": {
+        "q1_initial_ml_min", "q1_final_ml_min", "q2_initial_ml_min", "q2_final_ml_min",
+        "fault_time_s", "fault_duration_s", "noise_um", "seed", "flow_source",
+    },
+    "ekf": {"noise_um", "q_nominal_ml_min", "sample_period_s"},
+}  # fmt: skip
+"""Parameters a scenario sets itself, per FMU role (``make_run``'s overrides may not touch them)."""
+PAPER_TUNING = {"q_std_displacement_um": 10.0, "q_std_velocity_um_s": 10.0, "velocity_channels": 1}
+"""The paper's filter (section 2.4): Q stds 10 um, 10 um/s (and the estimator's 0.1 ml/min default), with
+the differentiated velocities as extra measurements, R = sigma^2 I."""
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """One scenario: each bearing's (initial, final) supply flowrate [% of nominal] and the transition
+    speed (a key of ``SCENARIO_DURATIONS_S``)."""
+
+    name: str
+    title: str
+    q1_pct: tuple[float, float]
+    q2_pct: tuple[float, float]
+    speed: str
+
+
+_DROP = (100.0, STARVED_PCT)
+_KEEP = (100.0, 100.0)
+_FLOOD = (100.0, FLOODED_PCT)
+SCENARIOS: dict[str, Scenario] = {
+    s.name: s
+    for s in (
+        Scenario("constant", "Constant flowrates", _KEEP, _KEEP, "sudden"),
+        Scenario("slow-drop", "Slow drop of both flowrates", _DROP, _DROP, "slow"),
+        Scenario("intermediate-drop", "Intermediate drop of both flowrates", _DROP, _DROP, "intermediate"),
+        Scenario("sudden-drop", "Sudden drop of both flowrates", _DROP, _DROP, "sudden"),
+        Scenario("drop-b1", "Drop in bearing 1 only", _DROP, _KEEP, "intermediate"),
+        Scenario("drop-b2", "Drop in bearing 2 only", _KEEP, _DROP, "intermediate"),
+        Scenario(
+            "clog-b1", "Line 1 clogged: drop in bearing 1, rise in bearing 2", _DROP, _FLOOD, "intermediate"
+        ),
+        Scenario(
+            "clog-b2", "Line 2 clogged: drop in bearing 2, rise in bearing 1", _FLOOD, _DROP, "intermediate"
+        ),
+    )
+}
+
+
+@dataclass(frozen=True)
+class ScenarioRun:
+    """A scenario with everything a run needs; times in s, flowrates in ml/min (the FMUs' units)."""
+
+    scenario: Scenario
+    noise_um: float
+    duration_s: float
+    seed: int
+    q1_ml_min: tuple[float, float]
+    q2_ml_min: tuple[float, float]
+    overrides: tuple[tuple[str, str, object], ...] = ()
+    """Further FMU parameters as (``plant`` or ``ekf``, name, value), e.g. the estimator's tuning."""
+
+    @property
+    def fault_time_s(self) -> float:
+        """Centre of the sigmoid (half the change done) [s]: half the record."""
+        return 0.5 * self.duration_s
+
+    @property
+    def fault_duration_s(self) -> float:
+        """10 %-90 % transition time [s]."""
+        return SCENARIO_DURATIONS_S[self.scenario.speed]
+
+    @property
+    def transition_start_s(self) -> float:
+        """Where the transition starts: centre minus the 10 %-90 % time (1.2 % of the change done) [s]."""
+        return self.fault_time_s - self.fault_duration_s
+
+    def starving(self, bearing: int, on_fraction: float = 0.90) -> bool:
+        """Whether bearing 1 or 2 ends below ``on_fraction`` of nominal (the alarm's default threshold)."""
+        final = (self.q1_ml_min if bearing == 1 else self.q2_ml_min)[1]
+        return final < on_fraction * NOMINAL_ML_MIN
+
+    def plant_parameters(self) -> dict[str, float]:
+        """Parameter values of the RotorBearingPlant FMU."""
+        return {
+            "speed_hz": 75.0,
+            "q1_initial_ml_min": self.q1_ml_min[0],
+            "q1_final_ml_min": self.q1_ml_min[1],
+            "q2_initial_ml_min": self.q2_ml_min[0],
+            "q2_final_ml_min": self.q2_ml_min[1],
+            "fault_time_s": self.fault_time_s,
+            "fault_duration_s": self.fault_duration_s,
+            "noise_um": self.noise_um,
+            "seed": self.seed,
+            **self._extra("plant"),
+        }
+
+    def _extra(self, role: str) -> dict[str, object]:
+        return {name: value for who, name, value in self.overrides if who == role}
+
+    def ekf_parameters(self) -> dict[str, float]:
+        """Parameter values of the OilFlowEKF FMU (initial estimate: nominal, as in the paper)."""
+        return {
+            "speed_hz": 75.0,
+            "noise_um": self.noise_um,
+            "q_initial_ml_min": NOMINAL_ML_MIN,
+            "q_nominal_ml_min": NOMINAL_ML_MIN,
+            **self._extra("ekf"),
+        }
+
+
+def make_run(
+    name: str,
+    noise_um: float = 1.0,
+    duration_s: float = 20.0,
+    seed: int = 1,
+    q1_pct: float = 100.0,
+    q2_pct: float = 100.0,
+    overrides: dict[str, dict[str, object]] | None = None,
+) -> ScenarioRun:
+    """Resolve scenario ``name`` into a :class:`ScenarioRun`; ``q1_pct``/``q2_pct`` only for ``constant``.
+
+    overrides: further FMU parameters, ``{"plant" or "ekf": {name: value}}``; the ones the scenario sets
+    (flowrates, fault timing, noise, seed, nominal flowrate) cannot be overridden. The FMU checks names
+    and values when the run starts.
+
+    Raises InputError naming the input (unknown scenario, noise, duration, seed or percentage out of range).
+    """
+    if name not in SCENARIOS:
+        raise InputError(f"scenario {name!r} is unknown; choose one of {', '.join(SCENARIOS)}")
+    scenario = SCENARIOS[name]
+    require_in_range("--noise-um", noise_um, *NOISE_RANGE_UM, "um")
+    require_in_range("--duration-s", duration_s, *DURATION_RANGE_S, "s")
+    steps = round(duration_s / SAMPLE_PERIOD_S)
+    if abs(steps * SAMPLE_PERIOD_S - duration_s) > 1e-9:
+        raise InputError(f"--duration-s must be a multiple of {SAMPLE_PERIOD_S:g} s, got {duration_s:g}")
+    if int(seed) != seed or seed < 0:
+        raise InputError(f"--seed must be an integer >= 0, got {seed!r}")
+    if name == "constant":
+        require_in_range("--q1-pct", q1_pct, *PCT_RANGE, "%")
+        require_in_range("--q2-pct", q2_pct, *PCT_RANGE, "%")
+        scenario = Scenario(name, scenario.title, (q1_pct, q1_pct), (q2_pct, q2_pct), scenario.speed)
+    elif (q1_pct, q2_pct) != (100.0, 100.0):
+        raise InputError(f"--q1-pct and --q2-pct apply to the 'constant' scenario only, not {name!r}")
+    extra = []
+    for role, values in (overrides or {}).items():
+        if role not in PROTECTED:
+            raise InputError(f"--set: unknown FMU instance {role!r}; use plant.NAME=VALUE or ekf.NAME=VALUE")
+        for parameter, value in values.items():
+            if parameter in PROTECTED[role]:
+                raise InputError(
+                    f"--set {role}.{parameter}: set by the scenario (use the scenario's own options)"
+                )
+            extra.append((role, parameter, value))
+    to_ml_min = NOMINAL_ML_MIN / 100.0
+    return ScenarioRun(
+        scenario,
+        float(noise_um),
+        float(duration_s),
+        int(seed),
+        tuple(round(p * to_ml_min, 6) for p in scenario.q1_pct),
+        tuple(round(p * to_ml_min, 6) for p in scenario.q2_pct),
+        tuple(extra),
+    )

@@ -1,0 +1,189 @@
+"""Run a scenario: the plant FMU and the estimator FMU through the fmpy master, with the run's files.
+
+Writes, in ``out_dir``:
+
+* ``result.csv``: one row per 1 ms sample (time, true and estimated flowrates, their stds, alarms, NIS,
+  convergence), flushed after every row, so a run stopped part-way keeps what it had;
+* ``summary.json``: the scenario, its parameters and the figures of :mod:`oilwatch.scenarios.summary`;
+* ``estimates.png``: the plot of :mod:`oilwatch.scenarios.plot`.
+
+Ctrl-C (SIGINT) is honoured between macro steps, not inside an FMU call (where the FMU would report it as
+an error): the run stops with KeyboardInterrupt and result.csv keeps every step done.
+"""
+
+from __future__ import annotations
+
+import json
+import signal
+import threading
+import time as wallclock
+from contextlib import contextmanager
+from pathlib import Path
+
+import numpy as np
+
+from ..cosim import CsvRecorder, FmuSpec, Master, SystemDescription
+from ..cosim.errors import SystemDescriptionError
+from ..cosim.ssp import open_ssp
+from . import SAMPLE_PERIOD_S, ScenarioRun
+from .fmus import EKF_FMU, PLANT_FMU
+from .summary import summarize
+
+COLUMNS = {
+    "plant.q1_ml_min": "q1_true_ml_min",
+    "plant.q2_ml_min": "q2_true_ml_min",
+    "ekf.q1_est_ml_min": "q1_est_ml_min",
+    "ekf.q2_est_ml_min": "q2_est_ml_min",
+    "ekf.q1_std_ml_min": "q1_std_ml_min",
+    "ekf.q2_std_ml_min": "q2_std_ml_min",
+    "ekf.starved1": "starved1",
+    "ekf.starved2": "starved2",
+    "ekf.nis": "nis",
+    "ekf.converged": "converged",
+    "ekf.measurement_ok": "measurement_ok",
+}
+"""Recorded variables (``plant``/``ekf`` instance names) -> result.csv column names."""
+ROLES = {"plant": "x1_true_um", "ekf": "q1_est_ml_min"}
+"""An output that identifies each role's FMU in an SSP whose instances have other names."""
+
+
+class _StopBetweenSteps:
+    """A recorder wrapper that raises KeyboardInterrupt after a row once SIGINT has been received."""
+
+    def __init__(self, inner):
+        self.inner = inner
+        self.stop_requested = False
+        self.last_time_s: float | None = None
+
+    def start(self, columns):
+        self.inner.start(columns)
+
+    def record(self, time_s, values):
+        self.inner.record(time_s, values)
+        self.last_time_s = time_s
+        if self.stop_requested:
+            raise KeyboardInterrupt
+
+    def close(self):
+        self.inner.close()
+
+
+@contextmanager
+def _deferred_sigint(recorder: _StopBetweenSteps):
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def request_stop(_signum, _frame):
+        recorder.stop_requested = True
+
+    previous = signal.signal(signal.SIGINT, request_stop)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+@contextmanager
+def scenario_system(fmu_dir: Path | None = None, ssp: Path | None = None):
+    """Yield ``(system, roles)``: the two-FMU system (from ``fmu_dir`` or an .ssp) and the instance names
+    ``{"plant": ..., "ekf": ...}``."""
+    if ssp is not None:
+        with open_ssp(ssp) as system:
+            yield system, _roles(system, str(ssp))
+        return
+    system = SystemDescription(
+        [FmuSpec("plant", Path(fmu_dir) / PLANT_FMU), FmuSpec("ekf", Path(fmu_dir) / EKF_FMU)],
+        connections=None,
+        name="OilStarvation",
+    )
+    yield system, {"plant": "plant", "ekf": "ekf"}
+
+
+def _roles(system: SystemDescription, origin: str) -> dict[str, str]:
+    from fmpy import read_model_description
+
+    roles = {}
+    for spec in system.fmus:
+        outputs = {v.name for v in read_model_description(str(spec.path), validate=False).modelVariables}
+        for role, marker in ROLES.items():
+            if marker in outputs:
+                roles[role] = spec.name
+    missing = sorted(set(ROLES) - set(roles))
+    if missing:
+        raise SystemDescriptionError(
+            f"{origin}: no FMU instance with the output {ROLES[missing[0]]!r} (the {missing[0]} role)"
+        )
+    return roles
+
+
+def run_scenario(
+    run: ScenarioRun,
+    out_dir: str | Path,
+    fmu_dir: Path | None = None,
+    ssp: Path | None = None,
+    progress: bool = True,
+    plot: bool = True,
+) -> dict:
+    """Simulate ``run`` with the FMUs of ``fmu_dir`` (or the system of ``ssp``), write the run's files in
+    ``out_dir`` (module docstring) and return the summary. A failing FMU raises SlaveError, a wrong system
+    SystemDescriptionError (an InputError); KeyboardInterrupt leaves result.csv with the steps done."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    csv_path = out / "result.csv"
+    wall_start = wallclock.perf_counter()
+    with scenario_system(fmu_dir, ssp) as (system, roles):
+        record = [f"{roles[c.split('.')[0]]}.{c.split('.')[1]}" for c in COLUMNS]
+        rename = dict(zip(record, COLUMNS.values(), strict=True))
+        parameters = {roles["plant"]: run.plant_parameters(), roles["ekf"]: run.ekf_parameters()}
+        recorder = _StopBetweenSteps(CsvRecorder(csv_path, rename=rename))
+        # SIGINT deferred from before loading: an interrupt inside an FMU call would surface as an FMU error.
+        with _deferred_sigint(recorder), Master(system) as master:
+            result = master.run(
+                stop_time=run.duration_s,
+                step_size=SAMPLE_PERIOD_S,
+                start_time=0.0,
+                method="gauss-seidel",
+                order=[roles["plant"], roles["ekf"]],
+                record=record,
+                recorder=recorder,
+                parameters=parameters,
+                progress=progress,
+            )
+    total_s = wallclock.perf_counter() - wall_start
+    columns = read_result(csv_path)
+    summary = {
+        "scenario": run.scenario.name,
+        "title": run.scenario.title,
+        "noise_um": run.noise_um,
+        **summarize(run, columns),
+        "wall_s": round(result.wall_s, 3),
+        "setup_s": round(total_s - result.wall_s, 3),
+        "realtime_factor": round(result.realtime_factor, 3),
+        "duration_s": run.duration_s,
+        "seed": run.seed,
+        "fault_time_s": run.fault_time_s,
+        "fault_duration_s": run.fault_duration_s,
+        "transition_start_s": run.transition_start_s,
+        "parameters": {"plant": run.plant_parameters(), "ekf": run.ekf_parameters()},
+        "method": "gauss-seidel (plant, then estimator), 1 ms macro step",
+        "source": str(ssp) if ssp is not None else str(fmu_dir),
+        "result_csv": str(csv_path),
+    }
+    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
+    if plot:
+        from .plot import plot_estimates
+
+        summary["plot"] = str(plot_estimates(run, columns, summary, out / "estimates.png"))
+        (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
+    return summary
+
+
+def read_result(path: str | Path) -> dict[str, np.ndarray]:
+    """The columns of a result.csv as arrays of shape (n,) by header name (incomplete last line dropped)."""
+    lines = Path(path).read_text(encoding="utf-8").splitlines()
+    header = lines[0].split(",")
+    rows = [line.split(",") for line in lines[1:]]
+    rows = [row for row in rows if len(row) == len(header)]
+    table = np.array(rows, dtype=float).reshape(len(rows), len(header))
+    return {name: table[:, i] for i, name in enumerate(header)}
