@@ -6,11 +6,11 @@ folder; the time is the study's dispatch loop (submission to last row synced to 
 not timed). Prints the median cases per minute for each worker count and the ratio 2 workers / 1 worker
 (ideal 2.0 on a 2-core machine with nothing else running).
 
-``--case`` picks the case model from the registry (``synthetic`` now, ``cosim`` once the co-simulated case
-is registered); for ``synthetic``, ``--cpu-s`` sets the CPU time each case burns, a stand-in for the
-co-simulation's cost (with 0 the figure is Dask's own per-task overhead).
+``--case`` picks the case model from the registry (``cosim``: the two FMUs through the master, as
+``oilwatch study`` runs by default; ``direct``: the same models in-process; ``synthetic``: ``--cpu-s`` of CPU
+per case, with 0 the figure is Dask's own per-task overhead).
 
-Usage: ``python benchmarks/study_scaling.py [--case synthetic] [--cpu-s 0.5] [--cases 24] [--repeats 3]``
+Usage: ``python benchmarks/study_scaling.py [--case cosim] [--cpu-s 0.5] [--cases 24] [--repeats 3]``
 """
 
 from __future__ import annotations
@@ -19,11 +19,13 @@ import argparse
 import os
 import statistics
 import tempfile
+from dataclasses import replace
 from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 from oilwatch.study import CaseModel, SyntheticCase, get_case_model, make_cases, run_study
+from oilwatch.study.case_cosim import CosimCase
 from oilwatch.study.runner import dask_client
 
 
@@ -32,6 +34,8 @@ def case_model(name: str, cpu_s: float) -> CaseModel:
     if name == "synthetic":
         synthetic = SyntheticCase(cpu_s=cpu_s)
         return CaseModel(synthetic, synthetic.crlb, "synthetic")
+    if name == "cosim":
+        return replace(get_case_model(name), run_case=CosimCase().resolved())
     return get_case_model(name)
 
 
@@ -59,7 +63,7 @@ def cases_per_minute(workers: int, model: CaseModel, name: str, n_cases: int, re
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--case", default="synthetic", help="case model name (default: synthetic)")
+    parser.add_argument("--case", default="cosim", help="case model name (default: cosim)")
     parser.add_argument(
         "--cpu-s", type=float, default=0.5, help="CPU seconds per synthetic case (default: 0.5)"
     )
