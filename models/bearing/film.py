@@ -42,8 +42,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.sparse as sp
-from scipy.sparse.linalg import splu
 
 from ..validation import InputError, require_finite, require_positive
 from .discretization import FilmOperator, film_operator
@@ -56,6 +54,7 @@ from .grid import (
     Mesh,
     film_grid,
 )
+from .sparse_system import fix_groove_pressure, sparse_solve
 from .supply import Supply, SupplyFlow, SupplyPressure
 
 SQUEEZE_MODES = ("full-film", "everywhere")
@@ -246,8 +245,8 @@ def _active_set_newton(op, supply, ex, ey, squeeze_m3_s, everywhere, warm_start,
         rhs = source - np.bincount(rows, weights=op.at_data * full[cols], minlength=n)
         rhs -= squeeze_m3_s * full
         if fixed:
-            _fix_groove_pressure(grid, data, rhs, supply.p_pa / p_ref)
-        u = _sparse_solve(grid, data, rhs)
+            fix_groove_pressure(grid, data, rhs, supply.p_pa / p_ref)
+        u = sparse_solve(grid, data, rhs)
         p = np.where(full, u * p_ref, 0.0)
         theta = np.where(full, 1.0, u)
         new_full = full.copy()
@@ -300,8 +299,8 @@ def _held_partition_solve(op, supply, full, squeeze_m3_s, everywhere=False):
         data[slots["diag"]] += squeeze_m3_s * ~full
     rhs = source - np.bincount(rows, weights=op.at_data * full[cols], minlength=n) - squeeze_m3_s * full
     if fixed:
-        _fix_groove_pressure(grid, data, rhs, supply.p_pa / p_ref)
-    u = _sparse_solve(grid, data, rhs)
+        fix_groove_pressure(grid, data, rhs, supply.p_pa / p_ref)
+    u = sparse_solve(grid, data, rhs)
     return full, np.where(full, u * p_ref, 0.0), np.where(full, 1.0, u)
 
 
@@ -333,8 +332,8 @@ def _frozen_content_response(op, supply, full0, theta0, max_iterations, hold_par
         data[diag[~active]] = 1.0
         rhs = np.where(active, frozen, 0.0)
         if fixed:
-            _fix_groove_pressure(grid, data, rhs, supply.p_pa / p_ref)
-        p = np.where(active, _sparse_solve(grid, data, rhs) * p_ref, 0.0)
+            fix_groove_pressure(grid, data, rhs, supply.p_pa / p_ref)
+        p = np.where(active, sparse_solve(grid, data, rhs) * p_ref, 0.0)
         rate = np.bincount(rows, weights=op.ap_data * p[cols], minlength=n) - frozen
         new_active = active.copy()
         new_active[active & (p < -1e-12 * p_ref)] = False
@@ -347,40 +346,6 @@ def _frozen_content_response(op, supply, full0, theta0, max_iterations, hold_par
             return active, np.maximum(p, 0.0), iteration
         active = new_active
     raise RuntimeError(f"squeeze response did not converge in {max_iterations} sparse solves")
-
-
-def _fix_groove_pressure(grid: FilmGrid, data: np.ndarray, rhs: np.ndarray, value: float) -> None:
-    """Impose the groove unknown = ``value`` in place, eliminating it from rows and column alike.
-
-    Removing the column too keeps the matrix column diagonally dominant, so elimination needs no
-    pivoting.
-    """
-    slots = grid.slots
-    g = grid.groove_node
-    g_column = slots["columns"] == g
-    rhs -= np.bincount(slots["rows"], weights=data * g_column, minlength=grid.n_nodes) * value
-    data[g_column] = 0.0
-    data[grid.pattern.indptr[g] : grid.pattern.indptr[g + 1]] = 0.0
-    data[slots["diag"][g]] = 1.0
-    rhs[g] = value
-
-
-def _sparse_solve(grid: FilmGrid, data: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-    """Solve M u = rhs for M given as CSR data on ``grid.pattern``.
-
-    The CSR arrays of M are the CSC arrays of M^T: SuperLU factorizes M^T and solves the transposed
-    system. M is column diagonally dominant (each column is a Poiseuille Laplacian column or an
-    upwind Couette column, both with column sums >= 0), so diagonal pivots are stable.
-    """
-    n = grid.n_nodes
-    mt = sp.csc_matrix((data, grid.pattern.indices, grid.pattern.indptr), shape=(n, n))
-    lu = splu(
-        mt,
-        permc_spec="MMD_AT_PLUS_A",
-        diag_pivot_thresh=0.0,
-        options={"SymmetricMode": True},
-    )
-    return lu.solve(rhs, trans="T")
 
 
 def _coarse_partition(op, supply, ex, ey, everywhere, max_iterations) -> np.ndarray:
