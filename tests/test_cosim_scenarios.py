@@ -101,7 +101,14 @@ def test_error_windows_and_alarm_delay_follow_their_definitions():
     assert summary["alarm_delay_s_b1"] == pytest.approx(0.6)
     assert summary["false_alarm_s_b1"] == pytest.approx(3.0)
     assert summary["alarm_delay_s_b2"] is None and summary["false_alarm_s_b2"] is None
+    assert summary["first_alarm_s_b1"] == pytest.approx(3.0) and summary["first_alarm_s_b2"] is None
     assert summary["q1_settle_s"] == 0.0  # within 2 % from the centre on
+    # A bearing starved from the start: its alarm is a detection, neither false nor a delay.
+    starved_run = make_run("constant", q1_pct=80.0, duration_s=20.0)
+    detected = summarize(starved_run, {**columns, "starved1": (time_s >= 0.3).astype(float)})
+    assert detected["starved_initially_b1"] and not detected["starved_initially_b2"]
+    assert detected["first_alarm_s_b1"] == pytest.approx(0.3)
+    assert detected["false_alarm_s_b1"] is None and detected["alarm_delay_s_b1"] is None
     slow = estimate.copy()
     slow[(time_s >= 10.0) & (time_s < 12.5)] *= 1.05
     assert settle_time_s(time_s, true, slow, 10.0) == pytest.approx(2.5)

@@ -125,8 +125,10 @@ def describe(summary: dict) -> list[str]:
     lines = [f"{summary['title']} ({summary['scenario']}), noise {summary['noise_um']:g} um, "
              f"{summary['duration_s']:g} s"]  # fmt: skip
     for b in (1, 2):
-        delay = summary[f"alarm_delay_s_b{b}"]
+        delay, first = summary[f"alarm_delay_s_b{b}"], summary[f"first_alarm_s_b{b}"]
         alarm = "no alarm" if delay is None else f"alarm {delay:+.3f} s from the sigmoid centre"
+        if summary[f"starved_initially_b{b}"]:
+            alarm = "starved from the start: " + ("no alarm" if first is None else f"alarm at {first:.3f} s")
         if summary[f"false_alarm_s_b{b}"] is not None:
             alarm += f" (FALSE ALARM at {summary[f'false_alarm_s_b{b}']:.3f} s)"
         settle = summary[f"q{b}_settle_s"]

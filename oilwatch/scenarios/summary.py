@@ -8,6 +8,9 @@
   centre, as it can during a slow drop); null when the alarm never comes, as it must for a bearing that
   does not starve.
 * ``false_alarm_s_bN``: time of the first alarm before ``transition_start_s`` (null: none).
+* ``first_alarm_s_bN``: time of the first alarm of the record (null: none). For a bearing starved from the
+  start (``constant`` below 90 % of nominal) this is its detection time, and the two figures above are
+  null: an alarm there is neither late nor false.
 * ``qN_settle_s``: time after the centre from which the estimate stays within 2 % of the truth to the end
   of the record (0: it never left; null: it is still outside at the end). The after-drop error alone hides
   a slow convergence.
@@ -84,8 +87,13 @@ def summarize(run: ScenarioRun, columns: dict[str, np.ndarray]) -> dict:
         summary[f"q{b}_settle_s"] = settle_time_s(time_s, true, estimate, run.fault_time_s)
     for b in (1, 2):
         alarm = columns[f"starved{b}"]
-        at = first_alarm_s(time_s, alarm, start)
-        summary[f"alarm_delay_s_b{b}"] = None if at is None else round(at - run.fault_time_s, 6)
-        summary[f"false_alarm_s_b{b}"] = first_alarm_s(time_s, alarm, -math.inf, start)
+        summary[f"first_alarm_s_b{b}"] = first_alarm_s(time_s, alarm, -math.inf)
+        summary[f"starved_initially_b{b}"] = run.starved_initially(b)
+        if run.starved_initially(b):
+            summary[f"alarm_delay_s_b{b}"] = summary[f"false_alarm_s_b{b}"] = None
+        else:
+            at = first_alarm_s(time_s, alarm, start)
+            summary[f"alarm_delay_s_b{b}"] = None if at is None else round(at - run.fault_time_s, 6)
+            summary[f"false_alarm_s_b{b}"] = first_alarm_s(time_s, alarm, -math.inf, start)
         summary[f"starving_b{b}"] = run.starving(b)
     return summary
