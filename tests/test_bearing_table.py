@@ -79,6 +79,20 @@ def test_outside_the_range_is_an_input_error_naming_q_and_the_range(table):
             table.evaluate(q)
         with pytest.raises(InputError, match="outside the table range"):
             table.evaluate_with_derivative(q)
+        with pytest.raises(InputError, match="outside the table range"):
+            table.evaluate_many(np.array([low, q, high]))
+    with pytest.raises(InputError, match="outside the table range"):
+        table.evaluate_many(np.array([low, np.nan]))
+
+
+def test_vectorized_evaluation_equals_the_scalar_one_at_nodes_and_between(table):
+    low, high = table.flowrate_range_m3_s
+    flowrates = np.concatenate([table.flowrates_m3_s, np.linspace(low, high, 37)])
+    rows = table.evaluate_many(flowrates)
+    for q, row in zip(flowrates, rows, strict=True):
+        c = table.evaluate(q)
+        expected = np.concatenate([c.eccentricity_m, c.stiffness.ravel(), c.damping.ravel()])
+        np.testing.assert_allclose(row, expected, rtol=1e-14, atol=0.0)
 
 
 def test_save_and_load_round_trip(table, tmp_path):

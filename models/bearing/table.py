@@ -101,6 +101,7 @@ class CoefficientTable:
         cubic = PchipInterpolator(self.flowrates_m3_s, values, axis=0).c  # (4, n-1, 10), high first
         self._coef = np.ascontiguousarray(np.transpose(cubic[::-1], (1, 0, 2)))  # (n-1, 4, 10)
         self._nodes = [float(q) for q in self.flowrates_m3_s]
+        self._node_array = np.array(self._nodes)
         self._q_min, self._q_max = self._nodes[0], self._nodes[-1]
 
     @property
@@ -125,6 +126,17 @@ class CoefficientTable:
         c = self._coef[i]
         v = c[0] + t * (c[1] + t * (c[2] + t * c[3]))
         return BearingCoefficients(v[0:2], v[2:6].reshape(2, 2), v[6:10].reshape(2, 2))
+
+    def evaluate_many(self, q_m3_s: np.ndarray) -> np.ndarray:
+        """Interpolated rows at the flowrates ``q_m3_s`` (m,) [m^3/s]: (m, 10) as ``[e_x, e_y, K (row-major),
+        C (row-major)]`` in SI units, the values of :meth:`evaluate` in one array."""
+        q = np.asarray(q_m3_s, dtype=float)
+        if not (self._q_min <= q.min() and q.max() <= self._q_max):
+            self._interval(q.min() if q.min() < self._q_min else q.max())  # raises, naming the flowrate
+        i = np.minimum(np.searchsorted(self._node_array, q, side="right") - 1, len(self._nodes) - 2)
+        t = (q - self._node_array[i])[:, None]
+        c = self._coef[i]
+        return c[:, 0] + t * (c[:, 1] + t * (c[:, 2] + t * c[:, 3]))
 
     def evaluate_with_derivative(self, q_m3_s: float) -> tuple[BearingCoefficients, BearingCoefficients]:
         """(values, d/dq of the values [per m^3/s]) at ``q_m3_s`` [m^3/s]."""

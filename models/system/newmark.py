@@ -9,6 +9,9 @@ Cost. Only the bearing blocks depend on the flowrates: the effective stiffness i
 selecting the bearing dofs, solved with the Sherman-Morrison-Woodbury identity around a factorization at a
 reference flowrate. While the flowrates stay constant, the sub-step recursion is linear and time-invariant, so
 the whole sampling period collapses into one precomputed propagator (one matrix-vector product per step).
+While they change, the bearing blocks of all sub-steps are interpolated at once and the sub-steps run in one
+compiled loop (:func:`_trapezoid_steps`), since the per-call overhead of a dozen small numpy operations per
+sub-step would otherwise dominate.
 
 Reference: N. M. Newmark, "A method of computation for structural dynamics",
 J. Eng. Mech. Div. ASCE 85 (1959).
@@ -18,6 +21,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+import numba
 import numpy as np
 from scipy.linalg import inv, solve
 
@@ -79,17 +83,8 @@ class NewmarkIntegrator:
 
     def _bearing_blocks(self, flowrates: tuple[float, float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Block-diagonal bearing K, C (2 nb, 2 nb) and the constant bearing load (2 nb,) at the flowrates."""
-        states = self.system.bearing_states(flowrates)
-        nb = len(states)
-        k = np.zeros((2 * nb, 2 * nb))
-        c = np.zeros((2 * nb, 2 * nb))
-        load = np.zeros(2 * nb)
-        for b, (state, w) in enumerate(zip(states, self.system.static_loads_n, strict=True)):
-            sl = slice(2 * b, 2 * b + 2)
-            k[sl, sl] = state.stiffness
-            c[sl, sl] = state.damping
-            load[sl] = np.array([0.0, w]) + state.stiffness @ state.equilibrium_m
-        return k, c, load
+        k, c, load = self._substep_blocks(np.array([flowrates], dtype=float))
+        return k[0], c[0], load[0]
 
     def _scatter(self, block: np.ndarray) -> np.ndarray:
         """``P^T block P`` on the system's coordinates."""
@@ -158,43 +153,52 @@ class NewmarkIntegrator:
             self.state = self._constant_step(final)
         else:
             self._refresh_acceleration()
-            flows = [(float(a), float(b)) for a, b in samples[1:]]
-            for t, f in zip(times[1:], flows, strict=True):
-                blocks = self._bearing_blocks(f)
-                load = self.system.gravity_force + self._select.T @ blocks[2] + self._harmonic_load(t)
-                self.state = self._trapezoid(self.state, load, blocks)
+            k_b, c_b, bearing_load = self._substep_blocks(samples[1:])
+            phases = np.exp(1j * self.system.omega_rad_s * times[1:, None])
+            harmonic = (self.system.unbalance_force[None, :] * phases).real
+            loads = self.system.gravity_force + bearing_load @ self._select + harmonic
+            state = np.ascontiguousarray(self.state[:, None])
+            self.state = self._steps(state, loads[:, :, None], k_b, c_b)[:, 0]
         self._last_flowrates = final if steady else None
         self.flowrates_m3_s = final
         self.time_s += self.dt_s
         return self.state[: self.n]
 
-    def _trapezoid(
-        self,
-        state: np.ndarray,
-        load: np.ndarray,
-        blocks: tuple[np.ndarray, np.ndarray, np.ndarray],
-    ) -> np.ndarray:
-        """One trapezoidal sub-step of the states (3n,) or (3n, m) columns under the loads (n,) or (n, m).
+    def _substep_blocks(self, flowrates: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`_bearing_blocks` at the flowrates (m, n_bearings) of m sub-steps: K, C (m, 2 nb, 2 nb)
+        and the bearing loads (m, 2 nb)."""
+        m = flowrates.shape[0]
+        tables = self.system.tables
+        nb = len(tables)
+        k = np.zeros((m, 2 * nb, 2 * nb))
+        c = np.zeros((m, 2 * nb, 2 * nb))
+        load = np.zeros((m, 2 * nb))
+        for b, (table, w) in enumerate(zip(tables, self.system.static_loads_n, strict=True)):
+            rows = table.evaluate_many(flowrates[:, b])
+            sl = slice(2 * b, 2 * b + 2)
+            k[:, sl, sl] = rows[:, 2:6].reshape(m, 2, 2)
+            c[:, sl, sl] = rows[:, 6:10].reshape(m, 2, 2)
+            load[:, sl] = np.array([0.0, w]) + np.einsum("mij,mj->mi", k[:, sl, sl], rows[:, 0:2])
+        return k, c, load
 
-        ``blocks`` are the bearing K, C (and load, unused here) at the sub-step's flowrates.
-        """
-        n, h = self.n, self.h
-        k_b, c_b, _ = blocks
-        r, v, a = state[:n], state[n : 2 * n], state[2 * n :]
-        p = self._select
-        damping_term = GAMMA / (BETA * h) * r + (GAMMA / BETA - 1.0) * v
-        rhs = (
-            load
-            + self.mass @ (r / (BETA * h * h) + v / (BETA * h) + (0.5 / BETA - 1.0) * a)
-            + self._base_damping @ damping_term
-            + p.T @ (c_b @ (p @ damping_term))
+    def _steps(self, state: np.ndarray, loads: np.ndarray, k_b: np.ndarray, c_b: np.ndarray) -> np.ndarray:
+        """Trapezoidal sub-steps of the state columns (3n, m_cols) under the loads (steps, n, m_cols) with
+        the bearing K, C (steps, 2 nb, 2 nb) of each sub-step."""
+        return _trapezoid_steps(
+            state,
+            loads,
+            k_b,
+            c_b,
+            self.h,
+            self.mass,
+            self._base_damping,
+            self._effective_inverse,
+            self._select,
+            self._z,
+            self._s,
+            self._reference_blocks[0],
+            self._reference_blocks[1],
         )
-        delta = (k_b - self._reference_blocks[0]) + GAMMA / (BETA * h) * (c_b - self._reference_blocks[1])
-        x0 = self._effective_inverse @ rhs
-        r_new = x0 - self._z @ (delta @ np.linalg.solve(np.eye(delta.shape[0]) + self._s @ delta, p @ x0))
-        a_new = (r_new - r) / (BETA * h * h) - v / (BETA * h) - (0.5 / BETA - 1.0) * a
-        v_new = v + h * ((1.0 - GAMMA) * a + GAMMA * a_new)
-        return np.concatenate([r_new, v_new, a_new])
 
     def _constant_step(self, flows: tuple[float, float]) -> np.ndarray:
         """The whole period at constant flowrates, by the cached linear propagator on (r, v).
@@ -245,14 +249,16 @@ class NewmarkIntegrator:
         initial_load[:, n2:] = np.column_stack([constant, cosine, sine])
         columns[n2:] = self._equilibrium_acceleration(columns, flows, initial_load)
         wh = self.system.omega_rad_s * self.h
+        loads = np.zeros((self.substeps, n, n2 + 3))
         for i in range(1, self.substeps + 1):
             c, s = np.cos(i * wh), np.sin(i * wh)
-            load = np.zeros((n, n2 + 3))
             # Column n2 + j responds to w(t_k) = e_j; its load at t_k + i h follows by rotating the phase.
-            load[:, n2] = constant
-            load[:, n2 + 1] = c * cosine + s * sine
-            load[:, n2 + 2] = -s * cosine + c * sine
-            columns = self._trapezoid(columns, load, blocks)
+            loads[i - 1, :, n2] = constant
+            loads[i - 1, :, n2 + 1] = c * cosine + s * sine
+            loads[i - 1, :, n2 + 2] = -s * cosine + c * sine
+        k_b = np.repeat(blocks[0][None], self.substeps, axis=0)
+        c_b = np.repeat(blocks[1][None], self.substeps, axis=0)
+        columns = self._steps(np.ascontiguousarray(columns), loads, k_b, c_b)
         return columns[:n2, :n2], columns[:n2, n2:]
 
 
@@ -261,3 +267,38 @@ def _close(cached: tuple[float, float] | None, flows: tuple[float, float]) -> bo
     return cached is not None and all(
         abs(a - b) <= CONSTANT_FLOW_RTOL * abs(b) for a, b in zip(cached, flows, strict=True)
     )
+
+
+@numba.njit(cache=True)
+def _trapezoid_steps(
+    state, loads, k_b, c_b, h, mass, base_damping, effective_inverse, select, z, s, k_ref, c_ref
+):
+    """Newmark average-acceleration sub-steps of state columns [r; v; a] (3n, m) under ``loads[i]`` (n, m)
+    with the bearing blocks ``k_b[i]``, ``c_b[i]`` (2 nb, 2 nb), i = 0 .. steps - 1.
+
+    The effective stiffness is ``S_ref + P^T dB P`` with
+    ``dB = (K_b - K_ref) + gamma/(beta h) (C_b - C_ref)``; its solve is
+    ``x0 - Z dB (I + S dB)^-1 P x0`` (Sherman-Morrison-Woodbury) with ``x0 = S_ref^-1 rhs``,
+    ``Z = S_ref^-1 P^T`` and ``S = P Z``.
+    """
+    n = mass.shape[0]
+    nb2 = select.shape[0]
+    identity = np.eye(nb2)
+    for i in range(loads.shape[0]):
+        r = state[:n]
+        v = state[n : 2 * n]
+        a = state[2 * n :]
+        damping_term = GAMMA / (BETA * h) * r + (GAMMA / BETA - 1.0) * v
+        rhs = (
+            loads[i]
+            + mass @ (r / (BETA * h * h) + v / (BETA * h) + (0.5 / BETA - 1.0) * a)
+            + base_damping @ damping_term
+            + select.T @ (c_b[i] @ (select @ damping_term))
+        )
+        delta = (k_b[i] - k_ref) + GAMMA / (BETA * h) * (c_b[i] - c_ref)
+        x0 = effective_inverse @ rhs
+        r_new = x0 - z @ (delta @ np.linalg.solve(identity + s @ delta, select @ x0))
+        a_new = (r_new - r) / (BETA * h * h) - v / (BETA * h) - (0.5 / BETA - 1.0) * a
+        v_new = v + h * ((1.0 - GAMMA) * a + GAMMA * a_new)
+        state = np.concatenate((r_new, v_new, a_new))
+    return state

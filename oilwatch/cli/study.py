@@ -132,7 +132,7 @@ def _cell(value, fmt: str = ".2f") -> str:
 
 
 def format_summary(summary: dict) -> str:
-    """Table 6, ours beside the paper's, with the targets of issue 8."""
+    """Table 6, ours beside the paper's, with the accuracy targets."""
     settings = summary["settings"]
     lines = [
         f"identification study: case model {settings['case_model']}, {settings['n_cases']} cases, "

@@ -1,4 +1,4 @@
-"""Aggregate the study's cases into Table 6's figures, beside the paper's and the targets of issue 8.
+"""Aggregate the study's cases into Table 6's figures, beside the paper's and the accuracy targets.
 
 Aggregation (the paper's, Sec. 3.2.1): for each noise level, the absolute relative errors
 ``|q_est - q_true| / q_true`` of BOTH bearings in ALL cases (and seeds) form one set of 2 x n_cases values;
