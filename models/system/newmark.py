@@ -80,6 +80,9 @@ class NewmarkIntegrator:
         self._last_flowrates: tuple[float, float] | None = None
         self.time_s = 0.0
         self.state = np.zeros(3 * n)
+        # Compile (or load from numba's cache) the sub-step kernel now, not inside the first steps of a run.
+        no_blocks = np.zeros((0, self._select.shape[0], self._select.shape[0]))
+        self._steps(np.zeros((3 * n, 1)), np.zeros((0, n, 1)), no_blocks, no_blocks)
 
     def _bearing_blocks(self, flowrates: tuple[float, float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Block-diagonal bearing K, C (2 nb, 2 nb) and the constant bearing load (2 nb,) at the flowrates."""
