@@ -117,18 +117,9 @@ def test_ctrl_c_stops_the_run_and_result_csv_keeps_every_step_done(environment, 
     assert np.isfinite(rows).all()
 
 
-@pytest.fixture(scope="module")
-def built(tmp_path_factory):
-    out = tmp_path_factory.mktemp("cli_fmus")
-    subprocess.run(
-        [sys.executable, "build.py", "--out", str(out)], cwd=REPO_ROOT, check=True, capture_output=True
-    )
-    return out
-
-
-def _broken_ssp(built, folder):
+def _broken_ssp(built_fmus, folder):
     path = folder / "Broken.ssp"
-    with zipfile.ZipFile(built / "OilStarvation.ssp") as source, zipfile.ZipFile(path, "w") as target:
+    with zipfile.ZipFile(built_fmus / "OilStarvation.ssp") as source, zipfile.ZipFile(path, "w") as target:
         for item in source.infolist():
             data = source.read(item)
             if item.filename == "SystemStructure.ssd":
@@ -137,7 +128,7 @@ def _broken_ssp(built, folder):
     return path
 
 
-def test_bad_inputs_give_one_line_errors_with_exit_code_2(environment, tmp_path, built):
+def test_bad_inputs_give_one_line_errors_with_exit_code_2(environment, tmp_path, built_fmus):
     corrupt = tmp_path / "corrupt"
     corrupt.mkdir()
     for name in ("RotorBearingPlant.fmu", "OilFlowEKF.fmu"):
@@ -147,11 +138,11 @@ def test_bad_inputs_give_one_line_errors_with_exit_code_2(environment, tmp_path,
     cases = [
         (["run", "sudden"], "scenario 'sudden' is unknown"),
         (["run", "constant", "--noise-um", "-1"], "--noise-um must lie in"),
-        (["run", "constant", "--q1-pct", "20", "--fmu-dir", str(built)], "q1_initial_ml_min"),
+        (["run", "constant", "--q1-pct", "20", "--fmu-dir", str(built_fmus)], "q1_initial_ml_min"),
         (["run", "constant", "--fmu-dir", str(empty)], "RotorBearingPlant.fmu does not exist"),
         (["run", "constant", "--fmu-dir", str(corrupt)], "is corrupt"),
         (["run", "constant", "--ssp", str(tmp_path / "none.ssp")], "none.ssp does not exist"),
-        (["run", "constant", "--ssp", str(_broken_ssp(built, tmp_path))], "'t_sample_ms'"),
+        (["run", "constant", "--ssp", str(_broken_ssp(built_fmus, tmp_path))], "'t_sample_ms'"),
     ]
     for args, message in cases:
         process = oilwatch(environment, *args, "--out", str(tmp_path / "out"), "--no-progress")
@@ -161,17 +152,17 @@ def test_bad_inputs_give_one_line_errors_with_exit_code_2(environment, tmp_path,
         assert lines[0].startswith("oilwatch run: error:"), lines[0]
 
 
-def test_ssp_system_runs_with_the_scenarios_parameters_over_its_bindings(environment, tmp_path, built):
+def test_ssp_system_runs_with_the_scenarios_parameters_over_its_bindings(environment, tmp_path, built_fmus):
     """OilStarvation.ssp binds the sudden drop; `run constant --ssp` must run the constant scenario."""
     out = tmp_path / "from_ssp"
     process = oilwatch(
         environment,
-        "run", "constant", "--ssp", str(built / "OilStarvation.ssp"), "--duration-s", "3",
+        "run", "constant", "--ssp", str(built_fmus / "OilStarvation.ssp"), "--duration-s", "3",
         "--paper-tuning", "--set", "ekf.alarm_hold_on_s=0.5", "--out", str(out), "--json", "--no-progress",
     )  # fmt: skip
     assert process.returncode == 0, process.stderr
     summary = json.loads(process.stdout)
-    assert summary["source"] == str(built / "OilStarvation.ssp")
+    assert summary["source"] == str(built_fmus / "OilStarvation.ssp")
     assert summary["parameters"]["ekf"]["velocity_channels"] == 1
     assert summary["parameters"]["ekf"]["alarm_hold_on_s"] == 0.5
     rows = csv_rows(out / "result.csv")

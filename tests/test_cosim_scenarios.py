@@ -1,36 +1,25 @@
 """The paper's real-time scenarios (issue 7): definitions, figures of merit, every scenario through the two
 FMUs (shortened runs), the OilStarvation.ssp bindings, and libcosim (OSP) against oilwatch's fmpy master.
 
-FMU runs happen in fresh subprocesses (pythonfmu FMUs share the host interpreter). The FMUs are built once
-per module by ``python build.py``; the extraction cache lives in a per-session folder, so the estimator's
-numba kernels compile once per session.
+FMU runs happen in fresh subprocesses (pythonfmu FMUs share the host interpreter). The FMUs are built
+once per session (``built_fmus`` in conftest.py); the extraction cache lives in a per-session folder, so
+the estimator's numba kernels compile once per session.
 """
 
 from __future__ import annotations
 
 import os
-import subprocess
-import sys
 import time
 
 import numpy as np
 import pytest
-from fixtures.fmu_subprocess import REPO_ROOT, run_json
+from fixtures.fmu_subprocess import run_json
 
 from models.system.fault import SCENARIO_DURATIONS_S, SigmoidFlowrate
 from models.validation import InputError
 from oilwatch.cli.run import SCENARIO_NAMES
 from oilwatch.scenarios import NOMINAL_ML_MIN, SCENARIOS, make_run
 from oilwatch.scenarios.summary import first_alarm_s, settle_time_s, summarize, window_error_pct
-
-
-@pytest.fixture(scope="module")
-def build_dir(tmp_path_factory):
-    out = tmp_path_factory.mktemp("scenario_fmus")
-    subprocess.run(
-        [sys.executable, "build.py", "--out", str(out)], cwd=REPO_ROOT, check=True, capture_output=True
-    )
-    return out
 
 
 @pytest.fixture(autouse=True)
@@ -120,7 +109,7 @@ def test_error_windows_and_alarm_delay_follow_their_definitions():
 
 
 # ------------------------------------------------------------------------------------ through the FMUs
-def test_every_scenario_runs_through_both_fmus_in_a_shortened_record(build_dir, tmp_path):
+def test_every_scenario_runs_through_both_fmus_in_a_shortened_record(built_fmus, tmp_path):
     duration = 5.0
     result = run_json(
         f"""
@@ -131,7 +120,7 @@ from oilwatch.scenarios.runner import run_scenario, read_result
 result = {{}}
 for name in SCENARIOS:
     out = Path({str(tmp_path)!r}) / name
-    summary = run_scenario(make_run(name, duration_s={duration}), out, fmu_dir=Path({str(build_dir)!r}),
+    summary = run_scenario(make_run(name, duration_s={duration}), out, fmu_dir=Path({str(built_fmus)!r}),
                            progress=False, plot=(name == "clog-b1"))
     columns = read_result(out / "result.csv")
     result[name] = {{
@@ -171,11 +160,11 @@ for name in SCENARIOS:
         assert (summary["q1_err_pct_before"] is None) == (not before_window_fits), name
 
 
-def test_ssp_binds_the_sudden_drop_and_connects_the_sample_time(build_dir):
+def test_ssp_binds_the_sudden_drop_and_connects_the_sample_time(built_fmus):
     result = run_json(
         f"""
 from oilwatch.cosim.ssp import open_ssp
-with open_ssp({str(build_dir / "OilStarvation.ssp")!r}) as system:
+with open_ssp({str(built_fmus / "OilStarvation.ssp")!r}) as system:
     result = {{
         "parameters": {{spec.name: spec.parameters for spec in system.fmus}},
         "connections": sorted(str(c) for c in system.connections),
@@ -193,7 +182,7 @@ with open_ssp({str(build_dir / "OilStarvation.ssp")!r}) as system:
     assert result["experiment"] == [20.0, 1e-3]
 
 
-def test_libcosim_runs_the_same_ssp_and_agrees_with_the_fmpy_master(build_dir, tmp_path):
+def test_libcosim_runs_the_same_ssp_and_agrees_with_the_fmpy_master(built_fmus, tmp_path):
     """libcosim's fixed-step algorithm is Jacobi: the estimator sees the plant's sample of time t during
     the step t -> t + h, one step later than under oilwatch's Gauss-Seidel order. The plant FMU's
     t_sample_s keeps the filter on its time grid, so libcosim's estimate at t + h must equal fmpy's at t.
@@ -212,7 +201,7 @@ from oilwatch.cosim.libcosim_runner import run_ssp_libcosim
 from oilwatch.cosim.ssp import master_from_ssp, write_ssp
 from oilwatch.scenarios import make_run
 run = make_run("sudden-drop", duration_s={duration})
-build = {str(build_dir)!r}
+build = {str(built_fmus)!r}
 write_ssp({str(ssp)!r}, SystemDescription(
     [FmuSpec("plant", build + "/RotorBearingPlant.fmu", run.plant_parameters()),
      FmuSpec("ekf", build + "/OilFlowEKF.fmu", run.ekf_parameters())],
@@ -245,7 +234,7 @@ result = {{"fmpy": {{k: v.tolist() for k, v in fmpy_rows.items()}},
         assert osp[f"ekf.starved{b}"].any() and abs(alarm_osp - (alarm_fmpy + 1e-3)) <= 1e-3 + 1e-9
 
 
-def test_fmus_are_unpacked_once_per_content_into_the_cache(build_dir):
+def test_fmus_are_unpacked_once_per_content_into_the_cache(built_fmus):
     """The persistent extraction folder (numba's cache stays valid there) is keyed by the instance name
     and the FMU's SHA-256 and reused by later instances; with OILWATCH_FMU_CACHE=0 each instance gets a
     temporary folder, removed on close."""
@@ -253,7 +242,7 @@ def test_fmus_are_unpacked_once_per_content_into_the_cache(build_dir):
 import hashlib, os
 from pathlib import Path
 from oilwatch.cosim.loading import Slave
-fmu = Path({str(build_dir / "RotorBearingPlant.fmu")!r})
+fmu = Path({str(built_fmus / "RotorBearingPlant.fmu")!r})
 folders = []
 for name in ("plant", "plant", "other"):
     slave = Slave(name, fmu)

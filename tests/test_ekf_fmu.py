@@ -18,7 +18,7 @@ import math
 import zipfile
 
 import pytest
-from fixtures.fmu_subprocess import REPO_ROOT, run_json, run_python
+from fixtures.fmu_subprocess import REPO_ROOT, run_json
 
 QN = 596.3
 TIMEOUT_S = 400.0
@@ -210,18 +210,6 @@ for index, (name, values) in enumerate(CASES):
 """
 
 
-@pytest.fixture(scope="session")
-def fmus(tmp_path_factory):
-    """Build both FMUs (and the SSP) once, in a subprocess; return their folder."""
-    out = tmp_path_factory.mktemp("oilwatch_fmus")
-    process = run_python(
-        f"import build; build.build_fmus({str(out)!r}, only=['RotorBearingPlant', 'OilFlowEKF'])",
-        timeout=TIMEOUT_S,
-    )
-    assert process.returncode == 0, process.stderr
-    return out
-
-
 def _run(fmus, body: str, prelude: str = ""):
     paths = (
         f"PLANT, EKF = {str(fmus / 'RotorBearingPlant.fmu')!r}, {str(fmus / 'OilFlowEKF.fmu')!r}\n"
@@ -231,13 +219,13 @@ def _run(fmus, body: str, prelude: str = ""):
 
 
 @pytest.fixture(scope="module")
-def cosim(fmus):
-    return _run(fmus, COSIM)
+def cosim(built_fmus):
+    return _run(built_fmus, COSIM)
 
 
 @pytest.fixture(scope="module")
-def direct(fmus):
-    return _run(fmus, DIRECT, FMPY_PRELUDE)
+def direct(built_fmus):
+    return _run(built_fmus, DIRECT, FMPY_PRELUDE)
 
 
 def test_constant_80_percent_estimates_within_3_percent_after_5_s(cosim):
@@ -319,19 +307,19 @@ def test_another_machine_file_and_the_correlated_velocity_channels(direct):
     assert all(math.isfinite(q) and 0.5 * QN < q < 1.5 * QN for q in (q1, q2))
 
 
-def test_parameter_out_of_range_fails_initialization_naming_it(fmus):
-    result = _run(fmus, ERRORS, FMPY_PRELUDE)
+def test_parameter_out_of_range_fails_initialization_naming_it(built_fmus):
+    result = _run(built_fmus, ERRORS, FMPY_PRELUDE)
     for name, case in result.items():
         assert case["outcome"] == ["fmi2ExitInitializationMode", 4], (name, case)
         named = [m for m in case["errors"] if name in m and ("must" in m or ": no " in m)]
         assert named, (name, case)
 
 
-def test_model_description_validates_and_documents_the_tuning(fmus):
+def test_model_description_validates_and_documents_the_tuning(built_fmus):
     from fmpy import read_model_description
     from fmpy.validation import validate_fmu
 
-    path = fmus / "OilFlowEKF.fmu"
+    path = built_fmus / "OilFlowEKF.fmu"
     assert validate_fmu(str(path)) == []
     variables = {v.name: v for v in read_model_description(str(path)).modelVariables}
     expected = {

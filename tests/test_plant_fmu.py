@@ -1,14 +1,11 @@
 """The RotorBearingPlant FMU (issue 5), driven through fmpy in fresh processes.
 
-The FMU is built once per module by ``python build.py`` in its own process; every check loads it in
+The FMU is built once per session by ``build.py`` in its own process (``built_fmus``); every check loads it in
 another fresh process, so none of this runs in the process that built it.
 """
 
-import subprocess
-import sys
-
 import pytest
-from fixtures.fmu_subprocess import REPO_ROOT, run_json
+from fixtures.fmu_subprocess import run_json
 
 HEADER = """
 import numpy as np
@@ -28,15 +25,8 @@ MEASURED = ["x1_um", "y1_um", "x2_um", "y2_um"]
 
 
 @pytest.fixture(scope="module")
-def fmu(tmp_path_factory):
-    out = tmp_path_factory.mktemp("plant_fmu")
-    subprocess.run(
-        [sys.executable, "build.py", "--out", str(out), "--only", "RotorBearingPlant"],
-        cwd=REPO_ROOT,
-        check=True,
-        capture_output=True,
-    )
-    return str(out / "RotorBearingPlant.fmu")
+def fmu(built_fmus):
+    return str(built_fmus / "RotorBearingPlant.fmu")
 
 
 def _run(fmu, body, timeout=300):

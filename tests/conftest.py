@@ -1,0 +1,16 @@
+"""Fixtures shared by the test modules."""
+
+from __future__ import annotations
+
+import pytest
+from fixtures.fmu_subprocess import run_python
+
+
+@pytest.fixture(scope="session")
+def built_fmus(tmp_path_factory):
+    """RotorBearingPlant.fmu, OilFlowEKF.fmu and OilStarvation.ssp, built once per session by build.py in a
+    fresh process (the relocated slave modules must not load into the pytest process); their folder."""
+    out = tmp_path_factory.mktemp("oilwatch_fmus")
+    process = run_python(f"import build; build.build_fmus({str(out)!r})", timeout=400.0)
+    assert process.returncode == 0, process.stderr
+    return out
