@@ -19,13 +19,11 @@ import argparse
 import os
 import statistics
 import tempfile
-from dataclasses import replace
 from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 from oilwatch.study import CaseModel, SyntheticCase, get_case_model, make_cases, run_study
-from oilwatch.study.case_cosim import CosimCase
 from oilwatch.study.runner import dask_client
 
 
@@ -34,8 +32,6 @@ def case_model(name: str, cpu_s: float) -> CaseModel:
     if name == "synthetic":
         synthetic = SyntheticCase(cpu_s=cpu_s)
         return CaseModel(synthetic, synthetic.crlb, "synthetic")
-    if name == "cosim":
-        return replace(get_case_model(name), run_case=CosimCase().resolved())
     return get_case_model(name)
 
 

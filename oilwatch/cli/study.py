@@ -83,21 +83,14 @@ def register(subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run (or continue) the study and print its Table 6."""
-    from dataclasses import replace
-
     from models.validation import InputError
     from oilwatch.study import get_case_model, make_cases, run_study
-    from oilwatch.study.case_cosim import CosimCase
     from oilwatch.study.runner import check_cluster_options
 
     check_cluster_options(args.scheduler, args.workers)
     if args.max_cases is not None and args.max_cases < 1:
         raise InputError(f"--max-cases must be >= 1, got {args.max_cases}")
-    model = get_case_model(args.case)
-    if args.fmu_dir is not None and args.case != "cosim":
-        raise InputError(f"--fmu-dir applies to --case cosim only, not --case {args.case}")
-    if args.case == "cosim":
-        model = replace(model, run_case=CosimCase(args.fmu_dir).resolved())
+    model = get_case_model(args.case, args.fmu_dir)
     cases = make_cases(args.noise_um, args.grid_step_pct, args.seeds, args.duration_s, args.discard_s)
     outcome = run_study(
         cases,

@@ -110,3 +110,13 @@ def ensure_fmus(fmu_dir: str | Path | None = None, log=None) -> Path:
         shutil.rmtree(staging, ignore_errors=True)
     prune(folder.parent, KEEP_BUILDS)
     return folder
+
+
+def plant_and_estimator(fmu_dir: str | Path, name: str = "OilStarvation"):
+    """The two-FMU system of ``fmu_dir``: instances ``plant`` and ``ekf``, connected by name."""
+    from ..cosim import FmuSpec, SystemDescription
+
+    folder = Path(fmu_dir)
+    return SystemDescription(
+        [FmuSpec("plant", folder / PLANT_FMU), FmuSpec("ekf", folder / EKF_FMU)], connections=None, name=name
+    )

@@ -22,11 +22,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..cosim import CsvRecorder, FmuSpec, Master, SystemDescription
+from ..cosim import CsvRecorder, Master, SystemDescription
 from ..cosim.errors import SystemDescriptionError
 from ..cosim.ssp import open_ssp
 from . import SAMPLE_PERIOD_S, ScenarioRun
-from .fmus import EKF_FMU, PLANT_FMU
+from .fmus import plant_and_estimator
 from .summary import summarize
 
 COLUMNS = {
@@ -92,12 +92,7 @@ def scenario_system(fmu_dir: Path | None = None, ssp: Path | None = None):
         with open_ssp(ssp) as system:
             yield system, _roles(system, str(ssp))
         return
-    system = SystemDescription(
-        [FmuSpec("plant", Path(fmu_dir) / PLANT_FMU), FmuSpec("ekf", Path(fmu_dir) / EKF_FMU)],
-        connections=None,
-        name="OilStarvation",
-    )
-    yield system, {"plant": "plant", "ekf": "ekf"}
+    yield plant_and_estimator(fmu_dir), {"plant": "plant", "ekf": "ekf"}
 
 
 def _roles(system: SystemDescription, origin: str) -> dict[str, str]:

@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
@@ -70,25 +69,20 @@ class ModelCrlb:
         return case_crlb(system, case)
 
 
-_MASTERS: dict[str, object] = {}
-"""Per-process masters with their two FMUs loaded, by FMU folder."""
+_MASTERS: dict[str | None, object] = {}
+"""Per-process masters with their two FMUs loaded, by FMU folder (None: the automatic build)."""
 _RECORD = ["ekf.q1_est_ml_min", "ekf.q2_est_ml_min", "ekf.q1_std_ml_min", "ekf.q2_std_ml_min"]
 FMI_SEED_MODULUS = 2**31
 """The plant's ``seed`` is an FMI Integer (32-bit signed): the case's 63-bit seed is reduced modulo this."""
 
 
-def _master(fmu_dir: str):
-    from ..cosim import FmuSpec, Master, SystemDescription
-    from ..scenarios.fmus import EKF_FMU, PLANT_FMU
+def _master(fmu_dir: str | None):
+    """This process's master of the two FMUs of ``fmu_dir`` (None: the automatic build), loaded once."""
+    from ..cosim import Master
+    from ..scenarios.fmus import ensure_fmus, plant_and_estimator
 
     if fmu_dir not in _MASTERS:
-        folder = Path(fmu_dir)
-        system = SystemDescription(
-            [FmuSpec("plant", folder / PLANT_FMU), FmuSpec("ekf", folder / EKF_FMU)],
-            connections=None,
-            name="study",
-        )
-        _MASTERS[fmu_dir] = Master(system)
+        _MASTERS[fmu_dir] = Master(plant_and_estimator(ensure_fmus(fmu_dir), name="study"))
     return _MASTERS[fmu_dir]
 
 
@@ -125,10 +119,9 @@ class CosimCase:
     def __call__(self, case: Case) -> CaseResult:
         from ..cosim import MemoryRecorder, SlaveError
 
-        fmu_dir = self.fmu_dir if self.fmu_dir is not None else self.resolved().fmu_dir
         start = time.perf_counter()
         recorder = MemoryRecorder()
-        master = _master(fmu_dir)
+        master = _master(self.fmu_dir)
         try:
             master.run(
                 stop_time=case.duration_s,
@@ -141,7 +134,7 @@ class CosimCase:
             )
         except SlaveError as error:
             # The instances are dead after an FMI error: the next case of this worker loads them anew.
-            _MASTERS.pop(fmu_dir, None)
+            _MASTERS.pop(self.fmu_dir, None)
             master.close()
             raise CaseFailure(f"case {case.case_id}: {error}") from None
         columns = recorder.arrays()

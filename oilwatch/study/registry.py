@@ -7,7 +7,7 @@ and EKF in-process, without FMI; a cross-check of the FMU path) and ``synthetic`
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -55,9 +55,18 @@ CASE_MODELS: dict[str, CaseModel] = {
 }
 
 
-def get_case_model(name: str) -> CaseModel:
-    """The registered case model called ``name``; an InputError lists the available ones."""
+def get_case_model(name: str, fmu_dir: str | None = None) -> CaseModel:
+    """The registered case model called ``name``; an InputError lists the available ones.
+
+    For ``cosim`` the FMUs are found here, once (``fmu_dir``, or built automatically), so that the workers
+    load them without building; ``fmu_dir`` applies to ``cosim`` only.
+    """
     if name not in CASE_MODELS:
         available = ", ".join(sorted(CASE_MODELS))
         raise InputError(f"--case {name!r} is not available; available: {available}")
-    return CASE_MODELS[name]
+    if fmu_dir is not None and name != "cosim":
+        raise InputError(f"--fmu-dir applies to --case cosim only, not --case {name}")
+    model = CASE_MODELS[name]
+    if name == "cosim":
+        return replace(model, run_case=CosimCase(fmu_dir).resolved())
+    return model
