@@ -137,8 +137,9 @@ class NewmarkIntegrator:
         self.flowrates_m3_s = snapshot["flowrates"]
         self._acceleration_current = snapshot["acceleration_current"]
 
-    def _harmonic_load(self, time_s: float) -> np.ndarray:
-        phase = self.system.omega_rad_s * time_s
+    def _harmonic_load(self, time_s: float | np.ndarray) -> np.ndarray:
+        """The unbalance load (n,) at a time [s], or (m, n) at the times (m,)."""
+        phase = self.system.omega_rad_s * np.asarray(time_s, dtype=float)[..., None]
         return (self.system.unbalance_force * np.exp(1j * phase)).real
 
     def advance(self, schedule: FlowSchedule) -> np.ndarray:
@@ -157,9 +158,7 @@ class NewmarkIntegrator:
         else:
             self._refresh_acceleration()
             k_b, c_b, bearing_load = self._substep_blocks(samples[1:])
-            phases = np.exp(1j * self.system.omega_rad_s * times[1:, None])
-            harmonic = (self.system.unbalance_force[None, :] * phases).real
-            loads = self.system.gravity_force + bearing_load @ self._select + harmonic
+            loads = self.system.gravity_force + bearing_load @ self._select + self._harmonic_load(times[1:])
             state = np.ascontiguousarray(self.state[:, None])
             self.state = self._steps(state, loads[:, :, None], k_b, c_b)[:, 0]
         self._last_flowrates = final if steady else None
