@@ -121,13 +121,15 @@ class ScenarioRun:
 
     def starving(self, bearing: int, on_fraction: float = 0.90) -> bool:
         """Whether bearing 1 or 2 ends below ``on_fraction`` of nominal (the alarm's default threshold)."""
-        final = (self.q1_ml_min if bearing == 1 else self.q2_ml_min)[1]
-        return final < on_fraction * NOMINAL_ML_MIN
+        return self._below(bearing, -1, on_fraction)
 
     def starved_initially(self, bearing: int, on_fraction: float = 0.90) -> bool:
         """Whether bearing 1 or 2 starts below ``on_fraction`` of nominal (a constant starved run)."""
-        initial = (self.q1_ml_min if bearing == 1 else self.q2_ml_min)[0]
-        return initial < on_fraction * NOMINAL_ML_MIN
+        return self._below(bearing, 0, on_fraction)
+
+    def _below(self, bearing: int, end: int, on_fraction: float) -> bool:
+        flowrates = self.q1_ml_min if bearing == 1 else self.q2_ml_min
+        return flowrates[end] < on_fraction * NOMINAL_ML_MIN
 
     def plant_parameters(self) -> dict[str, float]:
         """Parameter values of the RotorBearingPlant FMU."""
