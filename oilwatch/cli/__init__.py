@@ -25,6 +25,7 @@ SUBCOMMANDS: tuple[str, ...] = (
     "bearing_table",
     "study",
     "run",
+    "estimate",
     "demo",
 )
 
