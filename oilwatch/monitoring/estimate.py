@@ -191,14 +191,14 @@ class EstimateRun:
         with open(csv_path, "w", encoding="utf-8", newline="") as csv_file:
             writer = _RowWriter(csv_file, self.live_stream, self.options.output_every)
             for block in self.stream.blocks():
-                arrived = time.perf_counter()
-                if self.filter is None:
+                first = self.filter is None
+                if first:
                     self._start(int(block.k[0]), writer)
                     started = time.perf_counter()
                 rows = self._estimate(block)
                 writer.write(rows)
-                if self.options.live:
-                    self.latency_s.append(time.perf_counter() - arrived)
+                if self.options.live and not first:  # from the arrival of the line to its estimate written
+                    self.latency_s.append(time.perf_counter() - self.stream.reader.received_s)
                 self.history.add(block, rows, self._columns)
         if self.filter is None:
             raise InputError(f"{self.stream.reader.name}: no sample to estimate from (record too short)")

@@ -15,6 +15,7 @@ from __future__ import annotations
 import itertools
 import math
 import sys
+import time
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -24,6 +25,8 @@ import numpy as np
 from models.validation import InputError
 
 STDIN = "-"
+SMALL_CHUNK = 64
+"""Fewer lines than this are parsed cell by cell (numpy's parser costs more per call than it saves)."""
 FORMATS = {".csv": "csv", ".txt": "csv", ".parquet": "parquet", ".pq": "parquet", ".tdms": "tdms"}
 Progress = Callable[[int], None]
 """Called with the amount read since the last call (bytes for CSV, rows otherwise)."""
@@ -102,19 +105,29 @@ def _parse_cell(text: str) -> float:
 
 
 class CsvReader(RecordReader):
-    """Comma-separated text with a header line; empty cells and ``nan`` are missing values."""
+    """Comma-separated text with a header line; empty cells and ``nan`` are missing values.
+
+    Standard input is read as it arrives (a pipe from a data acquisition): each complete line is processed
+    as soon as it is there, several together when they arrived together."""
 
     progress_unit = "B"
 
     def __init__(self, source: str, time_column: str) -> None:
         self.name = "standard input" if source == STDIN else source
-        self._stream = sys.stdin if source == STDIN else open(source, encoding="utf-8", newline="")
-        self.total = None if source == STDIN else Path(source).stat().st_size
-        header = self._stream.readline()
+        self.live = source == STDIN
+        self.total = None if self.live else Path(source).stat().st_size
+        self._pending = b""
+        if self.live:
+            self._stream = sys.stdin.buffer
+            header = next(self._live_lines(header=True), [""])[0]
+        else:
+            self._stream = open(source, encoding="utf-8", newline="")  # closed by close()
+            header = self._stream.readline()
         if not header.strip():
             raise RecordError(f"{self.name}: empty record (no header line)")
         self.available = tuple(name.strip() for name in header.strip().split(","))
         self.units = {}
+        self.received_s = 0.0
         self._header_bytes = len(header.encode())
         self.time_column = time_column
         self.require(time_column, "time")
@@ -129,26 +142,59 @@ class CsvReader(RecordReader):
         row = 1
         if progress:
             progress(self._header_bytes)
-        while True:
-            lines = list(itertools.islice(self._stream, chunk_rows))
-            lines = [line for line in lines if line.strip()]
+        batches = self._live_lines() if self.live else self._file_lines(chunk_rows)
+        for batch in batches:
+            lines = [line for line in batch if line.strip()]
             if not lines:
-                return
+                continue
+            self.received_s = time.perf_counter()
             table = self._parse(lines, row, width)
             if progress:
                 progress(sum(len(line) for line in lines))
-            yield Chunk(
-                row, table[:, time_index], {c: table[:, i] for c, i in zip(present, index, strict=True)}
-            )
+            selected = {c: table[:, i] for c, i in zip(present, index, strict=True)}
+            yield Chunk(row, table[:, time_index], selected)
             row += len(lines)
 
+    def _file_lines(self, chunk_rows: int) -> Iterator[list[str]]:
+        while True:
+            lines = list(itertools.islice(self._stream, chunk_rows))
+            if not lines:
+                return
+            yield lines
+
+    def _live_lines(self, header: bool = False) -> Iterator[list[str]]:
+        """The complete lines available on standard input as soon as there is one (``header``: only the
+        first line)."""
+        while True:
+            cut = self._pending.find(b"\n") if header else self._pending.rfind(b"\n")
+            if cut >= 0:
+                complete, self._pending = self._pending[: cut + 1], self._pending[cut + 1 :]
+                yield complete.decode().splitlines()
+                if header:
+                    return
+                continue
+            data = self._stream.read1(1 << 16)
+            if not data:
+                if self._pending.strip():
+                    rest, self._pending = self._pending, b""
+                    yield [rest.decode()]
+                return
+            self._pending += data
+
     def _parse(self, lines: list[str], first_row: int, width: int) -> np.ndarray:
+        if len(lines) < SMALL_CHUNK:
+            return self._parse_slowly(lines, first_row, width)
         try:
             table = np.loadtxt(lines, delimiter=",", ndmin=2, dtype=np.float64)
             if table.shape[1] == width:
                 return table
         except ValueError:
             pass
+        return self._parse_slowly(lines, first_row, width)
+
+    def _parse_slowly(self, lines: list[str], first_row: int, width: int) -> np.ndarray:
+        """Cell by cell (few lines, or a line numpy cannot read): empty cells are NaN; errors name the
+        cell."""
         table = np.empty((len(lines), width))
         for k, line in enumerate(lines):
             cells = line.rstrip("\r\n").split(",")
@@ -167,7 +213,7 @@ class CsvReader(RecordReader):
         return table
 
     def close(self) -> None:
-        if self._stream is not sys.stdin:
+        if not self.live:
             self._stream.close()
 
 
