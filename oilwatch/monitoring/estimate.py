@@ -238,35 +238,29 @@ class EstimateRun:
 
     def _estimate(self, block) -> np.ndarray:
         ekf = self.filter
-        count = block.k.size
         expected = self._first_k + ekf.step_count
         if int(block.k[0]) != expected:
             raise InputError(f"internal: grid index {int(block.k[0])} after {expected - 1}")  # bridged, never
-        rows = np.empty((count, len(self._columns)))
+        scale = 1.0 / ML_MIN
+        extras = self._extras
+        values = []
+        for position in block.position_m:
+            report = ekf.step(position)
+            q, std, starved = report.q_m3_s, report.q_std_m3_s, report.starved
+            row = [q[0], q[1], std[0], std[1], starved[0], starved[1], report.nis, report.n_measurements,
+                   report.converged, report.measurement_ok]  # fmt: skip
+            for name, factor, _ in extras:
+                row.extend(np.ravel(getattr(report, name)) * factor)
+            values.append(row)
+        table = np.array(values, dtype=np.float64)
+        table[:, :4] *= scale
+        rows = np.empty((table.shape[0], len(self._columns)))
         rows[:, 0] = block.time_s
+        rows[:, 1:11] = table[:, :10]
         rows[:, 11:15] = block.position_m * 1e6
         rows[:, 15] = block.speed_hz
         rows[:, 16] = block.oil_temperature_c
-        scale = 1.0 / ML_MIN
-        extras = self._extras
-        for i in range(count):
-            report = ekf.step(block.position_m[i])
-            row = rows[i]
-            q, std, starved = report.q_m3_s, report.q_std_m3_s, report.starved
-            row[1] = q[0] * scale
-            row[2] = q[1] * scale
-            row[3] = std[0] * scale
-            row[4] = std[1] * scale
-            row[5] = starved[0]
-            row[6] = starved[1]
-            row[7] = report.nis
-            row[8] = report.n_measurements
-            row[9] = report.converged
-            row[10] = report.measurement_ok
-            column = 17
-            for name, factor, size in extras:
-                row[column : column + size] = np.ravel(getattr(report, name)) * factor
-                column += size
+        rows[:, 17:] = table[:, 10:]
         return rows
 
 
@@ -313,6 +307,7 @@ def final_window(duration_s: float) -> float:
 def summarize(run: EstimateRun, wall_s: float, csv_path: Path) -> dict:
     """summary.json: final estimates, alarms, record provenance, speed and timing."""
     history = run.history
+    history.flush()
     nominal = run.filter.config.q_nominal_m3_s / ML_MIN
     duration = history.duration_s
     window = final_window(duration)

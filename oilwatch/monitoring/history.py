@@ -13,6 +13,7 @@ TREND_BIN_S = 0.01
 SLOW_BIN_S = 0.5
 ORBIT_S = 1.0
 FINAL_RING_S = 30.0
+BATCH_ROWS = 1024
 # estimates.csv column positions (oilwatch.monitoring.estimate.estimate_columns)
 TIME, Q, STD, STARVED, NIS, CONVERGED, OK, POSITION, SPEED, TEMPERATURE = (
     0, slice(1, 3), slice(3, 5), slice(5, 7), 7, 9, 10, slice(11, 15), 15, 16
@@ -54,6 +55,31 @@ class _Bins:
             return np.concatenate(self._times), np.where(counts > 0, sums / counts, np.nan)
 
 
+class _Ring:
+    """The last ``size`` rows of a (n, width) series (a circular buffer: O(rows added) per call)."""
+
+    def __init__(self, size: int, width: int) -> None:
+        self.data = np.full((size, width), np.nan)
+        self.count = 0
+
+    def add(self, values: np.ndarray) -> None:
+        size = self.data.shape[0]
+        values = values[-size:]
+        n = values.shape[0]
+        start = self.count % size
+        first = min(n, size - start)
+        self.data[start : start + first] = values[:first]
+        self.data[: n - first] = values[first:]
+        self.count += n
+
+    def last(self, n: int) -> np.ndarray:
+        """The last ``n`` rows in order (at most the buffer's size, at most those added)."""
+        size = self.data.shape[0]
+        n = min(n, size, self.count)
+        index = (self.count - n + np.arange(n)) % size
+        return self.data[index]
+
+
 class History:
     """Accumulates the rows of :class:`oilwatch.monitoring.estimate.EstimateRun` (module docstring)."""
 
@@ -65,35 +91,54 @@ class History:
         self.slow = _Bins(max(1, round(SLOW_BIN_S / dt_s)), 4 + 4 + 2)  # positions, valid, ok, nis
         self.extra_bins: _Bins | None = None
         self.extra_names: list[str] = []
-        ring = max(1, round(FINAL_RING_S / dt_s))
-        self._ring = np.full((ring, 4), np.nan)
+        self._final = _Ring(max(1, round(FINAL_RING_S / dt_s)), 4)
         self._orbit_n = max(2, round(ORBIT_S / dt_s))
-        self.orbit_start: tuple[np.ndarray, np.ndarray] | None = None
         self._start_k: list[np.ndarray] = []
         self._start_p: list[np.ndarray] = []
-        self._end_k = np.zeros(0, dtype=np.int64)
-        self._end_p = np.zeros((0, 4))
+        self._start_count = 0
+        self._end = _Ring(self._orbit_n, 5)  # k, positions
         self.alarms: list[dict] = []
         self.last_starved = np.zeros(2, dtype=bool)
         self._speed = [math.inf, -math.inf, 0.0, 0]  # min, max, sum, count
         self.last_time_s: float | None = None
         self.first_time_s: float | None = None
+        self._pending: list[tuple[np.ndarray, np.ndarray]] = []
+        self._pending_rows = 0
+        self._columns: list[str] = []
 
     @property
     def duration_s(self) -> float:
-        return self.samples * self.dt
+        return (self.samples + self._pending_rows) * self.dt
 
     def add(self, block, rows: np.ndarray, columns: list[str]) -> None:
+        """Keep a block's rows (processed in batches of :data:`BATCH_ROWS`: a live record comes line by line,
+        and the bins cost per call, not per row)."""
+        self._pending.append((block.k, rows))
+        self._pending_rows += rows.shape[0]
+        self._columns = columns
+        if self._pending_rows >= BATCH_ROWS:
+            self.flush()
+
+    def flush(self) -> None:
+        """Process the rows kept by :meth:`add` (call before reading the results)."""
+        if not self._pending:
+            return
+        k = np.concatenate([item[0] for item in self._pending])
+        rows = np.vstack([item[1] for item in self._pending])
+        self._pending, self._pending_rows = [], 0
+        self._process(k, rows, self._columns)
+
+    def _process(self, k: np.ndarray, rows: np.ndarray, columns: list[str]) -> None:
         count = rows.shape[0]
         if self.first_k is None:
-            self.first_k = int(block.k[0])
+            self.first_k = int(k[0])
             self.first_time_s = float(rows[0, TIME])
             self.extra_names = [name for name in columns[17:] if _is_health(name)]
             if self.extra_names:
                 self.extra_bins = _Bins(self.slow.size, len(self.extra_names))
             self._extra_index = [columns.index(name) for name in self.extra_names]
             self._consistent = columns.index("model_consistent") if "model_consistent" in columns else None
-        index = block.k - self.first_k
+        index = k - self.first_k
         times = rows[:, TIME]
         self.last_time_s = float(times[-1])
         self.trend.add(index, times, np.column_stack([rows[:, Q], rows[:, STD], rows[:, STARVED]]))
@@ -105,7 +150,7 @@ class History:
             self.extra_bins.add(index, times, rows[:, self._extra_index])
         self._alarm_events(rows)
         self._final_ring(rows)
-        self._orbits(block.k, positions)
+        self._orbits(k, positions)
         speed = rows[:, SPEED]
         finite = speed[np.isfinite(speed)]
         if finite.size:
@@ -132,29 +177,19 @@ class History:
         self.last_starved = starved[-1].copy()
 
     def _final_ring(self, rows: np.ndarray) -> None:
-        values = np.column_stack([rows[:, Q], rows[:, STD]])
-        ring = self._ring
-        n = ring.shape[0]
-        if values.shape[0] >= n:
-            ring[:] = values[-n:]
-        else:
-            ring[: -values.shape[0]] = ring[values.shape[0] :]
-            ring[-values.shape[0] :] = values
+        self._final.add(np.column_stack([rows[:, Q], rows[:, STD]]))
 
     def _orbits(self, k: np.ndarray, positions: np.ndarray) -> None:
-        have = sum(p.shape[0] for p in self._start_p)
-        if have < self._orbit_n:
-            take = self._orbit_n - have
+        if self._start_count < self._orbit_n:
+            take = self._orbit_n - self._start_count
             self._start_k.append(k[:take])
             self._start_p.append(positions[:take])
-        n = self._orbit_n
-        self._end_k = np.concatenate([self._end_k, k])[-n:]
-        self._end_p = np.vstack([self._end_p, positions])[-n:]
+            self._start_count += min(take, k.size)
+        self._end.add(np.column_stack([k, positions]))
 
     def final_means(self, window_s: float) -> dict:
         """Mean estimate and mean reported std over the last ``window_s`` (and the estimate's spread)."""
-        n = min(self.samples, max(1, round(window_s / self.dt)), self._ring.shape[0])
-        tail = self._ring[-n:]
+        tail = self._final.last(max(1, round(window_s / self.dt)))
         out = {}
         for b in (0, 1):
             q, std = tail[:, b], tail[:, 2 + b]
@@ -180,7 +215,8 @@ class History:
     def orbits(self) -> dict[str, tuple[np.ndarray, np.ndarray]]:
         """{"start": (k, positions), "end": (k, positions)} at full rate (positions [um])."""
         start = (np.concatenate(self._start_k), np.vstack(self._start_p)) if self._start_p else None
-        return {"start": start, "end": (self._end_k, self._end_p)}
+        end = self._end.last(self._orbit_n)
+        return {"start": start, "end": (end[:, 0].astype(np.int64), end[:, 1:])}
 
 
 def _is_health(name: str) -> bool:

@@ -108,6 +108,11 @@ class GridResampler:
         return out_t[keep], out[keep]
 
     def _interpolate(self, t: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        on_grid = self._on_grid(t)
+        if on_grid is not None:
+            self._tail = (float(t[-1]), v[-1].copy())
+            self._next_k = int(on_grid[-1]) + 1
+            return on_grid, v
         if self._tail is not None:
             t = np.concatenate([[self._tail[0]], t])
             v = np.vstack([self._tail[1][None, :], v])
@@ -132,6 +137,21 @@ class GridResampler:
         w = weight[:, None]
         out = np.where(w == 1.0, right_v, np.where(w == 0.0, left_v, left_v + w * (right_v - left_v)))
         return k, out
+
+    def _on_grid(self, t: np.ndarray) -> np.ndarray | None:
+        """The grid indices of ``t`` when every time is a grid point following the last one (a record at the
+        grid's rate, the common case, passed through without interpolation), else None."""
+        if t.size == 0 or self.taps.size != 1:
+            return None
+        position = t / self.dt
+        k = np.rint(position)
+        if np.abs(position - k).max() > SNAP:
+            return None
+        k = k.astype(np.int64)
+        first = self._next_k if self._next_k is not None else int(k[0])
+        if k[0] != first or (k.size > 1 and np.any(np.diff(k) != 1)):
+            return None
+        return k
 
 
 class Keyphasor:
