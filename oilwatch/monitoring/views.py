@@ -81,8 +81,10 @@ def _trend(history: History, summary: dict):
         title = f"bearing {b + 1}: {summary['verdict'][f'bearing{b + 1}']}"
         ax.set_title(title if final is not None else f"bearing {b + 1}", fontsize=10)
         ax.set_ylabel("supply flowrate [ml/min]")
-        low = np.nanmin(q - 2 * std) if q.size else 0.5 * nominal
-        high = np.nanmax(q + 2 * std) if q.size else 1.5 * nominal
+        # the range of the converged part: the first 5 % (at most 1 s) hold the start-up transient
+        settled = times >= times[0] + min(1.0, 0.05 * (times[-1] - times[0])) if times.size else times
+        low = np.nanmin((q - 2 * std)[settled]) if settled.any() else 0.5 * nominal
+        high = np.nanmax((q + 2 * std)[settled]) if settled.any() else 1.5 * nominal
         ax.set_ylim(max(0.0, min(low, 0.85 * nominal)), max(high, 1.05 * nominal))
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7, loc="lower left", ncol=5)
@@ -107,6 +109,10 @@ def _centerline(history: History, summary: dict):
         ax.set_aspect("equal")
         ax.set_xlim(-1.1 * clearance_um, 1.1 * clearance_um)
         ax.set_ylim(-1.1 * clearance_um, 1.1 * clearance_um)
+        if x.size:
+            eccentricity = math.hypot(x[-1], y[-1]) / clearance_um
+            ax.annotate(f"last: ({x[-1]:.1f}, {y[-1]:.1f}) um, e/c = {eccentricity:.3f}", (0.02, 0.02),
+                        xycoords="axes fraction", fontsize=8)  # fmt: skip
         ax.set_title(f"bearing {b + 1}: average position (0.5 s means)", fontsize=10)
         ax.set_xlabel("x [um] (horizontal)")
         ax.set_ylabel("y [um] (vertical)")

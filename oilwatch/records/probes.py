@@ -270,8 +270,14 @@ class PositionConverter:
         return readings * self._scale + self._offset
 
     def positions_m(self, readings: np.ndarray) -> np.ndarray:
-        """(k, 4) readings -> (k, 4) (x1, y1, x2, y2) [m]; a NaN reading makes its bearing's pair NaN."""
-        return self.along_axis_m(readings) @ self._inverse.T
+        """(k, 4) readings -> (k, 4) (x1, y1, x2, y2) [m]. A missing (NaN) reading makes missing only the
+        coordinates it enters: both of its bearing for inclined probes, one for probes along x and y."""
+        along = self.along_axis_m(readings)
+        out = np.zeros_like(along)
+        for i, row in enumerate(self._inverse):
+            for j in np.flatnonzero(row):
+                out[:, i] += row[j] * along[:, j]
+        return out
 
     def readings(self, positions_m: np.ndarray) -> np.ndarray:
         """The inverse map: (k, 4) (x1, y1, x2, y2) [m] -> readings in the probes' units (for writing
