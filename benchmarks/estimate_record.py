@@ -155,24 +155,23 @@ def main() -> None:
         record = work / "long.csv"
         started = time.perf_counter()
         rows = write_long_record(record, args.hours)
-        print(
-            f"record: {rows} rows ({record.stat().st_size / 1e6:.0f} MB) written in {time.perf_counter() - started:.0f} s"
-        )
+        size_mb = record.stat().st_size / 1e6
+        print(f"record: {rows} rows ({size_mb:.0f} MB) written in {time.perf_counter() - started:.0f} s")
         bare = bare_estimator_us_per_sample(record)
         print(f"baseline: bare estimator loop (OilFlowEKF.run, 60 s of the record) {bare:.1f} us/sample")
         result = run_command(record, work / "out")
         summary = result["summary"]
-        duration = summary["duration_s"]
+        duration, wall = summary["duration_s"], result["wall_s"]
+        per_sample = summary["wall_s"] / summary["samples"] * 1e6
         print(
-            f"oilwatch estimate: {duration:.0f} s of record in {result['wall_s']:.1f} s wall (whole command) = "
-            f"{duration / result['wall_s']:.1f}x real time; estimation after set-up {summary['wall_s']:.1f} s "
-            f"= {summary['realtime_factor']:.1f}x; {summary['wall_s'] / summary['samples'] * 1e6:.1f} us/sample "
-            f"= {summary['wall_s'] / summary['samples'] * 1e6 / bare:.2f}x the bare estimator"
+            f"oilwatch estimate: {duration:.0f} s of record in {wall:.1f} s wall (whole command) = "
+            f"{duration / wall:.1f}x real time; estimation after set-up {summary['wall_s']:.1f} s = "
+            f"{summary['realtime_factor']:.1f}x; {per_sample:.1f} us/sample = {per_sample / bare:.2f}x the bare "
+            "estimator"
         )
         print(f"peak resident memory of the command: {result['peak_rss_mb']:.0f} MB")
-        print(
-            f"final estimates: q1 {summary['q1_final_ml_min']:.2f}, q2 {summary['q2_final_ml_min']:.2f} ml/min"
-        )
+        q1, q2 = summary["q1_final_ml_min"], summary["q2_final_ml_min"]
+        print(f"final estimates: q1 {q1:.2f}, q2 {q2:.2f} ml/min")
         if args.live_s > 0:
             live = live_latency(record, work / "live", args.live_s)
             print(

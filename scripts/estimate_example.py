@@ -3,13 +3,14 @@
 The in-process plant (full model) at 1 kHz for 8 s, bearing 1's supply dropping from 100 % to 75 %
 (sigmoid centred at 4 s, 0.1 s), 1 um probe noise; the record loses 50 ms of data at 2.5 s (a gap,
 bridged) and probe y2 reads nothing for 0.5 s from 6 s. Writes docs/estimate_example/record.csv and the
-estimate's files beside it; the README shows the views.
+estimate's files beside it, and copies the four views to docs/estimate_<view>.png for the README.
 
     OPENBLAS_NUM_THREADS=1 MPLBACKEND=Agg python scripts/estimate_example.py
 """
 
 from __future__ import annotations
 
+import shutil
 import sys
 from pathlib import Path
 
@@ -22,6 +23,7 @@ sys.path.insert(0, str(ROOT / "tests"))
 from fixtures.plant_records import plant_run  # noqa: E402
 
 from oilwatch.cli import main  # noqa: E402
+from oilwatch.monitoring.views import VIEW_FILES  # noqa: E402
 from oilwatch.records.writers import write_record  # noqa: E402
 
 OUT = ROOT / "docs" / "estimate_example"
@@ -42,4 +44,7 @@ def make_record(path: Path) -> Path:
 if __name__ == "__main__":
     OUT.mkdir(parents=True, exist_ok=True)
     record = make_record(OUT / "record.csv")
-    sys.exit(main(["estimate", str(record), "--out", str(OUT), "--no-progress"]))
+    code = main(["estimate", str(record), "--out", str(OUT), "--no-progress"])
+    for name in VIEW_FILES.values():
+        shutil.copyfile(OUT / name, OUT.parent / f"estimate_{name}")
+    sys.exit(code)

@@ -42,6 +42,14 @@ def test_api670_gap_voltages_give_the_shaft_position_and_cold_rest_is_the_bottom
     assert volts[0] > -10.0  # moved towards the X probe
 
 
+def test_a_missing_reading_blanks_only_the_coordinates_it_enters():
+    readings = np.array([[1.0, 2.0, 3.0, np.nan]])
+    along_axes = PositionConverter(probe_setup(), CLEARANCE_M).positions_m(readings)
+    np.testing.assert_array_equal(np.isnan(along_axes[0]), [False, False, False, True])
+    inclined = PositionConverter(probe_setup({"layout": "api670"}), CLEARANCE_M).positions_m(readings)
+    np.testing.assert_array_equal(np.isnan(inclined[0]), [False, False, True, True])
+
+
 def test_probe_keys_from_the_machine_file_are_checked_and_overridden_on_the_command_line():
     setup = probe_setup({"x1": {"column": "ch0"}, "noise_um": 2.0}, ["x1.column=ch9", "y2.angle_deg=80"])
     assert setup.probe("x1").column == "ch9" and setup.noise_um == 2.0 and setup.probe("y2").angle_deg == 80.0
