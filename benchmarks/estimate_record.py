@@ -166,8 +166,8 @@ def main() -> None:
         print(
             f"oilwatch estimate: {duration:.0f} s of record in {wall:.1f} s wall (whole command) = "
             f"{duration / wall:.1f}x real time; estimation after set-up {summary['wall_s']:.1f} s = "
-            f"{summary['realtime_factor']:.1f}x; {per_sample:.1f} us/sample = {per_sample / bare:.2f}x the bare "
-            "estimator"
+            f"{summary['realtime_factor']:.1f}x; {per_sample:.1f} us/sample = {per_sample / bare:.2f}x the "
+            "bare estimator"
         )
         print(f"peak resident memory of the command: {result['peak_rss_mb']:.0f} MB")
         q1, q2 = summary["q1_final_ml_min"], summary["q2_final_ml_min"]
