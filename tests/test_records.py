@@ -206,6 +206,15 @@ def test_columns_that_are_missing_or_in_a_unit_that_cannot_be_right(
     assert message in error and len(error.splitlines()) == 1, error
 
 
+def test_a_missing_record_file_or_an_output_that_is_a_file_is_one_line(tmp_path, capsys):
+    assert main(["estimate", str(tmp_path / "none.csv"), "--no-progress"]) == 2
+    assert "none.csv: no such record file" in capsys.readouterr().err
+    record, blocker = _csv(tmp_path, _good_rows()), tmp_path / "file"
+    blocker.write_text("")
+    assert main(["estimate", str(record), "--out", str(blocker), "--no-progress"]) == 2
+    assert "exists and is not a folder" in capsys.readouterr().err
+
+
 def test_a_gap_is_bridged_with_missing_samples_and_reported(tmp_path):
     rows = _good_rows(300)
     path = _csv(tmp_path, rows[:100] + rows[140:])

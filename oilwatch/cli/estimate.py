@@ -79,6 +79,8 @@ def run(args: argparse.Namespace) -> int:
     if STDIN in args.records and len(args.records) > 1:
         raise InputError("- (standard input) must be the only record")
     live = args.records == [STDIN]
+    if args.out and Path(args.out).exists() and not Path(args.out).is_dir():
+        raise InputError(f"--out {args.out}: exists and is not a folder")
     options = EstimateOptions(
         machine_file=args.machine,
         probe_overrides=tuple(args.probe),
