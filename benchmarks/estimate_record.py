@@ -169,6 +169,11 @@ def main() -> None:
             f"{summary['realtime_factor']:.1f}x; {per_sample:.1f} us/sample = {per_sample / bare:.2f}x the "
             "bare estimator"
         )
+        share = summary["estimator_s"] / summary["wall_s"]
+        print(
+            f"  of which the estimator's steps {summary['estimator_s']:.1f} s ({100 * share:.0f} %): the "
+            f"command costs {1 / share:.2f}x its estimator, measured in the same process at the same time"
+        )
         print(f"peak resident memory of the command: {result['peak_rss_mb']:.0f} MB")
         q1, q2 = summary["q1_final_ml_min"], summary["q2_final_ml_min"]
         print(f"final estimates: q1 {q1:.2f}, q2 {q2:.2f} ml/min")
