@@ -253,3 +253,27 @@ def test_parquet_and_tdms_readers_give_the_csv_reader_s_samples(tmp_path):
         RecordStream(str(wrong), probe_setup(), CLEARANCE_M, 1e-3, 75.0)
     with pytest.raises(InputError, match=re.escape("unknown record format '.xlsx'")):
         RecordStream(str(tmp_path / "r.xlsx"), probe_setup(), CLEARANCE_M, 1e-3, 75.0)
+
+
+def test_further_fields_of_the_estimator_s_step_report_become_estimate_columns_in_field_units():
+    from dataclasses import dataclass
+
+    from estimator.ekf import StepReport
+    from oilwatch.monitoring.estimate import estimate_columns
+
+    @dataclass(slots=True)
+    class NuisanceReport(StepReport):  # what issue 14's estimator may add
+        offset_m: np.ndarray = None
+        probe_ok: np.ndarray = None
+        model_consistent: bool = True
+        viscosity_factor: np.ndarray = None
+
+    report = NuisanceReport(0, np.zeros(2), np.zeros(2), 0.0, 4, False, True, np.zeros(2, bool),
+                            np.zeros(4), np.ones(4, bool), True, np.ones(2))  # fmt: skip
+    columns, extras = estimate_columns(report)
+    assert columns[:5] == ["time_s", "q1_est_ml_min", "q2_est_ml_min", "q1_std_ml_min", "q2_std_ml_min"]
+    assert columns[17:] == [
+        "offset_x1_um", "offset_y1_um", "offset_x2_um", "offset_y2_um", "probe_ok_x1", "probe_ok_y1",
+        "probe_ok_x2", "probe_ok_y2", "model_consistent", "viscosity_factor_b1", "viscosity_factor_b2",
+    ]  # fmt: skip
+    assert extras[0] == ("offset_m", 1e6, 4)

@@ -186,9 +186,9 @@ def _describe(summary: dict) -> str:
         lines.append(f"  bearing {b}: {numbers}; {summary['verdict'][f'bearing{b}']}")
     for alarm in summary["alarms"]:
         lines.append(f"  alarm: bearing {alarm['bearing']} at {alarm['time_s']:.3f} s")
-    if record["gaps"]:
+    if record["gap_count"]:
         lines.append(
-            f"  {len(record['gaps'])} gap(s) bridged with missing samples, the first at row "
+            f"  {record['gap_count']} gap(s) bridged with missing samples, the first at row "
             f"{record['gaps'][0]['row']}"
         )
     lines.append(

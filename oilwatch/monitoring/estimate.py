@@ -252,7 +252,7 @@ class EstimateRun:
             row = [q[0], q[1], std[0], std[1], starved[0], starved[1], report.nis, report.n_measurements,
                    report.converged, report.measurement_ok]  # fmt: skip
             for name, factor, _ in extras:
-                row.extend(np.ravel(getattr(report, name)) * factor)
+                row.extend(np.ravel(np.asarray(getattr(report, name), dtype=np.float64)) * factor)
             values.append(row)
         self.estimator_s += time.perf_counter() - started
         table = np.array(values, dtype=np.float64)

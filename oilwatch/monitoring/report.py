@@ -53,7 +53,6 @@ def write_report(summary: dict, out_dir: Path) -> Path:
         )
         or "<tr><td colspan='4'>no alarm</td></tr>"
     )
-    gaps = record["gaps"]
     facts = [
         ("record", record["source"]),
         ("format", record["format"]),
@@ -66,7 +65,7 @@ def write_report(summary: dict, out_dir: Path) -> Path:
         ("keyphasor pulses", record["keyphasor_pulses"]),
         ("time origin shift [s]", f"{record['time_shift_s']:.6f}"),
         ("speed source", record["speed_source"]),
-        ("gaps bridged", f"{len(gaps)} ({sum(g['missing_samples'] for g in gaps)} samples)"),
+        ("gaps bridged", f"{record['gap_count']} ({record['missing_samples']} missing samples)"),
         ("machine file", summary["machine_file"]),
         ("estimator", summary["estimator"]["model"]),
         ("real-time factor", _number(summary["realtime_factor"], 1)),

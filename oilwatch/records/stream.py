@@ -34,6 +34,8 @@ from .signal import GridResampler, Keyphasor
 
 GAP_FACTOR = 1.5
 MAX_GAP_S = 60.0
+MAX_LISTED_GAPS = 100
+"""Gaps listed one by one in the provenance (all are counted)."""
 """A longer interruption is an error (split the record there)."""
 MAX_SPEED_HZ = 2000.0
 OIL_TEMPERATURE_RANGE_C = (-40.0, 250.0)
@@ -74,6 +76,8 @@ class RecordStream:
     anti_alias_taps: int = 1
     speed_source: str = "none"
     gaps: list[dict] = field(default_factory=list)
+    gap_count: int = 0
+    missing_samples: int = 0
     reader: RecordReader | None = None
 
     def __post_init__(self) -> None:
@@ -260,14 +264,17 @@ class RecordStream:
                 )
             missing = round(span / interval) - 1
             before = float(t_all[g])
-            self.gaps.append(
-                {
-                    "row": int(chunk.first_row + index),
-                    "from_s": before,
-                    "to_s": float(t_all[g + 1]),
-                    "missing_samples": int(missing),
-                }
-            )
+            self.gap_count += 1
+            self.missing_samples += int(missing)
+            if len(self.gaps) < MAX_LISTED_GAPS:
+                self.gaps.append(
+                    {
+                        "row": int(chunk.first_row + index),
+                        "from_s": before,
+                        "to_s": float(t_all[g + 1]),
+                        "missing_samples": int(missing),
+                    }
+                )
             pieces_t += [t[start:index], before + interval * np.arange(1, missing + 1)]
             for name, values in chunk.columns.items():
                 pieces[name] += [values[start:index], np.full(missing, np.nan)]
@@ -331,6 +338,8 @@ class RecordStream:
             "rows_before_keyphasor": self.rows_before_keyphasor,
             "speed_source": self.speed_source,
             "gaps": self.gaps,
+            "gap_count": self.gap_count,
+            "missing_samples": self.missing_samples,
             "probes": self.setup.to_dict(),
         }
 
