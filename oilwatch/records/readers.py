@@ -293,7 +293,7 @@ class TdmsReader(RecordReader):
             if "unit_string" in ch.properties
         }
         self.time_column = time_column
-        self.total = None
+        self.total = max((len(channel) for _, channel in channels), default=0)  # from the metadata
 
     def chunks(
         self, columns: Sequence[str], chunk_rows: int, progress: Progress | None = None
