@@ -16,17 +16,17 @@ def register(subparsers) -> None:
         description=(
             "Estimate both bearings' oil supply flowrates from recorded proximity-probe signals, with "
             "oilwatch's estimator (the OilFlowEKF FMU's filter, in-process, its default tuning). Records: "
-            "CSV (time_s and one column per probe in um along its axis, as 'oilwatch run' writes; "
-            "optional speed_hz and oil_temperature_c), Parquet or NI TDMS (gap voltages in V need "
-            "probes.*.unit = 'V' and rest_gap_v); '-' reads CSV from standard input line by line and "
-            "prints each estimate line as soon as it is computed. The channel mapping and probe conventions "
-            "come from the machine file's [probes] table (see the README), overridden by --probe. Any "
-            "sample rate at or above 1 kHz is anti-alias filtered onto the estimator's 1 kHz grid. Writes "
-            "DIR/estimates.csv (flushed block by block), DIR/summary.json, DIR/trend.png, "
-            "DIR/centerline.png, DIR/orbits.png, DIR/probe_health.png and DIR/report.html. Several records "
-            "run as Dask tasks, one output folder each (DIR/<record name>/). Exit code 2 on a bad record "
-            "(one line naming the column and the row), 130 when interrupted (estimates.csv keeps the rows "
-            "done)."
+            "CSV (time_s and one column per probe in um along its axis, the record format of 'oilwatch "
+            "baseline'; optional speed_hz and oil_temperature_c), Parquet or NI TDMS (gap voltages in V "
+            "need probes.*.unit = 'V' and rest_gap_v); '-' reads CSV from standard input line by line and "
+            "prints each estimate line as soon as it is computed. The channel mapping and probe "
+            "conventions come from the machine file's [probes] table (see the README), overridden by "
+            "--probe. Any sample rate at or above 1 kHz is anti-alias filtered onto the estimator's 1 kHz "
+            "grid. Writes DIR/estimates.csv (flushed block by block), DIR/summary.json, DIR/trend.png, "
+            "DIR/centerline.png, DIR/orbits.png, DIR/probe_health.png and DIR/report.html. Several "
+            "records run as Dask tasks, one output folder each (DIR/<record name>/). Exit code 2 on a bad "
+            "record (one line naming the column and the row), 130 when interrupted (estimates.csv keeps "
+            "the rows done)."
         ),
     )
     parser.add_argument(

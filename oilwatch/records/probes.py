@@ -12,7 +12,7 @@ Conventions (API 670; Bently Nevada's "Fundamentals of Rotating Machinery Diagno
   probe at 45 deg (45 deg to the +x side of top dead centre) and the Y probe at 135 deg (the other side);
   seen from the other end of the machine, an angle a becomes 180 - a.
 * ``unit = "um"``: the column is the displacement along the probe axis in um, ``zero_um`` being its reading
-  with the shaft at the bearing centre (default 0: the format of ``oilwatch run`` and ``oilwatch baseline``).
+  with the shaft at the bearing centre (default 0: the record format of ``oilwatch baseline``).
 * ``unit = "V"``: the column is the gap voltage [V], negative (the gap grows as the voltage falls), with the
   scale factor ``sensitivity_v_per_mm`` (API 670: 200 mV/mil = 7.87 V/mm) and ``rest_gap_v``, the reading at
   cold rest. At rest the journal lies on the bottom of the clearance, at (0, -c) from the bearing centre,

@@ -17,7 +17,7 @@
    (:class:`oilwatch.records.signal.GridResampler`).
 
 Time: the estimator's model time is ``tau = t - time_shift_s`` (0 without a keyphasor: the record's time is
-the model's, as in ``oilwatch run``'s output); the grid is ``tau = k dt``.
+the model's, as in the plant FMU's outputs); the grid is ``tau = k dt``.
 """
 
 from __future__ import annotations
