@@ -38,8 +38,9 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import numpy as np
 from filterpy.kalman import ExtendedKalmanFilter
 
-from estimator.config import NOMINAL_FLOWRATE_M3_S, EKFConfig
+from estimator.config import EKFConfig
 from estimator.ekf import OilFlowEKF
+from estimator.toy_model import NOMINAL_FLOWRATE_M3_S
 from models.machine import load_machine
 from models.system.augmented import GridAugmentedModel
 from models.system.factory import flowrate_table_path, load_system

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from estimator.alarm import StarvationAlarm
-from estimator.config import NOMINAL_FLOWRATE_M3_S, AlarmConfig, EKFConfig
+from estimator.config import AlarmConfig, EKFConfig
 from estimator.ekf import OilFlowEKF
-from estimator.toy_model import ToyRotor, simulate
+from estimator.toy_model import NOMINAL_FLOWRATE_M3_S, ToyRotor, simulate
 
 QN = NOMINAL_FLOWRATE_M3_S
 DT = 1e-3

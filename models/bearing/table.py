@@ -19,13 +19,13 @@ import dataclasses
 import datetime as dt
 import json
 import platform
+from collections.abc import Callable
 from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
 
 import numpy as np
 from scipy.interpolate import PchipInterpolator
-from tqdm import tqdm
 
 from ..validation import InputError, require_positive
 from .equilibrium import (
@@ -212,7 +212,7 @@ def compute_table(
     speed_hz: float,
     flowrates_m3_s,
     mesh: Mesh | None = None,
-    progress: bool = True,
+    progress: Callable[[int, int], None] | None = None,
     *,
     flooded_threshold_m3_s: float | None = None,
     provenance: dict | None = None,
@@ -233,7 +233,9 @@ def compute_table(
         require_positive("supply flowrate", q, "m^3/s")
     rows = []
     guess = None
-    for q in tqdm(flows, desc="bearing table", unit="flowrate", disable=not progress):
+    for done, q in enumerate(flows):
+        if progress is not None:
+            progress(done, len(flows))
         supply = SupplyFlow(q)
         eq = static_equilibrium(bearing, load_n, speed_hz, supply, mesh, initial_guess_m=guess)
         stiffness, damping = coefficients_at(bearing, eq, speed_hz, supply, mesh)

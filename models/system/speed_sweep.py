@@ -11,11 +11,11 @@ from __future__ import annotations
 import datetime
 import json
 import platform
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from tqdm import tqdm
 
 from .. import __version__
 from ..bearing.equilibrium import coefficients_at, static_equilibrium
@@ -99,12 +99,13 @@ def compute_speed_sweep(
     flowrate_m3_s: float,
     mesh: Mesh | None = None,
     command: str = "",
-    progress: bool = True,
+    progress: Callable[[int, int], None] | None = None,
     squeeze: str = "full-film",
 ) -> SpeedSweep:
     """Equilibrium and coefficients at each speed of ``speeds_hz`` [Hz] for supply flowrate [m^3/s].
 
-    ``squeeze`` selects the squeeze-term model of the film solver (see ``models.bearing.film``).
+    ``squeeze`` selects the squeeze-term model of the film solver (see ``models.bearing.film``);
+    ``progress(done, total)`` is called after each speed.
     """
     speeds = np.asarray(speeds_hz, dtype=float)
     if speeds.ndim != 1 or speeds.size < 2 or np.any(np.diff(speeds) <= 0):
@@ -115,7 +116,9 @@ def compute_speed_sweep(
     supply = SupplyFlow(flowrate_m3_s)
     positions, stiffness, damping = [], [], []
     guess = None
-    for speed in tqdm(speeds, desc="speed sweep", unit="speed", disable=not progress):
+    for done, speed in enumerate(speeds):
+        if progress is not None:
+            progress(done, speeds.size)
         eq = static_equilibrium(bearing, load_n, speed, supply, mesh, squeeze=squeeze, initial_guess_m=guess)
         k, c = coefficients_at(bearing, eq, speed, supply, mesh, squeeze=squeeze)
         guess = eq.eccentricity_m

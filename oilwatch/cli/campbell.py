@@ -6,9 +6,9 @@ import argparse
 import json
 import sys
 
+from .machine_option import add_machine_option
 from .modes import (
     add_bearing_options,
-    add_machine_option,
     bearings_for,
     load_rotor,
     require_count,
@@ -105,6 +105,8 @@ def run(args: argparse.Namespace) -> int:
     from models.rotor.modal import campbell_diagram
     from models.validation import InputError, require_non_negative
 
+    from .progress import progress_bar
+
     machine, rotor = load_rotor(args)
     bearings_at, description = bearings_for(args, machine, rotor, over_speed=True)
     low = args.speed_min_hz
@@ -117,13 +119,14 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--speed-max-hz must exceed --speed-min-hz ({low:g} Hz), got {high:g}")
     n_speeds = require_count("--n-speeds", args.n_speeds, 2)
     n_modes = require_count("--n-modes", args.n_modes, 1)
-    diagram = campbell_diagram(
-        rotor,
-        np.linspace(low, high, n_speeds),
-        bearings_at,
-        n_modes,
-        progress=sys.stderr.isatty(),
-    )
+    with progress_bar("Campbell", "speed", sys.stderr.isatty()) as callback:
+        diagram = campbell_diagram(
+            rotor,
+            np.linspace(low, high, n_speeds),
+            bearings_at,
+            n_modes,
+            progress=callback,
+        )
     title = f"{machine.name}\nbearings: {description['model']}"
     plot_campbell(diagram, args.out, title)
     critical = diagram.critical_speeds_hz()

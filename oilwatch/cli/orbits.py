@@ -6,7 +6,7 @@ import argparse
 import json
 import sys
 
-from .modes import add_machine_option
+from .machine_option import add_machine_option
 
 
 def register(subparsers) -> None:
@@ -40,11 +40,13 @@ def run(args: argparse.Namespace) -> int:
     import matplotlib.pyplot as plt
     import numpy as np
 
-    from models.machine import load_machine
     from models.system.factory import build_system
     from models.system.sensitivity import steady_orbit
 
-    machine = load_machine(args.machine)
+    from .machine_option import ensure_flowrate_tables, load_machine_option
+
+    machine = load_machine_option(args)
+    ensure_flowrate_tables(machine, [machine.nominal_speed_hz], "orbits")
     system = build_system(machine, reduced=False)
     nominal = machine.lubrication.nominal_flowrate_m3_s
     figure, axes = plt.subplots(1, 2, figsize=(11, 5.2))

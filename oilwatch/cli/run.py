@@ -7,6 +7,8 @@ import json
 import sys
 from pathlib import Path
 
+from .machine_option import add_machine_option, load_machine_option
+
 SCENARIO_NAMES = (
     "constant",
     "slow-drop",
@@ -28,10 +30,14 @@ def register(subparsers) -> None:
         description=(
             "Simulate one of the paper's real-time scenarios (section 3.2.2): the RotorBearingPlant FMU "
             "and the OilFlowEKF FMU co-simulated by oilwatch's fmpy master (Gauss-Seidel, 1 ms steps). "
-            "Flowrates are percentages of 596.3 ml/min; the sigmoid transition is centred at half the "
+            "Flowrates are percentages of the machine's nominal flowrate and the scenario runs at its "
+            "nominal speed (--machine; default: the bundled turbine); the sigmoid transition is centred at "
+            "half the "
             "duration. Writes DIR/result.csv (flushed every row), DIR/summary.json and "
-            "DIR/estimates.png. The FMUs are built on first use into ~/.cache/oilwatch/build/<source "
-            "hash>/ ($OILWATCH_CACHE overrides ~/.cache/oilwatch) unless --fmu-dir or --ssp is given. "
+            "DIR/estimates.png. A missing coefficient table is computed first (beside the machine file; "
+            "the bundled turbine: the cache). The FMUs of the machine are built on first use into "
+            "~/.cache/oilwatch/build/<hash>/ ($OILWATCH_CACHE overrides ~/.cache/oilwatch) unless --fmu-dir "
+            "or --ssp is given. "
             "Exit code 2 on bad input, 130 when interrupted (result.csv keeps the steps done)."
         ),
         epilog=(
@@ -72,12 +78,9 @@ def register(subparsers) -> None:
         "ekf.velocity_channels=1 (default: the estimator's recommended tuning)",
     )
     parser.add_argument("--out", metavar="DIR", help="output folder (default: oilwatch_runs/SCENARIO)")
+    add_machine_option(parser)
     source = parser.add_mutually_exclusive_group()
-    source.add_argument(
-        "--fmu-dir",
-        metavar="DIR",
-        help="use the FMUs in DIR (from 'python build.py --out DIR'); never builds",
-    )
+    add_fmu_dir_option(source)
     source.add_argument(
         "--ssp",
         metavar="FILE",
@@ -89,14 +92,35 @@ def register(subparsers) -> None:
     parser.set_defaults(func=run)
 
 
-def execute(run_settings, out: Path, fmu_dir: str | None, ssp: str | None, progress: bool, command: str):
-    """Find or build the FMUs, run, and return the summary; report an interruption on stderr and re-raise.
+def add_fmu_dir_option(parser) -> None:
+    """``--fmu-dir DIR`` (shared by ``run`` and ``demo``)."""
+    parser.add_argument(
+        "--fmu-dir",
+        metavar="DIR",
+        help="use the FMUs in DIR (from 'oilwatch build-fmus --out DIR', for the same --machine); never "
+        "builds",
+    )
+
+
+def execute(
+    run_settings,
+    out: Path,
+    fmu_dir: str | None,
+    ssp: str | None,
+    progress: bool,
+    command: str,
+    machine=None,
+):
+    """Find or build the FMUs of ``machine`` (computing a missing coefficient table first), run, and return
+    the summary; report an interruption on stderr and re-raise.
 
     Shared by ``oilwatch run`` and ``oilwatch demo``.
     """
     from oilwatch.cosim.errors import SystemDescriptionError
     from oilwatch.scenarios.fmus import ensure_fmus
     from oilwatch.scenarios.runner import run_scenario
+
+    from .machine_option import ensure_flowrate_tables
 
     def log(text: str) -> None:
         print(f"oilwatch {command}: {text}", file=sys.stderr)
@@ -106,7 +130,12 @@ def execute(run_settings, out: Path, fmu_dir: str | None, ssp: str | None, progr
         if not ssp_path.is_file():
             raise SystemDescriptionError(f"--ssp: SSP file {ssp_path} does not exist")
     else:
-        ssp_path, folder = None, ensure_fmus(fmu_dir, log)
+        ssp_path = None
+    if machine is not None:
+        speeds = (run_settings.speed_hz("plant"), run_settings.speed_hz("ekf"))
+        ensure_flowrate_tables(machine, speeds, command, progress)
+    if ssp is None:
+        folder = ensure_fmus(fmu_dir, log, machine)
     try:
         return run_scenario(run_settings, out, fmu_dir=folder, ssp=ssp_path, progress=progress)
     except KeyboardInterrupt:
@@ -171,12 +200,13 @@ def run(args: argparse.Namespace) -> int:
     overrides = parse_settings(args.set)
     if args.paper_tuning:
         overrides["ekf"] = {**PAPER_TUNING, **overrides.get("ekf", {})}
+    machine = load_machine_option(args)
     settings = make_run(
-        args.scenario, args.noise_um, args.duration_s, args.seed, args.q1_pct, args.q2_pct, overrides
+        args.scenario, args.noise_um, args.duration_s, args.seed, args.q1_pct, args.q2_pct, overrides, machine
     )
     out = Path(args.out) if args.out else Path("oilwatch_runs") / args.scenario
     try:
-        summary = execute(settings, out, args.fmu_dir, args.ssp, not args.no_progress, "run")
+        summary = execute(settings, out, args.fmu_dir, args.ssp, not args.no_progress, "run", machine)
     except SlaveError as error:
         print(f"oilwatch run: error: {error}", file=sys.stderr)
         return 2

@@ -286,5 +286,7 @@ def _plot_maps(rows: dict, cases: Sequence[Case], out: Path, model_name: str) ->
         ids = {case.case_id for case in cases if case.noise_um == noise}
         level_rows = [row for case_id, row in rows.items() if case_id in ids]
         if level_rows:
-            paths.append(plot_error_map(level_rows, percents, noise, out / error_map_name(noise), note))
+            nominal = cases[0].nominal_ml_min
+            path = out / error_map_name(noise)
+            paths.append(plot_error_map(level_rows, percents, noise, path, note, nominal))
     return paths
