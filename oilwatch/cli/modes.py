@@ -152,6 +152,13 @@ def run(args: argparse.Namespace) -> int:
     speed_hz = machine.nominal_speed_hz if args.speed_hz is None else args.speed_hz
     speed_hz = require_non_negative("--speed-hz", speed_hz, "Hz")
     n_modes = require_count("--n-modes", args.n_modes, 1)
+    if uses_fluid_film(args) and speed_hz > 0.0:
+        from models.system.factory import flowrate_table_path, speed_sweep_path
+
+        from .machine_option import ensure_flowrate_tables
+
+        if not (flowrate_table_path(machine, speed_hz).exists() or speed_sweep_path(machine).exists()):
+            ensure_flowrate_tables(machine, [speed_hz], "modes")
     bearings_at, description = bearings_for(args, machine, rotor)
     modes = damped_modes(rotor, speed_hz, bearings_at, n_modes)
     if args.json:

@@ -22,6 +22,19 @@ SCENARIO_NAMES = (
 """The names of ``oilwatch.scenarios.SCENARIOS`` (kept here so that --help imports nothing heavy)."""
 
 
+def estimator_parameters_help() -> str:
+    """The estimator's settable parameters with defaults and ranges, generated from its configuration."""
+    from estimator.config import ESTIMATOR_PARAMETERS
+
+    def bounds(p) -> str:
+        low = "" if p.low is None else f"{p.low:g}"
+        high = "" if p.high is None else f"{p.high:g}"
+        return f"[{low}, {high}]" if p.high is not None else f">= {low}"
+
+    unit = {p.name: "" if p.unit == "1" else f" {p.unit}" for p in ESTIMATOR_PARAMETERS}
+    return "; ".join(f"{p.name} ({p.default:g}{unit[p.name]}, {bounds(p)})" for p in ESTIMATOR_PARAMETERS)
+
+
 def register(subparsers) -> None:
     """Add the ``run`` subcommand."""
     parser = subparsers.add_parser(
@@ -43,7 +56,8 @@ def register(subparsers) -> None:
         epilog=(
             "scenarios: constant (--q1-pct, --q2-pct; default 100); slow-drop, intermediate-drop, "
             "sudden-drop (both bearings 100 -> 75 %); drop-b1, drop-b2 (one bearing 100 -> 75 %, "
-            "the other nominal); clog-b1, clog-b2 (one bearing 100 -> 75 %, the other 100 -> 125 %)"
+            "the other nominal); clog-b1, clog-b2 (one bearing 100 -> 75 %, the other 100 -> 125 %). "
+            f"Estimator parameters for --set ekf.NAME=VALUE (default, range): {estimator_parameters_help()}"
         ),
     )
     parser.add_argument("scenario", metavar="SCENARIO", help=f"one of: {', '.join(SCENARIO_NAMES)}")
