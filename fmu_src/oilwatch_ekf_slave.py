@@ -42,6 +42,7 @@ from estimator.config import (
     ESTIMATOR_PARAMETERS,
     INITIAL_FLOWRATE_STD_FRACTION,
     ML_MIN,
+    RECOMMENDED_DISPLACEMENT_PROCESS_STD_M,
     EKFConfig,
     config_from_parameters,
 )
@@ -66,8 +67,9 @@ OWN_REALS = (
     ("q_nominal_ml_min", 0.0, "ml/min", 0.0, None,
      "Nominal flowrate, the alarm thresholds' reference; 0: the machine file's nominal flowrate"),
     ("q_std_velocity_um_s", -1.0, "um/s", -1.0, None,
-     "Process-noise std per step of every velocity state; -1: the recommended q_std_displacement_um x "
-     "2 pi speed_hz; the paper's 10 um/s makes the filter inconsistent (NIS/m 0.14)"),
+     f"Process-noise std per step of every velocity state; -1: the recommended "
+     f"{RECOMMENDED_DISPLACEMENT_PROCESS_STD_M * 1e6:g} um x 2 pi speed_hz; the paper's 10 um/s makes the "
+     "filter inconsistent (NIS/m 0.14)"),
 )  # fmt: skip
 """Real parameters of this FMU that are not in the estimator's configuration table: name, start, unit, min,
 max, description. The others (:data:`estimator.config.ESTIMATOR_PARAMETERS`: noise, process noise, gate,
@@ -272,10 +274,11 @@ class OilFlowEKF(OilwatchSlave):
 
     def _config(self, nominal_ml_min: float, initial_ml_min: float, speed_hz: float) -> EKFConfig:
         """The estimator's configuration from the parameters (field units -> SI)."""
-        displacement = self.q_std_displacement_um * 1e-6
         omega = 2.0 * math.pi * speed_hz
         velocity_std = (
-            displacement * omega if self.q_std_velocity_um_s < 0.0 else self.q_std_velocity_um_s * 1e-6
+            RECOMMENDED_DISPLACEMENT_PROCESS_STD_M * omega
+            if self.q_std_velocity_um_s < 0.0
+            else self.q_std_velocity_um_s * 1e-6
         )
         return config_from_parameters(
             {p.name: getattr(self, p.name) for p in ESTIMATOR_PARAMETERS},

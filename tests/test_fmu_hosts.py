@@ -15,6 +15,7 @@ import shutil
 import subprocess
 
 import pytest
+from fixtures.host_timing import wall_per_simulated_second
 from fixtures.venvs import clean_env, make_venv, pinned
 
 pytestmark = pytest.mark.slow
@@ -76,39 +77,6 @@ def test_each_fmu_runs_in_a_bare_venv_outside_the_clone(built_fmus, tmp_path):
     assert result["threads"] and set(result["threads"].values()) == {1}, result["threads"]
 
 
-LIBCOSIM = r"""
-import json, os, sys, time
-from libcosimpy.CosimExecution import CosimExecution
-from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
-from libcosimpy.CosimObserver import CosimObserver
-
-log_output_level(CosimLogLevel.ERROR)
-execution = CosimExecution.from_ssp_file(sys.argv[1], step_size=1_000_000)
-observer = CosimObserver.create_last_value()
-execution.add_observer(observer)
-ekf = execution.slave_index_from_instance_name("ekf")
-refs = {v.name.decode(): v.reference for v in execution.slave_variables(ekf)}
-execution.simulate_until(WARM_NS)  # initialization (numba kernels) and the first steps
-start = time.perf_counter()
-execution.simulate_until(STOP_NS)
-wall = time.perf_counter() - start
-print("@@" + json.dumps({"wall_s": wall, "q1": observer.last_real_values(ekf, [refs["q1_est_ml_min"]])[0]}))
-sys.stdout.flush()
-os._exit(0)
-"""
-
-FMPY = r"""
-import json, os, sys, time
-from oilwatch.cosim import Master
-from oilwatch.cosim.ssp import open_ssp
-
-with open_ssp(sys.argv[1]) as system, Master(system) as master:
-    result = master.run(stop_time=STOP_S, step_size=1e-3, order=["plant", "ekf"],
-                        record=["ekf.q1_est_ml_min"])
-print("@@" + json.dumps({"wall_s": result.wall_s}))  # the step loop only, initialization excluded
-sys.stdout.flush()
-os._exit(0)
-"""
 WARM_S, STOP_S = 0.5, 2.5
 MAX_RATIO = 3.0
 """libcosim (Jacobi) and the fmpy master (Gauss-Seidel) step the same FMUs: the same cost per step up to the
@@ -116,24 +84,10 @@ masters' small overheads. Without the FMUs' own thread limit the ratio was far a
 
 
 def test_libcosim_without_blas_settings_runs_as_fast_as_the_fmpy_master(built_fmus, tmp_path):
-    import sys
-
-    ssp = str(built_fmus / "OilStarvation.ssp")
-    libcosim = LIBCOSIM.replace("WARM_NS", str(int(WARM_S * 1e9))).replace("STOP_NS", str(int(STOP_S * 1e9)))
+    ssp = built_fmus / "OilStarvation.ssp"
     host = clean_env(OILWATCH_FMU_CACHE="0")  # nothing about BLAS threads, as a user's libcosim host
-    process = subprocess.run(
-        [sys.executable, "-c", libcosim, ssp], cwd=tmp_path, env=host, capture_output=True, text=True,
-        timeout=1200,
-    )  # fmt: skip
-    osp = _result(process)
-    fmpy_code = FMPY.replace("STOP_S", str(STOP_S))
     reference = clean_env(OPENBLAS_NUM_THREADS="1", OILWATCH_FMU_CACHE="0")
-    process = subprocess.run(
-        [sys.executable, "-c", fmpy_code, ssp], cwd=tmp_path, env=reference, capture_output=True, text=True,
-        timeout=1200,
-    )  # fmt: skip
-    fm = _result(process)
-    per_second = (osp["wall_s"] / (STOP_S - WARM_S), fm["wall_s"] / STOP_S)  # wall s per simulated s
-    ratio = per_second[0] / per_second[1]
-    print(f"wall s per simulated s: libcosim {per_second[0]:.3f}, fmpy {per_second[1]:.3f}: {ratio:.2f}")
+    libcosim, fmpy = wall_per_simulated_second(ssp, WARM_S, STOP_S, host, reference, tmp_path)
+    ratio = libcosim / fmpy
+    print(f"wall s per simulated s: libcosim {libcosim:.3f}, fmpy master {fmpy:.3f}: {ratio:.2f}")
     assert ratio < MAX_RATIO
