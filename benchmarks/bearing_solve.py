@@ -1,7 +1,8 @@
 """Steady p-theta solve: semi-smooth Newton (models.bearing.film) against plain Gauss-Seidel.
 
 Both solvers share the discretization and solve the same discrete problem on the same mesh (the
-journal at its nominal equilibrium, the machine file's nominal flowrate, and a starved point at 50 % of q_t), in one run.
+journal at its nominal equilibrium, the machine file's nominal flowrate, and a starved point at 50 % of
+q_t), in one run.
 Prints the median wall time of each and their ratio. Run by hand:
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/bearing_solve.py [--mesh 100 30] [--repeats 21]
