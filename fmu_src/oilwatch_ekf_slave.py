@@ -257,8 +257,8 @@ class OilFlowEKF(OilwatchSlave):
                 else "the nominal flowrate (q_initial_ml_min 0)"
             )
             raise InputError(
-                f"{name} = {initial:g} ml/min lies outside the coefficient table's range "
-                f"[{low:.1f}, {high:.1f}] ml/min"
+                f"{name} must lie in the coefficient table's range [{low:.1f}, {high:.1f}] ml/min, "
+                f"got {initial:g} ml/min"
             )
         model = GridAugmentedModel(system, self.sample_period_s)
         self.filter = FlowFilter(model, self._config(nominal, initial, system.speed_hz))
