@@ -89,14 +89,26 @@ def register(subparsers) -> None:
     parser.set_defaults(func=run)
 
 
-def execute(run_settings, out: Path, fmu_dir: str | None, ssp: str | None, progress: bool, command: str):
+def execute(
+    run_settings,
+    out: Path,
+    fmu_dir: str | None,
+    ssp: str | None,
+    progress: bool,
+    command: str,
+    labels: dict[str, dict[str, str]] | None = None,
+):
     """Find or build the FMUs, run, and return the summary; report an interruption on stderr and re-raise.
 
-    Shared by ``oilwatch run`` and ``oilwatch demo``.
+    Shared by ``oilwatch run`` and ``oilwatch demo``. The previous run's files in ``out`` are removed just
+    before the simulation starts, so that a run stopped part-way leaves its own rows in result.csv and no
+    summary or plot of another run beside them. labels: see :func:`parameter_labels`.
     """
     from oilwatch.cosim.errors import SystemDescriptionError
     from oilwatch.scenarios.fmus import ensure_fmus
-    from oilwatch.scenarios.runner import run_scenario
+    from oilwatch.scenarios.runner import OUTPUT_FILES, run_scenario
+
+    from .outputs import output_folder
 
     def log(text: str) -> None:
         print(f"oilwatch {command}: {text}", file=sys.stderr)
@@ -107,8 +119,11 @@ def execute(run_settings, out: Path, fmu_dir: str | None, ssp: str | None, progr
             raise SystemDescriptionError(f"--ssp: SSP file {ssp_path} does not exist")
     else:
         ssp_path, folder = None, ensure_fmus(fmu_dir, log)
+    output_folder("--out", out)
+    for name in OUTPUT_FILES:
+        (out / name).unlink(missing_ok=True)
     try:
-        return run_scenario(run_settings, out, fmu_dir=folder, ssp=ssp_path, progress=progress)
+        return run_scenario(run_settings, out, fmu_dir=folder, ssp=ssp_path, progress=progress, labels=labels)
     except KeyboardInterrupt:
         csv_path = out / "result.csv"
         rows = max(0, len(csv_path.read_text().splitlines()) - 1) if csv_path.is_file() else 0
@@ -145,8 +160,9 @@ def describe(summary: dict) -> list[str]:
 
 
 def parse_settings(items: list[str]) -> dict[str, dict[str, object]]:
-    """``["ekf.alarm_hold_on_s=0.5", ...]`` -> ``{"ekf": {"alarm_hold_on_s": 0.5}}`` (numbers as float,
-    other values as text; the FMU converts to its variable's type)."""
+    """``["ekf.alarm_hold_on_s=0.5", ...]`` -> ``{"ekf": {"alarm_hold_on_s": 0.5}}`` (integers as int,
+    other numbers as float, the rest as text; the master checks each against its variable's FMI type,
+    :mod:`oilwatch.cosim.values`, and names it ``--set ekf.alarm_hold_on_s``)."""
     from models.validation import InputError
 
     result: dict[str, dict[str, object]] = {}
@@ -155,12 +171,37 @@ def parse_settings(items: list[str]) -> dict[str, dict[str, object]]:
         role, dot, name = target.partition(".")
         if not (equals and dot and role and name):
             raise InputError(f"--set {item!r}: expected FMU.NAME=VALUE, e.g. ekf.alarm_hold_on_s=0.5")
-        try:
-            value: object = float(text)
-        except ValueError:
-            value = text
+        value: object = text
+        for number in (int, float):
+            try:
+                value = number(text)
+                break
+            except ValueError:
+                continue
         result.setdefault(role, {})[name] = value
     return result
+
+
+def parameter_labels(scenario: str, given: dict[str, dict[str, object]], paper_tuning: dict) -> dict:
+    """How the user gave each FMU parameter of a run, per role: the flag (``--q1-pct``, ``--seed``,
+    ``--set ekf.NAME`` for the ``given`` ones, which win over ``paper_tuning``), so that every error about
+    a parameter names the input the user can change."""
+    flows = {
+        f"q{b}_{end}_ml_min": f"--q{b}-pct"
+        if scenario == "constant"
+        else f"scenario {scenario!r} (bearing {b})"
+        for b in (1, 2)
+        for end in ("initial", "final")
+    }
+    common = {"noise_um": "--noise-um"}
+    labels = {
+        "plant": {**common, **flows, "seed": "--seed", "fault_time_s": "--duration-s"},
+        "ekf": {**common, **{name: "--paper-tuning" for name in paper_tuning}},
+    }
+    for role, values in given.items():
+        for name in values:
+            labels.setdefault(role, {})[name] = f"--set {role}.{name}"
+    return labels
 
 
 def run(args: argparse.Namespace) -> int:
@@ -168,15 +209,17 @@ def run(args: argparse.Namespace) -> int:
     from oilwatch.cosim import SlaveError
     from oilwatch.scenarios import PAPER_TUNING, make_run
 
-    overrides = parse_settings(args.set)
+    given = parse_settings(args.set)
+    overrides = {role: dict(values) for role, values in given.items()}
     if args.paper_tuning:
         overrides["ekf"] = {**PAPER_TUNING, **overrides.get("ekf", {})}
     settings = make_run(
         args.scenario, args.noise_um, args.duration_s, args.seed, args.q1_pct, args.q2_pct, overrides
     )
+    labels = parameter_labels(args.scenario, given, PAPER_TUNING if args.paper_tuning else {})
     out = Path(args.out) if args.out else Path("oilwatch_runs") / args.scenario
     try:
-        summary = execute(settings, out, args.fmu_dir, args.ssp, not args.no_progress, "run")
+        summary = execute(settings, out, args.fmu_dir, args.ssp, not args.no_progress, "run", labels)
     except SlaveError as error:
         print(f"oilwatch run: error: {error}", file=sys.stderr)
         return 2

@@ -43,6 +43,8 @@ COLUMNS = {
     "ekf.measurement_ok": "measurement_ok",
 }
 """Recorded variables (``plant``/``ekf`` instance names) -> result.csv column names."""
+OUTPUT_FILES = ("result.csv", "summary.json", "estimates.png")
+"""The files a run writes in its folder (module docstring)."""
 ROLES = {"plant": "x1_true_um", "ekf": "q1_est_ml_min"}
 """An output that identifies each role's FMU in an SSP whose instances have other names."""
 
@@ -119,10 +121,13 @@ def run_scenario(
     ssp: Path | None = None,
     progress: bool = True,
     plot: bool = True,
+    labels: dict[str, dict[str, str]] | None = None,
 ) -> dict:
     """Simulate ``run`` with the FMUs of ``fmu_dir`` (or the system of ``ssp``), write the run's files in
     ``out_dir`` (module docstring) and return the summary. A failing FMU raises SlaveError, a wrong system
-    SystemDescriptionError (an InputError); KeyboardInterrupt leaves result.csv with the steps done."""
+    SystemDescriptionError (an InputError); KeyboardInterrupt leaves result.csv with the steps done.
+    labels: per role (``plant``/``ekf``), how the user gave a parameter (``{"plant": {"seed": "--seed"}}``),
+    for error messages."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     csv_path = out / "result.csv"
@@ -144,6 +149,7 @@ def run_scenario(
                 recorder=recorder,
                 parameters=parameters,
                 progress=progress,
+                labels={roles[role]: names for role, names in (labels or {}).items()},
             )
     total_s = wallclock.perf_counter() - wall_start
     columns = read_result(csv_path)
