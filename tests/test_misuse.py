@@ -179,27 +179,25 @@ def test_a_coefficient_table_of_the_wrong_structure_is_named(capsys, tmp_path, m
 
 
 # ------------------------------------------------------------------ stale outputs of an interrupted run
-def test_an_interrupted_run_leaves_its_rows_and_nothing_of_the_previous_run(capsys, tmp_path, monkeypatch):
-    """`run` into a folder holding a finished run's files, stopped part-way: the new rows stay, the
-    previous summary.json and estimates.png are gone."""
-    import oilwatch.scenarios.fmus as fmus
-    import oilwatch.scenarios.runner as runner
+def test_a_run_that_starts_removes_the_previous_runs_files_and_keeps_its_own_rows(tmp_path):
+    """The scenario runner's recorder: the previous run's files go when the new run's recording starts
+    (all FMUs initialized), the rows written before a stop stay (the end-to-end Ctrl-C case is in
+    test_cli_run; a run refused at initialization keeps the previous files: the slow test below)."""
+    from oilwatch.cosim import CsvRecorder
+    from oilwatch.scenarios.runner import OUTPUT_FILES, _StopBetweenSteps
 
-    out = tmp_path / "run"
-    out.mkdir()
-    for name in runner.OUTPUT_FILES:
-        (out / name).write_text("previous run\n")
-
-    def interrupted(settings, out_dir, **_options):
-        (Path(out_dir) / "result.csv").write_text("time_s,q1\n0,596.3\n0.001,596.3\n")
-        raise KeyboardInterrupt
-
-    monkeypatch.setattr(fmus, "ensure_fmus", lambda fmu_dir, log: tmp_path)
-    monkeypatch.setattr(runner, "run_scenario", interrupted)
-    assert main(["run", "constant", "--out", str(out), "--no-progress"]) == 130
-    assert sorted(path.name for path in out.iterdir()) == ["result.csv"]
-    assert (out / "result.csv").read_text().splitlines()[1:] == ["0,596.3", "0.001,596.3"]
-    assert "keeps the 2 samples done" in capsys.readouterr().err
+    for name in OUTPUT_FILES:
+        (tmp_path / name).write_text("previous run\n")
+    stale = tuple(tmp_path / name for name in OUTPUT_FILES)
+    recorder = _StopBetweenSteps(CsvRecorder(tmp_path / "result.csv"), stale)
+    recorder.start(["q1"])
+    recorder.record(0.0, [596.3])
+    recorder.stop_requested = True
+    with pytest.raises(KeyboardInterrupt):
+        recorder.record(0.001, [596.3])
+    recorder.close()
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["result.csv"]
+    assert (tmp_path / "result.csv").read_text().splitlines()[1:] == ["0.0,596.3", "0.001,596.3"]
 
 
 # ------------------------------------------------------------------ two studies in one folder
@@ -334,8 +332,10 @@ def test_misused_run_flags_give_one_line_naming_the_flag(built_fmus, tmp_path):
         (["--seed", "2147483648"], "--seed must be an integer in [0, 2147483647], got 2147483648"),
         (["--q1-pct", "20"], "--q1-pct (q1_initial_ml_min) = "),
     ]
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "summary.json").write_text("{}\n")  # a previous run's: kept, no new run started
     for args, message in cases:
-        out = tmp_path / "out"
         start = time.perf_counter()
         process = subprocess.run(
             [sys.executable, "-m", "oilwatch", "run", "constant", "--fmu-dir", str(built_fmus),
@@ -345,4 +345,4 @@ def test_misused_run_flags_give_one_line_naming_the_flag(built_fmus, tmp_path):
         lines = process.stderr.strip().splitlines()
         assert process.returncode == 2, (args, process.stderr)
         assert len(lines) == 1 and message in lines[0], (args, lines, time.perf_counter() - start)
-        assert not (out / "summary.json").exists()
+        assert sorted(path.name for path in out.iterdir()) == ["summary.json"], args

@@ -100,13 +100,14 @@ def execute(
 ):
     """Find or build the FMUs, run, and return the summary; report an interruption on stderr and re-raise.
 
-    Shared by ``oilwatch run`` and ``oilwatch demo``. The previous run's files in ``out`` are removed just
-    before the simulation starts, so that a run stopped part-way leaves its own rows in result.csv and no
-    summary or plot of another run beside them. labels: see :func:`parameter_labels`.
+    Shared by ``oilwatch run`` and ``oilwatch demo``. The previous run's files in ``out`` are removed once
+    the FMUs are initialized (:func:`~oilwatch.scenarios.runner.run_scenario`), so that a run stopped
+    part-way leaves its own rows in result.csv and no summary or plot of another run beside them.
+    labels: see :func:`parameter_labels`.
     """
     from oilwatch.cosim.errors import SystemDescriptionError
     from oilwatch.scenarios.fmus import ensure_fmus
-    from oilwatch.scenarios.runner import OUTPUT_FILES, run_scenario
+    from oilwatch.scenarios.runner import run_scenario
 
     from .outputs import output_folder
 
@@ -120,8 +121,6 @@ def execute(
     else:
         ssp_path, folder = None, ensure_fmus(fmu_dir, log)
     output_folder("--out", out)
-    for name in OUTPUT_FILES:
-        (out / name).unlink(missing_ok=True)
     try:
         return run_scenario(run_settings, out, fmu_dir=folder, ssp=ssp_path, progress=progress, labels=labels)
     except KeyboardInterrupt:

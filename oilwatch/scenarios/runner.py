@@ -50,14 +50,19 @@ ROLES = {"plant": "x1_true_um", "ekf": "q1_est_ml_min"}
 
 
 class _StopBetweenSteps:
-    """A recorder wrapper that raises KeyboardInterrupt after a row once SIGINT has been received."""
+    """A recorder wrapper that raises KeyboardInterrupt after a row once SIGINT has been received, and
+    removes the files of ``stale`` when the recording starts (every FMU initialized): a run that cannot
+    start leaves the previous run's files as they were, one that starts leaves nothing of them."""
 
-    def __init__(self, inner):
+    def __init__(self, inner, stale: tuple[Path, ...] = ()):
         self.inner = inner
+        self.stale = stale
         self.stop_requested = False
         self.last_time_s: float | None = None
 
     def start(self, columns):
+        for path in self.stale:
+            path.unlink(missing_ok=True)
         self.inner.start(columns)
 
     def record(self, time_s, values):
@@ -136,7 +141,8 @@ def run_scenario(
         record = [f"{roles[c.split('.')[0]]}.{c.split('.')[1]}" for c in COLUMNS]
         rename = dict(zip(record, COLUMNS.values(), strict=True))
         parameters = {roles["plant"]: run.plant_parameters(), roles["ekf"]: run.ekf_parameters()}
-        recorder = _StopBetweenSteps(CsvRecorder(csv_path, rename=rename))
+        stale = tuple(out / name for name in OUTPUT_FILES)
+        recorder = _StopBetweenSteps(CsvRecorder(csv_path, rename=rename), stale)
         # SIGINT deferred from before loading: an interrupt inside an FMU call would surface as an FMU error.
         with _deferred_sigint(recorder), Master(system) as master:
             result = master.run(
