@@ -20,6 +20,8 @@ from fixtures.fmu_subprocess import REPO_ROOT
 
 from oilwatch.scenarios.runner import COLUMNS
 
+pytestmark = pytest.mark.slow  # each test runs the oilwatch command on the FMUs in a fresh process
+
 HEADER = ["time_s", *COLUMNS.values()]
 
 
