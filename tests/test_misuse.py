@@ -178,6 +178,17 @@ def test_a_coefficient_table_of_the_wrong_structure_is_named(capsys, tmp_path, m
     assert str(table) in line and message in line
 
 
+def test_a_speed_sweep_of_the_wrong_shape_is_named(tmp_path):
+    from models.system.speed_sweep import SpeedSweep
+
+    data = json.loads((TABLE.parent / "turbine_speed_sweep.json").read_text())
+    data["stiffness_n_per_m"] = data["stiffness_n_per_m"][:-1]
+    path = tmp_path / "sweep.json"
+    path.write_text(json.dumps(data))
+    with pytest.raises(InputError, match=r"sweep.json: stiffness_n_per_m must be finite numbers of shape \("):
+        SpeedSweep.load(path)
+
+
 # ------------------------------------------------------------------ stale outputs of an interrupted run
 def test_a_run_that_starts_removes_the_previous_runs_files_and_keeps_its_own_rows(tmp_path):
     """The scenario runner's recorder: the previous run's files go when the new run's recording starts
