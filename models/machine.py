@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from .bearing.geometry import JournalBearing
-from .validation import InputError
+from .validation import InputError, naming_file, read_text_file
 
 BUNDLED_MACHINE = Path(__file__).resolve().parent / "turbine.toml"
 LOAD_SPLITS = ("equal", "reactions")
@@ -428,12 +428,10 @@ def load_machine(path: str | Path | None = None) -> Machine:
     non-numeric, negative or inconsistent value (the message names the field).
     """
     source = BUNDLED_MACHINE if path is None else Path(path)
-    try:
-        text = source.read_text(encoding="utf-8")
-    except OSError as error:
-        raise InputError(f"cannot read machine file {str(source)!r}: {error.strerror}") from None
+    text = read_text_file("machine file", source, "a TOML machine file such as models/turbine.toml")
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as error:
         raise InputError(f"machine file {str(source)!r} is not valid TOML: {error}") from None
-    return machine_from_dict(data, source)
+    with naming_file("machine file", source):
+        return machine_from_dict(data, source)

@@ -71,6 +71,7 @@ def _sudden_drop(steps, bearings):
     return q
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sigma", [1e-6, 2e-6])
 def test_never_fires_in_a_nominal_20_s_run(toy, sigma):
     record = simulate(toy, np.full((20000, 2), QN), sigma, seed=21)

@@ -51,6 +51,7 @@ def test_nis_averages_the_number_of_measurements(toy):
     assert np.mean(np.abs(error) < 2 * trace.q_std_m3_s[2000:]) > 0.9
 
 
+@pytest.mark.slow
 def test_covariance_stays_symmetric_positive_definite_over_a_long_run(toy):
     record = simulate(toy, np.full((30000, 2), 0.85 * QN), 1e-6, seed=13)
     ekf = OilFlowEKF(toy, EKFConfig.recommended(velocity_noise="correlated"))

@@ -38,6 +38,7 @@ def _constant(q):
     return SigmoidFlowrate(q, q, 1e9, 1.0)
 
 
+@pytest.mark.slow
 def test_constant_flowrates_on_the_plant(systems):
     model, full = systems
     truth = np.array([0.8, 0.9]) * QN

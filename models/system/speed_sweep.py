@@ -79,7 +79,7 @@ class SpeedSweep:
         """Read a sweep written by :meth:`save`; a missing or malformed file raises InputError."""
         try:
             data = json.loads(Path(path).read_text())
-            return cls(
+            sweep = cls(
                 speeds_hz=np.asarray(data["speed_hz"], dtype=float),
                 flowrate_m3_s=float(data["flowrate_ml_min"]) / ML_MIN_PER_M3_S,
                 load_n=float(data["load_n"]),
@@ -90,6 +90,22 @@ class SpeedSweep:
             )
         except (OSError, ValueError, KeyError, TypeError) as error:
             raise InputError(f"speed sweep file {path}: cannot be read ({error})") from None
+        n = sweep.speeds_hz.size
+        shapes = {
+            "speed_hz": (sweep.speeds_hz, (n,)),
+            "eccentricity_um": (sweep.eccentricity_m, (n, 2)),
+            "stiffness_n_per_m": (sweep.stiffness, (n, 2, 2)),
+            "damping_n_s_per_m": (sweep.damping, (n, 2, 2)),
+        }
+        for key, (array, shape) in shapes.items():
+            if array.shape != shape or not np.isfinite(array).all():
+                raise InputError(
+                    f"speed sweep file {path}: {key} must be finite numbers of shape {shape}, "
+                    f"got shape {array.shape}"
+                )
+        if n < 2 or np.any(np.diff(sweep.speeds_hz) <= 0):
+            raise InputError(f"speed sweep file {path}: speed_hz must hold at least 2 increasing speeds")
+        return sweep
 
 
 def compute_speed_sweep(

@@ -18,6 +18,7 @@ from pathlib import Path
 
 from .bearing import add_common_arguments, machine_setup
 from .machine_option import compute_flowrate_table
+from .outputs import output_file
 
 
 def register(subparsers) -> None:
@@ -120,5 +121,5 @@ def plot_table(table, q_t: float, path: str) -> None:
         ax.legend(fontsize=8)
     fig.suptitle(f"bearing coefficients at {table.speed_hz:g} Hz, load {table.load_n:.1f} N")
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    fig.savefig(output_file("--plot", path), dpi=120)
     plt.close(fig)

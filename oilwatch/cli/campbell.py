@@ -14,6 +14,7 @@ from .modes import (
     require_count,
     uses_fluid_film,
 )
+from .outputs import output_file
 
 LOG_DECREMENT_AXIS_MAX = 2.0
 
@@ -94,7 +95,7 @@ def plot_campbell(diagram, out_path: str, title: str) -> None:
     ax_d.set_xlabel("spin speed [Hz]")
     ax_d.grid(alpha=0.3)
     fig.tight_layout()
-    fig.savefig(out_path, dpi=120)
+    fig.savefig(output_file("--out", out_path), dpi=120)
     plt.close(fig)
 
 

@@ -7,6 +7,7 @@ import json
 import sys
 
 from .machine_option import add_machine_option
+from .outputs import output_file
 
 
 def register(subparsers) -> None:
@@ -77,7 +78,7 @@ def run(args: argparse.Namespace) -> int:
         axis.legend(title="q1 = q2", fontsize=8)
     figure.suptitle(f"Steady unbalance orbits at {system.speed_hz:g} Hz (+: orbit centre)")
     figure.tight_layout()
-    figure.savefig(args.out, dpi=120)
+    figure.savefig(output_file("--out", args.out), dpi=120)
     print(f"wrote {args.out}", file=sys.stderr)
     if args.json:
         print(json.dumps({"speed_hz": system.speed_hz, "orbits": figures}, indent=1))

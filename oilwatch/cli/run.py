@@ -124,17 +124,22 @@ def execute(
     progress: bool,
     command: str,
     machine=None,
+    labels: dict[str, dict[str, str]] | None = None,
 ):
     """Find or build the FMUs of ``machine`` (computing a missing coefficient table first), run, and return
     the summary; report an interruption on stderr and re-raise.
 
-    Shared by ``oilwatch run`` and ``oilwatch demo``.
+    Shared by ``oilwatch run`` and ``oilwatch demo``. The previous run's files in ``out`` are removed once
+    the FMUs are initialized (:func:`~oilwatch.scenarios.runner.run_scenario`), so that a run stopped
+    part-way leaves its own rows in result.csv and no summary or plot of another run beside them.
+    labels: see :func:`parameter_labels`.
     """
     from oilwatch.cosim.errors import SystemDescriptionError
     from oilwatch.scenarios.fmus import ensure_fmus
     from oilwatch.scenarios.runner import run_scenario
 
     from .machine_option import ensure_flowrate_tables
+    from .outputs import output_folder
 
     def log(text: str) -> None:
         print(f"oilwatch {command}: {text}", file=sys.stderr)
@@ -150,8 +155,9 @@ def execute(
         ensure_flowrate_tables(machine, speeds, command, progress)
     if ssp is None:
         folder = ensure_fmus(fmu_dir, log, machine)
+    output_folder("--out", out)
     try:
-        return run_scenario(run_settings, out, fmu_dir=folder, ssp=ssp_path, progress=progress)
+        return run_scenario(run_settings, out, fmu_dir=folder, ssp=ssp_path, progress=progress, labels=labels)
     except KeyboardInterrupt:
         csv_path = out / "result.csv"
         rows = max(0, len(csv_path.read_text().splitlines()) - 1) if csv_path.is_file() else 0
@@ -188,8 +194,9 @@ def describe(summary: dict) -> list[str]:
 
 
 def parse_settings(items: list[str]) -> dict[str, dict[str, object]]:
-    """``["ekf.alarm_hold_on_s=0.5", ...]`` -> ``{"ekf": {"alarm_hold_on_s": 0.5}}`` (numbers as float,
-    other values as text; the FMU converts to its variable's type)."""
+    """``["ekf.alarm_hold_on_s=0.5", ...]`` -> ``{"ekf": {"alarm_hold_on_s": 0.5}}`` (integers as int,
+    other numbers as float, the rest as text; the master checks each against its variable's FMI type,
+    :mod:`oilwatch.cosim.values`, and names it ``--set ekf.alarm_hold_on_s``)."""
     from models.validation import InputError
 
     result: dict[str, dict[str, object]] = {}
@@ -198,12 +205,37 @@ def parse_settings(items: list[str]) -> dict[str, dict[str, object]]:
         role, dot, name = target.partition(".")
         if not (equals and dot and role and name):
             raise InputError(f"--set {item!r}: expected FMU.NAME=VALUE, e.g. ekf.alarm_hold_on_s=0.5")
-        try:
-            value: object = float(text)
-        except ValueError:
-            value = text
+        value: object = text
+        for number in (int, float):
+            try:
+                value = number(text)
+                break
+            except ValueError:
+                continue
         result.setdefault(role, {})[name] = value
     return result
+
+
+def parameter_labels(scenario: str, given: dict[str, dict[str, object]], paper_tuning: dict) -> dict:
+    """How the user gave each FMU parameter of a run, per role: the flag (``--q1-pct``, ``--seed``,
+    ``--set ekf.NAME`` for the ``given`` ones, which win over ``paper_tuning``), so that every error about
+    a parameter names the input the user can change."""
+    flows = {
+        f"q{b}_{end}_ml_min": f"--q{b}-pct"
+        if scenario == "constant"
+        else f"scenario {scenario!r} (bearing {b})"
+        for b in (1, 2)
+        for end in ("initial", "final")
+    }
+    common = {"noise_um": "--noise-um"}
+    labels = {
+        "plant": {**common, **flows, "seed": "--seed", "fault_time_s": "--duration-s"},
+        "ekf": {**common, **{name: "--paper-tuning" for name in paper_tuning}},
+    }
+    for role, values in given.items():
+        for name in values:
+            labels.setdefault(role, {})[name] = f"--set {role}.{name}"
+    return labels
 
 
 def run(args: argparse.Namespace) -> int:
@@ -211,16 +243,20 @@ def run(args: argparse.Namespace) -> int:
     from oilwatch.cosim import SlaveError
     from oilwatch.scenarios import PAPER_TUNING, make_run
 
-    overrides = parse_settings(args.set)
+    given = parse_settings(args.set)
+    overrides = {role: dict(values) for role, values in given.items()}
     if args.paper_tuning:
         overrides["ekf"] = {**PAPER_TUNING, **overrides.get("ekf", {})}
     machine = load_machine_option(args)
     settings = make_run(
         args.scenario, args.noise_um, args.duration_s, args.seed, args.q1_pct, args.q2_pct, overrides, machine
     )
+    labels = parameter_labels(args.scenario, given, PAPER_TUNING if args.paper_tuning else {})
     out = Path(args.out) if args.out else Path("oilwatch_runs") / args.scenario
     try:
-        summary = execute(settings, out, args.fmu_dir, args.ssp, not args.no_progress, "run", machine)
+        summary = execute(
+            settings, out, args.fmu_dir, args.ssp, not args.no_progress, "run", machine, labels
+        )
     except SlaveError as error:
         print(f"oilwatch run: error: {error}", file=sys.stderr)
         return 2

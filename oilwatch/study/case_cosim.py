@@ -26,6 +26,7 @@ import numpy as np
 
 from models.system.identifiability import cramer_rao_bound
 
+from ..cosim.values import FMI2_INTEGER_RANGE
 from .cases import CaseFailure, CaseResult, reduce_record
 from .grid import SAMPLE_DT_S, Case
 
@@ -73,8 +74,8 @@ class ModelCrlb:
 _MASTERS: dict[str | None, object] = {}
 """Per-process masters with their two FMUs loaded, by FMU folder (None: the automatic build)."""
 _RECORD = ["ekf.q1_est_ml_min", "ekf.q2_est_ml_min", "ekf.q1_std_ml_min", "ekf.q2_std_ml_min"]
-FMI_SEED_MODULUS = 2**31
-"""The plant's ``seed`` is an FMI Integer (32-bit signed): the case's 63-bit seed is reduced modulo this."""
+FMI_SEED_MODULUS = FMI2_INTEGER_RANGE[1] + 1
+"""The plant's ``seed`` is an FMI Integer (>= 0, 32 bits): the case's 63-bit seed is reduced modulo this."""
 
 
 def _master(fmu_dir: str | None):
