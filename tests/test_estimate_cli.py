@@ -100,6 +100,7 @@ result = {{name: arrays[name][1:].tolist() for name in record}}  # the rows afte
         assert summary["record"]["format"] == suffix and summary["record"]["rows"] == 3000
 
 
+@pytest.mark.slow
 def test_tdms_gap_voltages_api670_offsets_keyphasor_at_5khz_give_the_estimator_s_flowrates(tmp_path):
     """The TDMS record: API 670 probes (45 deg either side of top dead centre), gap voltages at 7.87 V/mm,
     each probe its own rest gap (the offsets, corrected by rest_gap_v: today's estimator cannot estimate
@@ -138,6 +139,7 @@ def test_tdms_gap_voltages_api670_offsets_keyphasor_at_5khz_give_the_estimator_s
     assert not any(a["bearing"] == 2 for a in summary["alarms"]) and not trace.starved[:, 1].any()
 
 
+@pytest.mark.slow
 def test_standard_input_gives_the_file_mode_estimates_line_by_line(drop_record, tmp_path):
     _estimate(drop_record, tmp_path / "file", "--no-views")
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1", PYTHONPATH=str(REPO_ROOT))
@@ -173,6 +175,7 @@ class _Resources(HTMLParser):
                 self.images.append(value)
 
 
+@pytest.mark.slow
 def test_report_html_is_self_contained_with_the_verdicts_and_four_views(drop_record, tmp_path):
     summary = _estimate(drop_record, tmp_path / "out")
     page = (tmp_path / "out" / "report.html").read_text()
@@ -192,6 +195,7 @@ def test_report_html_is_self_contained_with_the_verdicts_and_four_views(drop_rec
     assert summary["q1_final_ml_min"] == pytest.approx(0.75 * NOMINAL, rel=0.02)
 
 
+@pytest.mark.slow
 def test_several_records_run_as_dask_tasks_one_folder_each(drop_record, tmp_path):
     second = tmp_path / "second.csv"
     second.write_text(drop_record.read_text())

@@ -212,7 +212,7 @@ def test_a_missing_record_file_or_an_output_that_is_a_file_is_one_line(tmp_path,
     record, blocker = _csv(tmp_path, _good_rows()), tmp_path / "file"
     blocker.write_text("")
     assert main(["estimate", str(record), "--out", str(blocker), "--no-progress"]) == 2
-    assert "exists and is not a folder" in capsys.readouterr().err
+    assert "is an existing file; give a folder" in capsys.readouterr().err
 
 
 def test_a_gap_is_bridged_with_missing_samples_and_reported(tmp_path):

@@ -41,6 +41,7 @@ class OneLineParser(argparse.ArgumentParser):
 
 OUTPUTS: dict[str, dict[str, str]] = {
     "run": {"out": "folder"},
+    "estimate": {"out": "folder"},
     "demo": {"out": "folder"},
     "study": {"out": "folder"},
     "orbits": {"out": "file"},

@@ -10,6 +10,8 @@ from pathlib import Path
 
 def register(subparsers) -> None:
     """Add the ``estimate`` subcommand."""
+    from .machine_option import add_machine_option
+
     parser = subparsers.add_parser(
         "estimate",
         help="run the estimator on recorded probe data: estimates.csv, summary.json, views, report.html",
@@ -32,9 +34,7 @@ def register(subparsers) -> None:
     parser.add_argument(
         "records", nargs="+", metavar="RECORD", help="record file(s), or - for standard input"
     )
-    parser.add_argument(
-        "--machine", metavar="FILE", help="machine file (default: the bundled generic turbine)"
-    )
+    add_machine_option(parser)
     parser.add_argument(
         "--probe",
         action="append",
@@ -79,8 +79,6 @@ def run(args: argparse.Namespace) -> int:
     if STDIN in args.records and len(args.records) > 1:
         raise InputError("- (standard input) must be the only record")
     live = args.records == [STDIN]
-    if args.out and Path(args.out).exists() and not Path(args.out).is_dir():
-        raise InputError(f"--out {args.out}: exists and is not a folder")
     options = EstimateOptions(
         machine_file=args.machine,
         probe_overrides=tuple(args.probe),

@@ -160,12 +160,7 @@ class EstimateRun:
         self.options = options
         self.machine: Machine = load_machine(options.machine_file)
         self.setup = probe_setup(self.machine.raw.get("probes"), options.probe_overrides)
-        self.model = estimator_model(options.machine_file)
-        self.speed_hz = (
-            float(self.model.system.speed_hz)
-            if hasattr(self.model, "system")
-            else (self.machine.nominal_speed_hz)
-        )
+        self.speed_hz = self.machine.nominal_speed_hz  # the estimator's model runs at the nominal speed
         chunk_rows = 1 if source == STDIN and options.live else options.chunk_rows
         self.stream = RecordStream(
             source,
@@ -178,6 +173,7 @@ class EstimateRun:
         )
         if total_callback is not None:
             total_callback(self.stream.reader.total, self.stream.reader.progress_unit)
+        self.model = estimator_model(options.machine_file)  # after the record's checks: errors come first
         self.live_stream = live_stream
         self.filter: OilFlowEKF | None = None
         self.history = History(ESTIMATOR_DT_S, self.speed_hz, self.machine.bearing.clearance_m)
