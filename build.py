@@ -180,6 +180,7 @@ def build_fmu(entry: FmuEntry, out_dir: Path, root: Path = REPO_ROOT) -> Path:
     from pythonfmu.builder import FmuBuilder
 
     from oilwatch.cosim.fmu_docs import documentation_html
+    from oilwatch.cosim.native_loader import install_loader
     from oilwatch.cosim.packaging import relocated_name, stage_sources
 
     script = entry.script_path(root)
@@ -209,6 +210,7 @@ def build_fmu(entry: FmuEntry, out_dir: Path, root: Path = REPO_ROOT) -> Path:
             f"{entry.name}: the slave class in {script.name} must be named {entry.name} "
             f"(pythonfmu names the model after the class; module {identifier})"
         )
+    install_loader(built, entry.name)  # self-sufficient binary: oilwatch/cosim/native_loader.py
     with zipfile.ZipFile(built, "a") as archive:
         archive.writestr("documentation/index.html", documentation_html(built))
     problems = validate_fmu(str(built))
