@@ -39,14 +39,6 @@ _CTYPES = {"Real": c_double, "Integer": c_int, "Boolean": c_int, "Enumeration": 
 _LOG_KEYS = itertools.count(1)
 _LOG_SINKS: weakref.WeakValueDictionary = weakref.WeakValueDictionary()
 _ORPHANED_CALLBACKS: list = []
-_INSTANTIATED_ANY = False
-
-
-def instantiated_any() -> bool:
-    """Whether this process has instantiated an FMU (its binary stays loaded until the process ends)."""
-    return _INSTANTIATED_ANY
-
-
 """Callback structs of instances that died with fmi2Fatal: never freed, the FMU may still hold them."""
 
 
@@ -133,8 +125,6 @@ class Slave:
             ) from None
         self._callbacks = self._make_callbacks()
         # pythonfmu drops every message, errors included, unless loggingOn is true.
-        global _INSTANTIATED_ANY
-        _INSTANTIATED_ANY = True
         self.call("fmi2Instantiate", self.fmu.instantiate, callbacks=self._callbacks, loggingOn=True)
         self.instantiated = True
         self.component = self.fmu.component

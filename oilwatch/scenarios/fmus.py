@@ -27,7 +27,13 @@ EKF_FMU = "OilFlowEKF.fmu"
 SYSTEM_SSP = "OilStarvation.ssp"
 PACKAGE_ROOT = Path(__file__).resolve().parents[2]
 _SOURCES = ("models", "estimator", "fmu_src")
-_SOURCE_FILES = ("build.py", "oilwatch/cosim/packaging.py", "oilwatch/cosim/fmu_docs.py")
+_SOURCE_FILES = (
+    "build.py",
+    "oilwatch/cosim/packaging.py",
+    "oilwatch/cosim/fmu_docs.py",
+    "oilwatch/cosim/native_loader.py",
+    "oilwatch/cosim/native/fmi2_loader.c",
+)
 _SUFFIXES = (".py", ".toml", ".json")
 KEEP_BUILDS = 4
 """Builds kept in ``<cache>/build`` (least recently used ones beyond this are deleted)."""
@@ -52,7 +58,7 @@ def source_hash(root: Path) -> str:
         files += sorted(
             p for p in (root / package).rglob("*") if p.suffix in _SUFFIXES and "__pycache__" not in p.parts
         )
-    digest = hashlib.sha256()
+    digest = hashlib.sha256(sys.prefix.encode())  # the FMUs record the environment that built them
     for path in files:
         digest.update(str(path.relative_to(root)).encode())
         digest.update(path.read_bytes())

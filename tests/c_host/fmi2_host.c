@@ -99,10 +99,10 @@ static int read_spec(const char *path, double *stop, double *step)
         if (sscanf(line, "%15s", kind) != 1 || kind[0] == '#') continue;
         if (!strcmp(kind, "fmu") && sscanf(line, "fmu %63s %4095s %255s %127s", a, b, c, d) == 4) {
             Fmu *fmu = &fmus[n_fmus++];
-            snprintf(fmu->name, sizeof fmu->name, "%s", a);
+            snprintf(fmu->name, sizeof fmu->name, "%.63s", a);
             snprintf(fmu->folder, sizeof fmu->folder, "%s", b);
-            snprintf(fmu->identifier, sizeof fmu->identifier, "%s", c);
-            snprintf(fmu->guid, sizeof fmu->guid, "%s", d);
+            snprintf(fmu->identifier, sizeof fmu->identifier, "%.255s", c);
+            snprintf(fmu->guid, sizeof fmu->guid, "%.127s", d);
         } else if (!strcmp(kind, "real") || !strcmp(kind, "integer")) {
             Parameter *p = &parameters[n_parameters];
             if (sscanf(line, "%*s %63s %u %lf", a, &p->vr, &p->value) != 3) break;
