@@ -1,0 +1,124 @@
+"""Build the FMI 3.0 co-simulation twins of oilwatch's FMUs with pythonfmu3.
+
+Each FMI 3.0 FMU is the FMI 2.0 slave of the same name behind :class:`fmu_src.fmi3_shell.Fmi3Shell`:
+the shell script (``fmu_src/*_fmi3_slave.py``) is staged like an FMI 2.0 slave (packages relocated under
+their own prefix, see :mod:`oilwatch.cosim.packaging`), and the FMI 2.0 slave script it wraps is staged
+inside the relocated ``fmu_src`` with its imports rewritten, together with pythonfmu itself (the FMI 2.0
+slave's base class). pythonfmu3 writes the model description; ``documentation/index.html`` is added and
+``fmpy validate`` must pass, as for FMI 2.0.
+
+The binaries are pythonfmu3's own: they need a host that already runs Python (fmpy, libcosimpy); the
+self-sufficient loader exists for FMI 2.0 only (``native/fmi2_loader.c``). pythonfmu3's export binary has
+pythonfmu's teardown defect too; :class:`oilwatch.cosim.fmi3_loading.Slave3` releases its interpreter
+guard when it frees the instance.
+"""
+
+from __future__ import annotations
+
+import shutil
+import sys
+import tempfile
+import zipfile
+from dataclasses import dataclass
+from pathlib import Path
+
+from models.validation import InputError
+
+from .packaging import relocated_name, rewrite_imports, stage_sources
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
+FMI3_OPTIONS = {"canGetAndSetFMUState": True, "canSerializeFMUState": True}
+BINARY = "binaries/x86_64-linux/{name}.so"
+
+
+@dataclass(frozen=True)
+class Fmi3Entry:
+    """One FMI 3.0 FMU: ``name`` (model identifier, the shell's class name), the shell ``script``, the
+    FMI 2.0 slave script it wraps, the packages to bundle and a relocation prefix of its own."""
+
+    name: str
+    script: str
+    fmi2_script: str
+    packages: tuple[str, ...]
+    prefix: str
+    data_globs: tuple[str, ...] = ("*.toml", "*.json")
+
+
+FMI3_REGISTRY: tuple[Fmi3Entry, ...] = (
+    Fmi3Entry(
+        name="RotorBearingPlant",
+        script="fmu_src/oilwatch_plant_fmi3_slave.py",
+        fmi2_script="fmu_src/oilwatch_plant_slave.py",
+        packages=("models", "fmu_src"),
+        prefix="oilwatch_plant3",
+    ),
+    Fmi3Entry(
+        name="OilFlowEKF",
+        script="fmu_src/oilwatch_ekf_fmi3_slave.py",
+        fmi2_script="fmu_src/oilwatch_ekf_slave.py",
+        packages=("models", "estimator", "fmu_src"),
+        prefix="oilwatch_ekf3",
+    ),
+)
+
+
+def _forget_modules(names: set[str]) -> None:
+    for module in list(sys.modules):
+        if module.split(".", 1)[0] in names:
+            del sys.modules[module]
+
+
+def build_fmi3_fmu(entry: Fmi3Entry, out_dir: Path, root: Path = REPO_ROOT) -> Path:
+    """Build one FMI 3.0 FMU into ``out_dir``; return its path (see the module docstring)."""
+    import pythonfmu
+    from fmpy.validation import validate_fmu
+    from pythonfmu3.builder import FmuBuilder
+
+    from .fmu_docs import documentation_html
+
+    script, fmi2_script = root / entry.script, root / entry.fmi2_script
+    for path in (script, fmi2_script):
+        if not path.is_file():
+            raise InputError(f"{entry.name} (FMI 3.0): slave script {path} does not exist")
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    mapping = {package: relocated_name(entry.prefix, package) for package in entry.packages}
+    staged_names = {script.stem, "pythonfmu", *mapping.values()}
+    with tempfile.TemporaryDirectory(prefix=f"oilwatch_fmi3_{entry.name}_") as tmp:
+        staging = Path(tmp)
+        staged_script, folders = stage_sources(
+            staging, root, script, entry.packages, entry.prefix, entry.data_globs
+        )
+        wrapped = staging / mapping["fmu_src"] / fmi2_script.name
+        wrapped.write_text(
+            rewrite_imports(fmi2_script.read_text(encoding="utf-8"), mapping, str(fmi2_script)),
+            encoding="utf-8",
+        )
+        fmi2_base = staging / "pythonfmu"  # its Python files, as pythonfmu's own builder bundles them
+        fmi2_base.mkdir()
+        for module in Path(pythonfmu.__file__).parent.glob("*.py"):
+            shutil.copy2(module, fmi2_base)
+        saved_path = list(sys.path)
+        try:
+            built = FmuBuilder.build_FMU(
+                staged_script, dest=out_dir, project_files=[*folders, fmi2_base], **FMI3_OPTIONS
+            )
+        finally:
+            sys.path[:] = saved_path
+            _forget_modules(staged_names)
+    built = Path(built)
+    with zipfile.ZipFile(built) as archive:
+        if BINARY.format(name=entry.name) not in archive.namelist():
+            built.unlink()
+            raise InputError(f"{entry.name}: the class in {script.name} must be named {entry.name}")
+    with zipfile.ZipFile(built, "a") as archive:
+        archive.writestr("documentation/index.html", documentation_html(built))
+    problems = validate_fmu(str(built))
+    if problems:
+        raise InputError(f"{entry.name} (FMI 3.0): fmpy validate found problems: " + "; ".join(problems))
+    return built
+
+
+def build_fmi3_fmus(out_dir: Path | str, registry: tuple[Fmi3Entry, ...] = FMI3_REGISTRY) -> list[Path]:
+    """Build every entry of ``registry`` into ``out_dir`` (FMI 3.0); return the FMU paths."""
+    return [build_fmi3_fmu(entry, Path(out_dir)) for entry in registry]
