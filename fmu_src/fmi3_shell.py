@@ -6,9 +6,10 @@ exposes its declared variables as FMI 3.0 variables (Real -> Float64 with the sa
 and description; Integer -> Int32; Boolean; String), in the same order, and its unit definitions,
 model description, author and default experiment. Every FMI 3.0 call goes to that object: initialization
 (the same parameter checks and messages), ``do_step``, the full state (``_get_fmu_state`` with the
-covariance and the random generator, pickled by ``_fmu_state_to_bytes``). The FMI 2.0 slave's log queue is
-the shell's, so its messages reach the FMI 3.0 host's logger (pythonfmu's and pythonfmu3's LogMsg have the
-same fields; the status codes 0..4 coincide).
+covariance and the random generator, pickled by ``_fmu_state_to_bytes``). The FMI 2.0 slave's log messages are
+re-logged through the shell, so its messages reach the FMI 3.0 host's logger (the status codes 0..4
+coincide; pythonfmu's own LogMsg cannot be passed on: pythonfmu3's C++ side reads a ``debug`` field that it
+lacks, and crashes on the missing attribute).
 
 What pythonfmu3 0.3.4 cannot carry over, and what this does about it:
 
@@ -24,7 +25,7 @@ from typing import Any, ClassVar
 
 from pythonfmu3 import Fmi3Slave
 from pythonfmu3.default_experiment import DefaultExperiment
-from pythonfmu3.enums import Fmi3Causality, Fmi3Initial, Fmi3Variability
+from pythonfmu3.enums import Fmi3Causality, Fmi3Initial, Fmi3Status, Fmi3Variability
 from pythonfmu3.unit import Unit
 from pythonfmu3.variables import Boolean, Float64, Int32, String
 
@@ -117,7 +118,7 @@ class Fmi3Shell(Fmi3Slave):
             resources=kwargs.get("resources"),
             visible=kwargs.get("visible", False),
         )
-        self.slave.log_queue = self.log_queue
+        self.slave.log = self._log_from_fmi2_slave
         self.author = slave_class.author
         self.description = slave_class.description
         experiment = slave_class.default_experiment
@@ -144,9 +145,13 @@ class Fmi3Shell(Fmi3Slave):
         )
         for unit in sorted({"s"} | {v.unit for v in self.slave._declared if getattr(v, "unit", None)}):
             definition = UNITS[unit]
-            self.units[unit] = Unit(
-                unit, factor=definition.factor, offset=definition.offset, **definition.exponents
-            )
+            # the FMI 2.0 description writes 16 significant digits: the same numbers here
+            factor, offset = (float(f"{x:.16g}") for x in (definition.factor, definition.offset))
+            self.units[unit] = Unit(unit, factor=factor, offset=offset, **definition.exponents)
+
+    def _log_from_fmi2_slave(self, msg: str, status=0, category=None, debug=None) -> None:
+        # pythonfmu3's C++ side reads LogMsg.debug, which pythonfmu's LogMsg lacks: re-log as FMI 3.0
+        self.log(msg, Fmi3Status(int(status)), category)
 
     # ------------------------------------------------------------------ behaviour
     def setup_experiment(self, start_time: float):

@@ -119,6 +119,27 @@ def build_fmi3_fmu(entry: Fmi3Entry, out_dir: Path, root: Path = REPO_ROOT) -> P
     return built
 
 
-def build_fmi3_fmus(out_dir: Path | str, registry: tuple[Fmi3Entry, ...] = FMI3_REGISTRY) -> list[Path]:
-    """Build every entry of ``registry`` into ``out_dir`` (FMI 3.0); return the FMU paths."""
-    return [build_fmi3_fmu(entry, Path(out_dir)) for entry in registry]
+def fmi3_system(fmi2_ssp: Path, fmus: dict[str, Path], out_dir: Path) -> Path:
+    """Write the FMI 3.0 twin of the FMI 2.0 system ``fmi2_ssp`` into ``out_dir`` (same file name): same
+    instances, parameter bindings, connections and experiment, each FMU replaced by its FMI 3.0 build
+    (``fmus``: model identifier -> FMI 3.0 FMU)."""
+    from fmpy import read_model_description
+
+    from .ssp import open_ssp, write_ssp
+
+    with open_ssp(fmi2_ssp) as system:
+        for spec in system.fmus:
+            identifier = read_model_description(str(spec.path), validate=False).coSimulation.modelIdentifier
+            if identifier not in fmus:
+                raise InputError(f"{fmi2_ssp}: no FMI 3.0 build of {identifier} (instance {spec.name})")
+            spec.path = fmus[identifier]
+        return write_ssp(Path(out_dir) / Path(fmi2_ssp).name, system)
+
+
+def build_fmi3_fmus(
+    out_dir: Path | str, fmi2_systems: list[Path] = (), registry: tuple[Fmi3Entry, ...] = FMI3_REGISTRY
+) -> list[Path]:
+    """Build every entry of ``registry`` into ``out_dir`` (FMI 3.0), then the FMI 3.0 twin of each FMI 2.0
+    SSP of ``fmi2_systems``; return the files written."""
+    fmus = {entry.name: build_fmi3_fmu(entry, Path(out_dir)) for entry in registry}
+    return [*fmus.values(), *(fmi3_system(Path(ssp), fmus, Path(out_dir)) for ssp in fmi2_systems)]
