@@ -140,15 +140,24 @@ def test_fmi3_state_get_set_and_serialize_restore_the_run(
 
 
 SCENARIO = """
+import numpy as np
 from pathlib import Path
 from oilwatch.scenarios import make_run
 from oilwatch.scenarios.runner import read_result, run_scenario
-result = {{}}
+columns = {{}}
 for label, ssp in (("fmi2", {fmi2!r}), ("fmi3", {fmi3!r})):
     out = Path({out!r}) / label
     run_scenario(make_run("sudden-drop", duration_s={duration}, seed=4), out, ssp=Path(ssp), progress=False,
                  plot=False)
-    result[label] = read_result(out / "result.csv")
+    columns[label] = read_result(out / "result.csv")
+fmi2, fmi3 = columns["fmi2"], columns["fmi3"]
+relative = {{}}
+for name in fmi2:
+    a, b = np.asarray(fmi2[name], float), np.asarray(fmi3[name], float)
+    scale = np.maximum(np.abs(a), np.abs(b))
+    relative[name] = float(np.max(np.abs(a - b) / np.where(scale > 0, scale, 1.0)))
+result = {{"names": [sorted(fmi2), sorted(fmi3)], "rows": [len(fmi2["time_s"]), len(fmi3["time_s"])],
+          "relative": relative, "q1_true_end": float(fmi2["q1_true_ml_min"][-1])}}
 """
 
 
@@ -164,12 +173,10 @@ def test_sudden_drop_through_the_master_with_the_fmi3_ssp_equals_the_fmi2_ssp(
         ),
         timeout=900,
     )
-    fmi2, fmi3 = result["fmi2"], result["fmi3"]
-    assert fmi2.keys() == fmi3.keys() and len(fmi2["time_s"]) == 4000
-    for column in fmi2:
-        pairs = zip(fmi2[column], fmi3[column], strict=True)
-        assert all(abs(a - b) <= 1e-9 * max(abs(a), abs(b)) for a, b in pairs), column
-    assert fmi2["q1_true_ml_min"][-1] < 0.8 * 596.3  # the drop is inside the compared record
+    assert result["names"][0] == result["names"][1]
+    assert result["rows"][0] == result["rows"][1] >= 4000
+    assert max(result["relative"].values()) <= 1e-9, result["relative"]
+    assert result["q1_true_end"] < 0.8 * 596.3  # the drop is inside the compared record
 
 
 def test_fmi3_ssp_loads_with_its_bindings_and_connections(built_fmus, built_fmi3_fmus):

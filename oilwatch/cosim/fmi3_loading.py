@@ -30,7 +30,7 @@ from .loading import Slave
 FMI3_TYPES = {"Float64": "Real", "Int32": "Integer", "Boolean": "Boolean", "String": "String"}
 """FMI 3.0 variable types the master exchanges, and the FMI 2.0 name each is presented under."""
 _FMI3_KIND = {"Real": "Float64", "Integer": "Int32", "Enumeration": "Int64", "Boolean": "Boolean"}
-_CTYPES3 = {"Real": c_double, "Integer": c_int32, "Boolean": c_bool}
+_CTYPES3 = {"Real": c_double, "Integer": c_int32, "Boolean": c_int32}
 
 
 def fmi_version(path: str | Path) -> str:
@@ -93,7 +93,21 @@ class Slave3(Slave):
     def raw_accessor(self, kind: str, direction: str):
         name = f"fmi3{direction}{_FMI3_KIND.get(kind, kind)}"
         function = self.fmu._functions[name]
-        return name, lambda component, vrs, n, values: function(component, vrs, n, values, n)
+        if kind != "Boolean":
+            return name, lambda component, vrs, n, values: function(component, vrs, n, values, n)
+        # Booleans are C bool in FMI 3.0; the port keeps FMI 2.0's int buffer (recorders write 0/1)
+        flags = {}
+
+        def exchange(component, vrs, n, values):
+            buffer = flags.get(n) or flags.setdefault(n, (c_bool * n)())
+            if direction == "Set":
+                buffer[:] = [bool(v) for v in values]
+            status = function(component, vrs, n, buffer, n)
+            if direction == "Get":
+                values[:] = [int(v) for v in buffer]
+            return status
+
+        return name, exchange
 
     def set_values(self, values: dict[str, object]) -> None:
         for name, value in values.items():

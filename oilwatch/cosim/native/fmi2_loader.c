@@ -323,7 +323,7 @@ static int start_python(const Record *record, int *started, char *error, size_t 
     char encodings[PATH_MAX + 64];
     snprintf(encodings, sizeof encodings, "%s/lib/python%s/encodings/__init__.py", record->python_home,
              record->python_version);
-    if (!is_file(encodings)) {
+    if (record->python_version[0] && !is_file(encodings)) {
         /* Py_InitializeEx would abort the host on a home without the standard library */
         snprintf(error, size,
                  "the Python home '%s' has no standard library for Python %s (%s is missing): set "
