@@ -26,7 +26,6 @@ from models.validation import InputError
 
 from .packaging import relocated_name, rewrite_imports, stage_sources
 
-REPO_ROOT = Path(__file__).resolve().parents[2]
 FMI3_OPTIONS = {"canGetAndSetFMUState": True, "canSerializeFMUState": True}
 BINARY = "binaries/x86_64-linux/{name}.so"
 
@@ -62,21 +61,20 @@ FMI3_REGISTRY: tuple[Fmi3Entry, ...] = (
 )
 
 
-def _forget_modules(names: set[str]) -> None:
-    for module in list(sys.modules):
-        if module.split(".", 1)[0] in names:
-            del sys.modules[module]
-
-
-def build_fmi3_fmu(entry: Fmi3Entry, out_dir: Path, root: Path = REPO_ROOT) -> Path:
-    """Build one FMI 3.0 FMU into ``out_dir``; return its path (see the module docstring)."""
+def build_fmi3_fmu(entry: Fmi3Entry, out_dir: Path, machine=None) -> Path:
+    """Build one FMI 3.0 FMU into ``out_dir`` for ``machine`` (default: the bundled turbine); return its path
+    (see the module docstring)."""
     import pythonfmu
     from fmpy.validation import validate_fmu
     from pythonfmu3.builder import FmuBuilder
 
+    from models.machine import load_machine
+
+    from .fmu_build import _forget_modules, bundle_machine, package_dir, package_root
     from .fmu_docs import documentation_html
 
-    script, fmi2_script = root / entry.script, root / entry.fmi2_script
+    machine = machine if machine is not None else load_machine()
+    script, fmi2_script = package_root() / entry.script, package_root() / entry.fmi2_script
     for path in (script, fmi2_script):
         if not path.is_file():
             raise InputError(f"{entry.name} (FMI 3.0): slave script {path} does not exist")
@@ -86,14 +84,12 @@ def build_fmi3_fmu(entry: Fmi3Entry, out_dir: Path, root: Path = REPO_ROOT) -> P
     staged_names = {script.stem, "pythonfmu", *mapping.values()}
     with tempfile.TemporaryDirectory(prefix=f"oilwatch_fmi3_{entry.name}_") as tmp:
         staging = Path(tmp)
-        staged_script, folders = stage_sources(
-            staging, root, script, entry.packages, entry.prefix, entry.data_globs
-        )
+        folders_of = {package: package_dir(package) for package in entry.packages}
+        staged_script, folders = stage_sources(staging, folders_of, script, entry.prefix, entry.data_globs)
+        bundle_machine(machine, staging / mapping["fmu_src"])
         wrapped = staging / mapping["fmu_src"] / fmi2_script.name
-        wrapped.write_text(
-            rewrite_imports(fmi2_script.read_text(encoding="utf-8"), mapping, str(fmi2_script)),
-            encoding="utf-8",
-        )
+        source = fmi2_script.read_text(encoding="utf-8")
+        wrapped.write_text(rewrite_imports(source, mapping, str(fmi2_script)), encoding="utf-8")
         fmi2_base = staging / "pythonfmu"  # its Python files, as pythonfmu's own builder bundles them
         fmi2_base.mkdir()
         for module in Path(pythonfmu.__file__).parent.glob("*.py"):
@@ -137,9 +133,12 @@ def fmi3_system(fmi2_ssp: Path, fmus: dict[str, Path], out_dir: Path) -> Path:
 
 
 def build_fmi3_fmus(
-    out_dir: Path | str, fmi2_systems: list[Path] = (), registry: tuple[Fmi3Entry, ...] = FMI3_REGISTRY
+    out_dir: Path | str,
+    fmi2_systems: list[Path] = (),
+    registry: tuple[Fmi3Entry, ...] = FMI3_REGISTRY,
+    machine=None,
 ) -> list[Path]:
-    """Build every entry of ``registry`` into ``out_dir`` (FMI 3.0), then the FMI 3.0 twin of each FMI 2.0
-    SSP of ``fmi2_systems``; return the files written."""
-    fmus = {entry.name: build_fmi3_fmu(entry, Path(out_dir)) for entry in registry}
+    """Build every entry of ``registry`` into ``out_dir`` (FMI 3.0) for ``machine`` (default: the bundled
+    turbine), then the FMI 3.0 twin of each FMI 2.0 SSP of ``fmi2_systems``; return the files written."""
+    fmus = {entry.name: build_fmi3_fmu(entry, Path(out_dir), machine) for entry in registry}
     return [*fmus.values(), *(fmi3_system(Path(ssp), fmus, Path(out_dir)) for ssp in fmi2_systems)]
