@@ -112,6 +112,7 @@ class Slave3(Slave):
     def set_values(self, values: dict[str, object]) -> None:
         for name, value in values.items():
             variable = self.variable(name)
+            value = self.checked_value(name, value)
             vr = [variable.value_reference]
             setter = {
                 "Real": (self.fmu.setFloat64, float),
@@ -140,8 +141,12 @@ class Slave3(Slave):
             result[name] = value.decode() if isinstance(value, bytes) else value
         return result
 
-    def initialize(self, start_time: float, stop_time: float | None, values: dict) -> None:
+    def initialize(
+        self, start_time: float, stop_time: float | None, values: dict, labels: dict[str, str] | None = None
+    ) -> None:
         """fmi3EnterInitializationMode (with the experiment), set ``values``, fmi3ExitInitializationMode."""
+        if labels is not None:
+            self.labels = dict(labels)
         self.time = start_time
         self.call(
             "fmi3EnterInitializationMode",
