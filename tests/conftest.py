@@ -26,3 +26,16 @@ def built_fmus(tmp_path_factory):
     process = run_python(f"import build; build.build_fmus({str(out)!r})", timeout=400.0)
     assert process.returncode == 0, process.stderr
     return out
+
+
+@pytest.fixture(scope="session")
+def built_fmi3_fmus(built_fmus, tmp_path_factory):
+    """The FMI 3.0 twins of the session's FMUs and of OilStarvation.ssp (pythonfmu3), built once per session
+    in a fresh process; their folder."""
+    out = tmp_path_factory.mktemp("oilwatch_fmi3_fmus")
+    ssp = built_fmus / "OilStarvation.ssp"
+    code = "from oilwatch.cosim.fmi3_build import build_fmi3_fmus\n"
+    code += f"build_fmi3_fmus({str(out)!r}, [{str(ssp)!r}])"
+    process = run_python(code, timeout=400.0)
+    assert process.returncode == 0, process.stderr
+    return out

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import os
 import sys
 
 from models.validation import InputError
@@ -91,18 +90,13 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def console_main() -> None:
-    """The console script: :func:`main`, then exit without interpreter finalization if an FMU was loaded.
+    """The console script: :func:`main`, then a normal interpreter exit.
 
-    pythonfmu 0.7's binary runs its own interpreter teardown when the process ends and may corrupt the
-    heap there ("free(): corrupted unsorted chunks", PythonFMU issue #228), turning a finished run's exit
-    code into SIGABRT. Every file is closed and both streams are flushed before ``os._exit``.
+    oilwatch's FMUs carry their own loader (``oilwatch/cosim/native/fmi2_loader.c``), which fixes
+    pythonfmu 0.7's double release of its interpreter guard at process exit (PythonFMU issues #228,
+    #229: "free(): corrupted unsorted chunks"), so the process may finalize normally after a run.
     """
-    code = main()
-    if "oilwatch.cosim.loading" in sys.modules and sys.modules["oilwatch.cosim.loading"].instantiated_any():
-        sys.stdout.flush()
-        sys.stderr.flush()
-        os._exit(code)
-    sys.exit(code)
+    sys.exit(main())
 
 
 if __name__ == "__main__":

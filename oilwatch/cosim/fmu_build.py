@@ -193,6 +193,7 @@ def build_fmu(entry: FmuEntry, out_dir: Path, machine=None, root: Path | None = 
 
     from models.machine import load_machine
     from oilwatch.cosim.fmu_docs import documentation_html
+    from oilwatch.cosim.native_loader import install_loader
     from oilwatch.cosim.packaging import relocated_name, stage_sources
 
     machine = machine if machine is not None else load_machine()
@@ -224,6 +225,7 @@ def build_fmu(entry: FmuEntry, out_dir: Path, machine=None, root: Path | None = 
             f"{entry.name}: the slave class in {script.name} must be named {entry.name} "
             f"(pythonfmu names the model after the class; module {identifier})"
         )
+    install_loader(built, entry.name)  # self-sufficient binary: oilwatch/cosim/native_loader.py
     with zipfile.ZipFile(built, "a") as archive:
         archive.writestr("documentation/index.html", documentation_html(built))
     problems = validate_fmu(str(built))

@@ -17,6 +17,7 @@ from collections import deque
 from ctypes import byref, c_double, c_int, c_uint
 from dataclasses import dataclass
 from pathlib import Path
+from typing import ClassVar
 
 from fmpy import read_model_description
 from fmpy.fmi1 import FMICallException
@@ -41,14 +42,6 @@ _CTYPES = {"Real": c_double, "Integer": c_int, "Boolean": c_int, "Enumeration": 
 _LOG_KEYS = itertools.count(1)
 _LOG_SINKS: weakref.WeakValueDictionary = weakref.WeakValueDictionary()
 _ORPHANED_CALLBACKS: list = []
-_INSTANTIATED_ANY = False
-
-
-def instantiated_any() -> bool:
-    """Whether this process has instantiated an FMU (its binary stays loaded until the process ends)."""
-    return _INSTANTIATED_ANY
-
-
 """Callback structs of instances that died with fmi2Fatal: never freed, the FMU may still hold them."""
 
 
@@ -78,7 +71,7 @@ class Variable:
     maximum: str | None = None
 
 
-def _read_description(path: Path):
+def _read_description(path: Path, version: str = "2.0"):
     if not path.is_file():
         raise SystemDescriptionError(f"FMU file {path} does not exist")
     if not zipfile.is_zipfile(path):
@@ -89,9 +82,9 @@ def _read_description(path: Path):
         raise SystemDescriptionError(
             f"FMU file {path} is corrupt: cannot read its modelDescription.xml ({error})"
         ) from None
-    if md.fmiVersion != "2.0" or md.coSimulation is None:
+    if md.fmiVersion != version or md.coSimulation is None:
         raise SystemDescriptionError(
-            f"FMU file {path} is not an FMI 2.0 co-simulation FMU "
+            f"FMU file {path} is not an FMI {version} co-simulation FMU "
             f"(fmiVersion {md.fmiVersion}, co-simulation {md.coSimulation is not None})"
         )
     return md
@@ -105,18 +98,32 @@ class Slave:
     a :class:`SlaveError` naming the instance, the FMI function and the simulation time.
     """
 
+    fmi_version = "2.0"
+    fmu_class = FMU2Slave
+    type_names: ClassVar[dict[str, str]] = {}
+    """Variable types presented under another name (FMI 3.0 -> FMI 2.0 names, see fmi3_loading)."""
+
     def __init__(self, name: str, path: str | Path, log_size: int = 50):
         if not name or not name.replace("_", "").isalnum():
             raise SystemDescriptionError(f"FMU instance name must be letters, digits and '_', got {name!r}")
         self.name = name
         self.path = Path(path)
-        self.model_description = _read_description(self.path)
+        self.model_description = _read_description(self.path, self.fmi_version)
         md = self.model_description
         self.variables = {
             v.name: Variable(
-                v.name, v.valueReference, v.type, v.causality, v.variability, v.unit, v.start, v.min, v.max
+                v.name,
+                v.valueReference,
+                self.type_names.get(v.type, v.type),
+                v.causality,
+                v.variability,
+                v.unit,
+                v.start,
+                v.min,
+                v.max,
             )
             for v in md.modelVariables
+            if v.causality != "independent"
         }
         self.log: deque[str] = deque(maxlen=log_size)
         self.time: float | None = None
@@ -127,7 +134,7 @@ class Slave:
         try:
             # A persistent folder per FMU content keeps numba's on-disk cache valid across runs.
             self._unzip_dir, self._persistent = extract_fmu(self.path, name)
-            self.fmu = FMU2Slave(
+            self.fmu = self.fmu_class(
                 guid=md.guid,
                 unzipDirectory=str(self._unzip_dir),
                 modelIdentifier=md.coSimulation.modelIdentifier,
@@ -138,13 +145,14 @@ class Slave:
             raise SystemDescriptionError(
                 f"FMU file {self.path} is corrupt or has no binary for this platform ({error})"
             ) from None
-        self._callbacks = self._make_callbacks()
-        # pythonfmu drops every message, errors included, unless loggingOn is true.
-        global _INSTANTIATED_ANY
-        _INSTANTIATED_ANY = True
-        self.call("fmi2Instantiate", self.fmu.instantiate, callbacks=self._callbacks, loggingOn=True)
+        self._instantiate()
         self.instantiated = True
         self.component = self.fmu.component
+
+    def _instantiate(self) -> None:
+        self._callbacks = self._make_callbacks()
+        # pythonfmu drops every message, errors included, unless loggingOn is true.
+        self.call("fmi2Instantiate", self.fmu.instantiate, callbacks=self._callbacks, loggingOn=True)
         self._do_step = self.fmu._functions["fmi2DoStep"]
 
     def _make_callbacks(self) -> fmi2CallbackFunctions:
@@ -202,6 +210,15 @@ class Slave:
                 raise SlaveError(self.name, fname, None, f"failure ({error})", list(self.log)[-5:]) from None
             raise
         return result
+
+    def ctype(self, type_name: str):
+        """The ctypes type of one value of ``type_name`` (FMI 2.0 type names)."""
+        return _CTYPES[type_name]
+
+    def raw_accessor(self, kind: str, direction: str):
+        """``(FMI function name, f(component, vrs, n, values) -> status)`` for a :class:`Port`."""
+        name = f"fmi2{direction}{kind}"
+        return name, self.fmu._functions[name]
 
     def variable(self, name: str) -> Variable:
         """The variable called ``name``, or a SystemDescriptionError listing what exists."""
@@ -314,11 +331,10 @@ class Port:
         vrs = [slave.variable(n).value_reference for n in names]
         self.size = len(vrs)
         self.vrs = (c_uint * self.size)(*vrs)
-        self.values = (_CTYPES[type_name] * self.size)()
+        self.values = (slave.ctype(type_name) * self.size)()
         kind = "Integer" if type_name == "Enumeration" else type_name
-        self._get_name, self._set_name = f"fmi2Get{kind}", f"fmi2Set{kind}"
-        self._get = slave.fmu._functions[self._get_name]
-        self._set = slave.fmu._functions[self._set_name]
+        self._get_name, self._get = slave.raw_accessor(kind, "Get")
+        self._set_name, self._set = slave.raw_accessor(kind, "Set")
         self.component = slave.component
 
     def read(self) -> None:

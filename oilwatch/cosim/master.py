@@ -33,6 +33,7 @@ from pathlib import Path
 from .algorithm import make_stepper
 from .connections import Connection, check_connections, make_transfers, same_name_connections
 from .errors import SlaveError, SystemDescriptionError
+from .fmi3_loading import open_slave
 from .loading import Port, Slave
 from .recording import as_recorder
 
@@ -87,7 +88,7 @@ class Master:
         self._used = False
         try:
             for spec in system.fmus:
-                self.slaves[spec.name] = Slave(spec.name, spec.path)
+                self.slaves[spec.name] = open_slave(spec.name, spec.path)
             for spec in system.fmus:
                 for parameter in spec.parameters:
                     self.slaves[spec.name].variable(parameter)

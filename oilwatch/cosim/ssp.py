@@ -32,6 +32,7 @@ NS = {
 OSP_ANNOTATION = "com.opensimulationplatform"
 SSD_NAME = "SystemStructure.ssd"
 _FMI_TO_SSC = {"Real": "Real", "Integer": "Integer", "Boolean": "Boolean", "String": "String"}
+_FMI_TO_SSC |= {"Float64": "Real", "Int32": "Integer"}  # FMI 3.0 types of oilwatch's FMI 3.0 FMUs
 
 for _prefix, _uri in NS.items():
     ET.register_namespace(_prefix, _uri)
@@ -136,7 +137,7 @@ def _component(spec: FmuSpec, md, source: str) -> ET.Element:
             ET.SubElement(
                 parameter,
                 _q("ssv", _FMI_TO_SSC[types[name]]),
-                {"value": _value_text(types[name], value)},
+                {"value": _value_text(_FMI_TO_SSC[types[name]], value)},
             )
     return component
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 import hashlib
 import os
 import shutil
+import sys
 import tempfile
 from pathlib import Path
 
@@ -25,7 +26,7 @@ from ..cosim.fmu_build import build_in_subprocess
 PLANT_FMU = "RotorBearingPlant.fmu"
 EKF_FMU = "OilFlowEKF.fmu"
 SYSTEM_SSP = "OilStarvation.ssp"
-_BUILD_MODULES = ("packaging.py", "fmu_build.py", "fmu_docs.py")
+_BUILD_MODULES = ("packaging.py", "fmu_build.py", "fmu_docs.py", "native_loader.py", "native/fmi2_loader.c")
 _SUFFIXES = (".py", ".toml", ".json")
 KEEP_BUILDS = 4
 """Builds kept in ``<cache>/build`` (least recently used ones beyond this are deleted)."""
@@ -53,7 +54,7 @@ def build_inputs(machine=None) -> list[tuple[str, Path]]:
 
 def source_hash(machine=None) -> str:
     """SHA-256 (first 16 hex digits) of the FMUs' input files (:func:`build_inputs`): names and contents."""
-    digest = hashlib.sha256()
+    digest = hashlib.sha256(sys.prefix.encode())  # the FMUs record the environment that built them
     for name, path in build_inputs(machine):
         digest.update(name.encode())
         digest.update(path.read_bytes())

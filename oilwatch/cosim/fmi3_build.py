@@ -1,0 +1,144 @@
+"""Build the FMI 3.0 co-simulation twins of oilwatch's FMUs with pythonfmu3.
+
+Each FMI 3.0 FMU is the FMI 2.0 slave of the same name behind :class:`fmu_src.fmi3_shell.Fmi3Shell`:
+the shell script (``fmu_src/*_fmi3_slave.py``) is staged like an FMI 2.0 slave (packages relocated under
+their own prefix, see :mod:`oilwatch.cosim.packaging`), and the FMI 2.0 slave script it wraps is staged
+inside the relocated ``fmu_src`` with its imports rewritten, together with pythonfmu itself (the FMI 2.0
+slave's base class). pythonfmu3 writes the model description; ``documentation/index.html`` is added and
+``fmpy validate`` must pass, as for FMI 2.0.
+
+The binaries are pythonfmu3's own: they need a host that already runs Python (fmpy, libcosimpy); the
+self-sufficient loader exists for FMI 2.0 only (``native/fmi2_loader.c``). pythonfmu3's export binary has
+pythonfmu's teardown defect too; :class:`oilwatch.cosim.fmi3_loading.Slave3` releases its interpreter
+guard when it frees the instance.
+"""
+
+from __future__ import annotations
+
+import shutil
+import sys
+import tempfile
+import zipfile
+from dataclasses import dataclass
+from pathlib import Path
+
+from models.validation import InputError
+
+from .packaging import relocated_name, rewrite_imports, stage_sources
+
+FMI3_OPTIONS = {"canGetAndSetFMUState": True, "canSerializeFMUState": True}
+BINARY = "binaries/x86_64-linux/{name}.so"
+
+
+@dataclass(frozen=True)
+class Fmi3Entry:
+    """One FMI 3.0 FMU: ``name`` (model identifier, the shell's class name), the shell ``script``, the
+    FMI 2.0 slave script it wraps, the packages to bundle and a relocation prefix of its own."""
+
+    name: str
+    script: str
+    fmi2_script: str
+    packages: tuple[str, ...]
+    prefix: str
+    data_globs: tuple[str, ...] = ("*.toml", "*.json")
+
+
+FMI3_REGISTRY: tuple[Fmi3Entry, ...] = (
+    Fmi3Entry(
+        name="RotorBearingPlant",
+        script="fmu_src/oilwatch_plant_fmi3_slave.py",
+        fmi2_script="fmu_src/oilwatch_plant_slave.py",
+        packages=("models", "fmu_src"),
+        prefix="oilwatch_plant3",
+    ),
+    Fmi3Entry(
+        name="OilFlowEKF",
+        script="fmu_src/oilwatch_ekf_fmi3_slave.py",
+        fmi2_script="fmu_src/oilwatch_ekf_slave.py",
+        packages=("models", "estimator", "fmu_src"),
+        prefix="oilwatch_ekf3",
+    ),
+)
+
+
+def build_fmi3_fmu(entry: Fmi3Entry, out_dir: Path, machine=None) -> Path:
+    """Build one FMI 3.0 FMU into ``out_dir`` for ``machine`` (default: the bundled turbine); return its path
+    (see the module docstring)."""
+    import pythonfmu
+    from fmpy.validation import validate_fmu
+    from pythonfmu3.builder import FmuBuilder
+
+    from models.machine import load_machine
+
+    from .fmu_build import _forget_modules, bundle_machine, package_dir, package_root
+    from .fmu_docs import documentation_html
+
+    machine = machine if machine is not None else load_machine()
+    script, fmi2_script = package_root() / entry.script, package_root() / entry.fmi2_script
+    for path in (script, fmi2_script):
+        if not path.is_file():
+            raise InputError(f"{entry.name} (FMI 3.0): slave script {path} does not exist")
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    mapping = {package: relocated_name(entry.prefix, package) for package in entry.packages}
+    staged_names = {script.stem, "pythonfmu", *mapping.values()}
+    with tempfile.TemporaryDirectory(prefix=f"oilwatch_fmi3_{entry.name}_") as tmp:
+        staging = Path(tmp)
+        folders_of = {package: package_dir(package) for package in entry.packages}
+        staged_script, folders = stage_sources(staging, folders_of, script, entry.prefix, entry.data_globs)
+        bundle_machine(machine, staging / mapping["fmu_src"])
+        wrapped = staging / mapping["fmu_src"] / fmi2_script.name
+        source = fmi2_script.read_text(encoding="utf-8")
+        wrapped.write_text(rewrite_imports(source, mapping, str(fmi2_script)), encoding="utf-8")
+        fmi2_base = staging / "pythonfmu"  # its Python files, as pythonfmu's own builder bundles them
+        fmi2_base.mkdir()
+        for module in Path(pythonfmu.__file__).parent.glob("*.py"):
+            shutil.copy2(module, fmi2_base)
+        saved_path = list(sys.path)
+        try:
+            built = FmuBuilder.build_FMU(
+                staged_script, dest=out_dir, project_files=[*folders, fmi2_base], **FMI3_OPTIONS
+            )
+        finally:
+            sys.path[:] = saved_path
+            _forget_modules(staged_names)
+    built = Path(built)
+    with zipfile.ZipFile(built) as archive:
+        if BINARY.format(name=entry.name) not in archive.namelist():
+            built.unlink()
+            raise InputError(f"{entry.name}: the class in {script.name} must be named {entry.name}")
+    with zipfile.ZipFile(built, "a") as archive:
+        archive.writestr("documentation/index.html", documentation_html(built))
+    problems = validate_fmu(str(built))
+    if problems:
+        raise InputError(f"{entry.name} (FMI 3.0): fmpy validate found problems: " + "; ".join(problems))
+    return built
+
+
+def fmi3_system(fmi2_ssp: Path, fmus: dict[str, Path], out_dir: Path) -> Path:
+    """Write the FMI 3.0 twin of the FMI 2.0 system ``fmi2_ssp`` into ``out_dir`` (same file name): same
+    instances, parameter bindings, connections and experiment, each FMU replaced by its FMI 3.0 build
+    (``fmus``: model identifier -> FMI 3.0 FMU)."""
+    from fmpy import read_model_description
+
+    from .ssp import open_ssp, write_ssp
+
+    with open_ssp(fmi2_ssp) as system:
+        for spec in system.fmus:
+            identifier = read_model_description(str(spec.path), validate=False).coSimulation.modelIdentifier
+            if identifier not in fmus:
+                raise InputError(f"{fmi2_ssp}: no FMI 3.0 build of {identifier} (instance {spec.name})")
+            spec.path = fmus[identifier]
+        return write_ssp(Path(out_dir) / Path(fmi2_ssp).name, system)
+
+
+def build_fmi3_fmus(
+    out_dir: Path | str,
+    fmi2_systems: list[Path] = (),
+    registry: tuple[Fmi3Entry, ...] = FMI3_REGISTRY,
+    machine=None,
+) -> list[Path]:
+    """Build every entry of ``registry`` into ``out_dir`` (FMI 3.0) for ``machine`` (default: the bundled
+    turbine), then the FMI 3.0 twin of each FMI 2.0 SSP of ``fmi2_systems``; return the files written."""
+    fmus = {entry.name: build_fmi3_fmu(entry, Path(out_dir), machine) for entry in registry}
+    return [*fmus.values(), *(fmi3_system(Path(ssp), fmus, Path(out_dir)) for ssp in fmi2_systems)]

@@ -1,0 +1,532 @@
+/*
+ * oilwatch FMI 2.0 loader: the binary binaries/linux64/<modelIdentifier>.so of an oilwatch FMU.
+ *
+ * Why: pythonfmu's export binary (shipped inside the FMU as binaries/linux64/pythonfmu_export.so)
+ * does not link libpython and takes the Python environment from whoever loads it, so a host without
+ * Python fails with "undefined symbol: _Py_NoneStruct". This loader makes the FMU self-sufficient:
+ *
+ * 1. On the first fmi2Instantiate it reads resources/oilwatch_python.txt (written by the build:
+ *    the libpython it was built with, that interpreter's prefix, the site-packages folders of the
+ *    build environment). OILWATCH_PYTHON_LIB, OILWATCH_PYTHONHOME and OILWATCH_PYTHON_ENV override
+ *    the three entries (OILWATCH_PYTHON_ENV: a virtual environment or a site-packages folder, several
+ *    separated by ':').
+ * 2. If the process has no Python interpreter yet (no Py_IsInitialized symbol in the global scope),
+ *    it dlopens that libpython with RTLD_GLOBAL, sets its home, initializes it without signal
+ *    handlers (Py_InitializeEx(0): the host keeps SIGINT), puts the environment's site-packages on
+ *    sys.path in place of the interpreter's own, and releases the GIL. In a Python host (fmpy,
+ *    libcosimpy) none of this happens: the host's interpreter and environment are used, as before.
+ *    Either way numpy, scipy and numba must import; if not, or if a file is missing, the host's
+ *    logger gets one message naming what is missing and the variable that points elsewhere, and
+ *    fmi2Instantiate returns NULL.
+ * 3. It dlopens pythonfmu_export.so (RTLD_LOCAL) and forwards every fmi2* call to it unchanged.
+ *
+ * Teardown. pythonfmu 0.7 keeps its interpreter guard in a static std::shared_ptr and also resets it
+ * from an __attribute__((destructor)) function. Its library has STB_GNU_UNIQUE symbols, so dlclose
+ * never unloads it; at exit() the C++ static destructor (an atexit entry) runs first and the
+ * destructor function afterwards (from _dl_fini), releasing the same control block a second time:
+ * "free(): corrupted unsorted chunks" (PythonFMU issues #228, #229). The loader registers, after
+ * loading pythonfmu, an atexit handler that calls pythonfmu's exported finalizePythonInterpreter().
+ * atexit handlers run in reverse order of registration, so the guard is released once, properly,
+ * before the static destructor sees it (already empty). The same handler runs when the host
+ * dlcloses this loader. Because the loader initializes the interpreter itself, pythonfmu's guard
+ * never calls Py_Finalize (it only finalizes an interpreter it started): unloading one oilwatch FMU
+ * cannot finalize Python under another one. The loader never finalizes the interpreter either (numpy
+ * cannot be initialized twice in one process); it lives until the process ends, as in a Python host.
+ */
+#define _GNU_SOURCE
+#include <dlfcn.h>
+#include <limits.h>
+#include <pthread.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <wchar.h>
+
+/* ---- FMI 2.0 types (as in the standard's fmi2TypesPlatform.h / fmi2FunctionTypes.h) ---- */
+typedef void *fmi2Component;
+typedef void *fmi2ComponentEnvironment;
+typedef void *fmi2FMUstate;
+typedef unsigned int fmi2ValueReference;
+typedef double fmi2Real;
+typedef int fmi2Integer;
+typedef int fmi2Boolean;
+typedef char fmi2Char;
+typedef const fmi2Char *fmi2String;
+typedef char fmi2Byte;
+typedef enum { fmi2OK, fmi2Warning, fmi2Discard, fmi2Error, fmi2Fatal, fmi2Pending } fmi2Status;
+typedef enum { fmi2ModelExchange, fmi2CoSimulation } fmi2Type;
+typedef enum { fmi2DoStepStatus, fmi2PendingStatus, fmi2LastSuccessfulTime, fmi2Terminated } fmi2StatusKind;
+typedef void (*fmi2CallbackLogger)(fmi2ComponentEnvironment, fmi2String, fmi2Status, fmi2String, fmi2String, ...);
+typedef struct {
+    fmi2CallbackLogger logger;
+    void *(*allocateMemory)(size_t, size_t);
+    void (*freeMemory)(void *);
+    void (*stepFinished)(fmi2ComponentEnvironment, fmi2Status);
+    fmi2ComponentEnvironment componentEnvironment;
+} fmi2CallbackFunctions;
+
+#define EXPORT __attribute__((visibility("default")))
+#define INNER_NAME "pythonfmu_export.so"
+#define RECORD_NAME "oilwatch_python.txt"
+
+/* ---- the Python C API functions used here, resolved with dlsym ---- */
+typedef struct _object PyObject;
+typedef int PyGILState_STATE;
+static struct {
+    int (*IsInitialized)(void);
+    void (*InitializeEx)(int);
+    void (*SetPythonHome)(const wchar_t *);
+    wchar_t *(*DecodeLocale)(const char *, size_t *);
+    void *(*EvalSaveThread)(void);
+    PyGILState_STATE (*GILStateEnsure)(void);
+    void (*GILStateRelease)(PyGILState_STATE);
+    PyObject *(*DictNew)(void);
+    int (*DictSetItemString)(PyObject *, const char *, PyObject *);
+    PyObject *(*DictGetItemString)(PyObject *, const char *);
+    PyObject *(*RunString)(const char *, int, PyObject *, PyObject *);
+    PyObject *(*UnicodeDecodeFSDefault)(const char *);
+    const char *(*UnicodeAsUTF8)(PyObject *);
+    PyObject *(*EvalGetBuiltins)(void);
+    void (*DecRef)(PyObject *);
+    void (*ErrClear)(void);
+} py;
+#define PY_FILE_INPUT 257
+
+/* Run in the interpreter after start-up: the environment's site-packages replace the interpreter's
+ * own (as a virtual environment without system site-packages does), then numpy, scipy and numba must
+ * import. Leaves a message in `problem` (empty when all is well). */
+static const char CHECK_CODE[] =
+    "problem = ''\n"
+    "try:\n"
+    "    import importlib, os, site, sys\n"
+    "    if configure:\n"
+    "        own = set(site.getsitepackages() + [site.getusersitepackages()])\n"
+    "        sys.path[:] = [p for p in sys.path if p not in own]\n"
+    "        for d in [d for d in site_dirs.split(os.pathsep) if d]:\n"
+    "            site.addsitedir(d)\n"
+    "    missing = []\n"
+    "    for name in ('numpy', 'scipy', 'numba'):\n"
+    "        try:\n"
+    "            importlib.import_module(name)\n"
+    "        except Exception as error:\n"
+    "            missing.append(f'{name} ({type(error).__name__}: {error})')\n"
+    "    if missing:\n"
+    "        where = site_dirs if configure else 'the host process\\'s Python (' + sys.prefix + ')'\n"
+    "        problem = 'cannot import ' + ', '.join(missing) + ' from ' + where\n"
+    "except Exception as error:\n"
+    "    problem = f'checking the Python environment failed: {type(error).__name__}: {error}'\n";
+
+/* ---- pythonfmu's binary ---- */
+typedef struct {
+    void *handle;
+    fmi2Component (*Instantiate)(fmi2String, fmi2Type, fmi2String, fmi2String, const fmi2CallbackFunctions *,
+                                 fmi2Boolean, fmi2Boolean);
+    void (*FreeInstance)(fmi2Component);
+    fmi2Status (*SetDebugLogging)(fmi2Component, fmi2Boolean, size_t, const fmi2String[]);
+    fmi2Status (*SetupExperiment)(fmi2Component, fmi2Boolean, fmi2Real, fmi2Real, fmi2Boolean, fmi2Real);
+    fmi2Status (*EnterInitializationMode)(fmi2Component);
+    fmi2Status (*ExitInitializationMode)(fmi2Component);
+    fmi2Status (*Terminate)(fmi2Component);
+    fmi2Status (*Reset)(fmi2Component);
+    fmi2Status (*GetReal)(fmi2Component, const fmi2ValueReference[], size_t, fmi2Real[]);
+    fmi2Status (*GetInteger)(fmi2Component, const fmi2ValueReference[], size_t, fmi2Integer[]);
+    fmi2Status (*GetBoolean)(fmi2Component, const fmi2ValueReference[], size_t, fmi2Boolean[]);
+    fmi2Status (*GetString)(fmi2Component, const fmi2ValueReference[], size_t, fmi2String[]);
+    fmi2Status (*SetReal)(fmi2Component, const fmi2ValueReference[], size_t, const fmi2Real[]);
+    fmi2Status (*SetInteger)(fmi2Component, const fmi2ValueReference[], size_t, const fmi2Integer[]);
+    fmi2Status (*SetBoolean)(fmi2Component, const fmi2ValueReference[], size_t, const fmi2Boolean[]);
+    fmi2Status (*SetString)(fmi2Component, const fmi2ValueReference[], size_t, const fmi2String[]);
+    fmi2Status (*GetFMUstate)(fmi2Component, fmi2FMUstate *);
+    fmi2Status (*SetFMUstate)(fmi2Component, fmi2FMUstate);
+    fmi2Status (*FreeFMUstate)(fmi2Component, fmi2FMUstate *);
+    fmi2Status (*SerializedFMUstateSize)(fmi2Component, fmi2FMUstate, size_t *);
+    fmi2Status (*SerializeFMUstate)(fmi2Component, fmi2FMUstate, fmi2Byte[], size_t);
+    fmi2Status (*DeSerializeFMUstate)(fmi2Component, const fmi2Byte[], size_t, fmi2FMUstate *);
+    fmi2Status (*GetDirectionalDerivative)(fmi2Component, const fmi2ValueReference[], size_t,
+                                           const fmi2ValueReference[], size_t, const fmi2Real[], fmi2Real[]);
+    fmi2Status (*SetRealInputDerivatives)(fmi2Component, const fmi2ValueReference[], size_t,
+                                          const fmi2Integer[], const fmi2Real[]);
+    fmi2Status (*GetRealOutputDerivatives)(fmi2Component, const fmi2ValueReference[], size_t,
+                                           const fmi2Integer[], fmi2Real[]);
+    fmi2Status (*DoStep)(fmi2Component, fmi2Real, fmi2Real, fmi2Boolean);
+    fmi2Status (*CancelStep)(fmi2Component);
+    fmi2Status (*GetStatus)(fmi2Component, const fmi2StatusKind, fmi2Status *);
+    fmi2Status (*GetRealStatus)(fmi2Component, const fmi2StatusKind, fmi2Real *);
+    fmi2Status (*GetIntegerStatus)(fmi2Component, const fmi2StatusKind, fmi2Integer *);
+    fmi2Status (*GetBooleanStatus)(fmi2Component, const fmi2StatusKind, fmi2Boolean *);
+    fmi2Status (*GetStringStatus)(fmi2Component, const fmi2StatusKind, fmi2String *);
+} Inner;
+
+static Inner inner;
+static pthread_mutex_t load_lock = PTHREAD_MUTEX_INITIALIZER;
+
+typedef struct {
+    char python_lib[PATH_MAX];
+    char python_home[PATH_MAX];
+    char site_dirs[4 * PATH_MAX];
+    char python_version[32];
+} Record;
+
+static void report(const fmi2CallbackFunctions *functions, fmi2String instance, const char *format, ...)
+{
+    char message[8192];
+    va_list args;
+    va_start(args, format);
+    vsnprintf(message, sizeof message, format, args);
+    va_end(args);
+    /* the FMI logger takes a printf format: no '%' may reach it unescaped */
+    for (char *p = message; *p; ++p)
+        if (*p == '%') *p = ' ';
+    if (functions && functions->logger)
+        functions->logger(functions->componentEnvironment, instance, fmi2Error, "logStatusError", message);
+    else
+        fprintf(stderr, "%s: %s\n", instance ? instance : "oilwatch FMU", message);
+}
+
+static int is_dir(const char *path)
+{
+    struct stat info;
+    return stat(path, &info) == 0 && S_ISDIR(info.st_mode);
+}
+
+static int is_file(const char *path)
+{
+    struct stat info;
+    return stat(path, &info) == 0 && S_ISREG(info.st_mode);
+}
+
+/* fmuResourceLocation is a file URI (file:///a/b or file:/a/b, %xx escaped); returns a plain path. */
+static int uri_to_path(const char *uri, char *path, size_t size)
+{
+    if (!uri) return 0;
+    if (strncmp(uri, "file://", 7) == 0) uri += 7;
+    else if (strncmp(uri, "file:", 5) == 0) uri += 5;
+    size_t n = 0;
+    for (const char *p = uri; *p && n + 1 < size; ++p) {
+        if (p[0] == '%' && p[1] && p[2]) {
+            char hex[3] = {p[1], p[2], 0};
+            path[n++] = (char)strtol(hex, NULL, 16);
+            p += 2;
+        } else {
+            path[n++] = *p;
+        }
+    }
+    path[n] = 0;
+    while (n > 1 && path[n - 1] == '/') path[--n] = 0;
+    return n > 0;
+}
+
+static void copy_value(char *dst, size_t size, const char *value)
+{
+    snprintf(dst, size, "%s", value);
+    size_t n = strlen(dst);
+    while (n && (dst[n - 1] == '\n' || dst[n - 1] == '\r')) dst[--n] = 0;
+}
+
+static int read_record(const char *resources, Record *record, char *error, size_t size)
+{
+    char path[PATH_MAX + 64];
+    snprintf(path, sizeof path, "%s/%s", resources, RECORD_NAME);
+    memset(record, 0, sizeof *record);
+    FILE *file = fopen(path, "r");
+    if (file) {
+        char line[4 * PATH_MAX + 64];
+        while (fgets(line, sizeof line, file)) {
+            char *eq = strchr(line, '=');
+            if (!eq) continue;
+            *eq = 0;
+            const char *value = eq + 1;
+            if (!strcmp(line, "python_library")) copy_value(record->python_lib, sizeof record->python_lib, value);
+            else if (!strcmp(line, "python_home")) copy_value(record->python_home, sizeof record->python_home, value);
+            else if (!strcmp(line, "site_packages")) copy_value(record->site_dirs, sizeof record->site_dirs, value);
+            else if (!strcmp(line, "python_version"))
+                copy_value(record->python_version, sizeof record->python_version, value);
+        }
+        fclose(file);
+    }
+    const char *lib = getenv("OILWATCH_PYTHON_LIB"), *home = getenv("OILWATCH_PYTHONHOME");
+    const char *env = getenv("OILWATCH_PYTHON_ENV");
+    if (lib && *lib) copy_value(record->python_lib, sizeof record->python_lib, lib);
+    if (home && *home) copy_value(record->python_home, sizeof record->python_home, home);
+    if (env && *env) {
+        /* a virtual environment folder stands for its lib/pythonX.Y/site-packages */
+        char site[PATH_MAX + 64];
+        snprintf(site, sizeof site, "%s/lib/python%s/site-packages", env, record->python_version);
+        copy_value(record->site_dirs, sizeof record->site_dirs, is_dir(site) ? site : env);
+    }
+    if (!file && !(lib && *lib && home && *home && env && *env)) {
+        snprintf(error, size,
+                 "%s is missing (the FMU was not built by oilwatch's build): set OILWATCH_PYTHON_LIB, "
+                 "OILWATCH_PYTHONHOME and OILWATCH_PYTHON_ENV",
+                 path);
+        return 0;
+    }
+    return 1;
+}
+
+static void *symbol(void *handle, const char *name, char *missing, size_t size)
+{
+    void *address = dlsym(handle, name);
+    if (!address && !missing[0]) snprintf(missing, size, "%s", name);
+    return address;
+}
+
+static int resolve_python(void *handle, char *error, size_t size)
+{
+    char missing[128] = "";
+#define PY(field, name) *(void **)(&py.field) = symbol(handle, name, missing, sizeof missing)
+    PY(IsInitialized, "Py_IsInitialized");
+    PY(InitializeEx, "Py_InitializeEx");
+    PY(DecodeLocale, "Py_DecodeLocale");
+    PY(EvalSaveThread, "PyEval_SaveThread");
+    PY(GILStateEnsure, "PyGILState_Ensure");
+    PY(GILStateRelease, "PyGILState_Release");
+    PY(DictNew, "PyDict_New");
+    PY(DictSetItemString, "PyDict_SetItemString");
+    PY(DictGetItemString, "PyDict_GetItemString");
+    PY(RunString, "PyRun_String");
+    PY(UnicodeDecodeFSDefault, "PyUnicode_DecodeFSDefault");
+    PY(UnicodeAsUTF8, "PyUnicode_AsUTF8");
+    PY(EvalGetBuiltins, "PyEval_GetBuiltins");
+    PY(DecRef, "Py_DecRef");
+    PY(ErrClear, "PyErr_Clear");
+#undef PY
+    *(void **)(&py.SetPythonHome) = dlsym(handle, "Py_SetPythonHome"); /* optional: PYTHONHOME otherwise */
+    if (missing[0]) {
+        snprintf(error, size, "the Python runtime lacks the C API function %s", missing);
+        return 0;
+    }
+    return 1;
+}
+
+/* Start the interpreter in a process that has none: the record's libpython and home. *started tells
+ * whether this call initialized it (then the record's environment goes on sys.path). */
+static int start_python(const Record *record, int *started, char *error, size_t size)
+{
+    if (!record->python_lib[0] || !is_file(record->python_lib)) {
+        snprintf(error, size,
+                 "the Python runtime library '%s' does not exist: install Python %s as a shared library "
+                 "(libpython%s.so) or set OILWATCH_PYTHON_LIB to one",
+                 record->python_lib, record->python_version, record->python_version);
+        return 0;
+    }
+    if (!record->python_home[0] || !is_dir(record->python_home)) {
+        snprintf(error, size,
+                 "the Python home '%s' does not exist: set OILWATCH_PYTHONHOME to the prefix of the Python "
+                 "that made the environment (its sys.base_prefix)",
+                 record->python_home);
+        return 0;
+    }
+    char encodings[PATH_MAX + 64];
+    snprintf(encodings, sizeof encodings, "%s/lib/python%s/encodings/__init__.py", record->python_home,
+             record->python_version);
+    if (record->python_version[0] && !is_file(encodings)) {
+        /* Py_InitializeEx would abort the host on a home without the standard library */
+        snprintf(error, size,
+                 "the Python home '%s' has no standard library for Python %s (%s is missing): set "
+                 "OILWATCH_PYTHONHOME to the prefix of the Python that made the environment",
+                 record->python_home, record->python_version, encodings);
+        return 0;
+    }
+    char first[PATH_MAX];
+    copy_value(first, sizeof first, record->site_dirs);
+    char *colon = strchr(first, ':');
+    if (colon) *colon = 0;
+    if (!first[0] || !is_dir(first)) {
+        snprintf(error, size,
+                 "the Python environment '%s' does not exist: set OILWATCH_PYTHON_ENV to a virtual "
+                 "environment (or its site-packages folder) that holds numpy, scipy and numba",
+                 record->site_dirs);
+        return 0;
+    }
+    void *handle = dlopen(record->python_lib, RTLD_NOW | RTLD_GLOBAL);
+    if (!handle) {
+        snprintf(error, size, "cannot load the Python runtime: %s (set OILWATCH_PYTHON_LIB)", dlerror());
+        return 0;
+    }
+    if (!resolve_python(handle, error, size)) return 0;
+    if (!py.IsInitialized()) {
+        /* Py_SetPythonHome keeps the pointer: the decoded string lives as long as the process */
+        wchar_t *home = py.DecodeLocale(record->python_home, NULL);
+        if (py.SetPythonHome && home) py.SetPythonHome(home);
+        else setenv("PYTHONHOME", record->python_home, 1);
+        py.InitializeEx(0);
+        py.EvalSaveThread();
+        *started = 1;
+    }
+    return 1;
+}
+
+static int check_environment(const Record *record, int configure, char *error, size_t size)
+{
+    PyGILState_STATE gil = py.GILStateEnsure();
+    int ok = 0;
+    PyObject *globals = py.DictNew();
+    PyObject *dirs = py.UnicodeDecodeFSDefault(record->site_dirs);
+    PyObject *flag = py.RunString(configure ? "True" : "False", 258 /* Py_eval_input */, globals, globals);
+    if (globals && dirs && flag) {
+        py.DictSetItemString(globals, "__builtins__", py.EvalGetBuiltins());
+        py.DictSetItemString(globals, "site_dirs", dirs);
+        py.DictSetItemString(globals, "configure", flag);
+        PyObject *result = py.RunString(CHECK_CODE, PY_FILE_INPUT, globals, globals);
+        PyObject *problem = py.DictGetItemString(globals, "problem"); /* borrowed */
+        const char *text = problem ? py.UnicodeAsUTF8(problem) : NULL;
+        if (!result || !text) snprintf(error, size, "the Python environment check could not run");
+        else if (text[0] && configure) {
+            snprintf(error, size,
+                     "%s: point OILWATCH_PYTHON_ENV to a virtual environment that holds numpy, scipy and "
+                     "numba (made by the same Python %s)",
+                     text, record->python_version);
+        } else if (text[0]) {
+            snprintf(error, size, "%s: install numpy, scipy and numba into the Python that runs the host", text);
+        } else ok = 1;
+        if (result) py.DecRef(result);
+    } else {
+        snprintf(error, size, "the Python environment check could not start");
+    }
+    py.ErrClear();
+    if (flag) py.DecRef(flag);
+    if (dirs) py.DecRef(dirs);
+    if (globals) py.DecRef(globals);
+    py.GILStateRelease(gil);
+    return ok;
+}
+
+static void release_pythonfmu(void)
+{
+    void (*finalize)(void) = inner.handle ? (void (*)(void))dlsym(inner.handle, "finalizePythonInterpreter") : NULL;
+    if (finalize) finalize();
+}
+
+static int load_inner(char *error, size_t size)
+{
+    Dl_info self;
+    if (!dladdr((void *)&load_inner, &self) || !self.dli_fname) {
+        snprintf(error, size, "cannot locate the FMU's own binary");
+        return 0;
+    }
+    char path[PATH_MAX];
+    snprintf(path, sizeof path, "%s", self.dli_fname);
+    char *slash = strrchr(path, '/');
+    snprintf(slash ? slash + 1 : path, sizeof path - (slash ? (size_t)(slash + 1 - path) : 0), "%s", INNER_NAME);
+    void *handle = dlopen(path, RTLD_NOW | RTLD_LOCAL);
+    if (!handle) {
+        snprintf(error, size, "cannot load pythonfmu's binary: %s", dlerror());
+        return 0;
+    }
+    char missing[128] = "";
+#define FN(field) *(void **)(&inner.field) = symbol(handle, "fmi2" #field, missing, sizeof missing)
+    FN(Instantiate); FN(FreeInstance); FN(SetDebugLogging); FN(SetupExperiment);
+    FN(EnterInitializationMode); FN(ExitInitializationMode); FN(Terminate); FN(Reset);
+    FN(GetReal); FN(GetInteger); FN(GetBoolean); FN(GetString);
+    FN(SetReal); FN(SetInteger); FN(SetBoolean); FN(SetString);
+    FN(GetFMUstate); FN(SetFMUstate); FN(FreeFMUstate);
+    FN(SerializedFMUstateSize); FN(SerializeFMUstate); FN(DeSerializeFMUstate);
+    FN(GetDirectionalDerivative); FN(SetRealInputDerivatives); FN(GetRealOutputDerivatives);
+    FN(DoStep); FN(CancelStep); FN(GetStatus); FN(GetRealStatus); FN(GetIntegerStatus);
+    FN(GetBooleanStatus); FN(GetStringStatus);
+#undef FN
+    if (missing[0]) {
+        snprintf(error, size, "pythonfmu's binary %s lacks %s", path, missing);
+        return 0;
+    }
+    inner.handle = handle;
+    atexit(release_pythonfmu); /* after pythonfmu's own static destructors were registered: runs first */
+    return 1;
+}
+
+static int ensure_loaded(fmi2String resource_location, char *error, size_t size)
+{
+    char resources[PATH_MAX];
+    Record record;
+    if (!uri_to_path(resource_location, resources, sizeof resources)) {
+        snprintf(error, size, "fmuResourceLocation is empty");
+        return 0;
+    }
+    if (!read_record(resources, &record, error, size)) return 0;
+    int (*initialized)(void) = (int (*)(void))dlsym(RTLD_DEFAULT, "Py_IsInitialized");
+    int started = 0;
+    if (initialized && initialized()) {
+        if (!resolve_python(RTLD_DEFAULT, error, size)) return 0;
+    } else if (!start_python(&record, &started, error, size)) {
+        return 0;
+    }
+    if (!check_environment(&record, started, error, size)) return 0;
+    return inner.handle || load_inner(error, size);
+}
+
+EXPORT const char *fmi2GetTypesPlatform(void) { return "default"; }
+EXPORT const char *fmi2GetVersion(void) { return "2.0"; }
+
+EXPORT fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2String fmuGUID,
+                                     fmi2String fmuResourceLocation, const fmi2CallbackFunctions *functions,
+                                     fmi2Boolean visible, fmi2Boolean loggingOn)
+{
+    char error[6144] = "";
+    pthread_mutex_lock(&load_lock);
+    int ok = ensure_loaded(fmuResourceLocation, error, sizeof error);
+    pthread_mutex_unlock(&load_lock);
+    if (!ok) {
+        report(functions, instanceName, "oilwatch FMU loader: %s", error);
+        return NULL;
+    }
+    return inner.Instantiate(instanceName, fmuType, fmuGUID, fmuResourceLocation, functions, visible, loggingOn);
+}
+
+EXPORT void fmi2FreeInstance(fmi2Component c)
+{
+    if (c && inner.FreeInstance) inner.FreeInstance(c);
+}
+
+/* Every other function takes the component pythonfmu returned and is forwarded as it is. */
+#define FORWARD(name, params, args)                                                                           \
+    EXPORT fmi2Status fmi2##name params                                                                        \
+    {                                                                                                          \
+        return (c && inner.name) ? inner.name args : fmi2Error;                                                \
+    }
+FORWARD(SetDebugLogging, (fmi2Component c, fmi2Boolean on, size_t n, const fmi2String categories[]),
+        (c, on, n, categories))
+FORWARD(SetupExperiment, (fmi2Component c, fmi2Boolean tol_defined, fmi2Real tol, fmi2Real start,
+                          fmi2Boolean stop_defined, fmi2Real stop),
+        (c, tol_defined, tol, start, stop_defined, stop))
+FORWARD(EnterInitializationMode, (fmi2Component c), (c))
+FORWARD(ExitInitializationMode, (fmi2Component c), (c))
+FORWARD(Terminate, (fmi2Component c), (c))
+FORWARD(Reset, (fmi2Component c), (c))
+FORWARD(GetReal, (fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Real v[]), (c, vr, n, v))
+FORWARD(GetInteger, (fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Integer v[]), (c, vr, n, v))
+FORWARD(GetBoolean, (fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Boolean v[]), (c, vr, n, v))
+FORWARD(GetString, (fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2String v[]), (c, vr, n, v))
+FORWARD(SetReal, (fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Real v[]), (c, vr, n, v))
+FORWARD(SetInteger, (fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Integer v[]),
+        (c, vr, n, v))
+FORWARD(SetBoolean, (fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Boolean v[]),
+        (c, vr, n, v))
+FORWARD(SetString, (fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2String v[]),
+        (c, vr, n, v))
+FORWARD(GetFMUstate, (fmi2Component c, fmi2FMUstate *s), (c, s))
+FORWARD(SetFMUstate, (fmi2Component c, fmi2FMUstate s), (c, s))
+FORWARD(FreeFMUstate, (fmi2Component c, fmi2FMUstate *s), (c, s))
+FORWARD(SerializedFMUstateSize, (fmi2Component c, fmi2FMUstate s, size_t *n), (c, s, n))
+FORWARD(SerializeFMUstate, (fmi2Component c, fmi2FMUstate s, fmi2Byte b[], size_t n), (c, s, b, n))
+FORWARD(DeSerializeFMUstate, (fmi2Component c, const fmi2Byte b[], size_t n, fmi2FMUstate *s), (c, b, n, s))
+FORWARD(GetDirectionalDerivative, (fmi2Component c, const fmi2ValueReference u[], size_t nu,
+                                   const fmi2ValueReference z[], size_t nz, const fmi2Real dv[], fmi2Real dz[]),
+        (c, u, nu, z, nz, dv, dz))
+FORWARD(SetRealInputDerivatives, (fmi2Component c, const fmi2ValueReference vr[], size_t n,
+                                  const fmi2Integer order[], const fmi2Real v[]),
+        (c, vr, n, order, v))
+FORWARD(GetRealOutputDerivatives, (fmi2Component c, const fmi2ValueReference vr[], size_t n,
+                                   const fmi2Integer order[], fmi2Real v[]),
+        (c, vr, n, order, v))
+FORWARD(DoStep, (fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean no_prior),
+        (c, t, h, no_prior))
+FORWARD(CancelStep, (fmi2Component c), (c))
+FORWARD(GetStatus, (fmi2Component c, const fmi2StatusKind k, fmi2Status *v), (c, k, v))
+FORWARD(GetRealStatus, (fmi2Component c, const fmi2StatusKind k, fmi2Real *v), (c, k, v))
+FORWARD(GetIntegerStatus, (fmi2Component c, const fmi2StatusKind k, fmi2Integer *v), (c, k, v))
+FORWARD(GetBooleanStatus, (fmi2Component c, const fmi2StatusKind k, fmi2Boolean *v), (c, k, v))
+FORWARD(GetStringStatus, (fmi2Component c, const fmi2StatusKind k, fmi2String *v), (c, k, v))

@@ -1,0 +1,228 @@
+"""Both FMI 2.0 FMUs in a host with no Python in it: tests/c_host/fmi2_host.c, compiled here with cc.
+
+The host runs the plant and the estimator coupled (2 s at 1 ms) in a process started without
+``LD_PRELOAD``, ``PYTHON*`` or ``OILWATCH_PYTHON*`` variables: the FMUs' own loader
+(``oilwatch/cosim/native/fmi2_loader.c``) must find libpython and the build environment from
+``resources/oilwatch_python.txt``. Its outputs must equal fmpy's for the same parameters: the plant's
+measured signals bit for bit (same seed), the estimator's estimates within 1e-9 relative when fmpy
+feeds it the plant outputs the C host recorded. The host exits 0 only after freeing both instances
+and unloading both libraries. A missing environment must give fmi2Instantiate NULL and one logged
+message naming it, never a crash.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+from fixtures.fmu_subprocess import run_json
+from fmpy import read_model_description
+
+HOST_SOURCE = Path(__file__).parent / "c_host" / "fmi2_host.c"
+STOP, STEP = 2.0, 1e-3
+PLANT_PARAMETERS = {
+    "seed": 7,
+    "noise_um": 1.0,
+    "q1_final_ml_min": 0.8 * 596.3,
+    "q2_final_ml_min": 0.9 * 596.3,
+    "fault_time_s": 1.0,
+    "fault_duration_s": 0.1,
+}
+EKF_PARAMETERS = {"noise_um": 1.0}
+PLANT_OUTPUTS = ["x1_um", "y1_um", "x2_um", "y2_um", "t_sample_s", "q1_ml_min", "q2_ml_min"]
+CONNECTED = ["x1_um", "y1_um", "x2_um", "y2_um", "t_sample_s"]
+EKF_OUTPUTS = ["q1_est_ml_min", "q2_est_ml_min", "q1_std_ml_min", "q2_std_ml_min", "nis"]
+
+
+def _clean_environment(**extra) -> dict[str, str]:
+    """The test's environment without anything that would hand the FMU a Python."""
+    dropped = ("PYTHON", "LD_PRELOAD", "LD_LIBRARY_PATH", "OILWATCH_PYTHON", "VIRTUAL_ENV")
+    env = {k: v for k, v in os.environ.items() if not k.startswith(dropped)}
+    env.update(OPENBLAS_NUM_THREADS="1", **extra)
+    return env
+
+
+@pytest.fixture(scope="module")
+def host(tmp_path_factory) -> Path:
+    compiler = os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc")
+    assert compiler, "the C host test needs the system's C compiler (cc)"
+    binary = tmp_path_factory.mktemp("c_host") / "fmi2_host"
+    subprocess.run([compiler, "-O2", "-Wall", "-o", str(binary), str(HOST_SOURCE), "-ldl"], check=True)
+    return binary
+
+
+class HostFmu:
+    """One FMU extracted for the C host, with its variables by name."""
+
+    def __init__(self, fmu: Path, folder: Path, instance: str):
+        self.path, self.folder, self.instance = fmu, folder, instance
+        with zipfile.ZipFile(fmu) as archive:
+            archive.extractall(folder)
+        self.md = read_model_description(str(fmu))
+        self.variables = {v.name: v for v in self.md.modelVariables}
+
+    def spec(self, parameters: dict) -> list[str]:
+        lines = [f"fmu {self.instance} {self.folder} {self.md.coSimulation.modelIdentifier} {self.md.guid}"]
+        for name, value in parameters.items():
+            variable = self.variables[name]
+            kind = {"Real": "real", "Integer": "integer"}[variable.type]
+            lines.append(f"{kind} {self.instance} {variable.valueReference} {value!r}")
+        return lines
+
+    def vr(self, name: str) -> int:
+        return self.variables[name].valueReference
+
+
+@pytest.fixture(scope="module")
+def fmus(built_fmus, tmp_path_factory):
+    root = tmp_path_factory.mktemp("c_host_fmus")
+    return (
+        HostFmu(built_fmus / "RotorBearingPlant.fmu", root / "plant", "plant"),
+        HostFmu(built_fmus / "OilFlowEKF.fmu", root / "ekf", "ekf"),
+    )
+
+
+def _run_host(host: Path, spec: list[str], folder: Path, env: dict, timeout: float = 600.0):
+    spec_file, out = folder / "spec.txt", folder / "out.csv"
+    spec_file.write_text("\n".join(spec) + "\n")
+    process = subprocess.run(
+        [str(host), str(spec_file), str(out)], env=env, capture_output=True, text=True, timeout=timeout
+    )
+    return process, out
+
+
+@pytest.fixture(scope="module")
+def coupled(host, fmus, tmp_path_factory):
+    plant, ekf = fmus
+    spec = plant.spec(PLANT_PARAMETERS) + ekf.spec(EKF_PARAMETERS)
+    spec += [f"connect plant {plant.vr(n)} ekf {ekf.vr(n)}" for n in CONNECTED]
+    spec += [f"output plant {plant.vr(n)} {n}" for n in PLANT_OUTPUTS]
+    spec += [f"output ekf {ekf.vr(n)} {n}" for n in EKF_OUTPUTS]
+    spec.append(f"run {STOP!r} {STEP!r}")
+    process, out = _run_host(host, spec, tmp_path_factory.mktemp("c_host_run"), _clean_environment())
+    print(process.stderr)
+    return process, out
+
+
+def test_c_host_runs_both_fmus_without_python_and_exits_cleanly(coupled):
+    process, out = coupled
+    assert process.returncode == 0, process.stderr
+    assert "no Python in this process before loading the FMUs" in process.stderr
+    assert "freed 2 instances, unloaded 2 libraries" in process.stderr
+    data = np.genfromtxt(out, delimiter=",", names=True)
+    assert len(data) == round(STOP / STEP)
+    assert np.all(np.isfinite(data["q1_est_ml_min"]))
+
+
+REFERENCE = """
+import numpy as np
+from fmpy import extract, read_model_description
+from fmpy.fmi2 import FMU2Slave
+
+def load(path, instance, parameters):
+    md = read_model_description(path)
+    fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(path), instanceName=instance,
+                    modelIdentifier=md.coSimulation.modelIdentifier)
+    variables = {{v.name: v for v in md.modelVariables}}
+    fmu.instantiate()
+    fmu.setupExperiment(startTime=0.0, stopTime={stop!r})
+    for name, value in parameters.items():
+        v = variables[name]
+        (fmu.setReal if v.type == "Real" else fmu.setInteger)([v.valueReference], [value])
+    fmu.enterInitializationMode()
+    fmu.exitInitializationMode()
+    return fmu, {{n: v.valueReference for n, v in variables.items()}}
+
+steps = round({stop!r} / {step!r})
+plant, pvr = load({plant!r}, "plant", {plant_parameters!r})
+plant_rows = []
+for k in range(steps):
+    plant.doStep(k * {step!r}, {step!r})
+    plant_rows.append(plant.getReal([pvr[n] for n in {plant_outputs!r}]))
+plant.terminate()
+plant.freeInstance()
+
+recorded = np.genfromtxt({csv!r}, delimiter=",", names=True)
+ekf, evr = load({ekf!r}, "ekf", {ekf_parameters!r})
+ekf_rows = []
+for k in range(steps):
+    ekf.setReal([evr[n] for n in {connected!r}], [float(recorded[n][k]) for n in {connected!r}])
+    ekf.doStep(k * {step!r}, {step!r})
+    ekf_rows.append(ekf.getReal([evr[n] for n in {ekf_outputs!r}]))
+ekf.terminate()
+ekf.freeInstance()
+result = {{"plant": plant_rows, "ekf": ekf_rows}}
+"""
+
+
+def test_c_host_outputs_equal_fmpy_outputs(coupled, fmus):
+    process, out = coupled
+    assert process.returncode == 0, process.stderr
+    plant, ekf = fmus
+    reference = run_json(
+        REFERENCE.format(
+            stop=STOP,
+            step=STEP,
+            plant=str(plant.path),
+            ekf=str(ekf.path),
+            plant_parameters=PLANT_PARAMETERS,
+            ekf_parameters=EKF_PARAMETERS,
+            plant_outputs=PLANT_OUTPUTS,
+            ekf_outputs=EKF_OUTPUTS,
+            connected=CONNECTED,
+            csv=str(out),
+        ),
+        timeout=900,
+    )
+    data = np.genfromtxt(out, delimiter=",", names=True)
+    fmpy_plant = np.array(reference["plant"])
+    for column, name in enumerate(PLANT_OUTPUTS):
+        # %.17g round-trips every double: equality here is bit-identity
+        assert np.array_equal(data[name], fmpy_plant[:, column]), name
+    fmpy_ekf = np.array(reference["ekf"])
+    for column, name in enumerate(EKF_OUTPUTS):
+        np.testing.assert_allclose(data[name], fmpy_ekf[:, column], rtol=1e-9, atol=0.0, err_msg=name)
+    # the drop happened inside the run: the comparison covers a changing flow, not a constant
+    assert data["q1_ml_min"][-1] < 0.85 * 596.3
+
+
+def _run_plant_briefly(host, plant, folder, **environment):
+    spec = [*plant.spec({}), f"run {STEP!r} {STEP!r}"]
+    process, _ = _run_host(host, spec, folder, _clean_environment(**environment), timeout=120)
+    return process
+
+
+@pytest.mark.parametrize(
+    "variable, value, expected",
+    [
+        ("OILWATCH_PYTHON_ENV", "/nonexistent/venv", "the Python environment '/nonexistent/venv' does not"),
+        ("OILWATCH_PYTHON_LIB", "/nonexistent/libpython3.so", "the Python runtime library '/nonexistent/"),
+        ("OILWATCH_PYTHONHOME", "/nonexistent/prefix", "the Python home '/nonexistent/prefix' does not"),
+    ],
+)
+def test_missing_python_pieces_give_a_logged_error_and_no_crash(
+    host, fmus, tmp_path, variable, value, expected
+):
+    process = _run_plant_briefly(host, fmus[0], tmp_path, **{variable: value})
+    assert process.returncode == 4, process.stderr  # fmi2Instantiate returned NULL; teardown ran
+    logged = [line for line in process.stderr.splitlines() if line.startswith("[Error] plant logStatusError")]
+    assert len(logged) == 1, process.stderr
+    assert expected in logged[0]
+    assert variable in logged[0]  # the message says how to point elsewhere
+    assert "freed 0 instances, unloaded 1 libraries" in process.stderr
+
+
+def test_an_environment_without_numpy_gives_a_logged_error(host, fmus, tmp_path):
+    empty = tmp_path / "empty_env"
+    empty.mkdir()
+    process = _run_plant_briefly(host, fmus[0], tmp_path, OILWATCH_PYTHON_ENV=str(empty))
+    assert process.returncode == 4, process.stderr
+    logged = [line for line in process.stderr.splitlines() if line.startswith("[Error] plant logStatusError")]
+    assert len(logged) == 1, process.stderr
+    assert "cannot import numpy (ModuleNotFoundError" in logged[0]
+    assert str(empty) in logged[0] and "OILWATCH_PYTHON_ENV" in logged[0]

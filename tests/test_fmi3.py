@@ -1,0 +1,202 @@
+"""The FMI 3.0 twins of both FMUs (pythonfmu3, fmu_src/fmi3_shell.py) against the FMI 2.0 reference.
+
+Same variables (names, value references, causality, variability, units, ranges, starts, descriptions),
+same unit definitions and documentation; state get/set/serialize through fmpy.fmi3; the sudden-drop scenario
+through oilwatch's master with the FMI 3.0 SSP gives the FMI 2.0 SSP's results for the same seed; the FMI 3.0
+SSP loads. Runs happen in fresh subprocesses (the FMUs share the host interpreter).
+"""
+
+from __future__ import annotations
+
+import zipfile
+
+import pytest
+from fixtures.fmu_subprocess import run_json
+from fmpy import read_model_description
+
+NAMES = ("RotorBearingPlant", "OilFlowEKF")
+FMI3_TYPE = {"Real": "Float64", "Integer": "Int32", "Boolean": "Boolean", "String": "String"}
+
+
+def _number(text):
+    """A start/min/max attribute as a number (FMI 2.0 writes 75.0 where FMI 3.0 writes 75), text otherwise."""
+    try:
+        return float(text)
+    except (TypeError, ValueError):
+        return text
+
+
+def _variables(md):
+    return [
+        (
+            v.name,
+            v.valueReference,
+            v.causality,
+            v.variability,
+            v.unit,
+            v.description,
+            *map(_number, (v.start, v.min, v.max)),
+        )
+        for v in md.modelVariables
+        if v.causality != "independent"
+    ]
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_fmi3_fmu_declares_the_fmi2_variables_units_and_documentation(built_fmus, built_fmi3_fmus, name):
+    fmi2 = read_model_description(str(built_fmus / f"{name}.fmu"))
+    fmi3 = read_model_description(str(built_fmi3_fmus / f"{name}.fmu"))
+    assert (fmi2.fmiVersion, fmi3.fmiVersion) == ("2.0", "3.0")
+    assert _variables(fmi3) == _variables(fmi2)
+    types = {v.name: v.type for v in fmi3.modelVariables}
+    assert all(types[v.name] == FMI3_TYPE[v.type] for v in fmi2.modelVariables)
+    assert [v.name for v in fmi3.modelVariables if v.causality == "independent"] == ["time"]
+    units = {
+        u.name: (u.baseUnit.factor, u.baseUnit.m, u.baseUnit.s, u.baseUnit.kg) for u in fmi2.unitDefinitions
+    }
+    units3 = {
+        u.name: (u.baseUnit.factor, u.baseUnit.m, u.baseUnit.s, u.baseUnit.kg) for u in fmi3.unitDefinitions
+    }
+    assert units.items() <= units3.items()
+    assert (fmi3.description, fmi3.author) == (fmi2.description, fmi2.author)
+    experiment, reference = fmi3.defaultExperiment, fmi2.defaultExperiment
+    assert [float(getattr(experiment, k)) for k in ("startTime", "stopTime", "stepSize")] == [
+        float(getattr(reference, k)) for k in ("startTime", "stopTime", "stepSize")
+    ]
+    assert fmi3.coSimulation.canGetAndSetFMUstate and fmi3.coSimulation.canSerializeFMUstate
+    with zipfile.ZipFile(built_fmi3_fmus / f"{name}.fmu") as archive:
+        page = archive.read("documentation/index.html").decode()
+    assert all(v.name in page for v in fmi2.modelVariables)
+
+
+STATE = """
+from fmpy import extract, read_model_description
+from fmpy.fmi3 import FMU3Slave
+path = {path!r}
+md = read_model_description(path)
+vr = {{v.name: v.valueReference for v in md.modelVariables}}
+fmu = FMU3Slave(guid=md.guid, unzipDirectory=extract(path), modelIdentifier=md.coSimulation.modelIdentifier,
+                instanceName="x")
+fmu.instantiate()
+fmu.enterInitializationMode(startTime=0.0)
+{set_parameters}
+fmu.exitInitializationMode()
+outputs = [vr[n] for n in {outputs!r}]
+inputs = [vr[n] for n in {inputs!r}]
+
+def steps(k0, n):
+    rows = []
+    for k in range(k0, k0 + n):
+        if inputs:
+            fmu.setFloat64(inputs, [1.0 + 0.01 * k, -2.0, 0.5, 3.0, k * 1e-3][: len(inputs)])
+        fmu.doStep(k * 1e-3, 1e-3)
+        rows.append(fmu.getFloat64(outputs))
+    return rows
+
+steps(0, 20)
+state = fmu.getFMUState()
+blob = fmu.serializeFMUState(state)
+first = steps(20, 10)
+fmu.setFMUState(state)
+again = steps(20, 10)
+restored = fmu.deserializeFMUState(blob)
+fmu.setFMUState(restored)
+from_bytes = steps(20, 10)
+fmu.freeFMUState(state)
+fmu.freeFMUState(restored)
+fmu.terminate()
+fmu.freeInstance()
+result = {{"first": first, "again": again, "from_bytes": from_bytes, "size": len(blob)}}
+"""
+
+
+@pytest.mark.parametrize(
+    "name, set_parameters, outputs, inputs",
+    [
+        ("RotorBearingPlant", "fmu.setInt32([vr['seed']], [5])", ["x1_um", "y2_um", "q1_ml_min"], []),
+        (
+            "OilFlowEKF",
+            "",
+            ["q1_est_ml_min", "q2_est_ml_min", "q1_std_ml_min", "nis"],
+            ["x1_um", "y1_um", "x2_um", "y2_um", "t_sample_s"],
+        ),
+    ],
+)
+def test_fmi3_state_get_set_and_serialize_restore_the_run(
+    built_fmi3_fmus, name, set_parameters, outputs, inputs
+):
+    result = run_json(
+        STATE.format(
+            path=str(built_fmi3_fmus / f"{name}.fmu"),
+            set_parameters=set_parameters,
+            outputs=outputs,
+            inputs=inputs,
+        ),
+        timeout=300,
+    )
+    assert result["size"] > 0
+    assert result["again"] == result["first"]
+    assert result["from_bytes"] == result["first"]
+
+
+SCENARIO = """
+import numpy as np
+from pathlib import Path
+from oilwatch.scenarios import make_run
+from oilwatch.scenarios.runner import read_result, run_scenario
+columns = {{}}
+for label, ssp in (("fmi2", {fmi2!r}), ("fmi3", {fmi3!r})):
+    out = Path({out!r}) / label
+    run_scenario(make_run("sudden-drop", duration_s={duration}, seed=4), out, ssp=Path(ssp), progress=False,
+                 plot=False)
+    columns[label] = read_result(out / "result.csv")
+fmi2, fmi3 = columns["fmi2"], columns["fmi3"]
+relative = {{}}
+for name in fmi2:
+    a, b = np.asarray(fmi2[name], float), np.asarray(fmi3[name], float)
+    scale = np.maximum(np.abs(a), np.abs(b))
+    relative[name] = float(np.max(np.abs(a - b) / np.where(scale > 0, scale, 1.0)))
+result = {{"names": [sorted(fmi2), sorted(fmi3)], "rows": [len(fmi2["time_s"]), len(fmi3["time_s"])],
+          "relative": relative, "q1_true_end": float(fmi2["q1_true_ml_min"][-1])}}
+"""
+
+
+def test_sudden_drop_through_the_master_with_the_fmi3_ssp_equals_the_fmi2_ssp(
+    built_fmus, built_fmi3_fmus, tmp_path
+):
+    result = run_json(
+        SCENARIO.format(
+            fmi2=str(built_fmus / "OilStarvation.ssp"),
+            fmi3=str(built_fmi3_fmus / "OilStarvation.ssp"),
+            out=str(tmp_path),
+            duration=4.0,
+        ),
+        timeout=900,
+    )
+    assert result["names"][0] == result["names"][1]
+    assert result["rows"][0] == result["rows"][1] >= 4000
+    assert max(result["relative"].values()) <= 1e-9, result["relative"]
+    assert result["q1_true_end"] < 0.8 * 596.3  # the drop is inside the compared record
+
+
+def test_fmi3_ssp_loads_with_its_bindings_and_connections(built_fmus, built_fmi3_fmus):
+    result = run_json(
+        f"""
+from oilwatch.cosim.fmi3_loading import Slave3
+from oilwatch.cosim.ssp import master_from_ssp, open_ssp
+summary = {{}}
+for label, path in (("fmi2", {str(built_fmus / "OilStarvation.ssp")!r}),
+                    ("fmi3", {str(built_fmi3_fmus / "OilStarvation.ssp")!r})):
+    with open_ssp(path) as system:
+        summary[label] = {{"parameters": {{s.name: s.parameters for s in system.fmus}},
+                          "connections": sorted(str(c) for c in system.connections)}}
+    with master_from_ssp(path) as master:
+        summary[label]["kinds"] = sorted(type(s).__name__ for s in master.slaves.values())
+result = summary
+"""
+    )
+    assert result["fmi3"]["parameters"] == result["fmi2"]["parameters"]
+    assert result["fmi3"]["connections"] == result["fmi2"]["connections"]
+    assert len(result["fmi3"]["connections"]) == 5
+    assert result["fmi3"]["kinds"] == ["Slave3", "Slave3"]
+    assert result["fmi2"]["kinds"] == ["Slave", "Slave"]
