@@ -327,15 +327,14 @@ def _read_oil(data: Mapping[str, Any]) -> tuple[Oil | None, float | None]:
         oil = Oil.from_grade(grade, _real(table, "oil", "viscosity_index", "", low=None), density, expansion)
     else:
         points = table["kinematic_viscosity_points_c_cst"]
-        if not (isinstance(points, list) and len(points) == 2 and all(isinstance(p, list) and len(p) == 2
-                                                                       for p in points)):
+        pairs_ok = isinstance(points, list) and len(points) == 2
+        if not (pairs_ok and all(isinstance(p, list) and len(p) == 2 for p in points)):
             raise InputError(
                 "oil.kinematic_viscosity_points_c_cst must be two [temperature degC, viscosity cSt] pairs, "
                 f"got {points!r}"
             )
-        pairs = tuple(
-            tuple(_number(v, f"oil.kinematic_viscosity_points_c_cst[{i}]") for v in p) for i, p in enumerate(points)
-        )
+        field = "oil.kinematic_viscosity_points_c_cst"
+        pairs = tuple(tuple(_number(v, f"{field}[{i}]") for v in p) for i, p in enumerate(points))
         oil = Oil.from_points(pairs, density, expansion)
     temperature = _real(table, "oil", "nominal_supply_temperature_c", "degC", low=None)
     oil.dynamic_viscosity_pa_s(temperature)  # range check: names the temperature

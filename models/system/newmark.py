@@ -80,6 +80,8 @@ class NewmarkIntegrator:
         self._last_flowrates: tuple[float, float] | None = None
         self.time_s = 0.0
         self.state = np.zeros(3 * n)
+        # Complex unbalance moment u = m exp(i phi) [kg m]: the harmonic load is Re(u F_1 exp(i Omega t)).
+        self.unbalance_moment = system.unbalance_moment_kg_m * np.exp(1j * system.unbalance_phase_rad)
         # Compile (or load from numba's cache) the sub-step kernel now, not inside the first steps of a run.
         no_blocks = np.zeros((0, self._select.shape[0], self._select.shape[0]))
         self._steps(np.zeros((3 * n, 1)), np.zeros((0, n, 1)), no_blocks, no_blocks)
@@ -125,6 +127,7 @@ class NewmarkIntegrator:
             "propagator": self._propagator,
             "flowrates": self.flowrates_m3_s,
             "acceleration_current": self._acceleration_current,
+            "unbalance_moment": self.unbalance_moment,
         }
 
     def restore(self, snapshot: dict) -> None:
@@ -136,11 +139,18 @@ class NewmarkIntegrator:
         self._propagator = snapshot["propagator"]
         self.flowrates_m3_s = snapshot["flowrates"]
         self._acceleration_current = snapshot["acceleration_current"]
+        self.unbalance_moment = snapshot["unbalance_moment"]
 
     def _harmonic_load(self, time_s: float | np.ndarray) -> np.ndarray:
         """The unbalance load (n,) at a time [s], or (m, n) at the times (m,)."""
         phase = self.system.omega_rad_s * np.asarray(time_s, dtype=float)[..., None]
-        return (self.system.unbalance_force * np.exp(1j * phase)).real
+        return (self.unbalance_moment * self.system.unit_unbalance_force * np.exp(1j * phase)).real
+
+    def _exogenous(self, time_s: float) -> np.ndarray:
+        """``[1, Re(u e^{i Omega t}), Im(u e^{i Omega t})]``: the propagator's input (its harmonic columns are
+        the responses to the cosine and sine parts of the unit unbalance load F_1)."""
+        rotating = self.unbalance_moment * np.exp(1j * self.system.omega_rad_s * time_s)
+        return np.array([1.0, rotating.real, rotating.imag])
 
     def advance(self, schedule: FlowSchedule) -> np.ndarray:
         """Integrate one period ``dt_s``; ``schedule`` gives the flowrates at the sub-step times.
@@ -212,9 +222,7 @@ class NewmarkIntegrator:
             self._propagator_flowrates = flows
         transition, forcing = self._propagator
         state = self.state.copy()
-        state[: 2 * self.n] = transition @ self.state[: 2 * self.n] + forcing @ self.system.exogenous(
-            self.time_s
-        )
+        state[: 2 * self.n] = transition @ self.state[: 2 * self.n] + forcing @ self._exogenous(self.time_s)
         self._acceleration_current = False
         return state
 
@@ -244,7 +252,7 @@ class NewmarkIntegrator:
         n, n2 = self.n, 2 * self.n
         blocks = self._bearing_blocks(flows)
         constant = self.system.gravity_force + self._select.T @ blocks[2]
-        cosine, sine = self.system.unbalance_force.real, -self.system.unbalance_force.imag
+        cosine, sine = self.system.unit_unbalance_force.real, -self.system.unit_unbalance_force.imag
         columns = np.zeros((3 * n, n2 + 3))
         columns[:n2, :n2] = np.eye(n2)
         initial_load = np.zeros((n, n2 + 3))

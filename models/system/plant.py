@@ -6,17 +6,22 @@ discrete map), the same plus seeded white measurement noise, and the true flowra
 sigmoid schedule per bearing (``fault``) or external inputs held over each step.
 
 The plant starts in the steady unbalance orbit of its initial flowrates: a machine running steadily before
-its fault.
+its fault. Its probes form a measurement chain (``measurement``: mounting angle, zero offsets, sensitivity
+errors, runout, faults, noise); the true positions and the bearings' instantaneous film state (eccentricity
+ratio, minimum film thickness) are output beside the measured signals. An unbalance change (a blade loss)
+takes effect from the first sampling instant at or after its time.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..validation import InputError, require_non_negative, require_positive
 from .fault import SigmoidFlowrate
+from .measurement import MeasurementChain, UnbalanceChange, film_state
 from .newmark import NewmarkIntegrator
 from .rotor_bearing import RotorBearingSystem
 
@@ -26,11 +31,14 @@ DEFAULT_SUBSTEPS = 8
 
 @dataclass(frozen=True)
 class PlantSample:
-    """One output sample (SI): true and measured (x1, y1, x2, y2) [m] and the true flowrates (2,) [m^3/s]."""
+    """One output sample (SI): true and measured (x1, y1, x2, y2) [m], the true flowrates (2,) [m^3/s], and
+    per bearing the eccentricity ratio (2,) [-] and minimum film thickness (2,) [m] of the true position."""
 
     true_position_m: np.ndarray
     measured_position_m: np.ndarray
     flowrate_m3_s: np.ndarray
+    eccentricity_ratio: np.ndarray
+    min_film_thickness_m: np.ndarray
 
 
 class RotorBearingPlant:
@@ -47,6 +55,8 @@ class RotorBearingPlant:
     initial_flowrates_m3_s : the flowrates before the first step, when ``schedules`` is None.
     substeps : trapezoidal sub-steps per period.
     start_time_s : time of the initial state [s].
+    chain : the probes' imperfections (default: ideal probes); its noise is ``noise_std_m``.
+    unbalance_change : a sudden unbalance change (default: none).
     """
 
     def __init__(
@@ -59,6 +69,8 @@ class RotorBearingPlant:
         initial_flowrates_m3_s: tuple[float, float] | None = None,
         substeps: int = DEFAULT_SUBSTEPS,
         start_time_s: float = 0.0,
+        chain: MeasurementChain | None = None,
+        unbalance_change: UnbalanceChange | None = None,
     ) -> None:
         self.system = system
         self.dt_s = require_positive("dt_s", dt_s, "s")
@@ -70,6 +82,10 @@ class RotorBearingPlant:
         for name, q in self._flowrate_extremes():
             self._check_flowrate(name, q)
         self.rng = np.random.default_rng(seed)
+        self.chain = dataclasses.replace(chain or MeasurementChain(), noise_std_m=self.noise_std_m)
+        self.unbalance_change = unbalance_change or UnbalanceChange()
+        self._held = np.zeros(4)
+        self._clearance_m = np.array([t.metadata["bearing"]["clearance_m"] for t in system.tables])
         self.substeps = substeps
         self._probe_matrix = system.bearing_maps.reshape(-1, system.n_coordinates)
         start = self.flowrates(start_time_s)
@@ -122,6 +138,9 @@ class RotorBearingPlant:
             for b, q in enumerate(inputs_m3_s, start=1):
                 self._check_flowrate(f"q{b} input", q)
             self._inputs = (float(inputs_m3_s[0]), float(inputs_m3_s[1]))
+        change = self.unbalance_change
+        if self.time_s >= change.time_s:
+            self.integrator.unbalance_moment = change.moment_kg_m * np.exp(1j * change.phase_rad)
         self.integrator.advance(self.flowrate_schedule)
         self.time_s = self.integrator.time_s
         return self.current_sample()
@@ -129,8 +148,15 @@ class RotorBearingPlant:
     def current_sample(self) -> PlantSample:
         """The sample at the current time (a fresh noise draw), without advancing."""
         true = self._probe_matrix @ self.integrator.state[: self.integrator.n]
-        measured = true + self.noise_std_m * self.rng.standard_normal(true.size)
-        return PlantSample(true, measured, np.array(self.integrator.flowrates_m3_s))
+        angle = self.rotor_angle_rad
+        measured = self.chain.measure(true, angle, self.time_s, self.rng, self._held)
+        ratio, thickness = film_state(true, self._clearance_m)
+        return PlantSample(true, measured, np.array(self.integrator.flowrates_m3_s), ratio, thickness)
+
+    @property
+    def rotor_angle_rad(self) -> float:
+        """The rotor's angle from the keyphasor mark, Omega t [rad] (what the unbalance phase refers to)."""
+        return self.system.omega_rad_s * self.time_s
 
     def snapshot(self) -> dict:
         """Everything that determines future samples (integrator, inputs, noise generator)."""
@@ -139,6 +165,7 @@ class RotorBearingPlant:
             "inputs": self._inputs,
             "rng": self.rng.bit_generator.state,
             "time_s": self.time_s,
+            "held": self._held.copy(),
         }
 
     def restore(self, snapshot: dict) -> None:
@@ -147,3 +174,4 @@ class RotorBearingPlant:
         self._inputs = snapshot["inputs"]
         self.rng.bit_generator.state = snapshot["rng"]
         self.time_s = snapshot["time_s"]
+        self._held = snapshot["held"].copy()

@@ -103,6 +103,11 @@ class RotorBearingSystem:
         amplitude[rotor.dof(rotor.unbalance_node, "x")] = rotating
         amplitude[rotor.dof(rotor.unbalance_node, "y")] = -1j * rotating
         self.unbalance_force = transform.T @ amplitude
+        # The load of a unit complex unbalance moment (1 kg m at phase 0): Re(u F_1 exp(i Omega t)).
+        unit = np.zeros(rotor.n_dof, dtype=complex)
+        unit[rotor.dof(rotor.unbalance_node, "x")] = self.omega_rad_s**2
+        unit[rotor.dof(rotor.unbalance_node, "y")] = -1j * self.omega_rad_s**2
+        self.unit_unbalance_force = transform.T @ unit
         dofs = np.array([[rotor.dof(node, "x"), rotor.dof(node, "y")] for node in rotor.bearing_nodes])
         self.bearing_dofs = dofs
         # (n_bearings, 2, n): bearing (x, y) displacements from the coordinates.

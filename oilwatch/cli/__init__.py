@@ -23,6 +23,7 @@ SUBCOMMANDS: tuple[str, ...] = (
     "report",
     "bearing",
     "bearing_table",
+    "bearing_map",
     "study",
     "run",
     "demo",
