@@ -30,6 +30,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+import numba
 import numpy as np
 
 from .. import catmull_rom
@@ -191,16 +192,20 @@ class OperatingTable:
                 f"supply flowrate at {f * 100:.4g} % of the flooded threshold is outside the table's "
                 f"[{low * 100:.4g}, {high * 100:.4g}] % (no extrapolation)"
             )
-        i, ts = catmull_rom.cell(s, self._s0, self._hs, self.sommerfeld_nodes.size)
-        j, tf = catmull_rom.cell(f, self._f0, self._hf, self.fraction_nodes.size)
-        ws, dws = catmull_rom.weights(ts)
-        wf, dwf = catmull_rom.weights(tf)
-        block = self._padded[i : i + 4, j : j + 4]  # (4, 4, 11)
-        along_f = np.tensordot(wf, block, axes=(0, 1))  # (4, 11): interpolated in f at each S of the stencil
-        value = ws @ along_f
-        d_ds = (dws @ along_f) / self._hs
-        d_df = ws @ np.tensordot(dwf, block, axes=(0, 1)) / self._hf
-        return value, d_ds, d_df
+        out = np.empty((3, N_QUANTITIES))
+        _interpolate_point(
+            self._padded,
+            s,
+            f,
+            self._s0,
+            self._hs,
+            self.sommerfeld_nodes.size,
+            self._f0,
+            self._hf,
+            self.fraction_nodes.size,
+            out,
+        )
+        return out[0], out[1], out[2]
 
     def evaluate(
         self, speed_hz: float, viscosity_pa_s: float, load_n: float, q_m3_s: float
@@ -246,6 +251,51 @@ class OperatingTable:
             d_dq=_coefficients(d_dq),
             d_dln_viscosity=_coefficients(d_dlnmu),
         )
+
+    def flowrate_range_m3_s(
+        self, speed_hz: float, viscosity_pa_s: float, load_n: float
+    ) -> tuple[float, float]:
+        """(lowest, highest) supply flowrate [m^3/s] the table covers at this speed, viscosity and load."""
+        sommerfeld = sommerfeld_number(_Geometry(self.geometry), viscosity_pa_s, speed_hz, load_n)
+        ratio, _ = self.flooded_threshold_ratio(sommerfeld)
+        g = self.geometry
+        q_t = ratio * math.pi * speed_hz * g["radius_m"] * g["clearance_m"] * g["length_m"]
+        low, high = self.fraction_range
+        return low * q_t, high * q_t
+
+    def evaluate_many(self, speed_hz: float, viscosity_pa_s: float, load_n: float, q_m3_s) -> np.ndarray:
+        """Rows (m, 10) ``[e_x, e_y, K (row-major), C (row-major)]`` (SI) at the flowrates (m,) [m^3/s], at
+        one speed, viscosity and load: the layout of ``CoefficientTable.evaluate_many``."""
+        q = np.atleast_1d(np.asarray(q_m3_s, dtype=float))
+        g = self.geometry
+        r, c, length = g["radius_m"], g["clearance_m"], g["length_m"]
+        sommerfeld = viscosity_pa_s * speed_hz * length * 2.0 * r * (r / c) ** 2 / load_n
+        s = self._sommerfeld_coordinate(
+            sommerfeld, f"the operating point ({speed_hz:g} Hz, {viscosity_pa_s:.4g} Pa s)"
+        )
+        ratio, _ = self.flooded_threshold_ratio(sommerfeld)
+        fraction = q / (ratio * math.pi * speed_hz * r * c * length)
+        low, high = self.fraction_range
+        if not (fraction.min() >= low - 1e-12 and fraction.max() <= high + 1e-12):
+            bad = fraction.min() if fraction.min() < low - 1e-12 else fraction.max()
+            self.interpolate(sommerfeld, bad)  # raises, naming the flowrate fraction
+        value = np.empty((q.size, 10))
+        _interpolate_rows(
+            self._padded,
+            s,
+            fraction,
+            self._s0,
+            self._hs,
+            self.sommerfeld_nodes.size,
+            self._f0,
+            self._hf,
+            self.fraction_nodes.size,
+            value,
+        )
+        value[:, 0:2] *= c
+        value[:, 2:6] *= load_n / c
+        value[:, 6:10] *= load_n / (c * 2.0 * math.pi * speed_hz)
+        return value
 
     # -- file ---------------------------------------------------------------------------------------------
     def to_dict(self) -> dict:
@@ -295,6 +345,48 @@ class OperatingTable:
             data["threshold_flow_ratio"],
             data["geometry"],
             meta,
+        )
+
+
+@numba.njit(cache=True)
+def _interpolate_point(padded, s, f, s0, hs, ns, f0, hf, nf, out):  # pragma: no cover - compiled
+    """Values, d/d ln S and d/d f (rows of ``out`` (3, 11)) at (ln S = s, f) on the padded grid."""
+    i, ts = catmull_rom.cell(s, s0, hs, ns)
+    j, tf = catmull_rom.cell(f, f0, hf, nf)
+    ws, dws = catmull_rom.weights(ts)
+    wf, dwf = catmull_rom.weights(tf)
+    out[:, :] = 0.0
+    for a in range(4):
+        for b in range(4):
+            node = padded[i + a, j + b]
+            for k in range(node.shape[0]):
+                out[0, k] += ws[a] * wf[b] * node[k]
+                out[1, k] += dws[a] * wf[b] * node[k] / hs
+                out[2, k] += ws[a] * dwf[b] * node[k] / hf
+
+
+@numba.njit(cache=True)
+def _interpolate_rows(padded, s, fractions, s0, hs, ns, f0, hf, nf, out):  # pragma: no cover - compiled
+    """The first 10 values at (ln S = s, f) for each f of ``fractions`` into ``out`` (m, 10)."""
+    i, ts = catmull_rom.cell(s, s0, hs, ns)
+    ws, _ = catmull_rom.weights(ts)
+    for m in range(fractions.shape[0]):
+        j, tf = catmull_rom.cell(fractions[m], f0, hf, nf)
+        wf, _ = catmull_rom.weights(tf)
+        for k in range(out.shape[1]):
+            acc = 0.0
+            for a in range(4):
+                for b in range(4):
+                    acc += ws[a] * wf[b] * padded[i + a, j + b, k]
+            out[m, k] = acc
+
+
+class _Geometry:
+    """The attributes of a bearing that :func:`sommerfeld_number` reads, from a geometry dict."""
+
+    def __init__(self, geometry: dict):
+        self.radius_m, self.length_m, self.clearance_m = (
+            geometry[k] for k in ("radius_m", "length_m", "clearance_m")
         )
 
 

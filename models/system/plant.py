@@ -19,10 +19,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..validation import InputError, require_non_negative, require_positive
+from ..oil import Oil
+from ..validation import InputError, require_finite, require_in_range, require_non_negative, require_positive
 from .fault import SigmoidFlowrate
 from .measurement import MeasurementChain, UnbalanceChange, film_state
 from .newmark import NewmarkIntegrator
+from .operating_point import set_operating_conditions
 from .rotor_bearing import RotorBearingSystem
 
 DEFAULT_SUBSTEPS = 8
@@ -57,6 +59,11 @@ class RotorBearingPlant:
     start_time_s : time of the initial state [s].
     chain : the probes' imperfections (default: ideal probes); its noise is ``noise_std_m``.
     unbalance_change : a sudden unbalance change (default: none).
+    oil : the machine's oil; with it the oil temperature is an input (:meth:`step`). Speed and temperature
+        other than the system's need a system on the dimensionless table (``operating_point``).
+    oil_temperature_c : the initial oil supply temperature [degC] (with ``oil``).
+    viscosity_factor : the film's true viscosity over the oil's law at the measured temperature (film
+        heating, model error) [-].
     """
 
     def __init__(
@@ -71,6 +78,9 @@ class RotorBearingPlant:
         start_time_s: float = 0.0,
         chain: MeasurementChain | None = None,
         unbalance_change: UnbalanceChange | None = None,
+        oil: Oil | None = None,
+        oil_temperature_c: float | None = None,
+        viscosity_factor: float = 1.0,
     ) -> None:
         self.system = system
         self.dt_s = require_positive("dt_s", dt_s, "s")
@@ -79,6 +89,13 @@ class RotorBearingPlant:
         if schedules is None and initial_flowrates_m3_s is None:
             raise InputError("initial_flowrates_m3_s is required when the flowrates are inputs")
         self._inputs = tuple(initial_flowrates_m3_s) if initial_flowrates_m3_s is not None else None
+        self.oil = oil
+        self.viscosity_factor = require_in_range("viscosity_factor", viscosity_factor, 0.2, 5.0)
+        if oil is not None and oil_temperature_c is None:
+            raise InputError("oil_temperature_c is required with an oil")
+        self.speed_hz = system.speed_hz
+        self.oil_temperature_c = oil_temperature_c
+        self._set_conditions(self.speed_hz, oil_temperature_c)
         for name, q in self._flowrate_extremes():
             self._check_flowrate(name, q)
         self.rng = np.random.default_rng(seed)
@@ -100,8 +117,7 @@ class RotorBearingPlant:
         self.integrator = NewmarkIntegrator(
             self.system, self.dt_s, self.substeps, self.flowrates(self.time_s)
         )
-        self.integrator.state = snapshot["state"]
-        self.integrator.time_s = snapshot["time_s"]
+        self.integrator.restore({**snapshot, "propagator_flowrates": None, "propagator": None})
 
     def _check_flowrate(self, name: str, q_m3_s: float) -> None:
         low, high = self.system.flowrate_bounds_m3_s
@@ -130,8 +146,42 @@ class RotorBearingPlant:
             return np.broadcast_to(np.asarray(self._inputs, dtype=float), (len(times_s), 2))
         return np.column_stack([self.schedules[0](times_s), self.schedules[1](times_s)])
 
-    def step(self, inputs_m3_s: tuple[float, float] | None = None) -> PlantSample:
-        """Advance one period; with input-driven flowrates, ``inputs_m3_s`` holds over the period."""
+    @property
+    def viscosity_pa_s(self) -> float:
+        """The film viscosity [Pa s] now: viscosity_factor x the oil's at its temperature (or the table's)."""
+        return self._viscosity_pa_s
+
+    def _set_conditions(self, speed_hz: float, oil_temperature_c: float | None) -> None:
+        """Move the bearing tables and the integrator to a speed [Hz] and oil temperature [degC]."""
+        speed = require_positive("speed_hz", speed_hz, "Hz")
+        if oil_temperature_c is None:
+            nominal = self.system.tables[0].metadata["bearing"]["viscosity_pa_s"]
+            viscosity = self.viscosity_factor * nominal
+        else:
+            if self.oil is None:
+                raise InputError(
+                    "an oil temperature input needs the machine's oil ([oil] in the machine file)"
+                )
+            temperature = require_finite("oil_temperature_c", oil_temperature_c)
+            viscosity = self.viscosity_factor * self.oil.dynamic_viscosity_pa_s(temperature)
+        set_operating_conditions(self.system, speed, viscosity)
+        self.speed_hz, self.oil_temperature_c, self._viscosity_pa_s = speed, oil_temperature_c, viscosity
+        if hasattr(self, "integrator"):
+            self.integrator.set_speed(2.0 * np.pi * speed)
+
+    def step(
+        self,
+        inputs_m3_s: tuple[float, float] | None = None,
+        speed_hz: float | None = None,
+        oil_temperature_c: float | None = None,
+    ) -> PlantSample:
+        """Advance one period; with input-driven flowrates, ``inputs_m3_s`` holds over the period, and so do
+        ``speed_hz`` and ``oil_temperature_c`` when given (None: unchanged)."""
+        if speed_hz is not None or oil_temperature_c is not None:
+            self._set_conditions(
+                self.speed_hz if speed_hz is None else speed_hz,
+                self.oil_temperature_c if oil_temperature_c is None else oil_temperature_c,
+            )
         if self.schedules is None:
             if inputs_m3_s is None:
                 raise InputError("flowrate inputs are required when the flowrates are inputs")
@@ -155,8 +205,9 @@ class RotorBearingPlant:
 
     @property
     def rotor_angle_rad(self) -> float:
-        """The rotor's angle from the keyphasor mark, Omega t [rad] (what the unbalance phase refers to)."""
-        return self.system.omega_rad_s * self.time_s
+        """The rotor's angle from the keyphasor mark, the integral of the speed [rad] (what the unbalance
+        phase and the runout refer to)."""
+        return self.integrator.rotor_angle_rad
 
     def snapshot(self) -> dict:
         """Everything that determines future samples (integrator, inputs, noise generator)."""
@@ -166,6 +217,7 @@ class RotorBearingPlant:
             "rng": self.rng.bit_generator.state,
             "time_s": self.time_s,
             "held": self._held.copy(),
+            "conditions": (self.speed_hz, self.oil_temperature_c),
         }
 
     def restore(self, snapshot: dict) -> None:
@@ -175,3 +227,4 @@ class RotorBearingPlant:
         self.rng.bit_generator.state = snapshot["rng"]
         self.time_s = snapshot["time_s"]
         self._held = snapshot["held"].copy()
+        self._set_conditions(*snapshot["conditions"])

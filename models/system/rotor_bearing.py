@@ -93,6 +93,7 @@ class RotorBearingSystem:
             transform.T @ (rotor.damping_matrix + self.omega_rad_s * rotor.gyroscopic_matrix) @ transform
         )
         self.gravity_force = transform.T @ rotor.gravity_force
+        self.gyroscopic = transform.T @ rotor.gyroscopic_matrix @ transform
         moment = rotor.unbalance_moment_kg_m if unbalance_moment_kg_m is None else unbalance_moment_kg_m
         phase = rotor.unbalance_phase_rad if unbalance_phase_rad is None else unbalance_phase_rad
         self.unbalance_moment_kg_m = require_non_negative("unbalance moment", moment, "kg m")
