@@ -9,18 +9,77 @@ Fault: each bearing's supply flowrate follows ``q(t) = q_initial + (q_final - q_
 (1 + exp(-(t - fault_time_s) / tau))`` with ``tau = fault_duration_s / (2 ln 9)``: ``fault_duration_s`` is
 the 10 %-90 % transition time. ``flow_source = 1`` replaces the schedule with the inputs ``q1_in_ml_min``
 and ``q2_in_ml_min`` (held over each communication step), so that an oil-system model can drive them.
+
+Operating point: the inputs ``speed_hz`` and ``oil_temperature_c`` (held over each step; start values: the
+machine's nominal) set the spin speed and the oil supply temperature. With ``bearing_table = 1`` the
+bearings follow them through the dimensionless table (the oil's ASTM D341 law times ``viscosity_factor``
+gives the film viscosity), the unbalance turns with the integral of the speed and the gyroscopic terms
+follow it; with ``bearing_table = 0`` (default: the estimator's own table, so that every earlier result
+stands) the flowrate table at the start speed is used and both inputs must stay at their start values.
+Measurement chain (``models.system.measurement``): probe
+mounting angle, per-probe zero offset, sensitivity error, 1x/2x runout and fault; an unbalance change at a
+given time; the true positions and each bearing's eccentricity ratio and minimum film thickness are outputs.
 """
 
 from __future__ import annotations
 
+import math
+from pathlib import Path
+
 from pythonfmu import DefaultExperiment
 
-from fmu_src.machine_parameters import rotor_bearing_system
+from fmu_src.fmi_variables import UnitDefinition, register_unit
+from fmu_src.machine_parameters import bundled_machine_file, rotor_bearing_system
 from fmu_src.slave_base import OilwatchSlave
 from models.bearing.supply import ML_MIN_PER_M3_S
+from models.machine import load_machine
 from models.system.fault import SigmoidFlowrate
+from models.system.measurement import FAULT_KINDS, PROBE_NAMES, MeasurementChain, ProbeErrors, UnbalanceChange
+from models.system.operating_point import operating_system
 from models.system.plant import RotorBearingPlant as PlantModel
 from models.validation import InputError
+
+register_unit(UnitDefinition("degC", {"K": 1}, 1.0, 273.15))
+# Start values of the operating-point inputs: the bundled machine's nominal (its file is the source).
+_BUNDLED = load_machine()
+NOMINAL_SPEED_HZ = _BUNDLED.nominal_speed_hz
+NOMINAL_OIL_TEMPERATURE_C = _BUNDLED.nominal_oil_temperature_c
+# Per-probe parameters: (suffix, ProbeErrors field, unit, SI per unit, minimum, maximum, description).
+PROBE_PARAMETERS = (
+    ("offset_um", "zero_offset_m", "um", 1e-6, -500.0, 500.0, "zero offset added to the reading"),
+    (
+        "sensitivity_error_pct",
+        "sensitivity_error",
+        "%",
+        1e-2,
+        -50.0,
+        50.0,
+        "scale-factor error: reading x (1 + error)",
+    ),
+    ("runout_1x_um", "runout_1x_m", "um", 1e-6, 0.0, 100.0, "1x runout amplitude (shaft surface)"),
+    (
+        "runout_1x_phase_deg",
+        "runout_1x_phase_rad",
+        "deg",
+        math.pi / 180,
+        -360.0,
+        360.0,
+        "1x runout phase from the keyphasor",
+    ),
+    ("runout_2x_um", "runout_2x_m", "um", 1e-6, 0.0, 100.0, "2x runout amplitude"),
+    (
+        "runout_2x_phase_deg",
+        "runout_2x_phase_rad",
+        "deg",
+        math.pi / 180,
+        -360.0,
+        360.0,
+        "2x runout phase from the keyphasor",
+    ),
+    ("fault_time_s", "fault_time_s", "s", 1.0, 0.0, None, "time the probe's fault starts"),
+    ("glitch_um", "glitch_m", "um", 1e-6, -1000.0, 1000.0, "size of a glitch fault"),
+    ("glitch_duration_s", "glitch_duration_s", "s", 1.0, 0.0, None, "length of a glitch fault"),
+)
 
 NOMINAL_ML_MIN = 596.3
 SAMPLING_PERIOD_S = 1e-3
@@ -44,12 +103,95 @@ class RotorBearingPlant(OilwatchSlave):
         real = self.declare_real
         real(
             "speed_hz",
-            "parameter",
-            start=75.0,
+            "input",
+            start=NOMINAL_SPEED_HZ,
             unit="Hz",
             minimum=1.0,
             maximum=1000.0,
-            description="Spin speed; a coefficient table must exist for it",
+            description="Spin speed (held over each step); bearing_table = 0: must stay at its start value, "
+            "for which a flowrate table must exist",
+        )
+        real(
+            "oil_temperature_c",
+            "input",
+            start=NOMINAL_OIL_TEMPERATURE_C,
+            unit="degC",
+            minimum=-20.0,
+            maximum=150.0,
+            description="Oil supply temperature (held over each step); the start value is the temperature at "
+            "which the bundled turbine's oil has 0.094 Pa s",
+        )
+        self.declare_integer(
+            "bearing_table",
+            "parameter",
+            start=0,
+            minimum=0,
+            maximum=1,
+            description="0: the flowrate table at the start speed and nominal viscosity (speed_hz and "
+            "oil_temperature_c constant); 1: the dimensionless table, following speed and oil temperature",
+        )
+        real(
+            "viscosity_factor",
+            "parameter",
+            start=1.0,
+            unit="1",
+            minimum=0.2,
+            maximum=5.0,
+            description="Film viscosity over the oil's law at oil_temperature_c (film heating, model error)",
+        )
+        real(
+            "probe_angle_deg",
+            "parameter",
+            start=0.0,
+            unit="deg",
+            minimum=-180.0,
+            maximum=180.0,
+            description="Angle of each bearing's X probe from horizontal, Y probe 90 deg further: 0 "
+            "horizontal/vertical, 45 the API 670 pair (45 deg either side of top dead centre)",
+        )
+        for probe in PROBE_NAMES:
+            for suffix, _, unit, _, low, high, text in PROBE_PARAMETERS:
+                start = 1e9 if suffix == "fault_time_s" else 0.0
+                real(
+                    f"{probe}_{suffix}",
+                    "parameter",
+                    start=start,
+                    unit=unit,
+                    minimum=low,
+                    maximum=high,
+                    description=f"Probe {probe}: {text}",
+                )
+            self.declare_integer(
+                f"{probe}_fault",
+                "parameter",
+                start=0,
+                minimum=0,
+                maximum=len(FAULT_KINDS) - 1,
+                description=f"Probe {probe} fault from {probe}_fault_time_s: 0 none, 1 dead (NaN), "
+                "2 stuck at its last value, 3 glitch",
+            )
+        real(
+            "unbalance_change_time_s",
+            "parameter",
+            start=1e9,
+            unit="s",
+            minimum=0.0,
+            description="Time of a sudden unbalance change (a blade loss), from the first step at or after",
+        )
+        real(
+            "unbalance_change_g_mm",
+            "parameter",
+            start=0.0,
+            unit="g.mm",
+            minimum=0.0,
+            description="Unbalance moment after the change",
+        )
+        real(
+            "unbalance_change_phase_deg",
+            "parameter",
+            start=0.0,
+            unit="deg",
+            description="Unbalance phase after the change",
         )
         for b in (1, 2):
             for stage, text in (("initial", "before"), ("final", "after")):
@@ -143,6 +285,28 @@ class RotorBearingPlant(OilwatchSlave):
                 unit="um",
                 description=f"True {axis} position of the shaft in bearing {b}, from the bearing centre",
             )
+        for b in (1, 2):
+            real(
+                f"eccentricity_ratio{b}",
+                "output",
+                start=0.0,
+                unit="1",
+                description=f"Eccentricity ratio of the journal in bearing {b} (true position / clearance)",
+            )
+            real(
+                f"h_min{b}_um",
+                "output",
+                start=0.0,
+                unit="um",
+                description=f"Minimum film thickness in bearing {b}, c (1 - eccentricity ratio)",
+            )
+        real(
+            "rotor_angle_deg",
+            "output",
+            start=0.0,
+            unit="deg",
+            description="Rotor angle from the keyphasor mark (integral of the speed), modulo 360",
+        )
         real(
             "t_sample_s",
             "output",
@@ -177,15 +341,46 @@ class RotorBearingPlant(OilwatchSlave):
                     if getattr(self, f"q{b}_{stage}_ml_min") <= 0.0:
                         raise InputError(f"q{b}_{stage}_ml_min must be > 0 ml/min")
 
-    def setup(self) -> None:
-        system = rotor_bearing_system(
-            self.machine_file,
-            self.resources,
+    def _machine(self):
+        if self.machine_file and not Path(self.machine_file).is_file():
+            raise InputError(f"machine_file: no such file: {self.machine_file!r}")
+        return load_machine(self.machine_file or bundled_machine_file(self.resources))
+
+    def _system(self, machine):
+        if self.bearing_table == 0:
+            return rotor_bearing_system(
+                self.machine_file,
+                self.resources,
+                self.speed_hz,
+                self.unbalance_g_mm,
+                self.unbalance_phase_deg,
+                reduced=False,
+            )
+        if machine.oil is None:
+            raise InputError("bearing_table = 1 needs the machine's oil ([oil] in the machine file)")
+        viscosity = self.viscosity_factor * machine.oil.dynamic_viscosity_pa_s(self.oil_temperature_c)
+        return operating_system(
+            machine,
             self.speed_hz,
-            self.unbalance_g_mm,
-            self.unbalance_phase_deg,
-            reduced=False,
+            viscosity,
+            unbalance_moment_kg_m=None if self.unbalance_g_mm < 0.0 else self.unbalance_g_mm * 1e-6,
+            unbalance_phase_rad=math.radians(self.unbalance_phase_deg),
         )
+
+    def _chain(self) -> MeasurementChain:
+        probes = []
+        for probe in PROBE_NAMES:
+            values = {
+                field: getattr(self, f"{probe}_{suffix}") * si
+                for suffix, field, _, si, *_ in PROBE_PARAMETERS
+            }
+            probes.append(ProbeErrors(**values, fault=FAULT_KINDS[getattr(self, f"{probe}_fault")]))
+        return MeasurementChain(tuple(probes), math.radians(self.probe_angle_deg))
+
+    def setup(self) -> None:
+        machine = self._machine()
+        system = self._system(machine)
+        self._start_conditions = (self.speed_hz, self.oil_temperature_c)
         schedules = None
         if self.flow_source == 0:
             schedules = tuple(
@@ -207,6 +402,15 @@ class RotorBearingPlant(OilwatchSlave):
                 self.seed,
                 initial_flowrates_m3_s=inputs,
                 start_time_s=self.start_time,
+                chain=self._chain(),
+                unbalance_change=UnbalanceChange(
+                    self.unbalance_change_time_s,
+                    self.unbalance_change_g_mm * 1e-6,
+                    math.radians(self.unbalance_change_phase_deg),
+                ),
+                oil=machine.oil if self.bearing_table == 1 else None,
+                oil_temperature_c=self.oil_temperature_c if self.bearing_table == 1 else None,
+                viscosity_factor=self.viscosity_factor if self.bearing_table == 1 else 1.0,
             )
         except InputError as error:
             raise InputError(_fmu_names(str(error))) from None
@@ -218,7 +422,16 @@ class RotorBearingPlant(OilwatchSlave):
         inputs = None
         if self.flow_source == 1:
             inputs = (self.q1_in_ml_min / ML_MIN_PER_M3_S, self.q2_in_ml_min / ML_MIN_PER_M3_S)
-        self._publish(self.plant.step(inputs))
+        conditions = (self.speed_hz, self.oil_temperature_c)
+        if self.bearing_table == 0:
+            if conditions != self._start_conditions:
+                raise InputError(
+                    "speed_hz and oil_temperature_c must stay at their start values with bearing_table = 0, "
+                    f"got {conditions[0]:g} Hz and {conditions[1]:g} degC"
+                )
+            self._publish(self.plant.step(inputs))
+        else:
+            self._publish(self.plant.step(inputs, speed_hz=conditions[0], oil_temperature_c=conditions[1]))
         return True
 
     def _publish(self, sample) -> None:
@@ -227,6 +440,10 @@ class RotorBearingPlant(OilwatchSlave):
         ):
             setattr(self, f"{name}_um", measured * 1e6)
             setattr(self, f"{name}_true_um", true * 1e6)
+        for b in (1, 2):
+            setattr(self, f"eccentricity_ratio{b}", float(sample.eccentricity_ratio[b - 1]))
+            setattr(self, f"h_min{b}_um", float(sample.min_film_thickness_m[b - 1]) * 1e6)
+        self.rotor_angle_deg = math.degrees(self.plant.rotor_angle_rad) % 360.0
         self.t_sample_s = self.plant.time_s
         self.q1_ml_min = sample.flowrate_m3_s[0] * ML_MIN_PER_M3_S
         self.q2_ml_min = sample.flowrate_m3_s[1] * ML_MIN_PER_M3_S
