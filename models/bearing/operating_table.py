@@ -256,46 +256,16 @@ class OperatingTable:
         self, speed_hz: float, viscosity_pa_s: float, load_n: float
     ) -> tuple[float, float]:
         """(lowest, highest) supply flowrate [m^3/s] the table covers at this speed, viscosity and load."""
-        sommerfeld = sommerfeld_number(_Geometry(self.geometry), viscosity_pa_s, speed_hz, load_n)
-        ratio, _ = self.flooded_threshold_ratio(sommerfeld)
-        g = self.geometry
-        q_t = ratio * math.pi * speed_hz * g["radius_m"] * g["clearance_m"] * g["length_m"]
-        low, high = self.fraction_range
-        return low * q_t, high * q_t
+        return self.at(speed_hz, viscosity_pa_s, load_n).flowrate_range_m3_s
 
     def evaluate_many(self, speed_hz: float, viscosity_pa_s: float, load_n: float, q_m3_s) -> np.ndarray:
         """Rows (m, 10) ``[e_x, e_y, K (row-major), C (row-major)]`` (SI) at the flowrates (m,) [m^3/s], at
         one speed, viscosity and load: the layout of ``CoefficientTable.evaluate_many``."""
-        q = np.atleast_1d(np.asarray(q_m3_s, dtype=float))
-        g = self.geometry
-        r, c, length = g["radius_m"], g["clearance_m"], g["length_m"]
-        sommerfeld = viscosity_pa_s * speed_hz * length * 2.0 * r * (r / c) ** 2 / load_n
-        s = self._sommerfeld_coordinate(
-            sommerfeld, f"the operating point ({speed_hz:g} Hz, {viscosity_pa_s:.4g} Pa s)"
-        )
-        ratio, _ = self.flooded_threshold_ratio(sommerfeld)
-        fraction = q / (ratio * math.pi * speed_hz * r * c * length)
-        low, high = self.fraction_range
-        if not (fraction.min() >= low - 1e-12 and fraction.max() <= high + 1e-12):
-            bad = fraction.min() if fraction.min() < low - 1e-12 else fraction.max()
-            self.interpolate(sommerfeld, bad)  # raises, naming the flowrate fraction
-        value = np.empty((q.size, 10))
-        _interpolate_rows(
-            self._padded,
-            s,
-            fraction,
-            self._s0,
-            self._hs,
-            self.sommerfeld_nodes.size,
-            self._f0,
-            self._hf,
-            self.fraction_nodes.size,
-            value,
-        )
-        value[:, 0:2] *= c
-        value[:, 2:6] *= load_n / c
-        value[:, 6:10] *= load_n / (c * 2.0 * math.pi * speed_hz)
-        return value
+        return self.at(speed_hz, viscosity_pa_s, load_n).rows(q_m3_s)
+
+    def at(self, speed_hz: float, viscosity_pa_s: float, load_n: float) -> TableSlice:
+        """The table at one speed [Hz], viscosity [Pa s] and load [N]: a function of the flowrate only."""
+        return TableSlice(self, speed_hz, viscosity_pa_s, load_n)
 
     # -- file ---------------------------------------------------------------------------------------------
     def to_dict(self) -> dict:
@@ -365,29 +335,76 @@ def _interpolate_point(padded, s, f, s0, hs, ns, f0, hf, nf, out):  # pragma: no
                 out[2, k] += ws[a] * dwf[b] * node[k] / hf
 
 
+class TableSlice:
+    """The dimensionless table at one (speed, viscosity, load): interpolated in S once, in f per call.
+
+    Attributes: sommerfeld, flooded_threshold_m3_s q_t, flowrate_range_m3_s; :meth:`rows` as
+    ``OperatingTable.evaluate_many``.
+    """
+
+    def __init__(self, table: OperatingTable, speed_hz: float, viscosity_pa_s: float, load_n: float):
+        g = table.geometry
+        r, c, length = g["radius_m"], g["clearance_m"], g["length_m"]
+        self.sommerfeld = viscosity_pa_s * speed_hz * length * 2.0 * r * (r / c) ** 2 / load_n
+        where = f"the operating point ({speed_hz:g} Hz, {viscosity_pa_s:.4g} Pa s, {load_n:.5g} N)"
+        s = table._sommerfeld_coordinate(self.sommerfeld, where)
+        column = np.empty((table.fraction_nodes.size + 2, N_QUANTITIES))
+        threshold = _interpolate_column(
+            table._padded, table._log_threshold, s, table._s0, table._hs, table.sommerfeld_nodes.size, column
+        )
+        self.flooded_threshold_m3_s = math.exp(threshold) * math.pi * speed_hz * r * c * length
+        low, high = table.fraction_range
+        self.flowrate_range_m3_s = (low * self.flooded_threshold_m3_s, high * self.flooded_threshold_m3_s)
+        self._table, self._where, self._column = table, where, column
+        self._scale = np.concatenate(
+            [np.full(2, c), np.full(4, load_n / c), np.full(4, load_n / (c * 2.0 * math.pi * speed_hz))]
+        )
+
+    def rows(self, q_m3_s) -> np.ndarray:
+        """Rows (m, 10) ``[e_x, e_y, K, C]`` (SI) at the flowrates (m,) [m^3/s]."""
+        q = np.atleast_1d(np.asarray(q_m3_s, dtype=float))
+        fraction = q / self.flooded_threshold_m3_s
+        table = self._table
+        low, high = table.fraction_range
+        if not (fraction.min() >= low - 1e-12 and fraction.max() <= high + 1e-12):
+            bad = fraction.min() if fraction.min() < low - 1e-12 else fraction.max()
+            raise InputError(
+                f"supply flowrate {bad * self.flooded_threshold_m3_s * ML_MIN_PER_M3_S:.5g} ml/min "
+                f"({bad * 100:.4g} % of the flooded threshold) is outside the table's [{low * 100:.4g}, "
+                f"{high * 100:.4g}] % at {self._where} (no extrapolation)"
+            )
+        value = np.empty((q.size, 10))
+        _interpolate_rows(self._column, fraction, table._f0, table._hf, table.fraction_nodes.size, value)
+        value *= self._scale
+        return value
+
+
 @numba.njit(cache=True)
-def _interpolate_rows(padded, s, fractions, s0, hs, ns, f0, hf, nf, out):  # pragma: no cover - compiled
-    """The first 10 values at (ln S = s, f) for each f of ``fractions`` into ``out`` (m, 10)."""
+def _interpolate_column(padded, log_threshold, s, s0, hs, ns, column):  # pragma: no cover - compiled
+    """Interpolate the padded grid in ln S at s into ``column`` (n_f + 2, 11); return ln(q_t / q_c) there."""
     i, ts = catmull_rom.cell(s, s0, hs, ns)
     ws, _ = catmull_rom.weights(ts)
+    column[:, :] = 0.0
+    threshold = 0.0
+    for a in range(4):
+        threshold += ws[a] * log_threshold[i + a]
+        for j in range(column.shape[0]):
+            for k in range(column.shape[1]):
+                column[j, k] += ws[a] * padded[i + a, j, k]
+    return threshold
+
+
+@numba.njit(cache=True)
+def _interpolate_rows(column, fractions, f0, hf, nf, out):  # pragma: no cover - compiled
+    """The first 10 values of a column (n_f + 2, 11) at each f of ``fractions`` into ``out`` (m, 10)."""
     for m in range(fractions.shape[0]):
         j, tf = catmull_rom.cell(fractions[m], f0, hf, nf)
         wf, _ = catmull_rom.weights(tf)
         for k in range(out.shape[1]):
             acc = 0.0
-            for a in range(4):
-                for b in range(4):
-                    acc += ws[a] * wf[b] * padded[i + a, j + b, k]
+            for b in range(4):
+                acc += wf[b] * column[j + b, k]
             out[m, k] = acc
-
-
-class _Geometry:
-    """The attributes of a bearing that :func:`sommerfeld_number` reads, from a geometry dict."""
-
-    def __init__(self, geometry: dict):
-        self.radius_m, self.length_m, self.clearance_m = (
-            geometry[k] for k in ("radius_m", "length_m", "clearance_m")
-        )
 
 
 def _coefficients(v: np.ndarray) -> BearingCoefficients:

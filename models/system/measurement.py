@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, fields
+from functools import cached_property
 
 import numpy as np
 
@@ -88,7 +89,7 @@ class MeasurementChain:
         require_in_range("probe mounting angle", self.mounting_angle_rad, -math.pi, math.pi, "rad")
         require_non_negative("noise std", self.noise_std_m, "m")
 
-    @property
+    @cached_property
     def projection(self) -> np.ndarray:
         """(4, 4) map from true (x1, y1, x2, y2) to the probe axes' readings."""
         a = self.mounting_angle_rad

@@ -220,8 +220,10 @@ class NewmarkIntegrator:
         k = np.zeros((m, 2 * nb, 2 * nb))
         c = np.zeros((m, 2 * nb, 2 * nb))
         load = np.zeros((m, 2 * nb))
+        held = m > 1 and bool((flowrates == flowrates[0]).all())  # e.g. a speed ramp at constant flowrates
         for b, (table, w) in enumerate(zip(tables, self.system.static_loads_n, strict=True)):
-            rows = table.evaluate_many(flowrates[:, b])
+            rows = table.evaluate_many(flowrates[:1, b] if held else flowrates[:, b])
+            rows = np.broadcast_to(rows, (m, rows.shape[1]))
             sl = slice(2 * b, 2 * b + 2)
             k[:, sl, sl] = rows[:, 2:6].reshape(m, 2, 2)
             c[:, sl, sl] = rows[:, 6:10].reshape(m, 2, 2)

@@ -40,7 +40,7 @@ class ConditionedTable:
         """Move to another speed [Hz] and film viscosity [Pa s] (checked against the table's range)."""
         self.speed_hz = require_positive("speed", speed_hz, "Hz")
         self.viscosity_pa_s = require_positive("film viscosity", viscosity_pa_s, "Pa s")
-        self._range = self.table.flowrate_range_m3_s(self.speed_hz, self.viscosity_pa_s, self.load_n)
+        self._slice = self.table.at(self.speed_hz, self.viscosity_pa_s, self.load_n)
 
     @property
     def conditions(self) -> tuple[float, float]:
@@ -50,11 +50,11 @@ class ConditionedTable:
     @property
     def flowrate_range_m3_s(self) -> tuple[float, float]:
         """Flowrates [m^3/s] the table covers at the current conditions."""
-        return self._range
+        return self._slice.flowrate_range_m3_s
 
     def evaluate_many(self, q_m3_s: np.ndarray) -> np.ndarray:
         """Rows (m, 10) ``[e_x, e_y, K, C]`` (SI) at the flowrates (m,) [m^3/s]."""
-        return self.table.evaluate_many(self.speed_hz, self.viscosity_pa_s, self.load_n, q_m3_s)
+        return self._slice.rows(q_m3_s)
 
     def evaluate(self, q_m3_s: float) -> BearingCoefficients:
         """Equilibrium and coefficients at one flowrate [m^3/s]."""
