@@ -263,3 +263,26 @@ result = {
     assert result["angle"][0] == pytest.approx(result["angle"][1], abs=1e-6)
     assert result["film"] < 1e-9 and 0.05 < result["ratio"] < 0.3
     assert result["refused"] is not None
+
+
+def test_master_input_signals_drive_the_speed(fmu):
+    result = _run(
+        fmu,
+        """
+from oilwatch.cosim.errors import SystemDescriptionError
+system = SystemDescription([FmuSpec("plant", FMU, {"bearing_table": 1, "noise_um": 0.0})], connections=[])
+with Master(system) as master:
+    run = master.run(stop_time=0.05, step_size=1e-3, record=["plant.rotor_angle_deg"],
+                     input_signals={"plant.speed_hz": lambda t: 75.0 - 20.0 * t})
+    try:
+        master.run(stop_time=0.01, step_size=1e-3, input_signals={"plant.noise_um": lambda t: 1.0})
+        refused = None
+    except SystemDescriptionError as error:
+        refused = str(error)
+angle = run.recorder.arrays()["plant.rotor_angle_deg"][-1]
+expected = (360.0 * 1e-3 * sum(75.0 - 20.0 * k * 1e-3 for k in range(50))) % 360.0
+result = {"angle": [float(angle), float(expected)], "refused": refused}
+""",
+    )
+    assert result["angle"][0] == pytest.approx(result["angle"][1], abs=1e-6)
+    assert "no input 'noise_um'" in result["refused"]

@@ -27,6 +27,7 @@ from __future__ import annotations
 import math
 import time as wallclock
 from collections import defaultdict
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -155,6 +156,7 @@ class Master:
         record_every: int = 1,
         parameters: dict[str, dict[str, object]] | None = None,
         progress: bool = False,
+        input_signals: dict[str, Callable[[float], float]] | None = None,
     ) -> RunResult:
         """Simulate from ``start_time`` to ``stop_time`` [s] with macro step ``step_size`` [s].
 
@@ -163,6 +165,9 @@ class Master:
         (an object with start/record/close, or a callable ``f(time, values)``; default a
         MemoryRecorder) at the start time and after every ``record_every``-th step.
         parameters: per-instance overrides of the system's parameter values.
+        input_signals: ``{"instance.input": f}``: each Real input is set to ``f(t)`` at the start of every
+            step (t its start time; held over the step) and, before initialization, to ``f(start)``: the
+            scenario's speed and oil-temperature profiles (``models.system.profiles``).
         """
         system = self.system
         start = system.start_time if start_time is None else start_time
@@ -188,6 +193,9 @@ class Master:
         probes = self._probes(record)
         recorder = as_recorder(recorder)
         values = self._parameter_values(parameters or {})
+        signals = self._signals(input_signals or {})
+        for port, function in signals:
+            values[port.slave.name] = {**values[port.slave.name], port.names[0]: float(function(start))}
 
         if self._used:
             for slave in self.slaves.values():
@@ -210,6 +218,9 @@ class Master:
         try:
             self._record(recorder, probes, row, start)
             for k in range(steps):
+                for port, function in signals:
+                    port.values[0] = function(start + k * step)
+                    port.write()
                 stepper(start + k * step, step)
                 done = k + 1
                 if done % record_every == 0 or done == steps:
@@ -224,6 +235,19 @@ class Master:
                 bar.close()
         wall = wallclock.perf_counter() - wall_start
         return RunResult(done, start + done * step, done * step, wall, recorder, record)
+
+    def _signals(self, input_signals: dict[str, Callable[[float], float]]) -> list[tuple[Port, Callable]]:
+        """One single-variable Real port per driven input, checked by name."""
+        out = []
+        for name, function in input_signals.items():
+            instance, _, variable = name.partition(".")
+            if instance not in self.slaves:
+                raise SystemDescriptionError(f"input signal {name!r}: no instance {instance!r}")
+            slave = self.slaves[instance]
+            if variable not in slave.variables or slave.variables[variable].causality != "input":
+                raise SystemDescriptionError(f"input signal {name!r}: {instance} has no input {variable!r}")
+            out.append((Port(slave, [variable], "Real"), function))
+        return out
 
     @staticmethod
     def _record(recorder, probes, row, time) -> None:
