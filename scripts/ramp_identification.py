@@ -63,7 +63,7 @@ def run_case(fmu_dir, q_pct, duration_s, ramps):
             order=["plant", "ekf"],
             record=RECORD,
             parameters={"plant": plant, "ekf": ekf},
-            input_signals={"plant.speed_hz": speed, "plant.oil_temperature_c": temperature},
+            input_signals={"plant.speed_in_hz": speed, "plant.oil_temperature_in_c": temperature},
             progress=True,
         )
     a = result.recorder.arrays()
