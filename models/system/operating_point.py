@@ -77,7 +77,15 @@ def operating_system(
     table.check_geometry(machine.bearing)
     rotor = Rotor.from_machine(machine)
     tables = [ConditionedTable(table, w, speed_hz, viscosity_pa_s) for w in rotor.bearing_static_loads_n]
-    return RotorBearingSystem(rotor, tables, speed_hz, None, unbalance_moment_kg_m, unbalance_phase_rad)
+    return RotorBearingSystem(
+        rotor,
+        tables,
+        speed_hz,
+        None,
+        unbalance_moment_kg_m,
+        unbalance_phase_rad,
+        machine.lubrication.nominal_flowrate_m3_s,
+    )
 
 
 def set_operating_conditions(system: RotorBearingSystem, speed_hz: float, viscosity_pa_s: float) -> None:
