@@ -61,6 +61,7 @@ def test_committed_table_covers_the_issue_range_and_records_its_provenance(table
     assert table.metadata["mesh"] == {"n_circ": 240, "n_axial": 72}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("speed_hz", "viscosity", "fraction"), [(60.0, 0.07, 0.8), (90.0, 0.12, 1.0)])
 def test_table_reproduces_direct_solves_off_its_nodes(table, speed_hz, viscosity, fraction):
     mesh = Mesh(**table.metadata["mesh"])
@@ -96,6 +97,7 @@ def test_table_agrees_with_the_75hz_table(table):
         assert k < 0.01 and c < 0.01 and e < 0.005, q * 6e7
 
 
+@pytest.mark.slow
 def test_near_the_flooded_threshold_the_table_is_closer_to_a_direct_solve_than_the_75hz_table(table):
     # K jumps across q_t (the regime change; the q_t node holds the mean of the one-sided limits), so no C1
     # interpolant is within 1 % just beside it: at 1.04 q_t the 75 Hz table's PCHIP over 7 nodes is off by
