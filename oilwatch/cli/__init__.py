@@ -26,6 +26,7 @@ SUBCOMMANDS: tuple[str, ...] = (
     "bearing_map",
     "study",
     "run",
+    "estimate",
     "demo",
     "build_fmus",
 )
@@ -41,6 +42,7 @@ class OneLineParser(argparse.ArgumentParser):
 
 OUTPUTS: dict[str, dict[str, str]] = {
     "run": {"out": "folder"},
+    "estimate": {"out": "folder"},
     "demo": {"out": "folder"},
     "study": {"out": "folder"},
     "orbits": {"out": "file"},
