@@ -12,19 +12,54 @@ and ``q2_in_ml_min`` (held over each communication step), so that an oil-system 
 Every flowrate and the speed default to 0, which stands for the machine file's nominal value (machine facts
 live in the machine file, not in start values). The FMU limits the process's OpenBLAS threads to one when it
 is instantiated (:mod:`fmu_src.blas_threads`).
+
+Operating point: the inputs ``speed_in_hz`` and ``oil_temperature_in_c`` (held over each step; their start
+values stand for the start speed ``speed_hz`` and the machine's nominal oil temperature) set the spin speed
+and the oil supply temperature. With ``bearing_table = 1`` the bearings follow them through the
+dimensionless table (the oil's ASTM D341 law times ``viscosity_factor`` gives the film viscosity), the
+unbalance turns with the integral of the speed and the gyroscopic terms follow it; with ``bearing_table = 0``
+(default: the estimator's own table, so that every earlier result stands) the flowrate table at the start
+speed is used and both inputs must stay at their start values. Measurement chain
+(``models.system.measurement``): probe mounting angle, per-probe zero offset, sensitivity error, 1x/2x
+runout and fault; an unbalance change at a given time; the true positions and each bearing's eccentricity
+ratio and minimum film thickness are outputs.
 """
 
 from __future__ import annotations
 
+import math
+
 from pythonfmu import DefaultExperiment
 
 from fmu_src.blas_threads import limit_blas_threads
-from fmu_src.machine_parameters import declare_machine_parameters, rotor_bearing_system
+from fmu_src.fmi_variables import UnitDefinition, register_unit
+from fmu_src.machine_parameters import declare_machine_parameters, machine_of, rotor_bearing_system
 from fmu_src.slave_base import OilwatchSlave
 from models.bearing.supply import ML_MIN_PER_M3_S
 from models.system.fault import SigmoidFlowrate
+from models.system.measurement import FAULT_KINDS, PROBE_NAMES, MeasurementChain, ProbeErrors, UnbalanceChange
+from models.system.operating_point import operating_system
 from models.system.plant import RotorBearingPlant as PlantModel
 from models.validation import InputError
+
+register_unit(UnitDefinition("degC", {"K": 1}, 1.0, 273.15))
+NOMINAL_TEMPERATURE = -300.0
+"""Start value of ``oil_temperature_in_c`` standing for the machine's nominal oil temperature."""
+# Per-probe parameters: (suffix, ProbeErrors field, unit, SI per unit, minimum, maximum, description).
+PROBE_PARAMETERS = (
+    ("offset_um", "zero_offset_m", "um", 1e-6, -500.0, 500.0, "zero offset added to the reading"),
+    ("sensitivity_error_pct", "sensitivity_error", "%", 1e-2, -50.0, 50.0,
+     "scale-factor error: reading x (1 + error)"),
+    ("runout_1x_um", "runout_1x_m", "um", 1e-6, 0.0, 100.0, "1x runout amplitude (shaft surface)"),
+    ("runout_1x_phase_deg", "runout_1x_phase_rad", "deg", math.pi / 180, -360.0, 360.0,
+     "1x runout phase from the keyphasor"),
+    ("runout_2x_um", "runout_2x_m", "um", 1e-6, 0.0, 100.0, "2x runout amplitude"),
+    ("runout_2x_phase_deg", "runout_2x_phase_rad", "deg", math.pi / 180, -360.0, 360.0,
+     "2x runout phase from the keyphasor"),
+    ("fault_time_s", "fault_time_s", "s", 1.0, 0.0, None, "time the probe's fault starts"),
+    ("glitch_um", "glitch_m", "um", 1e-6, -1000.0, 1000.0, "size of a glitch fault"),
+    ("glitch_duration_s", "glitch_duration_s", "s", 1.0, 0.0, None, "length of a glitch fault"),
+)  # fmt: skip
 
 SAMPLING_PERIOD_S = 1e-3
 OUTPUTS = ("x1", "y1", "x2", "y2")
@@ -48,6 +83,8 @@ class RotorBearingPlant(OilwatchSlave):
         self._nominal_ml_min = None
         real = self.declare_real
         declare_machine_parameters(self)
+        self._declare_operating_point()
+        self._declare_measurement_chain()
         for b in (1, 2):
             for stage, text in (("initial", "before"), ("final", "after")):
                 real(
@@ -131,12 +168,170 @@ class RotorBearingPlant(OilwatchSlave):
         )
         for b in (1, 2):
             real(
+                f"eccentricity_ratio{b}",
+                "output",
+                start=0.0,
+                unit="1",
+                description=f"Eccentricity ratio of the journal in bearing {b} (true position / clearance)",
+            )
+            real(
+                f"h_min{b}_um",
+                "output",
+                start=0.0,
+                unit="um",
+                description=f"Minimum film thickness in bearing {b}, c (1 - eccentricity ratio)",
+            )
+        real(
+            "rotor_angle_deg",
+            "output",
+            start=0.0,
+            unit="deg",
+            description="Rotor angle from the keyphasor mark (integral of the speed), modulo 360",
+        )
+        for b in (1, 2):
+            real(
                 f"q{b}_ml_min",
                 "output",
                 start=0.0,
                 unit="ml/min",
                 description=f"True supply flowrate of bearing {b}",
             )
+
+    def _declare_operating_point(self) -> None:
+        real = self.declare_real
+        real(
+            "speed_in_hz",
+            "input",
+            start=0.0,
+            unit="Hz",
+            minimum=0.0,
+            maximum=1000.0,
+            description="Spin speed (held over each step); 0: speed_hz. bearing_table = 0: must stay at its "
+            "start value",
+        )
+        real(
+            "oil_temperature_in_c",
+            "input",
+            start=NOMINAL_TEMPERATURE,
+            unit="degC",
+            minimum=NOMINAL_TEMPERATURE,
+            maximum=150.0,
+            description="Oil supply temperature (held over each step); -300: the machine file's nominal "
+            "(bundled turbine: 30.81 degC, where its oil has 0.094 Pa s)",
+        )
+        self.declare_integer(
+            "bearing_table",
+            "parameter",
+            start=0,
+            minimum=0,
+            maximum=1,
+            description="0: the flowrate table at the start speed and nominal viscosity (both "
+            "inputs constant); 1: the dimensionless table, following speed and oil temperature",
+        )
+        real(
+            "viscosity_factor",
+            "parameter",
+            start=1.0,
+            unit="1",
+            minimum=0.2,
+            maximum=5.0,
+            description="Film viscosity over the oil's law at the oil temperature (film heating, model)",
+        )
+        real(
+            "unbalance_change_time_s",
+            "parameter",
+            start=1e9,
+            unit="s",
+            minimum=0.0,
+            description="Time of a sudden unbalance change (a blade loss), from the first step at or after",
+        )
+        real(
+            "unbalance_change_g_mm",
+            "parameter",
+            start=0.0,
+            unit="g.mm",
+            minimum=0.0,
+            description="Unbalance moment after the change",
+        )
+        real(
+            "unbalance_change_phase_deg",
+            "parameter",
+            start=0.0,
+            unit="deg",
+            description="Unbalance phase after the change",
+        )
+
+    def _declare_measurement_chain(self) -> None:
+        self.declare_real(
+            "probe_angle_deg",
+            "parameter",
+            start=0.0,
+            unit="deg",
+            minimum=-180.0,
+            maximum=180.0,
+            description="Angle of each bearing's X probe from horizontal, Y probe 90 deg further: "
+            "0 horizontal/vertical, 45 the API 670 pair (45 deg either side of top dead centre)",
+        )
+        for probe in PROBE_NAMES:
+            for suffix, _, unit, _, low, high, text in PROBE_PARAMETERS:
+                start = 1e9 if suffix == "fault_time_s" else 0.0
+                self.declare_real(
+                    f"{probe}_{suffix}",
+                    "parameter",
+                    start=start,
+                    unit=unit,
+                    minimum=low,
+                    maximum=high,
+                    description=f"Probe {probe}: {text}",
+                )
+            self.declare_integer(
+                f"{probe}_fault",
+                "parameter",
+                start=0,
+                minimum=0,
+                maximum=len(FAULT_KINDS) - 1,
+                description=f"Probe {probe} fault from {probe}_fault_time_s: 0 none, 1 dead (NaN), "
+                "2 stuck at its last value, 3 glitch",
+            )
+
+    def _chain(self) -> MeasurementChain:
+        probes = []
+        for probe in PROBE_NAMES:
+            values = {
+                field: getattr(self, f"{probe}_{suffix}") * si
+                for suffix, field, _, si, *_ in PROBE_PARAMETERS
+            }
+            probes.append(ProbeErrors(**values, fault=FAULT_KINDS[getattr(self, f"{probe}_fault")]))
+        return MeasurementChain(tuple(probes), math.radians(self.probe_angle_deg))
+
+    def _conditions(self, machine) -> tuple[float, float | None]:
+        """(speed [Hz], oil temperature [degC] or None without an oil) from the inputs."""
+        speed = self.speed_in_hz if self.speed_in_hz > 0.0 else self._start_speed_hz
+        if self.oil_temperature_in_c > NOMINAL_TEMPERATURE:
+            return speed, self.oil_temperature_in_c
+        return speed, machine.nominal_oil_temperature_c
+
+    def _system(self, machine):
+        if self.bearing_table == 0:
+            return rotor_bearing_system(
+                self.machine_file,
+                self.resources,
+                self.speed_hz,
+                self.unbalance_g_mm,
+                self.unbalance_phase_deg,
+                reduced=False,
+            )
+        if machine.oil is None:
+            raise InputError("bearing_table = 1 needs the machine's oil ([oil] in the machine file)")
+        speed, temperature = self._conditions(machine)
+        viscosity = self.viscosity_factor * machine.oil.dynamic_viscosity_pa_s(temperature)
+        return operating_system(
+            machine,
+            speed,
+            viscosity,
+            unbalance_moment_kg_m=None if self.unbalance_g_mm < 0.0 else self.unbalance_g_mm * 1e-6,
+            unbalance_phase_rad=math.radians(self.unbalance_phase_deg),
+        )
 
     @property
     def plant_snapshot(self):
@@ -157,14 +352,11 @@ class RotorBearingPlant(OilwatchSlave):
         return (self._flowrate_m3_s("q1_in_ml_min"), self._flowrate_m3_s("q2_in_ml_min"))
 
     def setup(self) -> None:
-        system = rotor_bearing_system(
-            self.machine_file,
-            self.resources,
-            self.speed_hz,
-            self.unbalance_g_mm,
-            self.unbalance_phase_deg,
-            reduced=False,
-        )
+        machine = machine_of(self.machine_file, self.resources)
+        self._machine = machine
+        self._start_speed_hz = self.speed_hz if self.speed_hz > 0.0 else machine.nominal_speed_hz
+        system = self._system(machine)
+        self._start_conditions = self._conditions(machine)
         self._nominal_ml_min = system.nominal_flowrate_m3_s * ML_MIN_PER_M3_S
         schedules = None
         if self.flow_source == 0:
@@ -187,6 +379,15 @@ class RotorBearingPlant(OilwatchSlave):
                 self.seed,
                 initial_flowrates_m3_s=inputs,
                 start_time_s=self.start_time,
+                chain=self._chain(),
+                unbalance_change=UnbalanceChange(
+                    self.unbalance_change_time_s,
+                    self.unbalance_change_g_mm * 1e-6,
+                    math.radians(self.unbalance_change_phase_deg),
+                ),
+                oil=machine.oil if self.bearing_table == 1 else None,
+                oil_temperature_c=self._start_conditions[1] if self.bearing_table == 1 else None,
+                viscosity_factor=self.viscosity_factor if self.bearing_table == 1 else 1.0,
             )
         except InputError as error:
             raise InputError(_fmu_names(str(error))) from None
@@ -196,7 +397,16 @@ class RotorBearingPlant(OilwatchSlave):
         if abs(step_size - self.plant.dt_s) > 1e-12 * step_size:
             self.plant.set_period(step_size)
         inputs = self._inputs_m3_s() if self.flow_source == 1 else None
-        self._publish(self.plant.step(inputs))
+        conditions = self._conditions(self._machine)
+        if self.bearing_table == 0:
+            if conditions != self._start_conditions:
+                raise InputError(
+                    "speed_in_hz and oil_temperature_in_c must stay at their start values with bearing_table "
+                    f"= 0, got {conditions[0]:g} Hz and {conditions[1]:g} degC"
+                )
+            self._publish(self.plant.step(inputs))
+        else:
+            self._publish(self.plant.step(inputs, speed_hz=conditions[0], oil_temperature_c=conditions[1]))
         return True
 
     def _publish(self, sample) -> None:
@@ -205,6 +415,10 @@ class RotorBearingPlant(OilwatchSlave):
         ):
             setattr(self, f"{name}_um", measured * 1e6)
             setattr(self, f"{name}_true_um", true * 1e6)
+        for b in (1, 2):
+            setattr(self, f"eccentricity_ratio{b}", float(sample.eccentricity_ratio[b - 1]))
+            setattr(self, f"h_min{b}_um", float(sample.min_film_thickness_m[b - 1]) * 1e6)
+        self.rotor_angle_deg = math.degrees(self.plant.rotor_angle_rad) % 360.0
         self.t_sample_s = self.plant.time_s
         self.q1_ml_min = sample.flowrate_m3_s[0] * ML_MIN_PER_M3_S
         self.q2_ml_min = sample.flowrate_m3_s[1] * ML_MIN_PER_M3_S

@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from .bearing.geometry import JournalBearing
+from .oil import DEFAULT_THERMAL_EXPANSION_PER_K, Oil
 from .validation import InputError, naming_file, read_text_file
 
 BUNDLED_MACHINE = Path(__file__).resolve().parent / "turbine.toml"
@@ -112,6 +113,9 @@ class Machine:
     structural_damping_s : stiffness-proportional rotor damping coefficient beta [s], C = beta K
         (0 when the file has no ``[rotor_damping]`` table).
     raw : the parsed file, for sections owned by other models.
+    oil : the lubricating oil (``[oil]``), None when the file gives ``bearings.viscosity_pa_s`` instead.
+    nominal_oil_temperature_c : oil supply temperature [degC] at which ``bearing.viscosity_pa_s`` holds
+        (None without ``[oil]``).
     """
 
     name: str
@@ -129,6 +133,8 @@ class Machine:
     lubrication: Lubrication
     structural_damping_s: float
     raw: Mapping[str, Any]
+    oil: Oil | None = None
+    nominal_oil_temperature_c: float | None = None
 
     def __repr__(self) -> str:
         return (
@@ -294,12 +300,61 @@ def _read_bearings(
         radius_m=radius,
         length_m=length,
         clearance_m=clearance,
-        viscosity_pa_s=_real(table, "bearings", "viscosity_pa_s", "Pa s"),
+        viscosity_pa_s=_bearing_viscosity(data, table),
         groove_angle_rad=math.radians(_real(table, "bearings", "groove_angle_deg", "deg", low=None)),
         groove_circumferential_m=groove_circ,
         groove_axial_m=groove_axial,
     )
     return bearing_nodes, bearing, load_split
+
+
+def _read_oil(data: Mapping[str, Any]) -> tuple[Oil | None, float | None]:
+    """The ``[oil]`` section: ISO VG grade + viscosity index, or two measured points; density; nominal
+    supply temperature. (None, None) when the file has no ``[oil]``."""
+    if "oil" not in data:
+        return None, None
+    table = _table(data, "oil")
+    density = _real(table, "oil", "density_15c_kg_m3", "kg/m^3")
+    expansion = DEFAULT_THERMAL_EXPANSION_PER_K
+    if "thermal_expansion_per_k" in table:
+        expansion = _real(table, "oil", "thermal_expansion_per_k", "1/K", strict=False)
+    by_grade = "iso_vg_grade" in table or "viscosity_index" in table
+    by_points = "kinematic_viscosity_points_c_cst" in table
+    if by_grade == by_points:
+        raise InputError(
+            "[oil] needs either iso_vg_grade and viscosity_index, or kinematic_viscosity_points_c_cst "
+            "(two [temperature degC, viscosity cSt] pairs), not both"
+        )
+    if by_grade:
+        grade = _real(table, "oil", "iso_vg_grade", "cSt")
+        oil = Oil.from_grade(grade, _real(table, "oil", "viscosity_index", "", low=None), density, expansion)
+    else:
+        points = table["kinematic_viscosity_points_c_cst"]
+        pairs_ok = isinstance(points, list) and len(points) == 2
+        if not (pairs_ok and all(isinstance(p, list) and len(p) == 2 for p in points)):
+            raise InputError(
+                "oil.kinematic_viscosity_points_c_cst must be two [temperature degC, viscosity cSt] pairs, "
+                f"got {points!r}"
+            )
+        field = "oil.kinematic_viscosity_points_c_cst"
+        pairs = tuple(tuple(_number(v, f"{field}[{i}]") for v in p) for i, p in enumerate(points))
+        oil = Oil.from_points(pairs, density, expansion)
+    temperature = _real(table, "oil", "nominal_supply_temperature_c", "degC", low=None)
+    oil.dynamic_viscosity_pa_s(temperature)  # range check: names the temperature
+    return oil, temperature
+
+
+def _bearing_viscosity(data: Mapping[str, Any], bearings: Mapping[str, Any]) -> float:
+    """The bearings' nominal viscosity [Pa s]: the oil's at its nominal temperature, or given directly."""
+    oil, temperature = _read_oil(data)
+    if oil is None:
+        return _real(bearings, "bearings", "viscosity_pa_s", "Pa s")
+    if "viscosity_pa_s" in bearings:
+        raise InputError(
+            "give the bearings' viscosity once: bearings.viscosity_pa_s or the [oil] section "
+            "(its viscosity at oil.nominal_supply_temperature_c), not both"
+        )
+    return oil.dynamic_viscosity_pa_s(temperature)
 
 
 def _read_lubrication(data: Mapping[str, Any]) -> Lubrication:
@@ -395,6 +450,7 @@ def machine_from_dict(data: Mapping[str, Any], source_path: Path | str = "<dict>
         phase_rad=math.radians(_real(unb, "unbalance", "phase_deg", "deg", low=None)),
     )
     bearing_nodes, bearing, load_split = _read_bearings(data, diameters, n_nodes)
+    oil, oil_temperature = _read_oil(data)
     damping = data.get("rotor_damping", {})
     if not isinstance(damping, Mapping):
         raise InputError("[rotor_damping] must be a table")
@@ -417,6 +473,8 @@ def machine_from_dict(data: Mapping[str, Any], source_path: Path | str = "<dict>
         lubrication=_read_lubrication(data),
         structural_damping_s=beta,
         raw=data,
+        oil=oil,
+        nominal_oil_temperature_c=oil_temperature,
     )
     return _with_nominal_flowrate(machine, (str(source_path), repr(sorted(data.items()))))
 

@@ -207,3 +207,82 @@ except SlaveError as error:
     )
     assert result["raised"] is not None
     assert named in result["raised"]
+
+
+def test_operating_point_inputs_and_measurement_chain_parameters(fmu):
+    # bearing_table = 1: the speed input ramps down 2 Hz in 0.2 s; probe x1 dies at 0.1 s; y1 has a 5 um
+    # zero offset; the new outputs (film state, rotor angle) are published. Then bearing_table = 0 refuses
+    # a speed change by name.
+    result = _run(
+        fmu,
+        """
+from fmpy import extract, read_model_description
+from fmpy.fmi2 import FMU2Slave
+md = read_model_description(FMU)
+vr = {v.name: v.valueReference for v in md.modelVariables}
+folder = extract(FMU)
+
+def run(bearing_table, steps):
+    slave = FMU2Slave(guid=md.guid, unzipDirectory=folder, modelIdentifier=md.coSimulation.modelIdentifier,
+                      instanceName="plant%d" % bearing_table)
+    slave.instantiate()
+    slave.setupExperiment(startTime=0.0)
+    slave.setReal([vr["noise_um"], vr["x1_fault_time_s"], vr["y1_offset_um"]], [0.0, 0.1, 5.0])
+    slave.setInteger([vr["bearing_table"], vr["x1_fault"]], [bearing_table, 1])
+    slave.enterInitializationMode()
+    slave.exitInitializationMode()
+    names = ["x1_um", "y1_um", "y1_true_um", "rotor_angle_deg", "eccentricity_ratio1", "h_min1_um"]
+    rows, speeds, error = [], [], None
+    try:
+        for k in range(steps):
+            speed = 75.0 - 0.01 * (k + 1)
+            speeds.append(speed)
+            slave.setReal([vr["speed_in_hz"]], [speed])
+            slave.doStep(currentCommunicationPoint=k * 1e-3, communicationStepSize=1e-3)
+            rows.append(slave.getReal([vr[n] for n in names]))
+    except Exception as exc:
+        error = str(exc)
+    return np.array(rows), speeds, error
+
+rows, speeds, error = run(1, 200)
+angle = (360.0 * 1e-3 * np.sum(speeds)) % 360.0
+result = {
+    "error": error,
+    "x1_dead": bool(np.isnan(rows[100:, 0]).all() and np.isfinite(rows[:99, 0]).all()),
+    "offset": float(np.max(np.abs(rows[:, 1] - rows[:, 2] - 5.0))),
+    "angle": [float(rows[-1, 3]), float(angle)],
+    "film": float(np.max(np.abs(rows[:, 5] - 120.0 * (1 - rows[:, 4])))),
+    "ratio": float(rows[-1, 4]),
+    "refused": run(0, 3)[2],
+}
+""",
+    )
+    assert result["error"] is None
+    assert result["x1_dead"]
+    assert result["offset"] < 1e-9
+    assert result["angle"][0] == pytest.approx(result["angle"][1], abs=1e-6)
+    assert result["film"] < 1e-9 and 0.05 < result["ratio"] < 0.3
+    assert result["refused"] is not None
+
+
+def test_master_input_signals_drive_the_speed(fmu):
+    result = _run(
+        fmu,
+        """
+from oilwatch.cosim.errors import SystemDescriptionError
+system = SystemDescription([FmuSpec("plant", FMU, {"bearing_table": 1, "noise_um": 0.0})], connections=[])
+with Master(system) as master:
+    run = master.run(stop_time=0.05, step_size=1e-3, record=["plant.rotor_angle_deg"],
+                     input_signals={"plant.speed_in_hz": lambda t: 75.0 - 20.0 * t})
+    try:
+        master.run(stop_time=0.01, step_size=1e-3, input_signals={"plant.noise_um": lambda t: 1.0})
+        refused = None
+    except SystemDescriptionError as error:
+        refused = str(error)
+angle = run.recorder.arrays()["plant.rotor_angle_deg"][-1]
+expected = (360.0 * 1e-3 * sum(75.0 - 20.0 * k * 1e-3 for k in range(50))) % 360.0
+result = {"angle": [float(angle), float(expected)], "refused": refused}
+""",
+    )
+    assert result["angle"][0] == pytest.approx(result["angle"][1], abs=1e-6)
+    assert "no input 'noise_um'" in result["refused"]

@@ -16,6 +16,9 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from ..catmull_rom import cell as _cell
+from ..catmull_rom import extrapolate_ghosts as _extrapolate_ghosts
+from ..catmull_rom import weights as _catmull_rom_weights
 from ..validation import InputError
 
 DiscreteMap = Callable[[float, float], tuple[np.ndarray, np.ndarray]]
@@ -125,46 +128,6 @@ class FlowrateGrid:
             jq,
         )
         return nxt, ad, jq
-
-
-def _extrapolate_ghosts(table: np.ndarray) -> None:
-    """Fill the ghost layers of a (n1 + 2, n2 + 2, ...) table by linear extrapolation."""
-    table[0] = 2.0 * table[1] - table[2]
-    table[-1] = 2.0 * table[-2] - table[-3]
-    table[:, 0] = 2.0 * table[:, 1] - table[:, 2]
-    table[:, -1] = 2.0 * table[:, -2] - table[:, -3]
-
-
-@numba.njit(cache=True)
-def _catmull_rom_weights(t: float) -> tuple[np.ndarray, np.ndarray]:
-    """Weights and their t-derivatives of the four stencil nodes for local coordinate t in [0, 1]."""
-    t2 = t * t
-    t3 = t2 * t
-    weights = np.array(
-        [
-            0.5 * (-t3 + 2.0 * t2 - t),
-            0.5 * (3.0 * t3 - 5.0 * t2 + 2.0),
-            0.5 * (-3.0 * t3 + 4.0 * t2 + t),
-            0.5 * (t3 - t2),
-        ]
-    )
-    slopes = np.array(
-        [
-            0.5 * (-3.0 * t2 + 4.0 * t - 1.0),
-            0.5 * (9.0 * t2 - 10.0 * t),
-            0.5 * (-9.0 * t2 + 8.0 * t + 1.0),
-            0.5 * (3.0 * t2 - 2.0 * t),
-        ]
-    )
-    return weights, slopes
-
-
-@numba.njit(cache=True)
-def _cell(q: float, q0: float, h: float, n_nodes: int) -> tuple[int, float]:
-    """Index of the cell holding q (0 .. n_nodes - 2) and the local coordinate in it."""
-    x = (q - q0) / h
-    i = min(max(int(np.floor(x)), 0), n_nodes - 2)
-    return i, x - i
 
 
 @numba.njit(cache=True)

@@ -75,14 +75,35 @@ class NewmarkIntegrator:
         self._z = self._effective_inverse @ self._select.T
         self._s = self._select @ self._z
         self.mass = mass
-        self._propagator_flowrates: tuple[float, float] | None = None
+        self._propagator_flowrates: tuple[float, ...] | None = None  # conditions key of the propagator
         self._propagator: tuple[np.ndarray, np.ndarray] | None = None
-        self._last_flowrates: tuple[float, float] | None = None
+        self._last_flowrates: tuple[float, ...] | None = None  # conditions key of the last steady period
         self.time_s = 0.0
         self.state = np.zeros(3 * n)
+        # Complex unbalance moment u = m exp(i phi) [kg m]: the harmonic load is Re(u F_1 exp(i Omega t)).
+        self.unbalance_moment = system.unbalance_moment_kg_m * np.exp(1j * system.unbalance_phase_rad)
+        # The instantaneous spin speed (held over each period) and the rotor angle at ``time_s``: the
+        # unbalance load turns with the angle and grows as the speed squared; the gyroscopic term's change
+        # from the system's speed, (Omega - Omega_0) G, is taken explicitly (from the previous sub-step's
+        # velocity), which keeps the factorized effective stiffness (see :meth:`set_speed`).
+        self.speed_rad_s = system.omega_rad_s
+        self.rotor_angle_rad = 0.0
         # Compile (or load from numba's cache) the sub-step kernel now, not inside the first steps of a run.
         no_blocks = np.zeros((0, self._select.shape[0], self._select.shape[0]))
         self._steps(np.zeros((3 * n, 1)), np.zeros((0, n, 1)), no_blocks, no_blocks)
+
+    def set_speed(self, speed_rad_s: float) -> None:
+        """The spin speed [rad/s] for the next periods (the bearing tables' conditions are set apart)."""
+        self.speed_rad_s = require_positive("speed", speed_rad_s, "rad/s")
+
+    def _gyroscopic_change(self) -> np.ndarray:
+        """(Omega - Omega_0) G: the gyroscopic matrix's change from the system's speed."""
+        return (self.speed_rad_s - self.system.omega_rad_s) * self.system.gyroscopic
+
+    def _conditions_key(self, flows: tuple[float, float]) -> tuple[float, ...]:
+        """What a cached propagator depends on: flowrates, speed, and the tables' viscosities."""
+        viscosities = tuple(getattr(t, "viscosity_pa_s", 0.0) for t in self.system.tables)
+        return (*flows, self.speed_rad_s, *viscosities)
 
     def _bearing_blocks(self, flowrates: tuple[float, float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Block-diagonal bearing K, C (2 nb, 2 nb) and the constant bearing load (2 nb,) at the flowrates."""
@@ -99,6 +120,9 @@ class NewmarkIntegrator:
         (``"steady"``) of the given flowrates."""
         coordinates = self.system.static_coordinates(flowrates_m3_s)
         velocity = np.zeros(self.n)
+        self.speed_rad_s = self.system.omega_rad_s
+        self.rotor_angle_rad = self.system.omega_rad_s * time_s
+        self.time_s = time_s
         if initial == "steady":
             amplitude = self.system.unbalance_coordinates(flowrates_m3_s)
             rotation = np.exp(1j * self.system.omega_rad_s * time_s)
@@ -111,8 +135,8 @@ class NewmarkIntegrator:
         acceleration = solve(self.mass, load - damping @ velocity - stiffness @ coordinates)
         self.state = np.concatenate([coordinates, velocity, acceleration])
         self.time_s = time_s
-        self._last_flowrates = tuple(float(q) for q in flowrates_m3_s)
-        self.flowrates_m3_s = self._last_flowrates
+        self.flowrates_m3_s = tuple(float(q) for q in flowrates_m3_s)
+        self._last_flowrates = self._conditions_key(self.flowrates_m3_s)
         self._acceleration_current = True
 
     def snapshot(self) -> dict:
@@ -125,6 +149,9 @@ class NewmarkIntegrator:
             "propagator": self._propagator,
             "flowrates": self.flowrates_m3_s,
             "acceleration_current": self._acceleration_current,
+            "unbalance_moment": self.unbalance_moment,
+            "speed_rad_s": self.speed_rad_s,
+            "rotor_angle_rad": self.rotor_angle_rad,
         }
 
     def restore(self, snapshot: dict) -> None:
@@ -136,11 +163,27 @@ class NewmarkIntegrator:
         self._propagator = snapshot["propagator"]
         self.flowrates_m3_s = snapshot["flowrates"]
         self._acceleration_current = snapshot["acceleration_current"]
+        self.unbalance_moment = snapshot["unbalance_moment"]
+        self.speed_rad_s = snapshot["speed_rad_s"]
+        self.rotor_angle_rad = snapshot["rotor_angle_rad"]
 
     def _harmonic_load(self, time_s: float | np.ndarray) -> np.ndarray:
         """The unbalance load (n,) at a time [s], or (m, n) at the times (m,)."""
-        phase = self.system.omega_rad_s * np.asarray(time_s, dtype=float)[..., None]
-        return (self.system.unbalance_force * np.exp(1j * phase)).real
+        times = np.asarray(time_s, dtype=float)[..., None]
+        phase = self.rotor_angle_rad + self.speed_rad_s * (times - self.time_s)
+        growth = (self.speed_rad_s / self.system.omega_rad_s) ** 2
+        return (growth * self.unbalance_moment * self.system.unit_unbalance_force * np.exp(1j * phase)).real
+
+    def _exogenous(self, time_s: float) -> np.ndarray:
+        """``[1, Re(u e^{i Omega t}), Im(u e^{i Omega t})]``: the propagator's input (its harmonic columns are
+        the responses to the cosine and sine parts of the unit unbalance load F_1)."""
+        growth = (self.speed_rad_s / self.system.omega_rad_s) ** 2
+        rotating = (
+            growth
+            * self.unbalance_moment
+            * np.exp(1j * (self.rotor_angle_rad + self.speed_rad_s * (time_s - self.time_s)))
+        )
+        return np.array([1.0, rotating.real, rotating.imag])
 
     def advance(self, schedule: FlowSchedule) -> np.ndarray:
         """Integrate one period ``dt_s``; ``schedule`` gives the flowrates at the sub-step times.
@@ -153,17 +196,19 @@ class NewmarkIntegrator:
         steady = bool((np.abs(samples - samples[-1]) <= CONSTANT_FLOW_RTOL * np.abs(samples[-1])).all())
         # A propagator costs a few milliseconds: build one only for flowrates that have held for a
         # whole period already (or reuse the cached one), not for flowrates that change every period.
-        if steady and (_close(self._propagator_flowrates, final) or _close(self._last_flowrates, final)):
-            self.state = self._constant_step(final)
+        key = self._conditions_key(final)
+        if steady and (_close(self._propagator_flowrates, key) or _close(self._last_flowrates, key)):
+            self.state = self._constant_step(final, key)
         else:
             self._refresh_acceleration()
             k_b, c_b, bearing_load = self._substep_blocks(samples[1:])
             loads = self.system.gravity_force + bearing_load @ self._select + self._harmonic_load(times[1:])
             state = np.ascontiguousarray(self.state[:, None])
             self.state = self._steps(state, loads[:, :, None], k_b, c_b)[:, 0]
-        self._last_flowrates = final if steady else None
+        self._last_flowrates = key if steady else None
         self.flowrates_m3_s = final
         self.time_s += self.dt_s
+        self.rotor_angle_rad += self.speed_rad_s * self.dt_s
         return self.state[: self.n]
 
     def _substep_blocks(self, flowrates: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -175,8 +220,10 @@ class NewmarkIntegrator:
         k = np.zeros((m, 2 * nb, 2 * nb))
         c = np.zeros((m, 2 * nb, 2 * nb))
         load = np.zeros((m, 2 * nb))
+        held = m > 1 and bool((flowrates == flowrates[0]).all())  # e.g. a speed ramp at constant flowrates
         for b, (table, w) in enumerate(zip(tables, self.system.static_loads_n, strict=True)):
-            rows = table.evaluate_many(flowrates[:, b])
+            rows = table.evaluate_many(flowrates[:1, b] if held else flowrates[:, b])
+            rows = np.broadcast_to(rows, (m, rows.shape[1]))
             sl = slice(2 * b, 2 * b + 2)
             k[:, sl, sl] = rows[:, 2:6].reshape(m, 2, 2)
             c[:, sl, sl] = rows[:, 6:10].reshape(m, 2, 2)
@@ -200,27 +247,27 @@ class NewmarkIntegrator:
             self._s,
             self._reference_blocks[0],
             self._reference_blocks[1],
+            self._gyroscopic_change(),
         )
 
-    def _constant_step(self, flows: tuple[float, float]) -> np.ndarray:
+    def _constant_step(self, flows: tuple[float, float], key: tuple[float, ...]) -> np.ndarray:
         """The whole period at constant flowrates, by the cached linear propagator on (r, v).
 
         The acceleration is left stale (it follows from equilibrium) until the sub-step path needs it.
         """
-        if not _close(self._propagator_flowrates, flows):
+        if not _close(self._propagator_flowrates, key):
             self._propagator = self._build_propagator(flows)
-            self._propagator_flowrates = flows
+            self._propagator_flowrates = key
         transition, forcing = self._propagator
         state = self.state.copy()
-        state[: 2 * self.n] = transition @ self.state[: 2 * self.n] + forcing @ self.system.exogenous(
-            self.time_s
-        )
+        state[: 2 * self.n] = transition @ self.state[: 2 * self.n] + forcing @ self._exogenous(self.time_s)
         self._acceleration_current = False
         return state
 
     def _equilibrium_acceleration(self, state: np.ndarray, flows: tuple[float, float], load: np.ndarray):
         """``M^-1 (load - D v - K r)`` for states (3n,) or (3n, m) at the flowrates."""
         _, damping, stiffness, _ = self.system.second_order(flows)
+        damping = damping + self._gyroscopic_change()
         n = self.n
         return self._mass_inverse @ (load - damping @ state[n : 2 * n] - stiffness @ state[:n])
 
@@ -244,13 +291,13 @@ class NewmarkIntegrator:
         n, n2 = self.n, 2 * self.n
         blocks = self._bearing_blocks(flows)
         constant = self.system.gravity_force + self._select.T @ blocks[2]
-        cosine, sine = self.system.unbalance_force.real, -self.system.unbalance_force.imag
+        cosine, sine = self.system.unit_unbalance_force.real, -self.system.unit_unbalance_force.imag
         columns = np.zeros((3 * n, n2 + 3))
         columns[:n2, :n2] = np.eye(n2)
         initial_load = np.zeros((n, n2 + 3))
         initial_load[:, n2:] = np.column_stack([constant, cosine, sine])
         columns[n2:] = self._equilibrium_acceleration(columns, flows, initial_load)
-        wh = self.system.omega_rad_s * self.h
+        wh = self.speed_rad_s * self.h
         loads = np.zeros((self.substeps, n, n2 + 3))
         for i in range(1, self.substeps + 1):
             c, s = np.cos(i * wh), np.sin(i * wh)
@@ -264,8 +311,9 @@ class NewmarkIntegrator:
         return columns[:n2, :n2], columns[:n2, n2:]
 
 
-def _close(cached: tuple[float, float] | None, flows: tuple[float, float]) -> bool:
-    """True if ``cached`` flowrates equal ``flows`` within ``CONSTANT_FLOW_RTOL``."""
+def _close(cached: tuple[float, ...] | None, flows: tuple[float, ...]) -> bool:
+    """True if the ``cached`` conditions equal ``flows`` (flowrates, speed, viscosities) within
+    ``CONSTANT_FLOW_RTOL``."""
     return cached is not None and all(
         abs(a - b) <= CONSTANT_FLOW_RTOL * abs(b) for a, b in zip(cached, flows, strict=True)
     )
@@ -273,7 +321,7 @@ def _close(cached: tuple[float, float] | None, flows: tuple[float, float]) -> bo
 
 @numba.njit(cache=True)
 def _trapezoid_steps(
-    state, loads, k_b, c_b, h, mass, base_damping, effective_inverse, select, z, s, k_ref, c_ref
+    state, loads, k_b, c_b, h, mass, base_damping, effective_inverse, select, z, s, k_ref, c_ref, gyro_change
 ):
     """Newmark average-acceleration sub-steps of state columns [r; v; a] (3n, m) under ``loads[i]`` (n, m)
     with the bearing blocks ``k_b[i]``, ``c_b[i]`` (2 nb, 2 nb), i = 0 .. steps - 1.
@@ -281,7 +329,8 @@ def _trapezoid_steps(
     The effective stiffness is ``S_ref + P^T dB P`` with
     ``dB = (K_b - K_ref) + gamma/(beta h) (C_b - C_ref)``; its solve is
     ``x0 - Z dB (I + S dB)^-1 P x0`` (Sherman-Morrison-Woodbury) with ``x0 = S_ref^-1 rhs``,
-    ``Z = S_ref^-1 P^T`` and ``S = P Z``.
+    ``Z = S_ref^-1 P^T`` and ``S = P Z``. ``gyro_change`` (n, n), the gyroscopic matrix's change from the
+    factorized speed, acts explicitly: its force -gyro_change v is taken at the sub-step's start.
     """
     n = mass.shape[0]
     nb2 = select.shape[0]
@@ -293,6 +342,7 @@ def _trapezoid_steps(
         damping_term = GAMMA / (BETA * h) * r + (GAMMA / BETA - 1.0) * v
         rhs = (
             loads[i]
+            - gyro_change @ v
             + mass @ (r / (BETA * h * h) + v / (BETA * h) + (0.5 / BETA - 1.0) * a)
             + base_damping @ damping_term
             + select.T @ (c_b[i] @ (select @ damping_term))

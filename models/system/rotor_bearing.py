@@ -96,6 +96,7 @@ class RotorBearingSystem:
             transform.T @ (rotor.damping_matrix + self.omega_rad_s * rotor.gyroscopic_matrix) @ transform
         )
         self.gravity_force = transform.T @ rotor.gravity_force
+        self.gyroscopic = transform.T @ rotor.gyroscopic_matrix @ transform
         moment = rotor.unbalance_moment_kg_m if unbalance_moment_kg_m is None else unbalance_moment_kg_m
         phase = rotor.unbalance_phase_rad if unbalance_phase_rad is None else unbalance_phase_rad
         self.unbalance_moment_kg_m = require_non_negative("unbalance moment", moment, "kg m")
@@ -106,6 +107,11 @@ class RotorBearingSystem:
         amplitude[rotor.dof(rotor.unbalance_node, "x")] = rotating
         amplitude[rotor.dof(rotor.unbalance_node, "y")] = -1j * rotating
         self.unbalance_force = transform.T @ amplitude
+        # The load of a unit complex unbalance moment (1 kg m at phase 0): Re(u F_1 exp(i Omega t)).
+        unit = np.zeros(rotor.n_dof, dtype=complex)
+        unit[rotor.dof(rotor.unbalance_node, "x")] = self.omega_rad_s**2
+        unit[rotor.dof(rotor.unbalance_node, "y")] = -1j * self.omega_rad_s**2
+        self.unit_unbalance_force = transform.T @ unit
         dofs = np.array([[rotor.dof(node, "x"), rotor.dof(node, "y")] for node in rotor.bearing_nodes])
         self.bearing_dofs = dofs
         # (n_bearings, 2, n): bearing (x, y) displacements from the coordinates.

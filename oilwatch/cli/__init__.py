@@ -22,6 +22,7 @@ SUBCOMMANDS: tuple[str, ...] = (
     "report",
     "bearing",
     "bearing_table",
+    "bearing_map",
     "study",
     "run",
     "estimate",

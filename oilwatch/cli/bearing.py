@@ -2,7 +2,10 @@
 
 Give the supply flowrate (``--q-ml-min``) or the groove pressure (``--supply-pressure-bar``; 0 gives
 the flooded threshold q_t). Defaults come from the machine file (bundled turbine): bearing geometry,
-nominal speed, the bearing's static load from the rotor model, the nominal supply pressure.
+nominal speed, the bearing's static load from the rotor model, the nominal supply pressure, the
+nominal viscosity. ``--viscosity-pa-s`` or ``--oil-temperature-c`` (through the machine's oil, ASTM
+D341) sets another viscosity. ``--from-table`` prints the dimensionless table's interpolated values at
+the same point (``oilwatch bearing-map``) instead of a direct solve, with the same keys.
 """
 
 from __future__ import annotations
@@ -10,6 +13,8 @@ from __future__ import annotations
 import argparse
 import json
 import math
+
+import numpy as np
 
 from .machine_option import add_machine_option
 
@@ -36,8 +41,36 @@ def register(subparsers) -> None:
         default="full-film",
         help="squeeze-term treatment for the damping (see models.bearing.film); default full-film",
     )
+    oil = parser.add_mutually_exclusive_group()
+    oil.add_argument(
+        "--viscosity-pa-s", type=float, help="film viscosity [Pa s]; default: the machine's nominal"
+    )
+    oil.add_argument(
+        "--oil-temperature-c", type=float, help="oil temperature [degC]: viscosity from the machine's [oil]"
+    )
+    parser.add_argument(
+        "--from-table",
+        nargs="?",
+        const="",
+        metavar="FILE",
+        help="interpolate the dimensionless table (default: the machine's, from `oilwatch bearing-map`) "
+        "instead of solving; needs --q-ml-min",
+    )
     parser.add_argument("--json", action="store_true", help="print JSON on stdout")
     parser.set_defaults(func=run)
+
+
+def operating_viscosity(args, machine) -> float:
+    """The film viscosity [Pa s] from --viscosity-pa-s, --oil-temperature-c or the machine's nominal."""
+    from models.validation import InputError, require_positive
+
+    if args.viscosity_pa_s is not None:
+        return require_positive("--viscosity-pa-s", args.viscosity_pa_s, "Pa s")
+    if args.oil_temperature_c is not None:
+        if machine.oil is None:
+            raise InputError(f"--oil-temperature-c needs an [oil] section in {machine.source_path}")
+        return machine.oil.dynamic_viscosity_pa_s(args.oil_temperature_c)
+    return machine.bearing.viscosity_pa_s
 
 
 def add_common_arguments(parser: argparse.ArgumentParser) -> None:
@@ -82,11 +115,17 @@ def machine_setup(args) -> dict:
 
 def run(args) -> int:
     """Solve and print one operating point."""
+    import dataclasses
+
     from models.bearing.equilibrium import coefficients_at, static_equilibrium
     from models.bearing.supply import ML_MIN_PER_M3_S, SupplyFlow, SupplyPressure
     from models.validation import require_non_negative, require_positive
 
     setup = machine_setup(args)
+    viscosity = operating_viscosity(args, setup["machine"])
+    setup["bearing"] = dataclasses.replace(setup["bearing"], viscosity_pa_s=viscosity)
+    if args.from_table is not None:
+        return print_result(from_table(args, setup), args, setup, "dimensionless table")
     if args.q_ml_min is not None:
         q = require_positive("--q-ml-min", args.q_ml_min, "ml/min (without oil there is no film)")
         supply = SupplyFlow(q / ML_MIN_PER_M3_S)
@@ -102,34 +141,90 @@ def run(args) -> int:
     bearing, load, speed, mesh = (setup[k] for k in ("bearing", "load_n", "speed_hz", "mesh"))
     eq = static_equilibrium(bearing, load, speed, supply, mesh)
     stiffness, damping = coefficients_at(bearing, eq, speed, supply, mesh, squeeze=args.squeeze)
+    result = result_dict(
+        eq.supply_flow_m3_s,
+        eq.regime,
+        eq.supply_pressure_pa,
+        eq.eccentricity_ratio,
+        eq.attitude_deg,
+        eq.eccentricity_m,
+        eq.side_leakage_m3_s,
+        stiffness,
+        damping,
+    )
+    return print_result(result, args, setup, f"mesh {mesh.n_circ} x {mesh.n_axial}, squeeze {args.squeeze}")
+
+
+def result_dict(q, regime, pressure, ratio, attitude, e, leakage, stiffness, damping) -> dict:
+    """The printed operating point (user units in the keys)."""
+    from models.bearing.supply import ML_MIN_PER_M3_S
+
     pairs = ("xx", "xy", "yx", "yy")
-    result = {
-        "q_ml_min": eq.supply_flow_m3_s * ML_MIN_PER_M3_S,
-        "regime": eq.regime,
-        "supply_pressure_pa": eq.supply_pressure_pa,
-        "eccentricity_ratio": eq.eccentricity_ratio,
-        "attitude_deg": eq.attitude_deg,
-        "e_x_um": float(eq.eccentricity_m[0] * 1e6),
-        "e_y_um": float(eq.eccentricity_m[1] * 1e6),
-        "side_leakage_ml_min": eq.side_leakage_m3_s * ML_MIN_PER_M3_S,
-        "K_N_per_m": dict(zip(pairs, map(float, stiffness.ravel()), strict=True)),
-        "C_Ns_per_m": dict(zip(pairs, map(float, damping.ravel()), strict=True)),
+    return {
+        "q_ml_min": q * ML_MIN_PER_M3_S,
+        "regime": regime,
+        "supply_pressure_pa": float(pressure),
+        "eccentricity_ratio": float(ratio),
+        "attitude_deg": float(attitude),
+        "e_x_um": float(e[0] * 1e6),
+        "e_y_um": float(e[1] * 1e6),
+        "side_leakage_ml_min": leakage * ML_MIN_PER_M3_S,
+        "K_N_per_m": dict(zip(pairs, map(float, np.ravel(stiffness)), strict=True)),
+        "C_Ns_per_m": dict(zip(pairs, map(float, np.ravel(damping)), strict=True)),
     }
+
+
+def from_table(args, setup) -> dict:
+    """The dimensionless table's interpolated operating point (steady: side leakage = supply flowrate)."""
+    from pathlib import Path
+
+    from models.bearing.operating_table import OperatingTable, operating_table_path
+    from models.bearing.supply import ML_MIN_PER_M3_S
+    from models.validation import InputError, require_positive
+
+    if args.q_ml_min is None:
+        raise InputError("--from-table needs --q-ml-min (the table is over supply flowrate)")
+    if args.squeeze != "full-film":
+        raise InputError("--from-table holds the default squeeze model only (--squeeze full-film)")
+    if args.mesh is not None:
+        raise InputError("--from-table uses the table's own mesh: drop --mesh")
+    path = Path(args.from_table) if args.from_table else operating_table_path(setup["machine"].source_path)
+    table = OperatingTable.load(path)
+    table.check_geometry(setup["bearing"])
+    q = require_positive("--q-ml-min", args.q_ml_min, "ml/min") / ML_MIN_PER_M3_S
+    point = table.evaluate(setup["speed_hz"], setup["bearing"].viscosity_pa_s, setup["load_n"], q)
+    k = point.coefficients
+    return result_dict(
+        q,
+        point.regime,
+        point.supply_pressure_pa,
+        point.eccentricity_ratio,
+        point.attitude_deg,
+        point.eccentricity_m,
+        q,
+        k.stiffness,
+        k.damping,
+    )
+
+
+def print_result(result: dict, args, setup, how: str) -> int:
+    """Print ``result`` as JSON or as a readable block."""
     if args.json:
         print(json.dumps(result, indent=1))
         return 0
+    speed, load, mu = setup["speed_hz"], setup["load_n"], setup["bearing"].viscosity_pa_s
+    k, c = result["K_N_per_m"], result["C_Ns_per_m"]
     print(
-        f"bearing at {speed:g} Hz, load {load:.1f} N, mesh {mesh.n_circ} x {mesh.n_axial}, "
-        f"squeeze {args.squeeze}\n"
-        f"  supply flowrate      {result['q_ml_min']:10.2f} ml/min ({eq.regime})\n"
-        f"  groove pressure      {eq.supply_pressure_pa / 1e5:10.4f} bar\n"
+        f"bearing at {speed:g} Hz, viscosity {mu:.4g} Pa s, load {load:.1f} N, {how}\n"
+        f"  supply flowrate      {result['q_ml_min']:10.2f} ml/min ({result['regime']})\n"
+        f"  groove pressure      {result['supply_pressure_pa'] / 1e5:10.4f} bar\n"
         f"  side leakage         {result['side_leakage_ml_min']:10.2f} ml/min\n"
-        f"  eccentricity ratio   {eq.eccentricity_ratio:10.4f}\n"
-        f"  attitude angle       {eq.attitude_deg:10.2f} deg\n"
+        f"  eccentricity ratio   {result['eccentricity_ratio']:10.4f}\n"
+        f"  attitude angle       {result['attitude_deg']:10.2f} deg\n"
         f"  journal centre       x {result['e_x_um']:8.3f} um   y {result['e_y_um']:8.3f} um\n"
-        f"  stiffness K [N/m]    xx {stiffness[0, 0]:11.4e}  xy {stiffness[0, 1]:11.4e}\n"
-        f"                       yx {stiffness[1, 0]:11.4e}  yy {stiffness[1, 1]:11.4e}\n"
-        f"  damping C [N s/m]    xx {damping[0, 0]:11.4e}  xy {damping[0, 1]:11.4e}\n"
-        f"                       yx {damping[1, 0]:11.4e}  yy {damping[1, 1]:11.4e}"
+        f"  stiffness K [N/m]    xx {k['xx']:11.4e}  xy {k['xy']:11.4e}\n"
+        f"                       yx {k['yx']:11.4e}  yy {k['yy']:11.4e}\n"
+        f"  damping C [N s/m]    xx {c['xx']:11.4e}  xy {c['xy']:11.4e}\n"
+        f"                       yx {c['yx']:11.4e}  yy {c['yy']:11.4e}"
     )
     return 0

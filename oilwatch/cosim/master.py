@@ -27,6 +27,7 @@ from __future__ import annotations
 import math
 import time as wallclock
 from collections import defaultdict
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -157,6 +158,7 @@ class Master:
         parameters: dict[str, dict[str, object]] | None = None,
         progress: bool = False,
         labels: dict[str, dict[str, str]] | None = None,
+        input_signals: dict[str, Callable[[float], float]] | None = None,
     ) -> RunResult:
         """Simulate from ``start_time`` to ``stop_time`` [s] with macro step ``step_size`` [s].
 
@@ -167,6 +169,9 @@ class Master:
         parameters: per-instance overrides of the system's parameter values.
         labels: per instance, how the user gave a variable (``{"plant": {"seed": "--seed"}}``): errors
         about it (a value of the wrong FMI type, a message in the FMU's log) name it so.
+        input_signals: ``{"instance.input": f}``: each Real input is set to ``f(t)`` at the start of every
+            step (t its start time; held over the step) and, before initialization, to ``f(start)``: the
+            scenario's speed and oil-temperature profiles (``models.system.profiles``).
         """
         system = self.system
         start = system.start_time if start_time is None else start_time
@@ -193,6 +198,9 @@ class Master:
         recorder = as_recorder(recorder)
         labels = labels or {}
         values = self._parameter_values(parameters or {}, labels)
+        signals = self._signals(input_signals or {})
+        for port, function in signals:
+            values[port.slave.name] = {**values[port.slave.name], port.names[0]: float(function(start))}
 
         if self._used:
             for slave in self.slaves.values():
@@ -215,6 +223,9 @@ class Master:
         try:
             self._record(recorder, probes, row, start)
             for k in range(steps):
+                for port, function in signals:
+                    port.values[0] = function(start + k * step)
+                    port.write()
                 stepper(start + k * step, step)
                 done = k + 1
                 if done % record_every == 0 or done == steps:
@@ -229,6 +240,19 @@ class Master:
                 bar.close()
         wall = wallclock.perf_counter() - wall_start
         return RunResult(done, start + done * step, done * step, wall, recorder, record)
+
+    def _signals(self, input_signals: dict[str, Callable[[float], float]]) -> list[tuple[Port, Callable]]:
+        """One single-variable Real port per driven input, checked by name."""
+        out = []
+        for name, function in input_signals.items():
+            instance, _, variable = name.partition(".")
+            if instance not in self.slaves:
+                raise SystemDescriptionError(f"input signal {name!r}: no instance {instance!r}")
+            slave = self.slaves[instance]
+            if variable not in slave.variables or slave.variables[variable].causality != "input":
+                raise SystemDescriptionError(f"input signal {name!r}: {instance} has no input {variable!r}")
+            out.append((Port(slave, [variable], "Real"), function))
+        return out
 
     @staticmethod
     def _record(recorder, probes, row, time) -> None:

@@ -1,0 +1,69 @@
+"""How far the dimensionless table is from a direct solve at one operating point.
+
+The measures are those the table is held to: the largest error of the eight stiffness entries relative to
+the largest stiffness entry (and the same for damping), and the relative error of the eccentricity ratio.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from .equilibrium import coefficients_at, static_equilibrium
+from .geometry import JournalBearing
+from .grid import Mesh
+from .operating_table import OperatingTable
+from .supply import SupplyFlow
+from .table import flooded_threshold
+
+
+@dataclass(frozen=True)
+class TableError:
+    """Table minus direct solve at (speed_hz, viscosity_pa_s, load_n, fraction of q_t).
+
+    stiffness, damping: max |table - direct| over the four entries / max |direct entry| [-];
+    eccentricity_ratio: |table - direct| / direct [-]; direct_eccentricity_ratio, flooded_threshold_m3_s.
+    """
+
+    speed_hz: float
+    viscosity_pa_s: float
+    load_n: float
+    fraction: float
+    stiffness: float
+    damping: float
+    eccentricity_ratio: float
+    direct_eccentricity_ratio: float
+    flooded_threshold_m3_s: float
+
+
+def table_error(
+    table: OperatingTable,
+    bearing: JournalBearing,
+    speed_hz: float,
+    viscosity_pa_s: float,
+    load_n: float,
+    fraction: float,
+    mesh: Mesh,
+) -> TableError:
+    """Solve the point directly (q = fraction * q_t; exactly q_t for fraction 1) and compare."""
+    at = dataclasses.replace(bearing, viscosity_pa_s=viscosity_pa_s)
+    q_t, _ = flooded_threshold(at, load_n, speed_hz, mesh)
+    q = q_t if fraction == 1.0 else fraction * q_t
+    supply = SupplyFlow(q)
+    eq = static_equilibrium(at, load_n, speed_hz, supply, mesh)
+    stiffness, damping = coefficients_at(at, eq, speed_hz, supply, mesh)
+    point = table.evaluate(speed_hz, viscosity_pa_s, load_n, q)
+    k, c = point.coefficients.stiffness, point.coefficients.damping
+    return TableError(
+        speed_hz,
+        viscosity_pa_s,
+        load_n,
+        fraction,
+        stiffness=float(np.max(np.abs(k - stiffness)) / np.max(np.abs(stiffness))),
+        damping=float(np.max(np.abs(c - damping)) / np.max(np.abs(damping))),
+        eccentricity_ratio=abs(point.eccentricity_ratio - eq.eccentricity_ratio) / eq.eccentricity_ratio,
+        direct_eccentricity_ratio=eq.eccentricity_ratio,
+        flooded_threshold_m3_s=q_t,
+    )

@@ -1,0 +1,104 @@
+"""Bearing tables at the machine's instantaneous operating point (speed, oil viscosity), for the plant.
+
+:class:`ConditionedTable` presents the dimensionless table (:mod:`models.bearing.operating_table`) at one
+bearing load as the flowrate table the rotor-bearing system and the integrator consume (``evaluate``,
+``evaluate_many``, ``flowrate_range_m3_s``), at the operating conditions last set with
+:meth:`ConditionedTable.set_conditions`. :func:`operating_system` builds the full-order plant system on
+such tables, so that speed and viscosity can change during a run (``models.system.newmark`` takes the
+gyroscopic and unbalance terms to the instantaneous speed).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..bearing.operating_table import OperatingTable, operating_table_path
+from ..bearing.table import BearingCoefficients
+from ..machine import Machine
+from ..rotor.assembly import Rotor
+from ..validation import InputError, require_positive
+from .rotor_bearing import RotorBearingSystem
+
+
+class ConditionedTable:
+    """One bearing's view of the dimensionless table at its load and the current (speed, viscosity)."""
+
+    def __init__(self, table: OperatingTable, load_n: float, speed_hz: float, viscosity_pa_s: float):
+        self.table = table
+        self.load_n = require_positive("bearing load", load_n, "N")
+        # "bearing" as in a flowrate table's metadata; its viscosity is the one the table was set up at.
+        bearing = {
+            **table.geometry,
+            "viscosity_pa_s": require_positive("film viscosity", viscosity_pa_s, "Pa s"),
+        }
+        self.metadata = {"bearing": bearing, "mesh": table.metadata.get("mesh")}
+        self.set_conditions(speed_hz, viscosity_pa_s)
+
+    def set_conditions(self, speed_hz: float, viscosity_pa_s: float) -> None:
+        """Move to another speed [Hz] and film viscosity [Pa s] (checked against the table's range)."""
+        self.speed_hz = require_positive("speed", speed_hz, "Hz")
+        self.viscosity_pa_s = require_positive("film viscosity", viscosity_pa_s, "Pa s")
+        self._slice = self.table.at(self.speed_hz, self.viscosity_pa_s, self.load_n)
+
+    @property
+    def conditions(self) -> tuple[float, float]:
+        """(speed [Hz], viscosity [Pa s]) the table is evaluated at."""
+        return self.speed_hz, self.viscosity_pa_s
+
+    @property
+    def flowrate_range_m3_s(self) -> tuple[float, float]:
+        """Flowrates [m^3/s] the table covers at the current conditions."""
+        return self._slice.flowrate_range_m3_s
+
+    def evaluate_many(self, q_m3_s: np.ndarray) -> np.ndarray:
+        """Rows (m, 10) ``[e_x, e_y, K, C]`` (SI) at the flowrates (m,) [m^3/s]."""
+        return self._slice.rows(q_m3_s)
+
+    def evaluate(self, q_m3_s: float) -> BearingCoefficients:
+        """Equilibrium and coefficients at one flowrate [m^3/s]."""
+        row = self.evaluate_many(np.array([q_m3_s]))[0]
+        return BearingCoefficients(row[0:2], row[2:6].reshape(2, 2), row[6:10].reshape(2, 2))
+
+
+def operating_system(
+    machine: Machine,
+    speed_hz: float,
+    viscosity_pa_s: float,
+    *,
+    table: OperatingTable | None = None,
+    unbalance_moment_kg_m: float | None = None,
+    unbalance_phase_rad: float | None = None,
+) -> RotorBearingSystem:
+    """The full-order rotor-bearing system on the dimensionless table, at an initial speed and viscosity."""
+    if table is None:
+        table = OperatingTable.load(operating_table_path(machine.source_path))
+    table.check_geometry(machine.bearing)
+    rotor = Rotor.from_machine(machine)
+    tables = [ConditionedTable(table, w, speed_hz, viscosity_pa_s) for w in rotor.bearing_static_loads_n]
+    return RotorBearingSystem(
+        rotor,
+        tables,
+        speed_hz,
+        None,
+        unbalance_moment_kg_m,
+        unbalance_phase_rad,
+        machine.lubrication.nominal_flowrate_m3_s,
+    )
+
+
+def set_operating_conditions(system: RotorBearingSystem, speed_hz: float, viscosity_pa_s: float) -> None:
+    """Move every bearing table of ``system`` to (speed, viscosity); InputError when a table cannot."""
+    if not all(isinstance(t, ConditionedTable) for t in system.tables):
+        if math.isclose(speed_hz, system.speed_hz, rel_tol=1e-12) and all(
+            math.isclose(viscosity_pa_s, t.metadata["bearing"]["viscosity_pa_s"], rel_tol=1e-9)
+            for t in system.tables
+        ):
+            return
+        raise InputError(
+            "this plant's bearing tables hold one speed and viscosity: build it on the dimensionless table "
+            "(`oilwatch bearing-map`) to change speed or oil temperature"
+        )
+    for t in system.tables:
+        t.set_conditions(speed_hz, viscosity_pa_s)

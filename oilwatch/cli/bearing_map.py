@@ -1,0 +1,179 @@
+"""``oilwatch bearing-map``: the dimensionless bearing table over Sommerfeld number and supply flowrate.
+
+One table serves any speed, viscosity (oil temperature) and load of the machine's bearing geometry: the
+equilibrium eccentricity and attitude, K c / W and C c Omega / W, solved on a grid uniform in ln S (nodes
+S_nominal * ratio^k covering the speeds and viscosities asked for, at every bearing's load) and in the
+supply flowrate as a fraction of the flooded threshold (the machine file's table fractions, a node on
+f = 1). Written with provenance, by default next to the machine file as
+``tables/<machine stem>_bearing_dimensionless.json``. Cost: about 3 s of one core per point on the
+production mesh (bundled turbine, 12 x 13 points: about 10 minutes); run it under ``nice``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import shlex
+import sys
+from pathlib import Path
+
+DEFAULT_SPEED_RANGE = (0.6, 1.4)
+DEFAULT_VISCOSITY_RANGE = (0.5, 2.0)
+DEFAULT_SOMMERFELD_RATIO = 1.25
+DEFAULT_FRACTIONS = 13
+
+
+def register(subparsers) -> None:
+    """Add the ``bearing-map`` subcommand."""
+    parser = subparsers.add_parser(
+        "bearing-map",
+        help="compute the dimensionless bearing table (any speed, viscosity, load and flowrate)",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("--machine", help="machine file (TOML); default: the bundled turbine")
+    parser.add_argument(
+        "--speed-range",
+        type=float,
+        nargs=2,
+        metavar=("LOW", "HIGH"),
+        default=DEFAULT_SPEED_RANGE,
+        help="speeds to cover, as fractions of nominal (0.6 1.4)",
+    )
+    parser.add_argument(
+        "--viscosity-range",
+        type=float,
+        nargs=2,
+        metavar=("LOW", "HIGH"),
+        default=DEFAULT_VISCOSITY_RANGE,
+        help="viscosities to cover, as fractions of the nominal (0.5 2)",
+    )
+    parser.add_argument(
+        "--sommerfeld-ratio",
+        type=float,
+        default=DEFAULT_SOMMERFELD_RATIO,
+        help="ratio between neighbouring Sommerfeld nodes (1.25)",
+    )
+    parser.add_argument(
+        "--fractions",
+        type=int,
+        default=DEFAULT_FRACTIONS,
+        help="flowrate nodes over the machine's table fractions of q_t, one on q_t (13)",
+    )
+    parser.add_argument(
+        "--mesh",
+        type=int,
+        nargs=2,
+        metavar=("N_CIRC", "N_AXIAL"),
+        help="finite volumes around x along the bearing; default: the production mesh",
+    )
+    parser.add_argument(
+        "--out", help="output JSON; default <machine dir>/tables/<stem>_bearing_dimensionless.json"
+    )
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    parser.set_defaults(func=run)
+
+
+def fraction_nodes(low: float, high: float, count: int):
+    """``count`` uniform nodes over [low, high] with one exactly on 1 (the flooded threshold)."""
+    import numpy as np
+
+    from models.validation import InputError
+
+    if count < 3:
+        raise InputError(f"--fractions must be >= 3, got {count}")
+    nodes = np.linspace(low, high, count)
+    k = np.argmin(np.abs(nodes - 1.0))
+    if not low < 1.0 < high or abs(nodes[k] - 1.0) > 1e-9 * (high - low):
+        raise InputError(
+            f"--fractions {count} over [{low:g}, {high:g}] of q_t puts no node on the flooded threshold (1): "
+            "choose a count with (1 - low) / (high - low) * (count - 1) a whole number"
+        )
+    nodes[k] = 1.0
+    return nodes
+
+
+def run(args) -> int:
+    """Compute and write the table."""
+    from tqdm import tqdm
+
+    from models.bearing.grid import PRODUCTION_MESH, Mesh
+    from models.bearing.operating_table import (
+        compute_operating_table,
+        operating_table_path,
+        sommerfeld_grid,
+        sommerfeld_number,
+    )
+    from models.machine import load_machine
+    from models.rotor.assembly import Rotor
+    from models.validation import InputError
+
+    for name, (low, high) in (
+        ("--speed-range", args.speed_range),
+        ("--viscosity-range", args.viscosity_range),
+    ):
+        if not 0 < low <= 1.0 <= high:
+            raise InputError(f"{name} must satisfy 0 < LOW <= 1 <= HIGH, got {low:g} {high:g}")
+    machine = load_machine(args.machine)
+    loads = [float(w) for w in Rotor.from_machine(machine).bearing_static_loads_n]
+    bearing, speed = machine.bearing, machine.nominal_speed_hz
+    nominal = sommerfeld_number(bearing, bearing.viscosity_pa_s, speed, loads[0])
+    spread = args.speed_range[0] * args.viscosity_range[0], args.speed_range[1] * args.viscosity_range[1]
+    low = min(sommerfeld_number(bearing, bearing.viscosity_pa_s, speed, w) for w in loads) * spread[0]
+    high = max(sommerfeld_number(bearing, bearing.viscosity_pa_s, speed, w) for w in loads) * spread[1]
+    s_nodes = sommerfeld_grid(nominal, low, high, args.sommerfeld_ratio)
+    lub = machine.lubrication
+    f_nodes = fraction_nodes(
+        lub.table_min_fraction_of_threshold, lub.table_max_fraction_of_threshold, args.fractions
+    )
+    mesh = PRODUCTION_MESH if args.mesh is None else Mesh(*args.mesh)
+    total = s_nodes.size * f_nodes.size
+    print(
+        f"Sommerfeld {s_nodes[0]:.4g} .. {s_nodes[-1]:.4g} ({s_nodes.size} nodes, nominal {nominal:.4g}), "
+        f"{f_nodes.size} flowrates: {total} points",
+        file=sys.stderr,
+    )
+    with tqdm(total=total, desc="bearing map", unit="point", disable=args.quiet) as bar:
+        table = compute_operating_table(
+            bearing,
+            loads[0],
+            speed,
+            s_nodes,
+            f_nodes,
+            mesh,
+            progress=bar.update,
+            provenance={
+                "command_line": command_line(args),
+                "machine_file": str(machine.source_path),
+                "nominal_sommerfeld": nominal,
+            },
+        )
+    out = Path(args.out) if args.out else operating_table_path(machine.source_path)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    table.save(out)
+    print(
+        f"{total} points in {table.metadata['provenance']['compute_s']:.0f} s written to {out}",
+        file=sys.stderr,
+    )
+    return 0
+
+
+def command_line(args) -> str:
+    """The command that reproduces this table (from the parsed options)."""
+    parts = ["oilwatch", "bearing-map"]
+    if args.machine:
+        parts += ["--machine", args.machine]
+    parts += [
+        "--speed-range",
+        *map(str, args.speed_range),
+        "--viscosity-range",
+        *map(str, args.viscosity_range),
+        "--sommerfeld-ratio",
+        str(args.sommerfeld_ratio),
+        "--fractions",
+        str(args.fractions),
+    ]
+    if args.mesh is not None:
+        parts += ["--mesh", *map(str, args.mesh)]
+    if args.out:
+        parts += ["--out", args.out]
+    return shlex.join(parts)

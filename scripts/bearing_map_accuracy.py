@@ -1,0 +1,89 @@
+"""Accuracy of the committed dimensionless bearing table against direct solves (prints the figures).
+
+    nice -n 10 python scripts/bearing_map_accuracy.py            # the issue's points and a spread of others
+    python scripts/bearing_map_accuracy.py --quick               # only the four points the issue names
+
+Points are off the table's nodes in Sommerfeld number; fractions of the flooded threshold 0.8 and 1.0 (the
+issue's), and 0.55, 0.75, 0.95, 1.05, 1.25, 1.45 (off the flowrate nodes too). Also compares with the 1-D
+table at 75 Hz (models/tables/turbine_bearing_75hz.json) at flowrates between its nodes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+from models.bearing.grid import Mesh
+from models.bearing.operating_accuracy import table_error
+from models.bearing.operating_table import OperatingTable, operating_table_path
+from models.bearing.table import CoefficientTable
+from models.machine import load_machine
+from models.rotor.assembly import Rotor
+
+ISSUE_POINTS = [(60.0, 0.07, 0.8), (60.0, 0.07, 1.0), (90.0, 0.12, 0.8), (90.0, 0.12, 1.0)]
+SPREAD = [
+    (48.0, 0.05, 0.55),
+    (50.0, 0.17, 0.75),
+    (66.0, 0.10, 1.25),
+    (72.0, 0.09, 0.95),
+    (80.0, 0.15, 1.05),
+    (84.0, 0.06, 1.45),
+    (100.0, 0.18, 0.75),
+    (104.0, 0.06, 1.25),
+]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("--quick", action="store_true", help="only the issue's four points")
+    args = parser.parse_args()
+    machine = load_machine()
+    table = OperatingTable.load(operating_table_path(machine.source_path))
+    mesh = Mesh(**table.metadata["mesh"])
+    load = float(Rotor.from_machine(machine).bearing_static_loads_n[0])
+    points = ISSUE_POINTS + ([] if args.quick else SPREAD)
+    print("speed_Hz  mu_Pa_s  q/q_t   S      e_direct  err_e %  err_K %max  err_C %max  solve_s")
+    worst = np.zeros(3)
+    for speed, mu, fraction in points:
+        started = time.perf_counter()
+        err = table_error(table, machine.bearing, speed, mu, load, fraction, mesh)
+        s = mu * speed * machine.bearing.length_m * 2 * machine.bearing.radius_m
+        s *= (machine.bearing.radius_m / machine.bearing.clearance_m) ** 2 / load
+        row = np.array([err.eccentricity_ratio, err.stiffness, err.damping]) * 100
+        worst = np.maximum(worst, row)
+        print(
+            f"{speed:8.1f}  {mu:7.3f}  {fraction:5.2f}  {s:6.3f}  {err.direct_eccentricity_ratio:8.4f}  "
+            f"{row[0]:7.3f}  {row[1]:10.3f}  {row[2]:10.3f}  {time.perf_counter() - started:7.1f}"
+        )
+    print(
+        f"worst: eccentricity ratio {worst[0]:.3f} %, K {worst[1]:.3f} %, C {worst[2]:.3f} % "
+        "of the largest entry"
+    )
+    one_d = CoefficientTable.load(machine.source_path.parent / "tables" / "turbine_bearing_75hz.json")
+    q_lo, q_hi = one_d.flowrate_range_m3_s
+    worst = np.zeros(3)
+    for q in np.linspace(q_lo, q_hi, 41):
+        ref = one_d.evaluate(q)
+        point = table.evaluate(one_d.speed_hz, machine.bearing.viscosity_pa_s, one_d.load_n, q)
+        k, c = point.coefficients.stiffness, point.coefficients.damping
+        e_ref = np.hypot(*ref.eccentricity_m) / machine.bearing.clearance_m
+        worst = np.maximum(
+            worst,
+            [
+                abs(point.eccentricity_ratio - e_ref) / e_ref * 100,
+                np.max(np.abs(k - ref.stiffness)) / np.max(np.abs(ref.stiffness)) * 100,
+                np.max(np.abs(c - ref.damping)) / np.max(np.abs(ref.damping)) * 100,
+            ],
+        )
+    print(
+        f"against the 1-D 75 Hz table at 41 flowrates: eccentricity ratio {worst[0]:.3f} %, "
+        f"K {worst[1]:.3f} %, C {worst[2]:.3f} % of the largest entry"
+    )
+
+
+if __name__ == "__main__":
+    main()
