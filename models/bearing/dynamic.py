@@ -91,6 +91,7 @@ class FilmImpedance:
         self._dvolume = np.column_stack([op.wx, op.wy])
         self._data = np.where(full[cols], op.ap_data * self.p_ref, op.at_data)
         self._diag = slots["diag"]
+        self._memo: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
 
     def impedance(self, s: complex) -> np.ndarray:
         """Z(s) (2, 2) complex [N/m] for the Laplace variable ``s`` [1/s]."""
@@ -110,5 +111,8 @@ class FilmImpedance:
         omega = require_non_negative("whirl frequency omega_rad_s", omega_rad_s, "rad/s")
         if omega == 0.0:
             raise InputError("whirl frequency omega_rad_s must be > 0 (use the stiffness at omega -> 0)")
-        z = self.impedance(bdf_symbol(omega, dt_s, order))
-        return z.real.copy(), z.imag / omega
+        key = (omega, dt_s, order)
+        if key not in self._memo:
+            z = self.impedance(bdf_symbol(omega, dt_s, order))
+            self._memo[key] = (z.real.copy(), z.imag / omega)
+        return self._memo[key]

@@ -140,9 +140,13 @@ class TransientFilm:
         supply_flow_m3_s: float,
         dt_s: float,
         max_iterations: int = 60,
+        guess: TransientFilmState | None = None,
     ) -> TransientFilmState:
         """Advance ``state`` by ``dt_s`` [s] to the journal position ``eccentricity_m`` [m] (at the new
-        time) with the supply flowrate ``supply_flow_m3_s`` [m^3/s] into the groove over the step."""
+        time) with the supply flowrate ``supply_flow_m3_s`` [m^3/s] into the groove over the step.
+
+        ``guess``: a state whose partition and unknowns start the active-set iteration (default
+        ``state``), e.g. the previous iterate of an implicit rotor-film coupling."""
         dt = require_positive("dt_s", dt_s, "s")
         q = require_non_negative("supply_flow_m3_s", supply_flow_m3_s, "m^3/s")
         e = np.asarray(eccentricity_m, dtype=float)
@@ -159,8 +163,9 @@ class TransientFilm:
         source[grid.groove_node] += q
         rows, cols, diag = self._rows, self._cols, self._diag
         ap_scaled = op.ap_data * self.p_ref
-        full = state.full.copy()
-        u = np.where(full, state.pressure_pa / self.p_ref, state.fill_fraction)
+        start = state if guess is None else guess
+        full = start.full.copy()
+        u = np.where(full, start.pressure_pa / self.p_ref, start.fill_fraction)
         tol_p = 1e-10 * self.p_ref
         seen: set[bytes] = set()
         linear = 0

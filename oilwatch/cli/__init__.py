@@ -19,6 +19,7 @@ SUBCOMMANDS: tuple[str, ...] = (
     "modes",
     "campbell",
     "speed_sweep",
+    "transient",
     "orbits",
     "report",
     "bearing",
