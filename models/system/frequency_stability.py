@@ -26,9 +26,12 @@ from ..bearing.grid import Mesh
 from ..bearing.supply import SupplyFlow
 from ..machine import Machine
 from ..rotor.assembly import Rotor
-from ..rotor.modal import damped_modes
+from ..rotor.modal import damped_modes, whirl_direction
 from ..rotor.supports import LinearBearing
 from ..validation import InputError
+
+WHIRL_RATIO_STARTS = (0.4, 0.45, 0.5, 0.55)
+"""Whirl/spin frequency ratios from which the film's half-frequency whirl root is searched."""
 
 
 @dataclass(frozen=True)
@@ -39,6 +42,7 @@ class WhirlMode:
     log_decrement: float
     whirl: str
     iterations: int
+    eigenvalue: complex | None = None
 
 
 def film_impedances(machine: Machine, rotor: Rotor, speed_hz: float, flowrate_m3_s: float, mesh: Mesh):
@@ -102,6 +106,100 @@ def whirl_modes(
     return out
 
 
+def film_roots(
+    rotor: Rotor,
+    speed_hz: float,
+    impedances,
+    quasi_static,
+    n_modes: int = 6,
+    tolerance: float = 1e-9,
+    max_iterations: int = 40,
+) -> list[WhirlMode]:
+    """Roots lambda of det(M l^2 + D l + K + sum_b P_b^T Z_b(l) P_b) = 0 near the subsynchronous modes.
+
+    The exact eigenvalues of the rotor on the linearized transient films (Z analytic in s, see
+    :mod:`models.bearing.dynamic`), each found from a quasi-static mode by successive linearization:
+    Z(l) ~ Z(l_k) + (l - l_k) Z'(l_k), a quadratic eigenproblem with complex coefficient matrices
+    whose root nearest l_k is l_{k+1} (Newton-like, converges in a few steps). At the threshold the
+    root is i omega, where it coincides with the real-frequency iteration of :func:`whirl_modes`.
+    """
+    n = rotor.n_dof
+    omega = 2.0 * np.pi * speed_hz
+    mass_inv = np.linalg.inv(rotor.mass_matrix)
+    damping0 = rotor.damping_matrix + omega * rotor.gyroscopic_matrix
+    blocks = [slice(4 * (node - 1), 4 * (node - 1) + 2) for node in rotor.bearing_nodes]
+    start = [m for m in _modes(rotor, speed_hz, quasi_static, n_modes) if m.frequency_hz < speed_hz]
+
+    def linearized(lam, weight):
+        """State matrix with Z(l) ~ Z(lam) + (l - lam) Z'(lam), blended with the quasi-static films."""
+        stiffness = rotor.stiffness_matrix.astype(complex)
+        damping = damping0.astype(complex)
+        step = 1e-6 * abs(lam)
+        for z, (k_qs, c_qs), block in zip(impedances, quasi_static, blocks, strict=True):
+            z0 = z.impedance(lam)
+            slope = (z.impedance(lam + step) - z.impedance(lam - step)) / (2.0 * step)
+            stiffness[block, block] += weight * (z0 - lam * slope) + (1.0 - weight) * k_qs
+            damping[block, block] += weight * slope + (1.0 - weight) * c_qs
+        a = np.zeros((2 * n, 2 * n), dtype=complex)
+        a[:n, n:] = np.eye(n)
+        a[n:, :n] = -mass_inv @ stiffness
+        a[n:, n:] = -mass_inv @ damping
+        return a
+
+    def follow(lam, shape, weights):
+        """Iterate one root from (lam, shape) through the homotopy weights; None if it is lost."""
+        iteration = 0
+        for weight in weights:
+            for _ in range(max_iterations):
+                iteration += 1
+                eigenvalues, vectors = np.linalg.eig(linearized(lam, weight))
+                near = np.flatnonzero(np.abs(eigenvalues - lam) < 0.3 * abs(lam))
+                if near.size == 0:  # a heavily damped start whose root left the neighbourhood
+                    return None
+                if shape is None:
+                    pick = near[np.argmin(np.abs(eigenvalues[near] - lam))]
+                else:
+                    disp = vectors[:n, near]
+                    mac = np.abs(shape.conj() @ disp) ** 2 / (
+                        np.linalg.norm(shape) ** 2 * np.linalg.norm(disp, axis=0) ** 2
+                    )
+                    pick = near[np.argmax(mac)]
+                new = complex(eigenvalues[pick])
+                converged = abs(new - lam) < tolerance * abs(lam)
+                lam, shape = new, vectors[:n, pick]
+                if converged:
+                    break
+            else:
+                return None
+        return lam, shape, iteration
+
+    found = []
+    # Rotor modes, from the quasi-static films by homotopy, followed by their shapes (MAC) ...
+    for mode in start:
+        found.append(follow(mode.eigenvalue, mode.shape, (0.25, 0.5, 0.75, 1.0)))
+    # ... and the film's own half-frequency whirl root, which has no quasi-static counterpart.
+    for ratio in WHIRL_RATIO_STARTS:
+        f0 = 2.0 * np.pi * ratio * speed_hz
+        found.append(follow(complex(-0.01 * f0, f0), None, (1.0,)))
+    out: list[WhirlMode] = []
+    for item in found:
+        if item is None or item[0].imag <= 0.0:
+            continue
+        lam, shape, iteration = item
+        if any(abs(lam - m.eigenvalue) < 1e-6 * abs(lam) for m in out):
+            continue
+        out.append(
+            WhirlMode(
+                lam.imag / (2.0 * np.pi),
+                -2.0 * np.pi * lam.real / lam.imag,
+                whirl_direction(shape),
+                iteration,
+                lam,
+            )
+        )
+    return sorted(out, key=lambda m: m.frequency_hz)
+
+
 def least_stable(modes: list[WhirlMode]) -> WhirlMode:
     """The mode of smallest log decrement."""
     return min(modes, key=lambda m: m.log_decrement)
@@ -117,17 +215,24 @@ def frequency_dependent_threshold(
     tolerance_hz: float = 0.05,
     dt_s: float | None = None,
     progress=None,
+    method: str = "roots",
 ) -> dict:
     """Instability threshold [Hz] of the frequency-dependent linear model, bisected in [low, high].
 
-    Returns threshold_hz, whirl_frequency_hz at the threshold, and the evaluated (speed, least log
-    decrement, its frequency) triples.
+    ``method``: "roots" (:func:`film_roots`, the exact eigenvalues) or "real-frequency"
+    (:func:`whirl_modes`; ``dt_s`` applies to it). Returns threshold_hz, whirl_frequency_hz at the
+    threshold, method, and the evaluated (speed, least log decrement, its frequency) triples.
     """
+    if method not in ("roots", "real-frequency"):
+        raise InputError(f"method must be 'roots' or 'real-frequency', got {method!r}")
     evaluated = []
 
     def least(speed):
         impedances, quasi = film_impedances(machine, rotor, speed, flowrate_m3_s, mesh)
-        mode = least_stable(whirl_modes(rotor, speed, impedances, quasi, dt_s=dt_s))
+        if method == "roots":
+            mode = least_stable(film_roots(rotor, speed, impedances, quasi))
+        else:
+            mode = least_stable(whirl_modes(rotor, speed, impedances, quasi, dt_s=dt_s))
         evaluated.append((float(speed), mode.log_decrement, mode.frequency_hz))
         if progress is not None:
             progress(speed, mode)
@@ -150,4 +255,9 @@ def frequency_dependent_threshold(
         else:
             b, lb, fb = mid, mode.log_decrement, mode.frequency_hz
     threshold = a + (b - a) * la / (la - lb)
-    return {"threshold_hz": float(threshold), "whirl_frequency_hz": float(fb), "evaluated": evaluated}
+    return {
+        "threshold_hz": float(threshold),
+        "whirl_frequency_hz": float(fb),
+        "method": method,
+        "evaluated": evaluated,
+    }

@@ -13,7 +13,8 @@ iteration matrix ``S + P^T J P``, ``J = K_b + (beta_film / h) C_b`` the film's s
 stiffness plus the frozen-content damping: the instantaneous response of the film to a position step).
 Each iteration re-solves both films (warm-started); the step is accepted when the position update is
 below ``position_tolerance_m``. The coupling is therefore implicit: the step size is set by accuracy
-(tens of steps per whirl period), not by the film's stiffness.
+(tens of steps per whirl period), not by the film's stiffness. The position tolerance sets the noise
+floor of the film flows: 1e-10 m of jitter per step shows as ~1e-4 of the supply in the side leakage.
 """
 
 from __future__ import annotations
@@ -35,6 +36,9 @@ from .factory import DEFAULT_CUTOFF_HZ
 from .reduction import craig_bampton
 
 BETA, GAMMA = 0.25, 0.5
+LOOSE_TOLERANCE_M = 1e-9
+"""A step whose iteration stalls (a volume flipping state) is accepted if its last updates are below this
+(1e-5 of the clearance); ``loose_steps`` counts them."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -127,6 +131,7 @@ class NonlinearRotorBearing:
         self.films = [TransientFilm(machine.bearing, self.speed_hz, mesh) for _ in self.rotor.bearing_maps]
         self.tolerance = position_tolerance_m
         self.max_corrections = max_corrections
+        self.loose_steps = 0
         q_ref = (
             machine.lubrication.nominal_flowrate_m3_s
             if reference_flowrate_m3_s is None
@@ -149,9 +154,7 @@ class NonlinearRotorBearing:
     def _iteration_inverse(self, beta_film: float) -> np.ndarray:
         """(S + P^T J P)^-1 for the film's BDF weight ``beta_film``."""
         if beta_film not in self._iteration:
-            j = np.zeros((self._p.shape[0],) * 2)
-            for b, (k, c) in enumerate(self.film_coefficients):
-                j[2 * b : 2 * b + 2, 2 * b : 2 * b + 2] = k + beta_film / self.h * c
+            j = self._block([k + beta_film / self.h * c for k, c in self.film_coefficients])
             self._iteration[beta_film] = np.linalg.inv(self._newmark + self._p.T @ j @ self._p)
         return self._iteration[beta_film]
 
@@ -248,7 +251,8 @@ class NonlinearRotorBearing:
         inverse = self._iteration_inverse(BDF[order][0])
         r1 = r + h * v + 0.5 * h * h * a
         guesses = state.films
-        for _ in range(self.max_corrections):
+        updates = []
+        for iteration in range(self.max_corrections):
             positions = (self._p @ r1).reshape(-1, 2)
             films = [
                 tf.step(s, e, q, h, guess=g)
@@ -259,14 +263,21 @@ class NonlinearRotorBearing:
             force = np.concatenate([f.force_n for f in films])
             residual = load + self._p.T @ force - self._newmark @ r1
             delta = inverse @ residual
-            r1 = r1 + delta
+            size = float(np.abs(self._p @ delta).max())
+            updates.append(size)
+            # A volume that flips between full and cavitated from one iterate to the next makes the
+            # force a step function of the position: damped updates then settle on the switch point.
+            r1 = r1 + (delta if iteration < self.max_corrections // 2 else 0.5 * delta)
             guesses = films
-            if np.abs(self._p @ delta).max() < self.tolerance:
+            if size < self.tolerance:
                 break
         else:
-            raise RuntimeError(
-                f"rotor-film coupling did not converge in {self.max_corrections} iterations at t = {t1:.6g} s"
-            )
+            if min(updates[-3:]) > LOOSE_TOLERANCE_M:
+                raise RuntimeError(
+                    f"rotor-film coupling did not converge in {self.max_corrections} iterations at "
+                    f"t = {t1:.6g} s (position updates {', '.join(f'{u:.2g}' for u in updates)} m)"
+                )
+            self.loose_steps += 1
         a1 = (r1 - r) / (BETA * h * h) - v / (BETA * h) - (0.5 / BETA - 1.0) * a
         v1 = v + h * ((1.0 - GAMMA) * a + GAMMA * a1)
         return NonlinearState(t1, r1, v1, a1, films)

@@ -28,6 +28,7 @@ from ..machine import Machine
 from .nonlinear import NonlinearRotorBearing
 
 COEFFICIENT_MODELS = ("full-film", "everywhere", "frequency-dependent")
+SAMPLE_STEPS = 64
 
 
 def harmonic_fit(
@@ -77,6 +78,18 @@ def _film_models(machine: Machine, sim: NonlinearRotorBearing, positions, flowra
     return out
 
 
+def orbit_setup(machine: Machine, mesh: Mesh, flowrate_m3_s: float, steps_per_revolution: int = 64):
+    """(simulation, static state, start on the frequency-dependent linear orbit, film models) of a run."""
+    speed = machine.nominal_speed_hz
+    sim = NonlinearRotorBearing(
+        machine, speed, mesh, 1.0 / speed / steps_per_revolution, reference_flowrate_m3_s=flowrate_m3_s
+    )
+    flows = (flowrate_m3_s, flowrate_m3_s)
+    static = sim.static_state(flows)
+    models = _film_models(machine, sim, (sim._p @ static.r).reshape(-1, 2), flowrate_m3_s)
+    return sim, static, sim.orbit_start(static, models["frequency-dependent"], flows), models
+
+
 def unbalance_orbits(
     machine: Machine,
     mesh: Mesh,
@@ -92,16 +105,10 @@ def unbalance_orbits(
     The run starts on the frequency-dependent linear orbit (so that little start transient is left);
     ``settling`` is the largest change of any amplitude [%] between the last two fit windows.
     """
-    speed = machine.nominal_speed_hz
-    sim = NonlinearRotorBearing(
-        machine, speed, mesh, 1.0 / speed / steps_per_revolution, reference_flowrate_m3_s=flowrate_m3_s
-    )
+    sim, static, start, models = orbit_setup(machine, mesh, flowrate_m3_s, steps_per_revolution)
+    speed = sim.speed_hz
     flows = (flowrate_m3_s, flowrate_m3_s)
-    static = sim.static_state(flows)
-    positions = (sim._p @ static.r).reshape(-1, 2)
-    models = _film_models(machine, sim, positions, flowrate_m3_s)
     linear = {name: linear_orbit(sim, kc) for name, kc in models.items()}
-    start = sim.orbit_start(static, models["frequency-dependent"], flows)
     n = round(duration_s / sim.h)
     _, record = sim.run(start, n, lambda t: flows, progress)
     t = record["time_s"]
@@ -118,6 +125,10 @@ def unbalance_orbits(
         "nonlinear_phase_deg": np.angle(orbit, deg=True).tolist(),
         "nonlinear_mean_shift_um": (mean * 1e6).tolist(),
         "settling_pct": float(100.0 * np.max(np.abs(np.abs(orbit) / np.abs(previous) - 1.0))),
+        "steps_per_revolution": steps_per_revolution,
+        "duration_s": duration_s,
+        # Bearing positions after SAMPLE_STEPS steps: a short rerun reproduces them (tests).
+        "sample_positions_um": (record["bearing_positions_m"][SAMPLE_STEPS - 1].ravel() * 1e6).tolist(),
         "linear": {},
     }
     for name, amplitude in linear.items():

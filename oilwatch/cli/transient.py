@@ -45,11 +45,6 @@ def register(subparsers) -> None:
     parser.set_defaults(func=run)
 
 
-def results_path(machine) -> Path:
-    """Default results file of a machine."""
-    return machine.source_path.parent / "tables" / f"{machine.source_path.stem}_transient_results.json"
-
-
 def _mesh(text: str):
     from models.bearing.grid import Mesh
     from models.validation import InputError
@@ -72,8 +67,9 @@ def run(args: argparse.Namespace) -> int:
     from models.machine import load_machine
     from models.rotor.assembly import Rotor
     from models.system import nonlinear_studies as studies
-    from models.system.factory import flowrate_table_path, load_tables
+    from models.system.factory import load_tables
     from models.system.frequency_stability import frequency_dependent_threshold
+    from models.system.transient_comparison import results_path, synchronous_table_path
     from models.validation import InputError, require_positive
 
     machine = load_machine(args.machine)
@@ -94,9 +90,12 @@ def run(args: argparse.Namespace) -> int:
                 "mesh": {"n_circ": study_mesh.n_circ, "n_axial": study_mesh.n_axial},
             },
         }
+        # Re-read before writing: another study may have saved its key since this run started.
+        latest = json.loads(out.read_text()) if out.exists() else {}
+        latest[key] = value
         results[key] = value
         out.parent.mkdir(parents=True, exist_ok=True)
-        out.write_text(json.dumps(results, indent=1) + "\n")
+        out.write_text(json.dumps(latest, indent=1) + "\n")
         print(f"wrote {key} to {out}", file=sys.stderr)
 
     def bar(total, desc):
@@ -107,9 +106,7 @@ def run(args: argparse.Namespace) -> int:
         if study == "synchronous-table":
             speed = machine.nominal_speed_hz
             table = synchronous_table(machine.bearing, load_tables(machine, rotor, speed)[0], command=command)
-            path = flowrate_table_path(machine, speed).with_name(
-                flowrate_table_path(machine, speed).stem + "_synchronous.json"
-            )
+            path = synchronous_table_path(machine, speed)
             table.save(path)
             print(f"wrote {path}", file=sys.stderr)
         elif study == "linear-threshold":
@@ -118,7 +115,7 @@ def run(args: argparse.Namespace) -> int:
                 rotor,
                 q_nominal,
                 mesh,
-                80.0,
+                60.0,
                 160.0,
                 progress=lambda s, m: print(
                     f"  {s:.3f} Hz: log dec {m.log_decrement:+.4f} at {m.frequency_hz:.2f} Hz",
