@@ -78,12 +78,18 @@ def _film_models(machine: Machine, sim: NonlinearRotorBearing, positions, flowra
     return out
 
 
-def orbit_setup(machine: Machine, mesh: Mesh, flowrate_m3_s: float, steps_per_revolution: int = 64):
-    """(simulation, static state, start on the frequency-dependent linear orbit, film models) of a run."""
+def orbit_setup(
+    machine: Machine,
+    mesh: Mesh,
+    flowrate_m3_s: float,
+    steps_per_revolution: int = 64,
+    dt_s: float | None = None,
+):
+    """(simulation, static state, start on the frequency-dependent linear orbit, film models) of a run
+    with ``steps_per_revolution`` steps per revolution (or the step ``dt_s`` [s])."""
     speed = machine.nominal_speed_hz
-    sim = NonlinearRotorBearing(
-        machine, speed, mesh, 1.0 / speed / steps_per_revolution, reference_flowrate_m3_s=flowrate_m3_s
-    )
+    h = 1.0 / speed / steps_per_revolution if dt_s is None else dt_s
+    sim = NonlinearRotorBearing(machine, speed, mesh, h, reference_flowrate_m3_s=flowrate_m3_s)
     flows = (flowrate_m3_s, flowrate_m3_s)
     static = sim.static_state(flows)
     models = _film_models(machine, sim, (sim._p @ static.r).reshape(-1, 2), flowrate_m3_s)
