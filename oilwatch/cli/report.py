@@ -104,9 +104,9 @@ def _transient_lines(result: dict) -> list[str]:
     """Thresholds and the orbit check from the transient-film results file."""
     paper = result["paper"]["instability_threshold_hz"]
     mesh = result.get("direct_simulation_mesh")
-    where = f" (film mesh {mesh['n_circ']} x {mesh['n_axial']})" if mesh else ""
+    where = f" on the film mesh {mesh['n_circ']} x {mesh['n_axial']}" if mesh else ""
     lines = [
-        _row("  threshold, direct simulation [Hz]" + where, result["instability_threshold_direct_hz"], paper),
+        _row("  threshold, direct simulation [Hz]", result["instability_threshold_direct_hz"], paper),
         _row(
             "  threshold, frequency-dependent linear [Hz]",
             result["instability_threshold_frequency_dependent_hz"],
@@ -115,7 +115,9 @@ def _transient_lines(result: dict) -> list[str]:
     ]
     bracket = result.get("instability_threshold_direct_bracket_hz")
     if bracket:
-        lines.append(f"    direct simulation: whirl decays at {bracket[0]:g} Hz, grows at {bracket[1]:g} Hz")
+        lines.append(
+            f"    direct simulation{where}: whirl decays at {bracket[0]:g} Hz, grows at {bracket[1]:g} Hz"
+        )
     for key, value in result.get("frequency_dependent_thresholds_by_mesh_hz", {}).items():
         lines.append(f"    frequency-dependent linear threshold on mesh {key}: {value:.2f} Hz")
     check = result.get("orbit_check")
