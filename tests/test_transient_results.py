@@ -76,7 +76,7 @@ def test_coupled_integration_holds_the_static_equilibrium():
     q = MACHINE.lubrication.nominal_flowrate_m3_s
     sim = NonlinearRotorBearing(MACHINE, 75.0, Mesh(60, 16), 2e-4, unbalance=False)
     state = sim.static_state((q, q))
-    start = sim._p @ state.r
+    start = sim.selector @ state.r
     state, record = sim.run(state, 10, lambda t: (q, q))
     # The coupling's position tolerance (1e-10 m) is the noise floor: ~1e-4 of the supply in the leakage.
     assert np.abs(record["bearing_positions_m"].reshape(10, -1) - start).max() < 1e-9

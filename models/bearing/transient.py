@@ -28,7 +28,7 @@ preconditioner of GMRES for the next ones and refactored only when GMRES needs m
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
@@ -262,8 +262,3 @@ def mass_balance_error(film: TransientFilm, before: TransientFilmState, after: T
     else:
         rate = (after.content_m3 - before.content_m3).sum() / dt
     return float((after.supply_flow_m3_s - after.side_leakage_m3_s - rate) / after.supply_flow_m3_s)
-
-
-def restart(state: TransientFilmState) -> TransientFilmState:
-    """The same state with its history dropped (the next step is a first-order one)."""
-    return replace(state, previous_content_m3=None)

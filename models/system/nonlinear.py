@@ -90,6 +90,15 @@ def reduced_rotor(machine: Machine, speed_hz: float, cutoff_hz: float = DEFAULT_
     )
 
 
+def block_diagonal(blocks) -> np.ndarray:
+    """The block-diagonal matrix of the (2, 2) bearing blocks, in the order of the bearing dofs."""
+    n = 2 * len(blocks)
+    out = np.zeros((n, n), dtype=np.result_type(*blocks))
+    for b, m in enumerate(blocks):
+        out[2 * b : 2 * b + 2, 2 * b : 2 * b + 2] = m
+    return out
+
+
 @dataclass
 class NonlinearState:
     """Rotor coordinates r, v, a (n,) and the films' states at ``time_s``."""
@@ -147,35 +156,37 @@ class NonlinearRotorBearing:
             tangent.append((k, c))
         self.film_coefficients = tangent
         r = self.rotor
-        self._p = r.bearing_maps.reshape(-1, r.mass.shape[0])
+        #: (2 n_bearings, n) bearing (x, y) displacements from the coordinates.
+        self.selector = r.bearing_maps.reshape(-1, r.mass.shape[0])
         self._newmark = r.mass / (BETA * self.h**2) + r.damping * GAMMA / (BETA * self.h) + r.stiffness
         self._iteration = {}
 
     def _iteration_inverse(self, beta_film: float) -> np.ndarray:
         """(S + P^T J P)^-1 for the film's BDF weight ``beta_film``."""
         if beta_film not in self._iteration:
-            j = self._block([k + beta_film / self.h * c for k, c in self.film_coefficients])
-            self._iteration[beta_film] = np.linalg.inv(self._newmark + self._p.T @ j @ self._p)
+            j = block_diagonal([k + beta_film / self.h * c for k, c in self.film_coefficients])
+            self._iteration[beta_film] = np.linalg.inv(self._newmark + self.selector.T @ j @ self.selector)
         return self._iteration[beta_film]
 
     def static_state(self, flowrates_m3_s: Sequence[float], time_s: float = 0.0) -> NonlinearState:
         """Static equilibrium under gravity with steady films at the flowrates (no unbalance)."""
         r = self.rotor
         inverse = np.linalg.inv(
-            r.stiffness + self._p.T @ self._block([k for k, _ in self.film_coefficients]) @ self._p
+            r.stiffness
+            + self.selector.T @ block_diagonal([k for k, _ in self.film_coefficients]) @ self.selector
         )
         guess = np.concatenate([eq.eccentricity_m for eq in self.equilibria])
         coords = inverse @ (
             r.gravity
-            + self._p.T
+            + self.selector.T
             @ (
                 np.concatenate([np.array([0.0, w]) for w in r.static_loads_n])
-                + self._block([k for k, _ in self.film_coefficients]) @ guess
+                + block_diagonal([k for k, _ in self.film_coefficients]) @ guess
             )
         )
         films = [None] * len(self.films)
         for _ in range(50):
-            positions = (self._p @ coords).reshape(-1, 2)
+            positions = (self.selector @ coords).reshape(-1, 2)
             films = [
                 solve_film(
                     self.machine.bearing,
@@ -188,14 +199,14 @@ class NonlinearRotorBearing:
                 for e, q, f, eq in zip(positions, flowrates_m3_s, films, self.equilibria, strict=True)
             ]
             force = np.concatenate([f.force_n for f in films])
-            residual = r.gravity + self._p.T @ force - r.stiffness @ coords
+            residual = r.gravity + self.selector.T @ force - r.stiffness @ coords
             step = inverse @ residual
             coords = coords + step
-            if np.abs(self._p @ step).max() < 1e-13:
+            if np.abs(self.selector @ step).max() < 1e-13:
                 break
         else:
             raise RuntimeError("nonlinear static equilibrium did not converge in 50 iterations")
-        positions = (self._p @ coords).reshape(-1, 2)
+        positions = (self.selector @ coords).reshape(-1, 2)
         states = [tf.from_steady(f, e, time_s) for tf, f, e in zip(self.films, films, positions, strict=True)]
         n = coords.size
         return NonlinearState(time_s, coords, np.zeros(n), np.zeros(n), states)
@@ -205,9 +216,9 @@ class NonlinearRotorBearing:
         steady at the displaced journal positions (a start close to the periodic orbit)."""
         rot = self.rotor
         w = self.omega
-        p = self._p
-        kb = self._block([k for k, _ in coefficients])
-        cb = self._block([c for _, c in coefficients])
+        p = self.selector
+        kb = block_diagonal([k for k, _ in coefficients])
+        cb = block_diagonal([c for _, c in coefficients])
         dynamic = rot.stiffness + p.T @ kb @ p - w * w * rot.mass + 1j * w * (rot.damping + p.T @ cb @ p)
         x = np.linalg.solve(dynamic, rot.unbalance) * np.exp(1j * w * static.time_s)
         r = static.r + x.real
@@ -221,14 +232,6 @@ class NonlinearRotorBearing:
             for tf, e, q in zip(self.films, positions, flowrates_m3_s, strict=True)
         ]
         return NonlinearState(static.time_s, r, (1j * w * x).real, (-w * w * x).real, films)
-
-    @staticmethod
-    def _block(blocks) -> np.ndarray:
-        n = 2 * len(blocks)
-        out = np.zeros((n, n))
-        for b, m in enumerate(blocks):
-            out[2 * b : 2 * b + 2, 2 * b : 2 * b + 2] = m
-        return out
 
     def external_load(self, time_s: float) -> np.ndarray:
         """Gravity plus the unbalance load at ``time_s`` (n,) [N]."""
@@ -253,7 +256,7 @@ class NonlinearRotorBearing:
         guesses = state.films
         updates = []
         for iteration in range(self.max_corrections):
-            positions = (self._p @ r1).reshape(-1, 2)
+            positions = (self.selector @ r1).reshape(-1, 2)
             films = [
                 tf.step(s, e, q, h, guess=g)
                 for tf, s, e, q, g in zip(
@@ -261,9 +264,9 @@ class NonlinearRotorBearing:
                 )
             ]
             force = np.concatenate([f.force_n for f in films])
-            residual = load + self._p.T @ force - self._newmark @ r1
+            residual = load + self.selector.T @ force - self._newmark @ r1
             delta = inverse @ residual
-            size = float(np.abs(self._p @ delta).max())
+            size = float(np.abs(self.selector @ delta).max())
             updates.append(size)
             # A volume that flips between full and cavitated from one iterate to the next makes the
             # force a step function of the position: damped updates then settle on the switch point.
@@ -305,7 +308,7 @@ class NonlinearRotorBearing:
         for k in range(n_steps):
             state = self.step(state, flowrates(state.time_s + self.h))
             record["time_s"][k] = state.time_s
-            record["bearing_positions_m"][k] = (self._p @ state.r).reshape(-1, 2)
+            record["bearing_positions_m"][k] = (self.selector @ state.r).reshape(-1, 2)
             record["film_forces_n"][k] = [f.force_n for f in state.films]
             record["side_leakage_m3_s"][k] = [f.side_leakage_m3_s for f in state.films]
             record["content_m3"][k] = [f.total_content_m3 for f in state.films]

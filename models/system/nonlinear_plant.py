@@ -87,7 +87,7 @@ class TransientFilmPlant:
 
     def current_sample(self) -> PlantSample:
         """The sample at the current time (a fresh noise draw)."""
-        true = self.sim._p @ self.state.r
+        true = self.sim.selector @ self.state.r
         measured = true + self.noise_std_m * self.rng.standard_normal(true.size)
         return PlantSample(true, measured, self._current.copy())
 

@@ -25,7 +25,7 @@ from ..bearing.film import solve_film
 from ..bearing.grid import Mesh
 from ..bearing.supply import SupplyFlow
 from ..machine import Machine
-from .nonlinear import NonlinearRotorBearing
+from .nonlinear import NonlinearRotorBearing, block_diagonal
 
 COEFFICIENT_MODELS = ("full-film", "everywhere", "frequency-dependent")
 SAMPLE_STEPS = 64
@@ -46,9 +46,9 @@ def linear_orbit(sim: NonlinearRotorBearing, coefficients) -> np.ndarray:
     """Bearing (x1, y1, x2, y2) complex 1x amplitudes of the reduced rotor on linear films ``[(K, C)]``."""
     rot = sim.rotor
     w = sim.omega
-    kb = sim._block([k for k, _ in coefficients])
-    cb = sim._block([c for _, c in coefficients])
-    p = sim._p
+    kb = block_diagonal([k for k, _ in coefficients])
+    cb = block_diagonal([c for _, c in coefficients])
+    p = sim.selector
     dynamic = rot.stiffness + p.T @ kb @ p - w * w * rot.mass + 1j * w * (rot.damping + p.T @ cb @ p)
     return p @ np.linalg.solve(dynamic, rot.unbalance)
 
@@ -92,7 +92,7 @@ def orbit_setup(
     sim = NonlinearRotorBearing(machine, speed, mesh, h, reference_flowrate_m3_s=flowrate_m3_s)
     flows = (flowrate_m3_s, flowrate_m3_s)
     static = sim.static_state(flows)
-    models = _film_models(machine, sim, (sim._p @ static.r).reshape(-1, 2), flowrate_m3_s)
+    models = _film_models(machine, sim, (sim.selector @ static.r).reshape(-1, 2), flowrate_m3_s)
     return sim, static, sim.orbit_start(static, models["frequency-dependent"], flows), models
 
 
@@ -118,7 +118,7 @@ def unbalance_orbits(
     n = round(duration_s / sim.h)
     _, record = sim.run(start, n, lambda t: flows, progress)
     t = record["time_s"]
-    x = record["bearing_positions_m"].reshape(n, -1) - sim._p @ static.r
+    x = record["bearing_positions_m"].reshape(n, -1) - sim.selector @ static.r
     window = fit_periods / speed
     last = t > t[-1] - window
     before = (t > t[-1] - 2 * window) & ~last
@@ -168,10 +168,10 @@ def whirl_growth_rate(
     )
     flows = (flowrate_m3_s, flowrate_m3_s)
     state = sim.static_state(flows)
-    equilibrium = sim._p @ state.r
-    kick = np.zeros(sim._p.shape[0])
+    equilibrium = sim.selector @ state.r
+    kick = np.zeros(sim.selector.shape[0])
     kick[1::2] = kick_m_s
-    state.v = np.linalg.lstsq(sim._p, kick, rcond=None)[0]
+    state.v = np.linalg.lstsq(sim.selector, kick, rcond=None)[0]
     n = round(duration_s / dt_s)
     _, record = sim.run(state, n, lambda t: flows, progress)
     t = record["time_s"]
@@ -225,7 +225,7 @@ def starvation_transient(
     flows = lambda t: (from_m3_s, from_m3_s) if t <= before_s + 1e-12 else (to_m3_s, to_m3_s)  # noqa: E731
     start = sim.orbit_start(
         state,
-        _film_models(machine, sim, (sim._p @ state.r).reshape(-1, 2), from_m3_s)["frequency-dependent"],
+        _film_models(machine, sim, (sim.selector @ state.r).reshape(-1, 2), from_m3_s)["frequency-dependent"],
         (from_m3_s, from_m3_s),
     )
     n = round((before_s + after_s) / sim.h)
