@@ -9,17 +9,20 @@ Fault: each bearing's supply flowrate follows ``q(t) = q_initial + (q_final - q_
 (1 + exp(-(t - fault_time_s) / tau))`` with ``tau = fault_duration_s / (2 ln 9)``: ``fault_duration_s`` is
 the 10 %-90 % transition time. ``flow_source = 1`` replaces the schedule with the inputs ``q1_in_ml_min``
 and ``q2_in_ml_min`` (held over each communication step), so that an oil-system model can drive them.
+``film_model = "transient-film"`` replaces the linearized films by the transient p-theta films
+(``models.system.nonlinear_plant``: high fidelity, about 10^3 times slower than real time).
 """
 
 from __future__ import annotations
 
 from pythonfmu import DefaultExperiment
 
-from fmu_src.machine_parameters import rotor_bearing_system
+from fmu_src.machine_parameters import bundled_machine_file, rotor_bearing_system
 from fmu_src.slave_base import OilwatchSlave
 from models.bearing.supply import ML_MIN_PER_M3_S
+from models.machine import load_machine
 from models.system.fault import SigmoidFlowrate
-from models.system.plant import RotorBearingPlant as PlantModel
+from models.system.nonlinear_plant import FILM_MODELS, check_film_model, make_plant
 from models.validation import InputError
 
 NOMINAL_ML_MIN = 596.3
@@ -108,6 +111,13 @@ class RotorBearingPlant(OilwatchSlave):
             start="",
             description="Machine file (TOML); empty: the bundled generic turbine",
         )
+        self.declare_string(
+            "film_model",
+            "parameter",
+            start=FILM_MODELS[0],
+            description=f"Films of the truth: {' or '.join(FILM_MODELS)} (rotor on transient p-theta films, "
+            "nominal speed and unbalance only, about 10^3 times slower than real time)",
+        )
         self.declare_integer(
             "flow_source",
             "parameter",
@@ -171,6 +181,7 @@ class RotorBearingPlant(OilwatchSlave):
             self.plant.restore(snapshot)
 
     def validate_parameters(self) -> None:
+        check_film_model(self.film_model)
         if self.flow_source == 0:
             for b in (1, 2):
                 for stage in ("initial", "final"):
@@ -199,8 +210,11 @@ class RotorBearingPlant(OilwatchSlave):
             )
         inputs = (self.q1_in_ml_min / ML_MIN_PER_M3_S, self.q2_in_ml_min / ML_MIN_PER_M3_S)
         try:
-            self.plant = PlantModel(
+            machine = load_machine(self.machine_file or bundled_machine_file(self.resources))
+            self.plant = make_plant(
+                self.film_model,
                 system,
+                machine,
                 SAMPLING_PERIOD_S,
                 schedules,
                 self.noise_um * 1e-6,

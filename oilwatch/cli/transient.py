@@ -41,6 +41,12 @@ def register(subparsers) -> None:
     parser.add_argument("--mesh", default="60x16", help="film mesh N_CIRCxN_AXIAL of the direct simulations")
     parser.add_argument("--speeds-hz", default="", help="comma-separated speeds of the threshold study [Hz]")
     parser.add_argument("--duration-s", type=float, default=None, help="simulated time per run [s]")
+    parser.add_argument(
+        "--bracket-hz", default="60,160", help="LOW,HIGH speeds bracketing the linear threshold [Hz] (60,160)"
+    )
+    parser.add_argument(
+        "--tolerance-hz", type=float, default=0.05, help="bisection width of the linear threshold [Hz] (0.05)"
+    )
     parser.add_argument("--out", default=None, help="results file (default: next to the machine file)")
     parser.set_defaults(func=run)
 
@@ -110,13 +116,16 @@ def run(args: argparse.Namespace) -> int:
             table.save(path)
             print(f"wrote {path}", file=sys.stderr)
         elif study == "linear-threshold":
+            bracket = _speeds(args.bracket_hz, "--bracket-hz")
+            if len(bracket) != 2 or bracket[0] >= bracket[1]:
+                raise InputError(f"--bracket-hz must be LOW,HIGH with LOW < HIGH, got {args.bracket_hz!r}")
             found = frequency_dependent_threshold(
                 machine,
                 rotor,
                 q_nominal,
                 mesh,
-                60.0,
-                160.0,
+                *bracket,
+                tolerance_hz=require_positive("--tolerance-hz", args.tolerance_hz, "Hz"),
                 progress=lambda s, m: print(
                     f"  {s:.3f} Hz: log dec {m.log_decrement:+.4f} at {m.frequency_hz:.2f} Hz",
                     file=sys.stderr,
@@ -126,7 +135,7 @@ def run(args: argparse.Namespace) -> int:
         elif study == "threshold":
             if not args.speeds_hz:
                 raise InputError("--speeds-hz is required for --study threshold (e.g. 110,112,114)")
-            speeds = [require_positive("--speeds-hz", float(s), "Hz") for s in args.speeds_hz.split(",")]
+            speeds = _speeds(args.speeds_hz, "--speeds-hz")
             runs = dict(results.get("threshold", {}).get("runs", {}))
             duration = args.duration_s or 0.4
             for speed in speeds:
@@ -156,6 +165,16 @@ def run(args: argparse.Namespace) -> int:
             progress.close()
             save("starvation", drop, mesh)
     return 0
+
+
+def _speeds(text: str, option: str) -> list[float]:
+    """Comma-separated speeds [Hz], each > 0."""
+    from models.validation import InputError, require_positive
+
+    try:
+        return [require_positive(option, float(v), "Hz") for v in text.split(",")]
+    except ValueError:
+        raise InputError(f"{option} must be comma-separated speeds in Hz, got {text!r}") from None
 
 
 def _bracket(runs: dict) -> dict:
