@@ -1,7 +1,7 @@
 """Transient film step (both bearings) against the steady solve, on one mesh, in one run.
 
-The journals follow the nominal 1x unbalance orbit (a 3 um whirl at 75 Hz, 64 steps per revolution)
-about the equilibrium at 596.3 ml/min; after one warm-up revolution the wall time of each step of
+The journals follow a 3 um circular whirl at the machine's nominal speed (64 steps per revolution) about
+the equilibrium at its nominal flowrate; after one warm-up revolution the wall time of each step of
 both bearings is recorded (warm: partitions, LU preconditioners and numba caches in place). Beside
 it the warm-started steady solve (``solve_film`` from the neighbouring solution) at the same
 positions. Prints medians and their ratio. Run by hand:
@@ -24,6 +24,7 @@ from models.bearing.grid import Mesh
 from models.bearing.supply import SupplyFlow
 from models.bearing.transient import TransientFilm
 from models.machine import load_machine
+from models.rotor.assembly import Rotor
 
 
 def main() -> None:
@@ -34,12 +35,14 @@ def main() -> None:
     machine = load_machine(None)
     mesh = Mesh(*args.mesh)
     q = machine.lubrication.nominal_flowrate_m3_s
+    speed = machine.nominal_speed_hz
     supply = SupplyFlow(q)
-    eq = static_equilibrium(machine.bearing, 3272.8, 75.0, supply, mesh)
-    films = [TransientFilm(machine.bearing, 75.0, mesh) for _ in range(2)]
+    load = float(Rotor.from_machine(machine).bearing_static_loads_n[0])
+    eq = static_equilibrium(machine.bearing, load, speed, supply, mesh)
+    films = [TransientFilm(machine.bearing, speed, mesh) for _ in range(2)]
     states = [f.from_steady(eq.film, eq.eccentricity_m) for f in films]
-    omega = 2.0 * math.pi * 75.0
-    dt = 1.0 / 75.0 / 64
+    omega = 2.0 * math.pi * speed
+    dt = 1.0 / speed / 64
     transient, steady = [], []
     previous = eq.film
     for k in range(1, 64 * (1 + args.revolutions) + 1):
@@ -48,7 +51,7 @@ def main() -> None:
         states = [f.step(s, e, q, dt) for f, s in zip(films, states, strict=True)]
         elapsed = time.perf_counter() - start
         start = time.perf_counter()
-        previous = solve_film(machine.bearing, 75.0, tuple(e), supply, mesh=mesh, warm_start=previous)
+        previous = solve_film(machine.bearing, speed, tuple(e), supply, mesh=mesh, warm_start=previous)
         elapsed_steady = time.perf_counter() - start
         if k > 64:
             transient.append(elapsed)
