@@ -74,6 +74,7 @@ def test_impedance_limits_are_the_quasi_static_coefficients(equilibrium):
     np.testing.assert_allclose(c_high, damping, atol=1e-3 * np.abs(damping).max())
 
 
+@pytest.mark.slow  # transient runs: seconds of film steps
 @pytest.mark.parametrize("whirl_hz", [30.0, 75.0])
 def test_impedance_matches_a_small_amplitude_transient_run(equilibrium, whirl_hz):
     """A harmonic motion of 0.1 % of the clearance through the stepper gives the discrete impedance (1 %)."""

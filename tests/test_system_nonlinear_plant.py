@@ -15,6 +15,7 @@ MACHINE = load_machine(None)
 Q = MACHINE.lubrication.nominal_flowrate_m3_s
 
 
+@pytest.mark.slow  # transient runs: seconds of film steps
 def test_plant_steps_follow_the_schedule_and_restore_bit_identically():
     schedules = tuple(SigmoidFlowrate(Q, 0.75 * Q, 0.001, 0.0002) for _ in range(2))
     plant = TransientFilmPlant(MACHINE, Mesh(60, 16), 1e-3, schedules, 1e-6, seed=3)

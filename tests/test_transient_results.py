@@ -58,6 +58,7 @@ def test_frequency_dependent_root_recomputes():
     assert mode.frequency_hz == pytest.approx(frequency, abs=1e-6)
 
 
+@pytest.mark.slow  # transient runs: seconds of film steps
 @pytest.mark.skipif("orbits" not in RESULTS, reason="no orbit runs in the results")
 def test_orbit_run_start_recomputes():
     run = RESULTS["orbits"]["by_flowrate_pct"]["100"]
