@@ -22,7 +22,9 @@ unbalance turns with the integral of the speed and the gyroscopic terms follow i
 speed is used and both inputs must stay at their start values. Measurement chain
 (``models.system.measurement``): probe mounting angle, per-probe zero offset, sensitivity error, 1x/2x
 runout and fault; an unbalance change at a given time; the true positions and each bearing's eccentricity
-ratio and minimum film thickness are outputs.
+ratio and minimum film thickness are outputs. ``film_model =
+"transient-film"`` replaces the linearized films by the transient p-theta films
+(``models.system.nonlinear_plant``: high fidelity, about 10^3 times slower than real time).
 """
 
 from __future__ import annotations
@@ -33,13 +35,17 @@ from pythonfmu import DefaultExperiment
 
 from fmu_src.blas_threads import limit_blas_threads
 from fmu_src.fmi_variables import UnitDefinition, register_unit
-from fmu_src.machine_parameters import declare_machine_parameters, machine_of, rotor_bearing_system
+from fmu_src.machine_parameters import (
+    declare_machine_parameters,
+    machine_of,
+    rotor_bearing_system,
+)
 from fmu_src.slave_base import OilwatchSlave
 from models.bearing.supply import ML_MIN_PER_M3_S
 from models.system.fault import SigmoidFlowrate
 from models.system.measurement import FAULT_KINDS, PROBE_NAMES, MeasurementChain, ProbeErrors, UnbalanceChange
+from models.system.nonlinear_plant import FILM_MODELS, check_film_model, make_plant
 from models.system.operating_point import operating_system
-from models.system.plant import RotorBearingPlant as PlantModel
 from models.validation import InputError
 
 register_unit(UnitDefinition("degC", {"K": 1}, 1.0, 273.15))
@@ -85,6 +91,13 @@ class RotorBearingPlant(OilwatchSlave):
         declare_machine_parameters(self)
         self._declare_operating_point()
         self._declare_measurement_chain()
+        self.declare_string(
+            "film_model",
+            "parameter",
+            start=FILM_MODELS[0],
+            description=f"Films of the truth: {' or '.join(FILM_MODELS)} (rotor on transient p-theta films, "
+            "nominal speed and unbalance only, about 10^3 times slower than real time)",
+        )
         for b in (1, 2):
             for stage, text in (("initial", "before"), ("final", "after")):
                 real(
@@ -343,6 +356,9 @@ class RotorBearingPlant(OilwatchSlave):
         if snapshot is not None:
             self.plant.restore(snapshot)
 
+    def validate_parameters(self) -> None:
+        check_film_model(self.film_model)
+
     def _flowrate_m3_s(self, name: str) -> float:
         """A flowrate variable [ml/min] in m^3/s; 0 stands for the machine's nominal flowrate."""
         value = getattr(self, name)
@@ -371,8 +387,10 @@ class RotorBearingPlant(OilwatchSlave):
             )
         inputs = self._inputs_m3_s()
         try:
-            self.plant = PlantModel(
+            self.plant = make_plant(
+                self.film_model,
                 system,
+                machine,
                 SAMPLING_PERIOD_S,
                 schedules,
                 self.noise_um * 1e-6,

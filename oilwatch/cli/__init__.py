@@ -18,6 +18,7 @@ SUBCOMMANDS: tuple[str, ...] = (
     "modes",
     "campbell",
     "speed_sweep",
+    "transient",
     "orbits",
     "report",
     "bearing",

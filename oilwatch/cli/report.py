@@ -78,6 +78,7 @@ def format_report(result: dict) -> str:
     for key, label in ROWS[3:]:
         alternative = f"  {label.removesuffix(' [Hz]')}, squeeze everywhere [Hz]"
         lines.append(_row(alternative, result["squeeze_everywhere"][key], result["paper"][key]))
+    lines += _transient_lines(result)
     for name, title in (
         ("table4", "Table 4: q1 = q2 falling"),
         ("table5", "Table 5: q1 falling, q2 nominal"),
@@ -87,5 +88,58 @@ def format_report(result: dict) -> str:
         for ours, paper in zip(result[name], result["paper"][name], strict=True):
             cells = "".join(f"{ours[key]:>9.2f} ({paper[key]:5.2f})" for key, _ in COLUMNS)
             lines.append(f"{ours['interval_pct']:10s}{cells}")
+    for name, title in (
+        ("table4_frequency_dependent", "Table 4 with the synchronous (frequency-dependent) coefficients"),
+        ("table5_frequency_dependent", "Table 5 with the synchronous (frequency-dependent) coefficients"),
+    ):
+        if name not in result:
+            continue
+        paper_name = name.split("_")[0]
+        lines += ["", f"{title}; variation per step [um], oilwatch (paper)"]
+        lines.append(f"{'interval':10s}" + "".join(f"{label:>17s}" for _, label in COLUMNS))
+        for ours, paper in zip(result[name], result["paper"][paper_name], strict=True):
+            cells = "".join(f"{ours[key]:>9.2f} ({paper[key]:5.2f})" for key, _ in COLUMNS)
+            lines.append(f"{ours['interval_pct']:10s}{cells}")
     lines += ["", "definitions:"] + [f"  {key}: {text}" for key, text in result["definitions"].items()]
     return "\n".join(lines)
+
+
+def _transient_lines(result: dict) -> list[str]:
+    """Thresholds and the orbit check from the transient-film results file."""
+    paper = result["paper"]["instability_threshold_hz"]
+    mesh = result.get("direct_simulation_mesh")
+    where = f" on the film mesh {mesh['n_circ']} x {mesh['n_axial']}" if mesh else ""
+    lines = [
+        _row("  threshold, direct simulation [Hz]", result["instability_threshold_direct_hz"], paper),
+        _row(
+            "  threshold, frequency-dependent linear [Hz]",
+            result["instability_threshold_frequency_dependent_hz"],
+            paper,
+        ),
+    ]
+    bracket = result.get("instability_threshold_direct_bracket_hz")
+    if bracket:
+        lines.append(
+            f"    direct simulation{where}: whirl decays at {bracket[0]:g} Hz, grows at {bracket[1]:g} Hz"
+        )
+    for key, value in result.get("frequency_dependent_thresholds_by_mesh_hz", {}).items():
+        lines.append(f"    frequency-dependent linear threshold on mesh {key}: {value:.2f} Hz")
+    check = result.get("orbit_check")
+    if check:
+        lines += ["", "75 Hz 1x orbits, linear model vs nonlinear transient films (max over x1, y1, x2, y2)"]
+        for pct, models in check.items():
+            cells = ", ".join(
+                f"{name} {m['max_amplitude_error_pct']:.1f} % / {m['max_phase_error_deg']:.1f} deg"
+                for name, m in models.items()
+                if name != "settling_pct"
+            )
+            lines.append(f"  {pct} % flow: {cells}")
+    drop = result.get("starvation")
+    if drop:
+        lines.append(
+            f"sudden drop {drop['from_ml_min']:.0f} -> {drop['to_ml_min']:.0f} ml/min, settling (98 %): film "
+            f"content {drop['settling_time_content_s'] * 1e3:.0f} ms, side leakage "
+            f"{drop['settling_time_leakage_s'] * 1e3:.0f} ms, mean journal position "
+            f"{drop['settling_time_mean_position_s'] * 1e3:.0f} ms"
+        )
+    return lines

@@ -1,0 +1,75 @@
+"""The coefficient table at whirl frequency = spin speed: K(Omega), C(Omega) of the transient film.
+
+The unbalance response, the plant's linearized model and the estimator's model all see the film at
+the synchronous frequency. This table holds, at each flowrate of a quasi-static table (same
+equilibria, same file format, so every consumer of :class:`CoefficientTable` reads it unchanged),
+the frequency-dependent coefficients of :mod:`models.bearing.dynamic` at omega = Omega. At the
+flooded-threshold node the mean of the starved and flooded one-sided impedances is stored, as the
+quasi-static table does.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import datetime as dt
+import math
+
+import numpy as np
+from tqdm import tqdm
+
+from .dynamic import FilmImpedance
+from .equilibrium import on_flooded_threshold, static_equilibrium
+from .geometry import JournalBearing
+from .grid import Mesh
+from .supply import SupplyFlow
+from .table import CoefficientTable, table_row
+
+KIND = "frequency-dependent at whirl frequency = spin speed"
+
+
+def synchronous_coefficients(film, eccentricity_m, speed_hz: float, supply) -> tuple[np.ndarray, np.ndarray]:
+    """K(Omega), C(Omega) of a steady film; the mean of both one-sided limits on the flooded threshold."""
+    omega = 2.0 * math.pi * speed_hz
+    if on_flooded_threshold(film, supply, speed_hz):
+        g = film.grid.groove_node
+        sides = []
+        for flooded in (False, True):
+            full = film.full.copy()
+            full[g] = flooded
+            sides.append(
+                FilmImpedance(dataclasses.replace(film, full=full), eccentricity_m, speed_hz).coefficients(
+                    omega
+                )
+            )
+        return 0.5 * (sides[0][0] + sides[1][0]), 0.5 * (sides[0][1] + sides[1][1])
+    return FilmImpedance(film, eccentricity_m, speed_hz).coefficients(omega)
+
+
+def synchronous_table(
+    bearing: JournalBearing, quasi_static: CoefficientTable, progress: bool = True, command: str = ""
+) -> CoefficientTable:
+    """The table of ``quasi_static``'s flowrates, equilibria and mesh with K, C at omega = spin speed."""
+    mesh = Mesh(**quasi_static.metadata["mesh"])
+    speed = quasi_static.speed_hz
+    rows = []
+    for row in tqdm(quasi_static.rows, desc="synchronous table", unit="flowrate", disable=not progress):
+        supply = SupplyFlow(row["supply_flowrate_m3_s"])
+        guess = np.array([row["eccentricity_x_m"], row["eccentricity_y_m"]])
+        eq = static_equilibrium(bearing, quasi_static.load_n, speed, supply, mesh, initial_guess_m=guess)
+        k, c = synchronous_coefficients(eq.film, eq.eccentricity_m, speed, supply)
+        new = table_row(eq, k, c)
+        if "one_sided_at_flooded_threshold" in row:
+            new["at_flooded_threshold"] = "mean of the starved and flooded one-sided impedances"
+        rows.append(new)
+    meta = {key: value for key, value in quasi_static.metadata.items() if key != "provenance"}
+    meta["solver"] = {
+        **quasi_static.metadata.get("solver", {}),
+        "coefficients": KIND + " (models.bearing.dynamic: small-signal response of the transient p-theta "
+        "film, fluid-fraction transport included, continuous time)",
+    }
+    meta["provenance"] = {
+        "command": command,
+        "date_utc": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
+        "from_table": quasi_static.metadata.get("provenance", {}),
+    }
+    return CoefficientTable(rows, speed, quasi_static.load_n, meta)

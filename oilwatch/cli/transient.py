@@ -1,0 +1,188 @@
+"""``oilwatch transient``: direct simulations with the transient films and the frequency-dependent tables.
+
+Studies (``--study``, repeatable; each result is merged into the results file as soon as it is done,
+so a stopped run loses only the study under way):
+
+* ``synchronous-table``: the flowrate table with K, C at whirl frequency = spin speed
+  (``tables/<machine>_bearing_<speed>hz_synchronous.json``);
+* ``linear-threshold``: the instability threshold of the linear model with frequency-dependent
+  coefficients, each mode at its own whirl frequency;
+* ``threshold``: whirl growth rates by direct simulation at ``--speeds-hz`` (bracketing the threshold);
+* ``orbits``: 1x orbits at 100 % and 75 % of the nominal flowrate, nonlinear against the linear models;
+* ``starvation``: the sudden drop 100 % -> 75 % and how long the film takes to settle.
+
+Results go to ``tables/<machine>_transient_results.json`` (read by ``oilwatch report``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import json
+import shlex
+import sys
+from pathlib import Path
+
+from .modes import add_machine_option
+
+STUDIES = ("synchronous-table", "linear-threshold", "threshold", "orbits", "starvation")
+
+
+def register(subparsers) -> None:
+    """Add the ``transient`` subcommand."""
+    parser = subparsers.add_parser(
+        "transient",
+        help="transient-film direct simulations, frequency-dependent coefficients (results for the report)",
+        description=__doc__.split("\n\n", 1)[1],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    add_machine_option(parser)
+    parser.add_argument("--study", action="append", choices=STUDIES, required=True, help="what to compute")
+    parser.add_argument("--mesh", default="60x16", help="film mesh N_CIRCxN_AXIAL of the direct simulations")
+    parser.add_argument("--speeds-hz", default="", help="comma-separated speeds of the threshold study [Hz]")
+    parser.add_argument("--duration-s", type=float, default=None, help="simulated time per run [s]")
+    parser.add_argument(
+        "--bracket-hz", default="60,160", help="LOW,HIGH speeds bracketing the linear threshold [Hz] (60,160)"
+    )
+    parser.add_argument(
+        "--tolerance-hz", type=float, default=0.05, help="bisection width of the linear threshold [Hz] (0.05)"
+    )
+    parser.add_argument("--out", default=None, help="results file (default: next to the machine file)")
+    parser.set_defaults(func=run)
+
+
+def _mesh(text: str):
+    from models.bearing.grid import Mesh
+    from models.validation import InputError
+
+    try:
+        n_circ, n_axial = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise InputError(f"--mesh must look like 60x16 (N_CIRCxN_AXIAL), got {text!r}") from None
+    return Mesh(n_circ, n_axial)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the studies and merge their results into the results file."""
+    import datetime as dt
+
+    from tqdm import tqdm
+
+    from models import __version__
+    from models.bearing.dynamic_table import synchronous_table
+    from models.machine import load_machine
+    from models.rotor.assembly import Rotor
+    from models.system import nonlinear_studies as studies
+    from models.system.factory import load_tables
+    from models.system.frequency_stability import frequency_dependent_threshold
+    from models.system.transient_comparison import results_path, synchronous_table_path
+    from models.validation import InputError, require_positive
+
+    machine = load_machine(args.machine)
+    mesh = _mesh(args.mesh)
+    out = Path(args.out) if args.out else results_path(machine)
+    results = json.loads(out.read_text()) if out.exists() else {}
+    command = "oilwatch " + shlex.join(sys.argv[1:])
+    q_nominal = machine.lubrication.nominal_flowrate_m3_s
+    rotor = Rotor.from_machine(machine)
+
+    def save(key, value, study_mesh):
+        value = {
+            **value,
+            "provenance": {
+                "command": command,
+                "oilwatch_version": __version__,
+                "date_utc": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
+                "mesh": {"n_circ": study_mesh.n_circ, "n_axial": study_mesh.n_axial},
+            },
+        }
+        # Re-read before writing: another study may have saved its key since this run started.
+        latest = json.loads(out.read_text()) if out.exists() else {}
+        latest[key] = value
+        results[key] = value
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(json.dumps(latest, indent=1) + "\n")
+        print(f"wrote {key} to {out}", file=sys.stderr)
+
+    def bar(total, desc):
+        progress = tqdm(total=total, desc=desc, unit="step", file=sys.stderr)
+        return progress, lambda k: progress.update(1)
+
+    for study in args.study:
+        if study == "synchronous-table":
+            speed = machine.nominal_speed_hz
+            table = synchronous_table(machine.bearing, load_tables(machine, rotor, speed)[0], command=command)
+            path = synchronous_table_path(machine, speed)
+            table.save(path)
+            print(f"wrote {path}", file=sys.stderr)
+        elif study == "linear-threshold":
+            bracket = _speeds(args.bracket_hz, "--bracket-hz")
+            if len(bracket) != 2 or bracket[0] >= bracket[1]:
+                raise InputError(f"--bracket-hz must be LOW,HIGH with LOW < HIGH, got {args.bracket_hz!r}")
+            found = frequency_dependent_threshold(
+                machine,
+                rotor,
+                q_nominal,
+                mesh,
+                *bracket,
+                tolerance_hz=require_positive("--tolerance-hz", args.tolerance_hz, "Hz"),
+                progress=lambda s, m: print(
+                    f"  {s:.3f} Hz: log dec {m.log_decrement:+.4f} at {m.frequency_hz:.2f} Hz",
+                    file=sys.stderr,
+                ),
+            )
+            save(f"linear_threshold_{mesh.n_circ}x{mesh.n_axial}", found, mesh)
+        elif study == "threshold":
+            if not args.speeds_hz:
+                raise InputError("--speeds-hz is required for --study threshold (e.g. 110,112,114)")
+            speeds = _speeds(args.speeds_hz, "--speeds-hz")
+            runs = dict(results.get("threshold", {}).get("runs", {}))
+            duration = args.duration_s or 0.4
+            for speed in speeds:
+                progress, tick = bar(round(duration / 2e-4), f"whirl at {speed:g} Hz")
+                growth = studies.whirl_growth_rate(
+                    machine, mesh, speed, q_nominal, duration_s=duration, progress=tick
+                )
+                progress.close()
+                runs[f"{speed:g}"] = growth
+                save("threshold", {"runs": runs, **_bracket(runs)}, mesh)
+        elif study == "orbits":
+            orbits = dict(results.get("orbits", {}).get("by_flowrate_pct", {}))
+            duration = args.duration_s or 0.6
+            for pct in (100, 75):
+                progress, tick = bar(round(duration * machine.nominal_speed_hz * 64), f"orbit {pct} %")
+                orbits[str(pct)] = studies.unbalance_orbits(
+                    machine, mesh, pct / 100 * q_nominal, duration_s=duration, progress=tick
+                )
+                progress.close()
+                save("orbits", {"by_flowrate_pct": orbits}, mesh)
+        elif study == "starvation":
+            duration = args.duration_s or 0.5
+            progress, tick = bar(round((duration + 0.05) * machine.nominal_speed_hz * 64), "sudden drop")
+            drop = studies.starvation_transient(
+                machine, mesh, q_nominal, 0.75 * q_nominal, after_s=duration, progress=tick
+            )
+            progress.close()
+            save("starvation", drop, mesh)
+    return 0
+
+
+def _speeds(text: str, option: str) -> list[float]:
+    """Comma-separated speeds [Hz], each > 0."""
+    from models.validation import InputError, require_positive
+
+    try:
+        return [require_positive(option, float(v), "Hz") for v in text.split(",")]
+    except ValueError:
+        raise InputError(f"{option} must be comma-separated speeds in Hz, got {text!r}") from None
+
+
+def _bracket(runs: dict) -> dict:
+    """The tightest pair of neighbouring speeds with decaying then growing whirl, and the zero crossing."""
+    ordered = sorted(runs.values(), key=lambda r: r["speed_hz"])
+    for low, high in itertools.pairwise(ordered):
+        if low["growth_rate_1_s"] < 0.0 <= high["growth_rate_1_s"]:
+            a, b = low["speed_hz"], high["speed_hz"]
+            ga, gb = low["growth_rate_1_s"], high["growth_rate_1_s"]
+            return {"bracket_hz": [a, b], "threshold_hz": a + (b - a) * (-ga) / (gb - ga)}
+    return {"bracket_hz": None, "threshold_hz": None}

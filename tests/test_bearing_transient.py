@@ -1,0 +1,102 @@
+"""Transient p-theta film: mass balance per step, the steady limit, the frequency-dependent coefficients."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from models.bearing.dynamic import FilmImpedance, bdf_symbol
+from models.bearing.equilibrium import coefficients_at, static_equilibrium
+from models.bearing.film import solve_film
+from models.bearing.geometry import JournalBearing
+from models.bearing.grid import Mesh
+from models.bearing.supply import ML_MIN_PER_M3_S, SupplyFlow
+from models.bearing.transient import TransientFilm, mass_balance_error
+
+BEARING = JournalBearing(0.045, 0.070, 120e-6, 0.094, 0.0, 16.2e-3, 35e-3)
+SPEED_HZ = 75.0
+LOAD_N = 3272.8
+MESH = Mesh(60, 16)
+NOMINAL = 596.3 / ML_MIN_PER_M3_S
+
+
+@pytest.fixture(scope="module", params=[1.0, 0.75], ids=["flooded", "starved"])
+def equilibrium(request):
+    supply = SupplyFlow(request.param * NOMINAL)
+    return supply, static_equilibrium(BEARING, LOAD_N, SPEED_HZ, supply, MESH)
+
+
+@pytest.mark.parametrize("order", [1, 2])
+def test_mass_balance_of_every_step(equilibrium, order):
+    """supply - side leakage - d(content)/dt = 0 per step, for a journal whirling 10 um and a flow change."""
+    supply, eq = equilibrium
+    film = TransientFilm(BEARING, SPEED_HZ, MESH, order=order)
+    state = film.from_steady(eq.film, eq.eccentricity_m)
+    omega = 2.0 * math.pi * 60.0
+    dt = 2e-4
+    worst = 0.0
+    for k in range(1, 41):
+        e = eq.eccentricity_m + 10e-6 * np.array([math.cos(omega * k * dt) - 1.0, math.sin(omega * k * dt)])
+        q = supply.q_m3_s * (0.8 if k > 20 else 1.0)
+        new = film.step(state, e, q, dt)
+        worst = max(worst, abs(mass_balance_error(film, state, new)))
+        assert np.all(new.pressure_pa >= -1e-6 * film.p_ref)
+        state = new
+    assert worst < 1e-9
+
+
+def test_journal_held_still_converges_to_the_steady_film():
+    """From the nominal film, a sudden 75 % supply with the journal held converges to the steady 75 % film."""
+    e = np.array([1.3e-5, -8e-6])
+    q_new = 0.75 * NOMINAL
+    start = solve_film(BEARING, SPEED_HZ, tuple(e), SupplyFlow(NOMINAL), mesh=MESH)
+    target = solve_film(BEARING, SPEED_HZ, tuple(e), SupplyFlow(q_new), mesh=MESH)
+    film = TransientFilm(BEARING, SPEED_HZ, MESH)
+    state = film.from_steady(start, e)
+    for _ in range(400):
+        state = film.step(state, e, q_new, 1e-3)
+    np.testing.assert_allclose(state.force_n, target.force_n, rtol=1e-7, atol=1e-6 * LOAD_N)
+    assert state.side_leakage_m3_s == pytest.approx(q_new, rel=1e-7)
+    theta = state.fill_fraction[film.grid.node_of_cell]
+    assert np.abs(theta - target.fill_fraction).max() < 1e-6
+
+
+def test_impedance_limits_are_the_quasi_static_coefficients(equilibrium):
+    """omega -> 0: the held-partition stiffness; omega -> infinity: the frozen-content (full-film) damping."""
+    supply, eq = equilibrium
+    stiffness, damping = coefficients_at(BEARING, eq, SPEED_HZ, supply, MESH)
+    impedance = FilmImpedance(eq.film, eq.eccentricity_m, SPEED_HZ)
+    k_low, _ = impedance.coefficients(2.0 * math.pi * 1e-4)
+    _, c_high = impedance.coefficients(2.0 * math.pi * 1e6)
+    np.testing.assert_allclose(k_low, stiffness, atol=1e-4 * np.abs(stiffness).max())
+    np.testing.assert_allclose(c_high, damping, atol=1e-3 * np.abs(damping).max())
+
+
+@pytest.mark.slow  # transient runs: seconds of film steps
+@pytest.mark.parametrize("whirl_hz", [30.0, 75.0])
+def test_impedance_matches_a_small_amplitude_transient_run(equilibrium, whirl_hz):
+    """A harmonic motion of 0.1 % of the clearance through the stepper gives the discrete impedance (1 %)."""
+    supply, eq = equilibrium
+    impedance = FilmImpedance(eq.film, eq.eccentricity_m, SPEED_HZ)
+    film = TransientFilm(BEARING, SPEED_HZ, MESH)
+    omega = 2.0 * math.pi * whirl_hz
+    per_period = 32
+    dt = 1.0 / whirl_hz / per_period
+    amplitude = 1e-3 * BEARING.clearance_m
+    for j in range(2):
+        state = film.from_steady(eq.film, eq.eccentricity_m)
+        direction = np.eye(2)[j]
+        forces = []
+        for k in range(1, 6 * per_period + 1):
+            state = film.step(
+                state, eq.eccentricity_m + amplitude * direction * math.sin(omega * k * dt), supply.q_m3_s, dt
+            )
+            forces.append(state.force_n - eq.film.force_n)
+        t = dt * np.arange(5 * per_period + 1, 6 * per_period + 1)
+        basis = np.column_stack([np.cos(omega * t), np.sin(omega * t)])
+        a, b = np.linalg.lstsq(basis, np.array(forces[-per_period:]), rcond=None)[0]
+        z_run = -(a - 1j * b) / (-1j * amplitude)
+        z_linear = impedance.impedance(bdf_symbol(omega, dt, film.order))[:, j]
+        assert np.abs(z_run - z_linear).max() < 0.01 * np.abs(z_linear).max()
