@@ -86,11 +86,23 @@ class EKFConfig:
         initial_displacement_std_m, initial_velocity_std_m_s, initial_flowrate_std_m3_s : the initial
             covariance P0 (not given by the paper: a clearance-sized displacement error, its velocity at the
             spin speed, and a quarter of the nominal flowrate).
-    Innovation gate
-        gate_tail_probability : a measurement whose NIS exceeds the chi-square quantile ``1 - p`` for its
-            number of channels is rejected (0 disables the gate).
-        gate_max_consecutive_rejections : after this many rejections in a row the next measurement is used
-            anyway, so that a real sudden change cannot lock the filter out.
+    Innovation gate and probe health (see :mod:`estimator.channels`)
+        gate_tail_probability : a channel whose squared standardized innovation exceeds the chi-square(1)
+            quantile ``1 - p`` times its recent innovation power is rejected (0 disables the gate).
+        gate_scale_window_s : time constant of that fading-memory innovation power [s].
+        probe_range_m : a reading with ``|x| >`` this is physically impossible (the probe is out of range);
+            None: the model's radial clearance (``model.clearance_m``) plus ``probe_range_margin_m``, or no
+            range check when the model does not give its clearance.
+        probe_dead_s, probe_stuck_s, probe_rejected_s : non-finite, unchanged (within
+            ``probe_stuck_tolerance_m``), or alone rejected by the gate for this long in a row flags a probe
+            faulty; probe_recover_s : a faulty probe returns after looking healthy for this long in a row.
+    Change detection and model consistency (see :mod:`estimator.ekf`)
+        change_window_s : time constant of the fading-memory mean of each channel's standardized innovation.
+        change_tail_probability : a bearing whose two channels' mean innovation exceeds the chi-square(2)
+            quantile ``1 - p`` of its null distribution is changing: its flowrate gets the extra process noise
+        change_flowrate_std_fraction : (std per step, as a fraction of nominal) while the test fires.
+        consistency_window_s, consistency_tail_probability : ``model_consistent`` is false when the sum of the
+            NIS over the last window exceeds the chi-square quantile ``1 - p`` of its degrees of freedom.
     Convergence flag
         converged_std_fraction : both flowrate stds below this fraction of nominal, and
         converged_drift_fraction : both estimates moved less than this fraction of nominal over
@@ -110,7 +122,19 @@ class EKFConfig:
     initial_velocity_std_m_s: float = 0.05
     initial_flowrate_std_m3_s: float = 0.25 * NOMINAL_FLOWRATE_M3_S
     gate_tail_probability: float = 1.0e-6
-    gate_max_consecutive_rejections: int = 5
+    gate_scale_window_s: float = 0.1
+    probe_range_m: float | None = None
+    probe_range_margin_m: float = 100.0e-6
+    probe_dead_s: float = 0.05
+    probe_stuck_s: float = 0.1
+    probe_stuck_tolerance_m: float = 0.0
+    probe_rejected_s: float = 0.05
+    probe_recover_s: float = 0.5
+    change_window_s: float = 0.05
+    change_tail_probability: float = 1.0e-3
+    change_flowrate_std_fraction: float = 0.003
+    consistency_window_s: float = 1.0
+    consistency_tail_probability: float = 1.0e-3
     converged_std_fraction: float = 0.03
     converged_drift_fraction: float = 0.01
     converged_window_s: float = 1.0
@@ -146,15 +170,24 @@ class EKFConfig:
         for value in self.q_initial_pair():
             require_positive("EKFConfig.q_initial_m3_s", value, "m^3/s")
         require_in_range("EKFConfig.gate_tail_probability", self.gate_tail_probability, 0.0, 0.5)
-        if (
-            not isinstance(self.gate_max_consecutive_rejections, int)
-            or isinstance(self.gate_max_consecutive_rejections, bool)
-            or self.gate_max_consecutive_rejections < 0
+        if self.probe_range_m is not None:
+            require_positive("EKFConfig.probe_range_m", self.probe_range_m, "m")
+        for name in ("probe_range_margin_m", "probe_stuck_tolerance_m", "change_flowrate_std_fraction"):
+            require_non_negative(f"EKFConfig.{name}", getattr(self, name))
+        for name in (
+            "gate_scale_window_s",
+            "probe_dead_s",
+            "probe_stuck_s",
+            "probe_rejected_s",
+            "probe_recover_s",
+            "change_window_s",
+            "consistency_window_s",
         ):
-            raise InputError(
-                "EKFConfig.gate_max_consecutive_rejections must be an integer >= 0, "
-                f"got {self.gate_max_consecutive_rejections!r}"
-            )
+            require_in_range(f"EKFConfig.{name}", getattr(self, name), 1e-6, 600.0, "s")
+        require_in_range("EKFConfig.change_tail_probability", self.change_tail_probability, 1e-15, 0.5)
+        require_in_range(
+            "EKFConfig.consistency_tail_probability", self.consistency_tail_probability, 1e-15, 0.5
+        )
         if not isinstance(self.alarm, AlarmConfig):
             raise InputError(f"EKFConfig.alarm must be an AlarmConfig, got {type(self.alarm)!r}")
 

@@ -10,19 +10,32 @@ Per step (:meth:`OilFlowEKF.step`): predict with the model (Eqs. 19-21, skipped 
 then update with the measured displacements (Eqs. 22-24, Joseph form, Cholesky solve; see
 :mod:`estimator.kernels`).
 
-* Bad input: a NaN or infinite sample skips the update (prediction only) and reports ``measurement_ok`` false.
-* Innovation gate: a sample whose NIS exceeds the chi-square quantile ``1 - gate_tail_probability`` for its
-  number of channels is rejected like a bad sample; after ``gate_max_consecutive_rejections`` rejections in a
-  row the next sample is used regardless, so that a genuine abrupt change cannot lock the filter out.
-* Differentiated velocities use only two consecutive accepted samples; after a skipped or rejected sample the
-  next update uses the four displacements alone.
+* Probe faults (:mod:`estimator.channels`): every channel is screened and gated on its own; the update uses
+  every channel that passed (a NaN on one probe drops that channel, not the update). A probe that is dead,
+  stuck, out of its physical range or persistently rejected alone is flagged (``probe_status``) and excluded
+  until it has looked healthy for ``probe_recover_s``. Nothing is ever forced through the gate.
+* Differentiated velocities (eight-channel modes) use a channel's two consecutive accepted samples.
+* Change detection and adaptive process noise: a fading-memory mean of each channel's standardized
+  innovation (time constant ``change_window_s``; white and N(0, a / (2 - a)) per channel under the model,
+  ``a`` its weight) is tested per bearing against the chi-square(2) quantile of
+  ``change_tail_probability``; while it fires, that bearing's flowrate gets the extra process noise
+  ``change_flowrate_std_fraction`` of nominal per step (Bar-Shalom, Li & Kirubarajan 2001, sec. 11.2: a
+  process-noise level switched by an innovation test). A flowrate change shows first as a persistent mean
+  innovation of its bearing's probes; the filter's std then widens at once so that it covers the lag of the
+  estimate, and shrinks again with the data once the innovation is white.
+* ``model_consistent``: the sum of the NIS over the last ``consistency_window_s`` does not exceed the
+  chi-square quantile ``1 - consistency_tail_probability`` of its degrees of freedom (Bar-Shalom et al.
+  sec. 5.4.2, the time-average NIS test; Wilson-Hilferty approximation of the quantile). A discrepancy that
+  the states can absorb (an offset that looks like a flow change) stays invisible to it; one they cannot
+  (a wrong 1x orbit) shows. The alarm records whether the model was consistent when it was raised.
 * Flowrate bounds: after each update, a flowrate outside the coefficient table's range is projected onto it in
   the metric of P^-1 (Simon & Chia, IEEE Trans. AES 38, 2002: the minimum-variance estimate given that the
   active bound holds exactly), which also moves the correlated dynamic states; P is left unchanged, a
   conservative choice that keeps the flowrate free to leave the bound (the projected covariance would have
   zero variance there). The model is therefore never evaluated outside its table.
-* ``converged``: both flowrate stds below ``converged_std_fraction`` of nominal and both estimates changed by
-  less than ``converged_drift_fraction`` of nominal over the last ``converged_window_s``.
+* ``converged``: both flowrate stds below ``converged_std_fraction`` of nominal, both estimates changed by
+  less than ``converged_drift_fraction`` of nominal over the last ``converged_window_s``, and some channel
+  updated the filter within that window.
 """
 
 from __future__ import annotations
@@ -31,11 +44,12 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.special import chdtri
+from scipy.special import chdtri, ndtri
 from tqdm import tqdm
 
 from models.validation import InputError
 
+from . import channels
 from .alarm import StarvationAlarm
 from .config import EKFConfig
 from .kernels import UPDATE_ACCEPTED, filter_step
@@ -49,9 +63,12 @@ class StepReport:
     """What the filter reports after one sample.
 
     step : index k of the sample just processed. q_m3_s, q_std_m3_s : (2,) estimates and their stds from P
-    [m^3/s]. nis : normalized innovation squared of this sample (0 when no update was attempted).
-    n_measurements : channels used by the update (8, 4, or 0 when skipped or rejected). converged : see module
-    docstring. measurement_ok : the sample was finite and passed the gate. starved : (2,) bool alarm flags.
+    [m^3/s]. nis : normalized innovation squared of this sample (0 when no update was made).
+    n_measurements : rows used by the update (0 when no channel was usable or all were rejected).
+    converged : see module docstring. measurement_ok : the update used at least one channel.
+    starved : (2,) bool alarm flags. probe_status : (4,) int codes of :mod:`estimator.channels` (0 healthy).
+    model_consistent : the windowed NIS test passes. changing : (2,) bool, the change test fires on the
+    bearing. starved_consistent : (2,) bool, alarm raised while the model was consistent.
     """
 
     step: int
@@ -62,11 +79,20 @@ class StepReport:
     converged: bool
     measurement_ok: bool
     starved: np.ndarray
+    probe_status: np.ndarray
+    model_consistent: bool
+    changing: np.ndarray
+    starved_consistent: np.ndarray
+
+    @property
+    def probe_faulty(self) -> np.ndarray:
+        """(4,) bool: the probe is flagged faulty and excluded."""
+        return self.probe_status != channels.OK
 
 
 @dataclass
 class EstimateTrace:
-    """Per-step outputs of :meth:`OilFlowEKF.run` for K samples: arrays (K, 2) or (K,), fields as
+    """Per-step outputs of :meth:`OilFlowEKF.run` for K samples: arrays (K, 2), (K, 4) or (K,), fields as
     StepReport."""
 
     q_m3_s: np.ndarray
@@ -76,6 +102,15 @@ class EstimateTrace:
     converged: np.ndarray
     measurement_ok: np.ndarray
     starved: np.ndarray
+    probe_status: np.ndarray
+    model_consistent: np.ndarray
+    changing: np.ndarray
+    starved_consistent: np.ndarray
+
+    @property
+    def probe_faulty(self) -> np.ndarray:
+        """(K, 4) bool: probe flagged faulty."""
+        return self.probe_status != channels.OK
 
 
 class OilFlowEKF:
@@ -113,30 +148,26 @@ class OilFlowEKF:
         self._obs8, self._noise8 = (
             channels8 if channels8 is not None else (np.zeros((0, self._size)), np.zeros((0, 0)))
         )
-        p = cfg.gate_tail_probability
-        # chdtri(m, p) is the chi-square quantile with upper tail p (m degrees of freedom)
-        gate4 = float(chdtri(4, p)) if p > 0.0 else np.inf
-        gate8 = float(chdtri(8, p)) if p > 0.0 else np.inf
-        self._settings = np.array(
-            [
-                gate4,
-                gate8,
-                float(cfg.gate_max_consecutive_rejections),
-                1.0 / self._dt,
-                *self._bounds_scaled,
-            ]
-        )
+        self._settings = np.array([1.0 / self._dt, *self._bounds_scaled])
+        self._channel_settings = self._channel_settings_from(cfg)
+        change_alpha = min(1.0, self._dt / cfg.change_window_s)
+        self._change_variance = change_alpha / (2.0 - change_alpha)
+        self._change_threshold = float(chdtri(2, cfg.change_tail_probability))
+        self._change_var = cfg.change_flowrate_std_fraction**2  # internal unit: fractions of nominal
+        self._consistency_steps = max(1, round(cfg.consistency_window_s / self._dt))
+        self._consistency_z = float(ndtri(1.0 - cfg.consistency_tail_probability))
 
         self._process_noise = np.zeros((self._size, self._size))
         self._process_noise[:n, :n] = self._physical(
             cfg.displacement_process_std_m, cfg.velocity_process_std_m_s
         )
-        q_var = (cfg.flowrate_process_std_m3_s / self._q_nominal) ** 2
-        self._process_noise[n:, n:] = q_var * np.eye(2)
+        self._q_var = (cfg.flowrate_process_std_m3_s / self._q_nominal) ** 2
+        self._process_noise[n:, n:] = self._q_var * np.eye(2)
 
         self._jacobian = np.zeros((self._size, self._size))
         self._work = np.zeros((self._size, self._size))
         self._z8 = np.zeros(8)
+        self._accepted = np.zeros(4, dtype=bool)
         self._window = max(1, round(cfg.converged_window_s / self._dt))
         self.alarm = StarvationAlarm(cfg.alarm, self._dt, self._q_nominal)
         self.reset()
@@ -164,6 +195,28 @@ class OilFlowEKF:
         if self.config.initial_state == "static" and not has_static_state(model):
             raise InputError("EKFConfig.initial_state='static' needs a model with static_state()")
 
+    def _channel_settings_from(self, cfg: EKFConfig) -> np.ndarray:
+        """The settings array of :mod:`estimator.channels` from the configuration and the model."""
+        p = cfg.gate_tail_probability
+        gate = float(chdtri(1, p)) if p > 0.0 else np.inf
+        if cfg.probe_range_m is not None:
+            limit = cfg.probe_range_m
+        elif getattr(self.model, "clearance_m", None) is not None:
+            limit = float(self.model.clearance_m) + cfg.probe_range_margin_m
+        else:
+            limit = np.inf
+        values = np.zeros(channels.N_CHANNEL_SETTINGS)
+        values[channels.GATE] = gate
+        values[channels.RANGE] = limit
+        values[channels.DEAD_SAMPLES] = max(1, round(cfg.probe_dead_s / self._dt))
+        values[channels.STUCK_SAMPLES] = max(2, round(cfg.probe_stuck_s / self._dt))
+        values[channels.STUCK_TOLERANCE] = cfg.probe_stuck_tolerance_m
+        values[channels.REJECTED_SAMPLES] = max(1, round(cfg.probe_rejected_s / self._dt))
+        values[channels.RECOVER_SAMPLES] = max(1, round(cfg.probe_recover_s / self._dt))
+        values[channels.POWER_ALPHA] = min(1.0, self._dt / cfg.gate_scale_window_s)
+        values[channels.BIAS_ALPHA] = min(1.0, self._dt / cfg.change_window_s)
+        return values
+
     def _physical(self, displacement_std: float, velocity_std: float) -> np.ndarray:
         n = self._n
         if displacement_std == 0.0 and velocity_std == 0.0:
@@ -187,11 +240,15 @@ class OilFlowEKF:
         self._P = np.zeros((self._size, self._size))
         self._P[:n, :n] = self._physical(cfg.initial_displacement_std_m, cfg.initial_velocity_std_m_s)
         self._P[n:, n:] = (cfg.initial_flowrate_std_m3_s / self._q_nominal) ** 2 * np.eye(2)
-        self._previous = np.zeros(4)
-        self._counters = np.zeros(2, dtype=np.int64)  # previous sample valid, consecutive rejections
+        self._health, self._health_values = channels.new_health()
         self._step = 0
         self._history = np.zeros((self._window, 2))
-        self._last = (0.0, 0, False, False)
+        self._since_update = 0
+        self._nis_window = np.zeros((self._consistency_steps, 2))  # NIS and rows of each step
+        self._nis_sums = np.zeros(2)
+        self._changing = np.zeros(2, dtype=bool)
+        self._process_noise[n:, n:] = self._q_var * np.eye(2)
+        self._last = (0.0, 0, False, False, True)
         self.alarm = StarvationAlarm(cfg.alarm, self._dt, self._q_nominal)
 
     @property
@@ -226,16 +283,20 @@ class OilFlowEKF:
 
     def current_report(self) -> StepReport:
         """The report of the last processed sample, rebuilt from the state (e.g. after :meth:`set_state`)."""
-        nis, channels, ok, converged = self._last
+        nis, rows, ok, converged, consistent = self._last
         return StepReport(
             self._step - 1,
             self.flowrate_m3_s,
             self.flowrate_std_m3_s,
             nis,
-            channels,
+            rows,
             converged,
             ok,
             self.alarm.starved,
+            self._health[:, channels.STATUS].copy(),
+            consistent,
+            self._changing.copy(),
+            self.alarm.starved_consistent,
         )
 
     @property
@@ -247,7 +308,7 @@ class OilFlowEKF:
         """Process one sample of the measured displacements (x1, y1, x2, y2) [m], shape (4,).
 
         The sample belongs to time ``first_sample_time_s + k dt`` with k = :attr:`step_count`; the prediction
-        from the previous sample runs first. Non-finite entries mean a bad sample.
+        from the previous sample runs first. A non-finite entry drops that channel from this sample.
         """
         displacement = np.ascontiguousarray(displacement_m, dtype=np.float64)
         if displacement.shape != (4,):
@@ -260,7 +321,7 @@ class OilFlowEKF:
             )
         else:
             next_state, state_jac, flow_jac = self._x[:n], self._work[:n, :n], self._work[:n, :2]
-        status, nis, channels = filter_step(
+        status, nis, rows, _ = filter_step(
             self._x,
             self._P,
             predict,
@@ -272,27 +333,78 @@ class OilFlowEKF:
             self._jacobian,
             self._work,
             displacement,
-            self._previous,
-            self._counters,
             self._z8,
             self._obs4,
             self._noise4,
             self._obs8,
             self._noise8,
             self._settings,
+            self._health,
+            self._health_values,
+            self._channel_settings,
+            self._accepted,
         )
         ok = status == UPDATE_ACCEPTED
-        if not math.isfinite(nis):
-            nis = 0.0
+        if not (ok and math.isfinite(nis)):
+            nis, rows = 0.0, 0
+        self._since_update = 0 if ok else self._since_update + 1
+        self._detect_change()
+        consistent = self._consistency(nis, rows)
         deviation = (math.sqrt(self._P[n, n]), math.sqrt(self._P[n + 1, n + 1]))
         converged = self._converged((float(self._x[n]), float(self._x[n + 1])), deviation)
         q = np.array(self._flowrate_si())
         std = np.array(deviation) * self._q_nominal
-        starved = self.alarm.update(q, std)
-        self._last = (nis, channels, ok, converged)
-        report = StepReport(self._step, q, std, nis, channels, converged, ok, starved)
+        starved = self.alarm.update(q, std, consistent)
+        self._last = (nis, rows, ok, converged, consistent)
+        report = StepReport(
+            self._step,
+            q,
+            std,
+            nis,
+            rows,
+            converged,
+            ok,
+            starved,
+            self._health[:, channels.STATUS].copy(),
+            consistent,
+            self._changing.copy(),
+            self.alarm.starved_consistent,
+        )
         self._step += 1
         return report
+
+    def _detect_change(self) -> None:
+        """The per-bearing mean-innovation test; sets the flowrate process noise of the next prediction.
+
+        Each channel's mean is compared with its null spread scaled by the channel's observed innovation
+        power (at least 1), so that a measurement noise larger than configured widens the test rather than
+        firing it. A flowrate held on a table bound gets no extra noise: the bias there is the bound's.
+        """
+        values = self._health_values
+        n = self._n
+        low, high = self._bounds_scaled
+        for b in range(2):
+            statistic = 0.0
+            for i in (2 * b, 2 * b + 1):
+                statistic += values[i, channels.BIAS] ** 2 / max(1.0, values[i, channels.POWER])
+            q = self._x[n + b]
+            changing = statistic / self._change_variance > self._change_threshold and low < q < high
+            self._changing[b] = changing
+            self._process_noise[n + b, n + b] = self._q_var + (self._change_var if changing else 0.0)
+
+    def _consistency(self, nis: float, rows: int) -> bool:
+        """Windowed NIS test (module docstring) including this step."""
+        slot = self._step % self._consistency_steps
+        sums, window = self._nis_sums, self._nis_window
+        sums[0] += nis - window[slot, 0]
+        sums[1] += rows - window[slot, 1]
+        window[slot, 0], window[slot, 1] = nis, rows
+        dof = sums[1]
+        if self._step + 1 < self._consistency_steps or dof < 1.0:
+            return True
+        # Wilson-Hilferty: chi2 quantile ~ dof (1 - 2/(9 dof) + z sqrt(2/(9 dof)))^3
+        c = 2.0 / (9.0 * dof)
+        return bool(sums[0] <= dof * (1.0 - c + self._consistency_z * math.sqrt(c)) ** 3)
 
     def _converged(self, scaled: tuple[float, float], deviation: tuple[float, float]) -> bool:
         """Apply the convergence rule to q / q_nominal and its std; record q for the drift test."""
@@ -304,6 +416,7 @@ class OilFlowEKF:
         history[slot, 1] = scaled[1]
         return (
             self._step >= self._window
+            and self._since_update < self._window
             and max(deviation) < cfg.converged_std_fraction
             and drift < cfg.converged_drift_fraction
         )
@@ -322,6 +435,10 @@ class OilFlowEKF:
             converged=np.zeros(count, dtype=bool),
             measurement_ok=np.zeros(count, dtype=bool),
             starved=np.zeros((count, 2), dtype=bool),
+            probe_status=np.zeros((count, 4), dtype=np.int64),
+            model_consistent=np.zeros(count, dtype=bool),
+            changing=np.zeros((count, 2), dtype=bool),
+            starved_consistent=np.zeros((count, 2), dtype=bool),
         )
         for k in tqdm(range(count), disable=not progress, desc="EKF", unit="step"):
             report = self.step(record[k])
@@ -332,6 +449,10 @@ class OilFlowEKF:
             trace.converged[k] = report.converged
             trace.measurement_ok[k] = report.measurement_ok
             trace.starved[k] = report.starved
+            trace.probe_status[k] = report.probe_status
+            trace.model_consistent[k] = report.model_consistent
+            trace.changing[k] = report.changing
+            trace.starved_consistent[k] = report.starved_consistent
         return trace
 
     def get_state(self) -> dict[str, np.ndarray]:

@@ -13,14 +13,12 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .channels import LAST_ACCEPTED, PREVIOUS_ACCEPTED, gate_channels, screen_channels
+
 UPDATE_ACCEPTED = 0
 UPDATE_GATED = 1
 UPDATE_NOT_POSITIVE = 2
 UPDATE_SKIPPED = 3
-
-PREVIOUS_VALID = 0
-REJECTIONS = 1
-"""Indices in the ``counters`` array of :func:`filter_step`."""
 
 
 @njit(cache=True)
@@ -125,6 +123,29 @@ def update(
 
     Returns ``(status, nis)`` with status UPDATE_ACCEPTED, UPDATE_GATED (x and P untouched) or
     UPDATE_NOT_POSITIVE (the innovation covariance lost definiteness; x and P untouched).
+    """
+    return update_with_cross(
+        state,
+        covariance,
+        observation,
+        np.dot(observation, covariance),
+        measurement,
+        measurement_noise,
+        gate_threshold,
+    )
+
+
+@njit(cache=True)
+def update_with_cross(
+    state: np.ndarray,
+    covariance: np.ndarray,
+    observation: np.ndarray,
+    cross: np.ndarray,
+    measurement: np.ndarray,
+    measurement_noise: np.ndarray,
+    gate_threshold: float,
+) -> tuple[int, float]:
+    """:func:`update` with ``cross = H P`` (m, N) already computed.
 
     The Joseph form ``P+ = (I - K H) P (I - K H)^T + K R K^T`` is evaluated as
     ``A = P - K (H P)``, ``P+ = A + (K R - A H^T) K^T``, which costs O(m N^2) instead of O(N^3); the second
@@ -133,7 +154,6 @@ def update(
     """
     m = observation.shape[0]
     size = state.shape[0]
-    cross = np.dot(observation, covariance)  # H P, (m, N)
     innovation_cov = np.dot(cross, observation.T) + measurement_noise
     for i in range(m):
         for j in range(i):
@@ -221,24 +241,29 @@ def filter_step(
     augmented_jacobian: np.ndarray,
     work: np.ndarray,
     displacement: np.ndarray,
-    previous: np.ndarray,
-    counters: np.ndarray,
     stacked: np.ndarray,
     observation4: np.ndarray,
     noise4: np.ndarray,
     observation8: np.ndarray,
     noise8: np.ndarray,
     settings: np.ndarray,
-) -> tuple[int, float, int]:
+    health: np.ndarray,
+    health_values: np.ndarray,
+    channel_settings: np.ndarray,
+    accepted: np.ndarray,
+) -> tuple[int, float, int, int]:
     """One complete EKF step after the model's transition, in place: the hot path in one compiled call.
 
     predict : whether ``next_state`` and the Jacobians are to be applied (False on the first sample).
-    displacement : (4,) sample [m]; a non-finite entry skips the update. previous : (4,) last accepted sample.
-    counters : int64 [previous_valid, consecutive rejections]. stacked : (8,) scratch for the eight channels.
+    displacement : (4,) sample [m]; non-finite entries drop their channels. stacked : (8,) scratch.
     observation8, noise8 : the eight-channel H_a and R, or (0, N) and (0, 0) arrays in displacement-only mode.
-    settings : [gate4, gate8, max consecutive rejections, 1/dt, flowrate low, flowrate high] (filter units).
+    settings : [1/dt, flowrate low, flowrate high] (filter units). health, health_values, channel_settings :
+    the probe records of :mod:`estimator.channels`. accepted : (4,) bool out, the displacement channels used.
 
-    Returns ``(status, nis, channels used)``; status is one of the UPDATE_* constants.
+    Every screened channel that passes its own gate is used (:mod:`estimator.channels`); a differentiated
+    velocity channel only when its displacement channel was accepted in this and the previous sample.
+    Returns ``(status, nis, rows used, channels rejected by the gate)``; status is one of the UPDATE_*
+    constants (UPDATE_SKIPPED when no channel was usable, UPDATE_GATED when all usable ones were rejected).
     """
     n = state_jacobian.shape[0]
     if predict:
@@ -253,28 +278,49 @@ def filter_step(
             augmented_jacobian,
             work,
         )
+    usable = np.zeros(4, dtype=np.bool_)
+    screen_channels(displacement, health, health_values, channel_settings, usable)
+    cross4 = np.dot(observation4, covariance)
+    innovation = np.zeros(4)
+    variance = np.ones(4)
     for i in range(4):
-        if not np.isfinite(displacement[i]):
-            counters[PREVIOUS_VALID] = 0
-            return UPDATE_SKIPPED, 0.0, 0
-    if observation8.shape[0] == 8 and counters[PREVIOUS_VALID] == 1:
+        if usable[i]:
+            innovation[i] = displacement[i] - np.dot(observation4[i], state)
+            variance[i] = np.dot(cross4[i], observation4[i]) + noise4[i, i]
+    rejected = gate_channels(innovation, variance, health, health_values, channel_settings, usable, accepted)
+    rows = np.zeros(8, dtype=np.int64)
+    m = 0
+    for i in range(4):
+        if accepted[i]:
+            rows[m] = i
+            stacked[m] = displacement[i]
+            m += 1
+    eight = observation8.shape[0] == 8
+    m4 = m
+    if eight:
         for i in range(4):
-            stacked[i] = displacement[i]
-            stacked[4 + i] = (displacement[i] - previous[i]) * settings[3]
-        observation, measured, noise, gate = observation8, stacked, noise8, settings[1]
+            if accepted[i] and health[i, PREVIOUS_ACCEPTED] == 1:
+                rows[m] = 4 + i
+                stacked[m] = (displacement[i] - health_values[i, LAST_ACCEPTED]) * settings[0]
+                m += 1
+    for i in range(4):
+        health[i, PREVIOUS_ACCEPTED] = 1 if accepted[i] else 0
+        if accepted[i]:
+            health_values[i, LAST_ACCEPTED] = displacement[i]
+    if m == 0:
+        return (UPDATE_GATED if rejected > 0 else UPDATE_SKIPPED), 0.0, 0, rejected
+    index = rows[:m]
+    measured = stacked[:m].copy()
+    if eight:
+        observation = observation8[index]
+        noise = noise8[index][:, index]
+        cross = cross4[index[:m4]] if m == m4 else np.dot(observation, covariance)
     else:
-        observation, measured, noise, gate = observation4, displacement, noise4, settings[0]
-    if counters[REJECTIONS] >= settings[2]:
-        gate = np.inf
-    status, nis = update(state, covariance, observation, measured, noise, gate)
+        observation = observation4[index]
+        noise = noise4[index][:, index]
+        cross = cross4[index]
+    status, nis = update_with_cross(state, covariance, observation, cross, measured, noise, np.inf)
     if status == UPDATE_ACCEPTED:
-        counters[REJECTIONS] = 0
-        counters[PREVIOUS_VALID] = 1
-        for i in range(4):
-            previous[i] = displacement[i]
-        project_flowrates(state, covariance, settings[4], settings[5])
-        return status, nis, observation.shape[0]
-    if status == UPDATE_GATED:
-        counters[REJECTIONS] += 1
-    counters[PREVIOUS_VALID] = 0
-    return status, nis, 0
+        project_flowrates(state, covariance, settings[1], settings[2])
+        return status, nis, m, rejected
+    return status, nis, 0, rejected

@@ -24,8 +24,9 @@ the estimate. Each ``doStep(t, h)`` therefore takes the time its sample refers t
 whose time has not advanced (a repeated sample) is not used twice; a gap of several periods is predicted
 through without updates; a sample off the grid is skipped (logged once). With a Jacobi master (libcosim) the
 plant's outputs arrive one step late but with their own time stamp, so the filter stays aligned and its
-estimate (time stamp ``t_estimate_s``) lags one step. A NaN or infinite position skips the update (prediction
-only) and reports ``measurement_ok`` false.
+estimate (time stamp ``t_estimate_s``) lags one step. A NaN or infinite position drops that probe's channel
+from the update (the others are used); a NaN or infinite ``t_sample_s`` is a skipped sample (predicted
+through), never an error.
 
 The estimator's numba kernels compile on first use in a process (5-10 s); ``setup`` warms them up during
 initialization and logs the time, so that no ``doStep`` pays for it.
@@ -79,8 +80,8 @@ REAL_PARAMETERS = (
     ("q_std_flow_ml_min", 0.1, "ml/min", 0.0, None,
      "Process-noise std per step of each flowrate state (paper and recommended: 0.1 ml/min)"),
     ("gate_tail_probability", 1e-6, "1", 0.0, 0.5,
-     "Innovation gate: a sample whose NIS exceeds the chi-square quantile 1 - p is rejected (at most 5 "
-     "in a row); 0 disables the gate"),
+     "Innovation gate, per probe: a channel whose squared standardized innovation exceeds the chi-square(1) "
+     "quantile 1 - p times its recent innovation power is rejected (never forced through); 0 disables it"),
     ("alarm_on_fraction", 0.90, "1", 0.05, 1.5,
      "Alarm sets when q_est + z std stays below this fraction of q_nominal_ml_min for alarm_hold_on_s"),
     ("alarm_hold_on_s", 0.25, "s", 0.0, 60.0, "Hold time before the alarm sets"),
@@ -225,7 +226,7 @@ class OilFlowEKF(OilwatchSlave):
             "measurement_ok",
             "output",
             start=False,
-            description="The last sample was finite and passed the innovation gate",
+            description="The last sample updated the filter (at least one probe channel was used)",
         )
 
     # --------------------------------------------------------------------- initialization
@@ -321,7 +322,8 @@ class OilFlowEKF(OilwatchSlave):
     def step(self, current_time: float, step_size: float) -> bool:
         end = current_time + step_size
         stamp = self.t_sample_s
-        sample_time = end if (math.isnan(stamp) or stamp < 0.0) else stamp
+        bad_stamp = not math.isfinite(stamp)  # NaN or inf: a skipped sample, predicted through
+        sample_time = end if (bad_stamp or stamp < 0.0) else stamp
         period = self.sample_period_s
         if sample_time > end + GRID_TOLERANCE * period:
             raise InputError(
@@ -347,7 +349,7 @@ class OilFlowEKF(OilwatchSlave):
         measurement[1] = self.y1_um * 1e-6
         measurement[2] = self.x2_um * 1e-6
         measurement[3] = self.y2_um * 1e-6
-        if math.isnan(stamp):
+        if bad_stamp:
             measurement[:] = np.nan
         self._publish(self.filter.step(measurement))
         return True

@@ -39,6 +39,9 @@ class _AugmentedModelBase:
         )
         self.flowrate_bounds_m3_s = system.flowrate_bounds_m3_s
         self._transform_pinv = pinv(system.transform)
+        clearances = [getattr(t, "metadata", {}).get("bearing", {}).get("clearance_m") for t in system.tables]
+        # the probes' physical range (estimator.channels): None when a table does not say
+        self.clearance_m = max(clearances) if all(c is not None for c in clearances) else None
 
     def exogenous(self, step: int) -> np.ndarray:
         """``w_k = [1, cos(Omega t_k), sin(Omega t_k)]`` for ``t_k = k dt``."""
