@@ -148,12 +148,19 @@ class OilFlowEKF:
         self._obs8, self._noise8 = (
             channels8 if channels8 is not None else (np.zeros((0, self._size)), np.zeros((0, 0)))
         )
-        self._settings = np.array([1.0 / self._dt, *self._bounds_scaled])
         self._channel_settings = self._channel_settings_from(cfg)
         change_alpha = min(1.0, self._dt / cfg.change_window_s)
-        self._change_variance = change_alpha / (2.0 - change_alpha)
-        self._change_threshold = float(chdtri(2, cfg.change_tail_probability))
-        self._change_var = cfg.change_flowrate_std_fraction**2  # internal unit: fractions of nominal
+        self._q_var = (cfg.flowrate_process_std_m3_s / self._q_nominal) ** 2
+        self._settings = np.array(
+            [
+                1.0 / self._dt,
+                *self._bounds_scaled,
+                change_alpha / (2.0 - change_alpha),  # null variance of the fading-memory mean
+                float(chdtri(2, cfg.change_tail_probability)),
+                self._q_var,
+                cfg.change_flowrate_std_fraction**2,  # internal unit: fractions of nominal
+            ]
+        )
         self._consistency_steps = max(1, round(cfg.consistency_window_s / self._dt))
         self._consistency_z = float(ndtri(1.0 - cfg.consistency_tail_probability))
 
@@ -161,7 +168,6 @@ class OilFlowEKF:
         self._process_noise[:n, :n] = self._physical(
             cfg.displacement_process_std_m, cfg.velocity_process_std_m_s
         )
-        self._q_var = (cfg.flowrate_process_std_m3_s / self._q_nominal) ** 2
         self._process_noise[n:, n:] = self._q_var * np.eye(2)
 
         self._jacobian = np.zeros((self._size, self._size))
@@ -343,12 +349,12 @@ class OilFlowEKF:
             self._health_values,
             self._channel_settings,
             self._accepted,
+            self._changing,
         )
         ok = status == UPDATE_ACCEPTED
         if not (ok and math.isfinite(nis)):
             nis, rows = 0.0, 0
         self._since_update = 0 if ok else self._since_update + 1
-        self._detect_change()
         consistent = self._consistency(nis, rows)
         deviation = (math.sqrt(self._P[n, n]), math.sqrt(self._P[n + 1, n + 1]))
         converged = self._converged((float(self._x[n]), float(self._x[n + 1])), deviation)
@@ -372,25 +378,6 @@ class OilFlowEKF:
         )
         self._step += 1
         return report
-
-    def _detect_change(self) -> None:
-        """The per-bearing mean-innovation test; sets the flowrate process noise of the next prediction.
-
-        Each channel's mean is compared with its null spread scaled by the channel's observed innovation
-        power (at least 1), so that a measurement noise larger than configured widens the test rather than
-        firing it. A flowrate held on a table bound gets no extra noise: the bias there is the bound's.
-        """
-        values = self._health_values
-        n = self._n
-        low, high = self._bounds_scaled
-        for b in range(2):
-            statistic = 0.0
-            for i in (2 * b, 2 * b + 1):
-                statistic += values[i, channels.BIAS] ** 2 / max(1.0, values[i, channels.POWER])
-            q = self._x[n + b]
-            changing = statistic / self._change_variance > self._change_threshold and low < q < high
-            self._changing[b] = changing
-            self._process_noise[n + b, n + b] = self._q_var + (self._change_var if changing else 0.0)
 
     def _consistency(self, nis: float, rows: int) -> bool:
         """Windowed NIS test (module docstring) including this step."""

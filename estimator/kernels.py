@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .channels import LAST_ACCEPTED, PREVIOUS_ACCEPTED, gate_channels, screen_channels
+from .channels import BIAS, LAST_ACCEPTED, POWER, PREVIOUS_ACCEPTED, gate_channels, screen_channels
 
 UPDATE_ACCEPTED = 0
 UPDATE_GATED = 1
@@ -251,14 +251,17 @@ def filter_step(
     health_values: np.ndarray,
     channel_settings: np.ndarray,
     accepted: np.ndarray,
+    changing: np.ndarray,
 ) -> tuple[int, float, int, int]:
     """One complete EKF step after the model's transition, in place: the hot path in one compiled call.
 
     predict : whether ``next_state`` and the Jacobians are to be applied (False on the first sample).
     displacement : (4,) sample [m]; non-finite entries drop their channels. stacked : (8,) scratch.
     observation8, noise8 : the eight-channel H_a and R, or (0, N) and (0, 0) arrays in displacement-only mode.
-    settings : [1/dt, flowrate low, flowrate high] (filter units). health, health_values, channel_settings :
-    the probe records of :mod:`estimator.channels`. accepted : (4,) bool out, the displacement channels used.
+    settings : [1/dt, flowrate low, flowrate high, change-test null variance, change-test threshold, flowrate
+    process variance, extra variance while changing] (filter units). health, health_values,
+    channel_settings : the probe records of :mod:`estimator.channels`. accepted : (4,) bool out, the
+    displacement channels used. changing : (2,) bool out, the change test of :func:`detect_change`.
 
     Every screened channel that passes its own gate is used (:mod:`estimator.channels`); a differentiated
     velocity channel only when its displacement channel was accepted in this and the previous sample.
@@ -307,6 +310,7 @@ def filter_step(
         health[i, PREVIOUS_ACCEPTED] = 1 if accepted[i] else 0
         if accepted[i]:
             health_values[i, LAST_ACCEPTED] = displacement[i]
+    detect_change(state, health_values, process_noise, settings, changing)
     if m == 0:
         return (UPDATE_GATED if rejected > 0 else UPDATE_SKIPPED), 0.0, 0, rejected
     index = rows[:m]
@@ -324,3 +328,29 @@ def filter_step(
         project_flowrates(state, covariance, settings[1], settings[2])
         return status, nis, m, rejected
     return status, nis, 0, rejected
+
+
+@njit(cache=True)
+def detect_change(
+    state: np.ndarray,
+    health_values: np.ndarray,
+    process_noise: np.ndarray,
+    settings: np.ndarray,
+    changing: np.ndarray,
+) -> None:
+    """The per-bearing mean-innovation test (:mod:`estimator.ekf`); sets the flowrate process noise of the
+    next prediction in ``process_noise`` and the flags ``changing`` (2,).
+
+    Each channel's mean is compared with its null spread scaled by the channel's observed innovation power
+    (at least 1), so that a measurement noise larger than configured widens the test rather than firing it.
+    A flowrate held on a table bound gets no extra noise: the bias there is the bound's.
+    """
+    first = state.shape[0] - 2
+    for b in range(2):
+        statistic = 0.0
+        for i in (2 * b, 2 * b + 1):
+            statistic += health_values[i, BIAS] ** 2 / max(1.0, health_values[i, POWER])
+        q = state[first + b]
+        fires = statistic / settings[3] > settings[4] and settings[1] < q < settings[2]
+        changing[b] = fires
+        process_noise[first + b, first + b] = settings[5] + (settings[6] if fires else 0.0)
