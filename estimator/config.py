@@ -86,6 +86,13 @@ class EKFConfig:
         initial_displacement_std_m, initial_velocity_std_m_s, initial_flowrate_std_m3_s : the initial
             covariance P0 (not given by the paper: a clearance-sized displacement error, its velocity at the
             spin speed, and a quarter of the nominal flowrate).
+    Probes and their zero offsets
+        probe_angle_deg : mounting angle of each bearing's probe pair from the model's axes (see
+            :func:`estimator.measurement.probe_rotation`; 45: the API 670 pair either side of the top).
+        offset_prior_std_m : prior std of each probe's zero offset; 0 (the paper's calibrated probes) keeps
+            the offsets out of the state, > 0 adds four offset states (the machine file's ``[probes]``
+            section gives it for a real machine, 25 um by default).
+        offset_random_walk_m_sqrt_s : random-walk intensity of the offsets (drift) [m / sqrt(s)].
     Innovation gate and probe health (see :mod:`estimator.channels`)
         gate_tail_probability : a channel whose squared standardized innovation exceeds the chi-square(1)
             quantile ``1 - p`` times its recent innovation power is rejected (0 disables the gate).
@@ -121,6 +128,9 @@ class EKFConfig:
     initial_displacement_std_m: float = 100.0e-6
     initial_velocity_std_m_s: float = 0.05
     initial_flowrate_std_m3_s: float = 0.25 * NOMINAL_FLOWRATE_M3_S
+    probe_angle_deg: float = 0.0
+    offset_prior_std_m: float = 0.0
+    offset_random_walk_m_sqrt_s: float = 0.2e-6
     gate_tail_probability: float = 1.0e-6
     gate_scale_window_s: float = 0.1
     probe_range_m: float | None = None
@@ -172,7 +182,14 @@ class EKFConfig:
         require_in_range("EKFConfig.gate_tail_probability", self.gate_tail_probability, 0.0, 0.5)
         if self.probe_range_m is not None:
             require_positive("EKFConfig.probe_range_m", self.probe_range_m, "m")
-        for name in ("probe_range_margin_m", "probe_stuck_tolerance_m", "change_flowrate_std_fraction"):
+        require_in_range("EKFConfig.probe_angle_deg", self.probe_angle_deg, -360.0, 360.0, "deg")
+        for name in (
+            "probe_range_margin_m",
+            "probe_stuck_tolerance_m",
+            "change_flowrate_std_fraction",
+            "offset_prior_std_m",
+            "offset_random_walk_m_sqrt_s",
+        ):
             require_non_negative(f"EKFConfig.{name}", getattr(self, name))
         for name in (
             "gate_scale_window_s",

@@ -1,7 +1,9 @@
 """The augmented-state Extended Kalman Filter that estimates the two oil supply flowrates (paper Eqs. 17-24).
 
-Augmented state ``x = [s; q / q_nominal]``: the model's dynamic states ``s`` (SI) and the two flowrates as
-fractions of the nominal flowrate. The model works in m^3/s, where a flowrate of 1e-5 and a process-noise std
+Augmented state ``x = [s; q / q_nominal; o]``: the model's dynamic states ``s`` (SI), the two flowrates as
+fractions of the nominal flowrate and, when ``offset_prior_std_m > 0``, the four probe zero offsets ``o`` [m]
+(random walks; each probe reads ``Rot H s + o``, Rot the probes' mounting angle, ``probe_angle_deg``).
+The model works in m^3/s, where a flowrate of 1e-5 and a process-noise std
 of 1.7e-9 sit beside displacements of 1e-5 m; in fractions of nominal the flowrate entries of P are
 O(1e-4..1e-1), which keeps the flowrate block of P and its Jacobian columns well scaled. Everything at the
 interface is SI.
@@ -106,6 +108,8 @@ class EstimateTrace:
     model_consistent: np.ndarray
     changing: np.ndarray
     starved_consistent: np.ndarray
+    offset_m: np.ndarray
+    offset_std_m: np.ndarray
 
     @property
     def probe_faulty(self) -> np.ndarray:
@@ -129,7 +133,8 @@ class OilFlowEKF:
         cfg = self.config
         n = int(model.n_states)
         self._n = n
-        self._size = n + 2
+        self._n_offsets = 4 if cfg.offset_prior_std_m > 0.0 else 0
+        self._size = n + 2 + self._n_offsets
         self._q_nominal = cfg.q_nominal_m3_s
         low, high = model.flowrate_bounds_m3_s
         self._bounds = (float(low), float(high))
@@ -142,8 +147,9 @@ class OilFlowEKF:
                 f"got {cfg.first_sample_time_s:g} s"
             )
 
-        self._obs4, self._noise4 = displacement_channels(model, cfg.noise_std_m)
-        channels8 = velocity_channels(model, cfg.noise_std_m, cfg.velocity_noise)
+        angle = math.radians(cfg.probe_angle_deg)
+        self._obs4, self._noise4 = displacement_channels(model, cfg.noise_std_m, angle, self._n_offsets)
+        channels8 = velocity_channels(model, cfg.noise_std_m, cfg.velocity_noise, angle, self._n_offsets)
         # displacement-only: empty eight-channel arrays tell the compiled step to use four channels
         self._obs8, self._noise8 = (
             channels8 if channels8 is not None else (np.zeros((0, self._size)), np.zeros((0, 0)))
@@ -168,7 +174,10 @@ class OilFlowEKF:
         self._process_noise[:n, :n] = self._physical(
             cfg.displacement_process_std_m, cfg.velocity_process_std_m_s
         )
-        self._process_noise[n:, n:] = self._q_var * np.eye(2)
+        self._process_noise[n : n + 2, n : n + 2] = self._q_var * np.eye(2)
+        if self._n_offsets:
+            walk = cfg.offset_random_walk_m_sqrt_s**2 * self._dt
+            self._process_noise[n + 2 :, n + 2 :] = walk * np.eye(self._n_offsets)
 
         self._jacobian = np.zeros((self._size, self._size))
         self._work = np.zeros((self._size, self._size))
@@ -242,10 +251,12 @@ class OilFlowEKF:
         self._x = np.zeros(self._size)
         if cfg.initial_state == "static":
             self._x[:n] = self.model.static_state(q0)
-        self._x[n:] = q0 / self._q_nominal
+        self._x[n : n + 2] = q0 / self._q_nominal
         self._P = np.zeros((self._size, self._size))
         self._P[:n, :n] = self._physical(cfg.initial_displacement_std_m, cfg.initial_velocity_std_m_s)
-        self._P[n:, n:] = (cfg.initial_flowrate_std_m3_s / self._q_nominal) ** 2 * np.eye(2)
+        self._P[n : n + 2, n : n + 2] = (cfg.initial_flowrate_std_m3_s / self._q_nominal) ** 2 * np.eye(2)
+        if self._n_offsets:
+            self._P[n + 2 :, n + 2 :] = cfg.offset_prior_std_m**2 * np.eye(self._n_offsets)
         self._health, self._health_values = channels.new_health()
         self._step = 0
         self._history = np.zeros((self._window, 2))
@@ -253,7 +264,7 @@ class OilFlowEKF:
         self._nis_window = np.zeros((self._consistency_steps, 2))  # NIS and rows of each step
         self._nis_sums = np.zeros(2)
         self._changing = np.zeros(2, dtype=bool)
-        self._process_noise[n:, n:] = self._q_var * np.eye(2)
+        self._process_noise[n : n + 2, n : n + 2] = self._q_var * np.eye(2)
         self._last = (0.0, 0, False, False, True)
         self.alarm = StarvationAlarm(cfg.alarm, self._dt, self._q_nominal)
 
@@ -275,7 +286,19 @@ class OilFlowEKF:
     def flowrate_std_m3_s(self) -> np.ndarray:
         """(2,) standard deviations of the flowrate estimates from P [m^3/s]."""
         n = self._n
-        return np.sqrt(np.diag(self._P)[n:]) * self._q_nominal
+        return np.sqrt(np.diag(self._P)[n : n + 2]) * self._q_nominal
+
+    @property
+    def offset_m(self) -> np.ndarray:
+        """(4,) estimated probe zero offsets [m] (zeros when the offsets are not estimated)."""
+        n = self._n
+        return self._x[n + 2 :].copy() if self._n_offsets else np.zeros(4)
+
+    @property
+    def offset_std_m(self) -> np.ndarray:
+        """(4,) their stds [m] (zeros when the offsets are not estimated)."""
+        n = self._n
+        return np.sqrt(np.diag(self._P)[n + 2 :]) if self._n_offsets else np.zeros(4)
 
     @property
     def dynamic_state(self) -> np.ndarray:
@@ -284,7 +307,8 @@ class OilFlowEKF:
 
     @property
     def covariance(self) -> np.ndarray:
-        """(n + 2, n + 2) copy of P; the flowrate block is in the internal unit (fractions of nominal)^2."""
+        """(N, N) copy of P, N = n + 2 (+ 4 with offset states); the flowrate block is in the internal unit
+        (fractions of nominal)^2, the offsets' in m^2."""
         return self._P.copy()
 
     def current_report(self) -> StepReport:
@@ -426,6 +450,8 @@ class OilFlowEKF:
             model_consistent=np.zeros(count, dtype=bool),
             changing=np.zeros((count, 2), dtype=bool),
             starved_consistent=np.zeros((count, 2), dtype=bool),
+            offset_m=np.zeros((count, 4)),
+            offset_std_m=np.zeros((count, 4)),
         )
         for k in tqdm(range(count), disable=not progress, desc="EKF", unit="step"):
             report = self.step(record[k])
@@ -440,6 +466,9 @@ class OilFlowEKF:
             trace.model_consistent[k] = report.model_consistent
             trace.changing[k] = report.changing
             trace.starved_consistent[k] = report.starved_consistent
+            if self._n_offsets:
+                trace.offset_m[k] = self.offset_m
+                trace.offset_std_m[k] = self.offset_std_m
         return trace
 
     def get_state(self) -> dict[str, np.ndarray]:

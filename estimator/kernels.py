@@ -31,7 +31,9 @@ def predict_covariance(
     augmented_jacobian: np.ndarray,
     work: np.ndarray,
 ) -> None:
-    """In place ``P <- J P J^T + Q`` (Eq. 20) with ``J = [[df/ds, df/dq c], [0, I]]``, symmetrized.
+    """In place ``P <- J P J^T + Q`` (Eq. 20), symmetrized; J = [[df/ds, df/dq c, 0], [0, I, 0], [0, 0, I]].
+
+    The state is ``[s (n), q (2), probe offsets (0 or 4, random walks)]``.
 
     covariance : (N, N) P, N = n + 2. state_jacobian : (n, n). flowrate_jacobian : (n, 2) per model flowrate
     unit; flowrate_scale c converts it to the filter's unit. process_noise : (N, N) Q.
@@ -42,8 +44,10 @@ def predict_covariance(
     for i in range(n):
         for j in range(n):
             augmented_jacobian[i, j] = state_jacobian[i, j]
-        for j in range(n, size):
+        for j in range(n, n + 2):
             augmented_jacobian[i, j] = flowrate_jacobian[i, j - n] * flowrate_scale
+        for j in range(n + 2, size):
+            augmented_jacobian[i, j] = 0.0
     for i in range(n, size):
         for j in range(size):
             augmented_jacobian[i, j] = 1.0 if i == j else 0.0
@@ -192,14 +196,18 @@ def update_with_cross(
 
 
 @njit(cache=True)
-def project_flowrates(state: np.ndarray, covariance: np.ndarray, low: float, high: float) -> None:
-    """Project the two flowrate entries (the last two of ``state``) onto [low, high] in the P^-1 metric.
+def project_flowrates(
+    state: np.ndarray, covariance: np.ndarray, low: float, high: float, first: int = -1
+) -> None:
+    """Project the two flowrate entries (``first``, ``first + 1``; -1: the last two) onto [low, high] in the
+    P^-1 metric.
 
     For the active set A: ``x <- x - P[:, A] P[A, A]^-1 (x_A - bound_A)`` (Simon & Chia 2002), which moves the
     correlated dynamic states with the flowrates; then the active entries are set exactly to their bounds.
     """
     size = state.shape[0]
-    first = size - 2
+    if first < 0:
+        first = size - 2  # the flowrates are the last two entries
     excess = np.zeros(2)
     active = np.zeros(2, dtype=np.bool_)
     for b in range(2):
@@ -310,7 +318,7 @@ def filter_step(
         health[i, PREVIOUS_ACCEPTED] = 1 if accepted[i] else 0
         if accepted[i]:
             health_values[i, LAST_ACCEPTED] = displacement[i]
-    detect_change(state, health_values, process_noise, settings, changing)
+    detect_change(state, n, health_values, process_noise, settings, changing)
     if m == 0:
         return (UPDATE_GATED if rejected > 0 else UPDATE_SKIPPED), 0.0, 0, rejected
     index = rows[:m]
@@ -325,7 +333,7 @@ def filter_step(
         cross = cross4[index]
     status, nis = update_with_cross(state, covariance, observation, cross, measured, noise, np.inf)
     if status == UPDATE_ACCEPTED:
-        project_flowrates(state, covariance, settings[1], settings[2])
+        project_flowrates(state, covariance, settings[1], settings[2], n)
         return status, nis, m, rejected
     return status, nis, 0, rejected
 
@@ -333,19 +341,20 @@ def filter_step(
 @njit(cache=True)
 def detect_change(
     state: np.ndarray,
+    first: int,
     health_values: np.ndarray,
     process_noise: np.ndarray,
     settings: np.ndarray,
     changing: np.ndarray,
 ) -> None:
     """The per-bearing mean-innovation test (:mod:`estimator.ekf`); sets the flowrate process noise of the
-    next prediction in ``process_noise`` and the flags ``changing`` (2,).
+    next prediction in ``process_noise`` and the flags ``changing`` (2,); the flowrates are
+    ``state[first : first + 2]``.
 
     Each channel's mean is compared with its null spread scaled by the channel's observed innovation power
     (at least 1), so that a measurement noise larger than configured widens the test rather than firing it.
     A flowrate held on a table bound gets no extra noise: the bias there is the bound's.
     """
-    first = state.shape[0] - 2
     for b in range(2):
         statistic = 0.0
         for i in (2 * b, 2 * b + 1):

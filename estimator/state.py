@@ -5,8 +5,8 @@ The state is a flat ``dict[str, numpy.ndarray]`` (scalars as 0-d arrays), every 
 ====================  ==========  =====================================================================
 key                   shape       meaning
 ====================  ==========  =====================================================================
-x                     (n+2,)      augmented estimate [s; q / q_nominal]
-P                     (n+2, n+2)  its covariance
+x                     (N,)        augmented estimate [s; q / q_nominal; offsets (when estimated)]
+P                     (N, N)      its covariance
 health                (4, 6)      int: probe records (:mod:`estimator.channels`)
 health_values         (4, 4)      float: last reading, innovation power and mean, last accepted reading
 step                  ()          int: samples processed
@@ -46,7 +46,7 @@ def export_state(ekf: OilFlowEKF) -> dict[str, np.ndarray]:
         "q_history": ekf._history.copy(),
         "nis_window": ekf._nis_window.copy(),
         "nis_sums": ekf._nis_sums.copy(),
-        "process_noise_q": np.diag(ekf._process_noise)[n:].copy(),
+        "process_noise_q": np.diag(ekf._process_noise)[n : n + 2].copy(),
         "changing": ekf._changing.copy(),
         "last": np.array([float(v) for v in ekf._last]),
     }

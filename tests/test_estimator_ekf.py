@@ -227,3 +227,20 @@ def test_estimates_do_not_depend_on_the_models_coordinates(toy, constant_record)
     mixed = OilFlowEKF(_MixedCoordinates(toy), config).run(data)
     np.testing.assert_allclose(mixed.q_m3_s, plain.q_m3_s, rtol=1e-7)
     np.testing.assert_allclose(mixed.nis, plain.nis, rtol=1e-5, atol=1e-8)
+
+
+def test_probes_mounted_at_an_angle_are_read_along_their_axes(toy, constant_record):
+    angle = np.radians(45.0)
+    c, s = np.cos(angle), np.sin(angle)
+    data = constant_record.displacement_m.copy()
+    for x, y in ((0, 1), (2, 3)):
+        data[:, x], data[:, y] = (
+            c * constant_record.displacement_m[:, x] + s * constant_record.displacement_m[:, y],
+            -s * constant_record.displacement_m[:, x] + c * constant_record.displacement_m[:, y],
+        )
+    truth = constant_record.flowrate_m3_s[0]
+    mounted = OilFlowEKF(toy, EKFConfig.recommended(probe_angle_deg=45.0)).run(data)
+    assert np.abs(mounted.q_m3_s[5000:].mean(axis=0) / truth - 1).max() < 0.01
+    assert not mounted.probe_faulty.any()
+    ignored = OilFlowEKF(toy, EKFConfig.recommended()).run(data)
+    assert np.abs(ignored.q_m3_s[5000:].mean(axis=0) / truth - 1).max() > 0.05
