@@ -26,6 +26,7 @@ SUBCOMMANDS: tuple[str, ...] = (
     "study",
     "run",
     "demo",
+    "robustness",
 )
 
 
