@@ -65,6 +65,27 @@ class AlarmConfig:
 
 
 @dataclass(frozen=True)
+class OffsetBaseline:
+    """Probe zero offsets from a commissioning baseline (:mod:`estimator.baseline`): the estimator's prior.
+
+    offsets_m, std_m : (x1, y1, x2, y2) estimates and their stds [m], std > 0.
+    """
+
+    offsets_m: tuple[float, float, float, float]
+    std_m: tuple[float, float, float, float]
+
+    def __post_init__(self) -> None:
+        for name in ("offsets_m", "std_m"):
+            values = getattr(self, name)
+            if len(values) != 4:
+                raise InputError(f"OffsetBaseline.{name} needs 4 values (x1, y1, x2, y2), got {len(values)}")
+            for value in values:
+                require_finite(f"OffsetBaseline.{name}", value)
+        for value in self.std_m:
+            require_positive("OffsetBaseline.std_m", value, "m")
+
+
+@dataclass(frozen=True)
 class EKFConfig:
     """Everything the augmented-state EKF needs besides the model.
 
@@ -93,6 +114,8 @@ class EKFConfig:
             the offsets out of the state, > 0 adds four offset states (the machine file's ``[probes]``
             section gives it for a real machine, 25 um by default).
         offset_random_walk_m_sqrt_s : random-walk intensity of the offsets (drift) [m / sqrt(s)].
+        offset_baseline : an :class:`OffsetBaseline` from a commissioning record: the offsets' initial
+            estimate and prior std (it adds the offset states even when offset_prior_std_m is 0).
     Innovation gate and probe health (see :mod:`estimator.channels`)
         gate_tail_probability : a channel whose squared standardized innovation exceeds the chi-square(1)
             quantile ``1 - p`` times its recent innovation power is rejected (0 disables the gate).
@@ -131,6 +154,7 @@ class EKFConfig:
     probe_angle_deg: float = 0.0
     offset_prior_std_m: float = 0.0
     offset_random_walk_m_sqrt_s: float = 0.2e-6
+    offset_baseline: OffsetBaseline | None = None
     gate_tail_probability: float = 1.0e-6
     gate_scale_window_s: float = 0.1
     probe_range_m: float | None = None
@@ -205,6 +229,10 @@ class EKFConfig:
         require_in_range(
             "EKFConfig.consistency_tail_probability", self.consistency_tail_probability, 1e-15, 0.5
         )
+        if self.offset_baseline is not None and not isinstance(self.offset_baseline, OffsetBaseline):
+            raise InputError(
+                f"EKFConfig.offset_baseline must be an OffsetBaseline, got {type(self.offset_baseline)!r}"
+            )
         if not isinstance(self.alarm, AlarmConfig):
             raise InputError(f"EKFConfig.alarm must be an AlarmConfig, got {type(self.alarm)!r}")
 

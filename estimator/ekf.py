@@ -133,7 +133,7 @@ class OilFlowEKF:
         cfg = self.config
         n = int(model.n_states)
         self._n = n
-        self._n_offsets = 4 if cfg.offset_prior_std_m > 0.0 else 0
+        self._n_offsets = 4 if cfg.offset_prior_std_m > 0.0 or cfg.offset_baseline is not None else 0
         self._size = n + 2 + self._n_offsets
         self._q_nominal = cfg.q_nominal_m3_s
         low, high = model.flowrate_bounds_m3_s
@@ -255,7 +255,10 @@ class OilFlowEKF:
         self._P = np.zeros((self._size, self._size))
         self._P[:n, :n] = self._physical(cfg.initial_displacement_std_m, cfg.initial_velocity_std_m_s)
         self._P[n : n + 2, n : n + 2] = (cfg.initial_flowrate_std_m3_s / self._q_nominal) ** 2 * np.eye(2)
-        if self._n_offsets:
+        if cfg.offset_baseline is not None:
+            self._x[n + 2 :] = cfg.offset_baseline.offsets_m
+            self._P[n + 2 :, n + 2 :] = np.diag(np.square(cfg.offset_baseline.std_m))
+        elif self._n_offsets:
             self._P[n + 2 :, n + 2 :] = cfg.offset_prior_std_m**2 * np.eye(self._n_offsets)
         self._health, self._health_values = channels.new_health()
         self._step = 0

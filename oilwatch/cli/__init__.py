@@ -27,6 +27,7 @@ SUBCOMMANDS: tuple[str, ...] = (
     "run",
     "demo",
     "robustness",
+    "baseline",
 )
 
 
