@@ -114,6 +114,9 @@ class EKFConfig:
             the offsets out of the state, > 0 adds four offset states (the machine file's ``[probes]``
             section gives it for a real machine, 25 um by default).
         offset_random_walk_m_sqrt_s : random-walk intensity of the offsets (drift) [m / sqrt(s)].
+        unbalance_prior_std : prior std of each part of the complex unbalance ``u`` relative to the machine
+            file's (initial estimate 1 + 0i); 0 keeps the machine file's unbalance exact, > 0 adds two
+            unbalance states (a random walk of ``unbalance_random_walk_sqrt_s`` per sqrt(s)).
         offset_baseline : an :class:`OffsetBaseline` from a commissioning record: the offsets' initial
             estimate and prior std (it adds the offset states even when offset_prior_std_m is 0).
     Innovation gate and probe health (see :mod:`estimator.channels`)
@@ -155,6 +158,8 @@ class EKFConfig:
     offset_prior_std_m: float = 0.0
     offset_random_walk_m_sqrt_s: float = 0.2e-6
     offset_baseline: OffsetBaseline | None = None
+    unbalance_prior_std: float = 0.0
+    unbalance_random_walk_sqrt_s: float = 0.02
     gate_tail_probability: float = 1.0e-6
     gate_scale_window_s: float = 0.1
     probe_range_m: float | None = None
@@ -213,6 +218,8 @@ class EKFConfig:
             "change_flowrate_std_fraction",
             "offset_prior_std_m",
             "offset_random_walk_m_sqrt_s",
+            "unbalance_prior_std",
+            "unbalance_random_walk_sqrt_s",
         ):
             require_non_negative(f"EKFConfig.{name}", getattr(self, name))
         for name in (

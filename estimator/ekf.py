@@ -134,7 +134,15 @@ class OilFlowEKF:
         n = int(model.n_states)
         self._n = n
         self._n_offsets = 4 if cfg.offset_prior_std_m > 0.0 or cfg.offset_baseline is not None else 0
-        self._size = n + 2 + self._n_offsets
+        self._n_unbalance = 2 if cfg.unbalance_prior_std > 0.0 else 0
+        if self._n_unbalance and not callable(getattr(model, "transition_with_unbalance", None)):
+            raise InputError(
+                "EKFConfig.unbalance_prior_std > 0 needs a model with transition_with_unbalance()"
+            )
+        self._offsets = slice(n + 2, n + 2 + self._n_offsets)
+        self._unbalance = slice(n + 2 + self._n_offsets, n + 2 + self._n_offsets + self._n_unbalance)
+        self._size = n + 2 + self._n_offsets + self._n_unbalance
+        self._no_unbalance = np.zeros((n, 0))
         self._q_nominal = cfg.q_nominal_m3_s
         low, high = model.flowrate_bounds_m3_s
         self._bounds = (float(low), float(high))
@@ -148,8 +156,12 @@ class OilFlowEKF:
             )
 
         angle = math.radians(cfg.probe_angle_deg)
-        self._obs4, self._noise4 = displacement_channels(model, cfg.noise_std_m, angle, self._n_offsets)
+        pad = np.zeros((4, self._n_unbalance))
+        obs4, self._noise4 = displacement_channels(model, cfg.noise_std_m, angle, self._n_offsets)
+        self._obs4 = np.hstack([obs4, pad])
         channels8 = velocity_channels(model, cfg.noise_std_m, cfg.velocity_noise, angle, self._n_offsets)
+        if channels8 is not None:
+            channels8 = (np.hstack([channels8[0], np.vstack([pad, pad])]), channels8[1])
         # displacement-only: empty eight-channel arrays tell the compiled step to use four channels
         self._obs8, self._noise8 = (
             channels8 if channels8 is not None else (np.zeros((0, self._size)), np.zeros((0, 0)))
@@ -177,7 +189,10 @@ class OilFlowEKF:
         self._process_noise[n : n + 2, n : n + 2] = self._q_var * np.eye(2)
         if self._n_offsets:
             walk = cfg.offset_random_walk_m_sqrt_s**2 * self._dt
-            self._process_noise[n + 2 :, n + 2 :] = walk * np.eye(self._n_offsets)
+            self._process_noise[self._offsets, self._offsets] = walk * np.eye(self._n_offsets)
+        if self._n_unbalance:
+            walk = cfg.unbalance_random_walk_sqrt_s**2 * self._dt
+            self._process_noise[self._unbalance, self._unbalance] = walk * np.eye(2)
 
         self._jacobian = np.zeros((self._size, self._size))
         self._work = np.zeros((self._size, self._size))
@@ -256,10 +271,13 @@ class OilFlowEKF:
         self._P[:n, :n] = self._physical(cfg.initial_displacement_std_m, cfg.initial_velocity_std_m_s)
         self._P[n : n + 2, n : n + 2] = (cfg.initial_flowrate_std_m3_s / self._q_nominal) ** 2 * np.eye(2)
         if cfg.offset_baseline is not None:
-            self._x[n + 2 :] = cfg.offset_baseline.offsets_m
-            self._P[n + 2 :, n + 2 :] = np.diag(np.square(cfg.offset_baseline.std_m))
+            self._x[self._offsets] = cfg.offset_baseline.offsets_m
+            self._P[self._offsets, self._offsets] = np.diag(np.square(cfg.offset_baseline.std_m))
         elif self._n_offsets:
-            self._P[n + 2 :, n + 2 :] = cfg.offset_prior_std_m**2 * np.eye(self._n_offsets)
+            self._P[self._offsets, self._offsets] = cfg.offset_prior_std_m**2 * np.eye(self._n_offsets)
+        if self._n_unbalance:
+            self._x[self._unbalance] = (1.0, 0.0)
+            self._P[self._unbalance, self._unbalance] = cfg.unbalance_prior_std**2 * np.eye(2)
         self._health, self._health_values = channels.new_health()
         self._step = 0
         self._history = np.zeros((self._window, 2))
@@ -294,14 +312,22 @@ class OilFlowEKF:
     @property
     def offset_m(self) -> np.ndarray:
         """(4,) estimated probe zero offsets [m] (zeros when the offsets are not estimated)."""
-        n = self._n
-        return self._x[n + 2 :].copy() if self._n_offsets else np.zeros(4)
+        return self._x[self._offsets].copy() if self._n_offsets else np.zeros(4)
 
     @property
     def offset_std_m(self) -> np.ndarray:
         """(4,) their stds [m] (zeros when the offsets are not estimated)."""
-        n = self._n
-        return np.sqrt(np.diag(self._P)[n + 2 :]) if self._n_offsets else np.zeros(4)
+        return np.sqrt(np.diag(self._P)[self._offsets]) if self._n_offsets else np.zeros(4)
+
+    @property
+    def unbalance(self) -> np.ndarray:
+        """(2,) the estimated unbalance (real, imaginary) relative to the machine file's ((1, 0) if fixed)."""
+        return self._x[self._unbalance].copy() if self._n_unbalance else np.array([1.0, 0.0])
+
+    @property
+    def unbalance_std(self) -> np.ndarray:
+        """(2,) its stds (zeros when the unbalance is not estimated)."""
+        return np.sqrt(np.diag(self._P)[self._unbalance]) if self._n_unbalance else np.zeros(2)
 
     @property
     def dynamic_state(self) -> np.ndarray:
@@ -348,7 +374,15 @@ class OilFlowEKF:
             raise InputError(f"displacement_m must have shape (4,), got {displacement.shape}")
         n = self._n
         predict = self._step > 0
-        if predict:
+        unbalance_jac = self._no_unbalance
+        if predict and self._n_unbalance:
+            next_state, state_jac, flow_jac, unbalance_jac = self.model.transition_with_unbalance(
+                self._x[:n],
+                np.array(self._flowrate_si()),
+                self._first_step + self._step - 1,
+                self._x[self._unbalance],
+            )
+        elif predict:
             next_state, state_jac, flow_jac = self.model.transition(
                 self._x[:n], np.array(self._flowrate_si()), self._first_step + self._step - 1
             )
@@ -362,6 +396,7 @@ class OilFlowEKF:
             np.ascontiguousarray(state_jac, dtype=np.float64),
             np.ascontiguousarray(flow_jac, dtype=np.float64),
             self._q_nominal,
+            np.ascontiguousarray(unbalance_jac, dtype=np.float64),
             self._process_noise,
             self._jacobian,
             self._work,

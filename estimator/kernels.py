@@ -27,27 +27,31 @@ def predict_covariance(
     state_jacobian: np.ndarray,
     flowrate_jacobian: np.ndarray,
     flowrate_scale: float,
+    unbalance_jacobian: np.ndarray,
     process_noise: np.ndarray,
     augmented_jacobian: np.ndarray,
     work: np.ndarray,
 ) -> None:
-    """In place ``P <- J P J^T + Q`` (Eq. 20), symmetrized; J = [[df/ds, df/dq c, 0], [0, I, 0], [0, 0, I]].
+    """In place ``P <- J P J^T + Q`` (Eq. 20), symmetrized; J = [[df/ds, df/dq c, 0, df/du], [0, I]].
 
-    The state is ``[s (n), q (2), probe offsets (0 or 4, random walks)]``.
+    The state is ``[s (n), q (2), probe offsets (0 or 4), unbalance (0 or 2)]``, the nuisances random walks.
 
-    covariance : (N, N) P, N = n + 2. state_jacobian : (n, n). flowrate_jacobian : (n, 2) per model flowrate
-    unit; flowrate_scale c converts it to the filter's unit. process_noise : (N, N) Q.
-    augmented_jacobian, work : (N, N) scratch.
+    covariance : (N, N) P. state_jacobian : (n, n). flowrate_jacobian : (n, 2) per model flowrate unit;
+    flowrate_scale c converts it to the filter's unit. unbalance_jacobian : (n, 0 or 2), the last columns.
+    process_noise : (N, N) Q. augmented_jacobian, work : (N, N) scratch.
     """
     n = state_jacobian.shape[0]
     size = covariance.shape[0]
+    n_unbalance = unbalance_jacobian.shape[1]
     for i in range(n):
         for j in range(n):
             augmented_jacobian[i, j] = state_jacobian[i, j]
         for j in range(n, n + 2):
             augmented_jacobian[i, j] = flowrate_jacobian[i, j - n] * flowrate_scale
-        for j in range(n + 2, size):
+        for j in range(n + 2, size - n_unbalance):
             augmented_jacobian[i, j] = 0.0
+        for j in range(n_unbalance):
+            augmented_jacobian[i, size - n_unbalance + j] = unbalance_jacobian[i, j]
     for i in range(n, size):
         for j in range(size):
             augmented_jacobian[i, j] = 1.0 if i == j else 0.0
@@ -245,6 +249,7 @@ def filter_step(
     state_jacobian: np.ndarray,
     flowrate_jacobian: np.ndarray,
     flowrate_scale: float,
+    unbalance_jacobian: np.ndarray,
     process_noise: np.ndarray,
     augmented_jacobian: np.ndarray,
     work: np.ndarray,
@@ -285,6 +290,7 @@ def filter_step(
             state_jacobian,
             flowrate_jacobian,
             flowrate_scale,
+            unbalance_jacobian,
             process_noise,
             augmented_jacobian,
             work,
