@@ -31,6 +31,13 @@ def register(subparsers) -> None:
         help="prior std of the estimator's probe-offset states [um]; 0: offsets assumed zero (default: 25)",
     )
     parser.add_argument(
+        "--unbalance-prior",
+        type=float,
+        default=2.0,
+        help="prior std of the estimator's complex unbalance state, relative to the machine file's; "
+        "0: the machine file's unbalance taken as exact (default: 2)",
+    )
+    parser.add_argument(
         "--cases", nargs="+", default=None, metavar="NAME", help="cases to run (default: all)"
     )
     parser.add_argument(
@@ -46,6 +53,7 @@ def run(args: argparse.Namespace) -> int:
     require_in_range("--duration-s", args.duration_s, 1.0, 3600.0, "s")
     require_in_range("--noise-um", args.noise_um, 0.01, 100.0, "um")
     require_in_range("--offset-prior-um", args.offset_prior_um, 0.0, 1000.0, "um")
+    require_in_range("--unbalance-prior", args.unbalance_prior, 0.0, 100.0)
     cases = CASES if args.cases is None else [case_by_name(name) for name in args.cases]
     out = Path(args.out)
     try:
@@ -59,6 +67,7 @@ def run(args: argparse.Namespace) -> int:
         noise_um=args.noise_um,
         seed=args.seed,
         offset_prior_um=args.offset_prior_um,
+        unbalance_prior=args.unbalance_prior,
         out_dir=out,
         progress=lambda text: print(f"robustness: {text}", file=sys.stderr, flush=True),
     )

@@ -33,7 +33,8 @@ Injection = Callable[[np.ndarray, np.ndarray, np.random.Generator, float], np.nd
 class Case:
     """One discrepancy. ``unbalance``: (moment factor, phase shift [deg]) of the plant's unbalance;
     ``inject``: what the measurement chain does to the positions; ``ekf``: estimator settings a user would
-    give (EKFConfig fields); ``probe_fault``: the faulty channel the estimator must flag, if any."""
+    give (EKFConfig fields); ``probe_fault``: the faulty channel the estimator must flag, if any;
+    ``unbalance_change``: (moment factor, phase shift [deg]) the unbalance switches to at half the record."""
 
     name: str
     description: str
@@ -41,6 +42,7 @@ class Case:
     inject: Injection | None = None
     ekf: dict = field(default_factory=dict)
     probe_fault: int | None = None
+    unbalance_change: tuple[float, float] | None = None
 
 
 def _offsets(data, times, rng, omega):
@@ -86,6 +88,7 @@ CASES: tuple[Case, ...] = (
     Case("phase-90", "unbalance phase +90 deg", unbalance=(1.0, 90.0)),
     Case("phase-180", "unbalance phase +180 deg", unbalance=(1.0, 180.0)),
     Case("phase-270", "unbalance phase +270 deg", unbalance=(1.0, 270.0)),
+    Case("unbalance-change", "unbalance x2 and +120 deg at half the record", unbalance_change=(2.0, 120.0)),
     Case("runout", "runout 2 um at 1x and 1 um at 2x on every probe", inject=_runout),
     Case(
         "api670",

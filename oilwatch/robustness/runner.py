@@ -1,9 +1,10 @@
 """Run the plant with each discrepancy of :mod:`oilwatch.robustness.cases` against the estimator.
 
 Per case and truth point: the plant (full model, Newmark, constant flowrates) makes the record, the case's
-discrepancy is applied, the EKF (reduced grid model; recommended tuning; probe offsets as states with the
-configured prior) estimates, and the identified value is the mean estimate over the second half of the
-record. Reported: error and the filter's own std (% of the true flowrate), their ratio, whether the truth lies
+discrepancy is applied, the EKF (reduced grid model; recommended tuning; probe offsets and the complex
+unbalance as states with the configured priors) estimates, and the identified value is the mean estimate
+over the second half of the record. Reported: error and the filter's own std (% of the true flowrate),
+their ratio, whether the truth lies
 within +-2 std at the end, false alarms (any alarm at a bearing at 95 % of nominal or more), detections (the
 alarm set at the end for a bearing below 90 %), the probes flagged faulty, the share of the second half with a
 consistent model, and the error over the nuisance Cramer-Rao bound (offsets and unbalance unknown, no
@@ -41,7 +42,13 @@ class RobustnessRun:
     """The models and plant records of one robustness run, built once and shared by the cases."""
 
     def __init__(
-        self, machine_file: str | None, duration_s: float, noise_um: float, seed: int, offset_prior_um: float
+        self,
+        machine_file: str | None,
+        duration_s: float,
+        noise_um: float,
+        seed: int,
+        offset_prior_um: float,
+        unbalance_prior: float,
     ) -> None:
         self.machine = load_machine(machine_file)
         self.nominal_m3_s = self.machine.lubrication.nominal_flowrate_m3_s
@@ -49,6 +56,7 @@ class RobustnessRun:
         self.noise_m = noise_um * 1e-6
         self.seed = seed
         self.offset_prior_m = offset_prior_um * 1e-6
+        self.unbalance_prior = unbalance_prior
         self.model = GridAugmentedModel(build_system(self.machine, reduced=True), DT_S)
         rotor = Rotor.from_machine(self.machine)
         self._unbalance = (rotor.unbalance_moment_kg_m, rotor.unbalance_phase_rad)
@@ -68,15 +76,29 @@ class RobustnessRun:
             )
         return self._systems[unbalance]
 
-    def record(self, unbalance: tuple[float, float], point_pct: tuple[float, float]) -> np.ndarray:
-        """Measured positions (K, 4) [m] of the plant at constant flowrates, samples at t = dt ... T."""
-        key = (unbalance, point_pct)
+    def record(
+        self,
+        unbalance: tuple[float, float],
+        point_pct: tuple[float, float],
+        change: tuple[float, float] | None = None,
+    ) -> np.ndarray:
+        """Measured positions (K, 4) [m] of the plant at constant flowrates, samples at t = dt ... T; with
+        ``change`` the unbalance switches to it at half the record (the plant continues from its state)."""
+        key = (unbalance, point_pct, change)
         if key not in self._records:
             q = tuple(p / 100.0 * self.nominal_m3_s for p in point_pct)
             plant = RotorBearingPlant(
                 self._system(unbalance), DT_S, None, self.noise_m, self.seed, initial_flowrates_m3_s=q
             )
-            self._records[key] = np.array([plant.step(q).measured_position_m for _ in range(self.n_samples)])
+            first = self.n_samples // 2 if change is not None else self.n_samples
+            samples = [plant.step(q).measured_position_m for _ in range(first)]
+            if change is not None:
+                changed = RotorBearingPlant(
+                    self._system(change), DT_S, None, self.noise_m, self.seed, initial_flowrates_m3_s=q
+                )
+                changed.restore(plant.snapshot())
+                samples += [changed.step(q).measured_position_m for _ in range(self.n_samples - first)]
+            self._records[key] = np.array(samples)
         return self._records[key]
 
     def bound_pct(self, point_pct: tuple[float, float]) -> np.ndarray:
@@ -91,7 +113,7 @@ class RobustnessRun:
 
     def run_case(self, case: Case, point_pct: tuple[float, float]) -> dict:
         """The row of one case at one truth point (module docstring)."""
-        data = self.record(case.unbalance, point_pct)
+        data = self.record(case.unbalance, point_pct, case.unbalance_change)
         times = DT_S * np.arange(1, len(data) + 1)
         rng = np.random.default_rng([self.seed, sum(map(ord, case.name))])
         signals = case.inject(data, times, rng, self.model.system.omega_rad_s) if case.inject else data
@@ -100,6 +122,7 @@ class RobustnessRun:
             first_sample_time_s=DT_S,
             noise_std_m=self.noise_m,
             offset_prior_std_m=self.offset_prior_m,
+            unbalance_prior_std=self.unbalance_prior,
             **case.ekf,
         )
         trace = OilFlowEKF(self.model, config).run(signals)
@@ -138,11 +161,12 @@ def run_robustness(
     noise_um: float = 1.0,
     seed: int = 1,
     offset_prior_um: float = 25.0,
+    unbalance_prior: float = 2.0,
     out_dir: str | Path | None = None,
     progress: Callable[[str], None] | None = None,
 ) -> list[dict]:
     """Every case at both truth points; each finished row is appended to ``out_dir/robustness.json``."""
-    run = RobustnessRun(machine_file, duration_s, noise_um, seed, offset_prior_um)
+    run = RobustnessRun(machine_file, duration_s, noise_um, seed, offset_prior_um, unbalance_prior)
     rows: list[dict] = []
     path = Path(out_dir) / "robustness.json" if out_dir is not None else None
     for case in cases:
