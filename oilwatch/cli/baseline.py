@@ -27,9 +27,11 @@ def register(subparsers) -> None:
     parser.add_argument("--q1-ml-min", type=float, default=None, help="known flowrate of bearing 1 [ml/min]")
     parser.add_argument("--q2-ml-min", type=float, default=None, help="known flowrate of bearing 2 [ml/min]")
     parser.add_argument("--noise-um", type=float, default=1.0, help="probe noise std [um] (default: 1)")
-    parser.add_argument("--probe-angle-deg", type=float, default=0.0, help="probe mounting angle [deg]")
     parser.add_argument(
-        "--offset-prior-um", type=float, default=25.0, help="prior std of each offset [um] (default: 25)"
+        "--offset-prior-um",
+        type=float,
+        default=None,
+        help="prior std of each offset [um] (default: the machine file's [probes] offset_prior_std_um, 25)",
     )
     parser.add_argument("--out", required=True, metavar="FILE", help="baseline JSON to write")
     parser.set_defaults(func=run)
@@ -70,13 +72,16 @@ def run(args: argparse.Namespace) -> int:
     from estimator.baseline import estimate_baseline, save_baseline
     from estimator.config import ML_MIN, EKFConfig
     from models.machine import load_machine
+    from models.probes import read_probes
     from models.system.augmented import GridAugmentedModel
     from models.system.factory import build_system
     from models.validation import InputError, require_in_range
 
     require_in_range("--noise-um", args.noise_um, 0.01, 100.0, "um")
-    require_in_range("--offset-prior-um", args.offset_prior_um, 0.01, 1000.0, "um")
     machine = load_machine(args.machine)
+    probes = read_probes(machine)
+    prior_um = probes.offset_prior_std_m * 1e6 if args.offset_prior_um is None else args.offset_prior_um
+    require_in_range("--offset-prior-um", prior_um, 0.01, 1000.0, "um")
     nominal = machine.lubrication.nominal_flowrate_m3_s
     flows = [nominal if v is None else v * ML_MIN for v in (args.q1_ml_min, args.q2_ml_min)]
     model = GridAugmentedModel(build_system(machine, reduced=True))
@@ -91,8 +96,9 @@ def run(args: argparse.Namespace) -> int:
         speed_hz=machine.nominal_speed_hz,
         noise_std_m=args.noise_um * 1e-6,
         first_sample_time_s=first,
-        probe_angle_deg=args.probe_angle_deg,
-        offset_prior_std_m=args.offset_prior_um * 1e-6,
+        probe_angle_deg=probes.angle_deg,
+        offset_prior_std_m=prior_um * 1e-6,
+        offset_random_walk_m_sqrt_s=probes.offset_random_walk_m_sqrt_s,
         q_nominal_m3_s=nominal,
     )
     document = estimate_baseline(model, positions, flows, config)

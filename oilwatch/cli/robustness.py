@@ -27,8 +27,9 @@ def register(subparsers) -> None:
     parser.add_argument(
         "--offset-prior-um",
         type=float,
-        default=25.0,
-        help="prior std of the estimator's probe-offset states [um]; 0: offsets assumed zero (default: 25)",
+        default=None,
+        help="prior std of the estimator's probe-offset states [um]; 0: offsets assumed zero (default: the "
+        "machine file's [probes] offset_prior_std_um, 25)",
     )
     parser.add_argument(
         "--unbalance-prior",
@@ -52,6 +53,11 @@ def run(args: argparse.Namespace) -> int:
 
     require_in_range("--duration-s", args.duration_s, 1.0, 3600.0, "s")
     require_in_range("--noise-um", args.noise_um, 0.01, 100.0, "um")
+    if args.offset_prior_um is None:
+        from models.machine import load_machine
+        from models.probes import read_probes
+
+        args.offset_prior_um = read_probes(load_machine(args.machine)).offset_prior_std_m * 1e6
     require_in_range("--offset-prior-um", args.offset_prior_um, 0.0, 1000.0, "um")
     require_in_range("--unbalance-prior", args.unbalance_prior, 0.0, 100.0)
     cases = CASES if args.cases is None else [case_by_name(name) for name in args.cases]

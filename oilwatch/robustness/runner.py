@@ -22,6 +22,7 @@ import numpy as np
 from estimator.config import EKFConfig
 from estimator.ekf import OilFlowEKF
 from models.machine import load_machine
+from models.probes import read_probes
 from models.rotor.assembly import Rotor
 from models.system.augmented import GridAugmentedModel
 from models.system.factory import build_system
@@ -57,6 +58,7 @@ class RobustnessRun:
         self.seed = seed
         self.offset_prior_m = offset_prior_um * 1e-6
         self.unbalance_prior = unbalance_prior
+        self.probes = read_probes(self.machine)
         self.model = GridAugmentedModel(build_system(self.machine, reduced=True), DT_S)
         rotor = Rotor.from_machine(self.machine)
         self._unbalance = (rotor.unbalance_moment_kg_m, rotor.unbalance_phase_rad)
@@ -122,6 +124,7 @@ class RobustnessRun:
             first_sample_time_s=DT_S,
             noise_std_m=self.noise_m,
             offset_prior_std_m=self.offset_prior_m,
+            offset_random_walk_m_sqrt_s=self.probes.offset_random_walk_m_sqrt_s,
             unbalance_prior_std=self.unbalance_prior,
             **case.ekf,
         )
