@@ -34,7 +34,10 @@ class Case:
     """One discrepancy. ``unbalance``: (moment factor, phase shift [deg]) of the plant's unbalance;
     ``inject``: what the measurement chain does to the positions; ``ekf``: estimator settings a user would
     give (EKFConfig fields); ``probe_fault``: the faulty channel the estimator must flag, if any;
-    ``unbalance_change``: (moment factor, phase shift [deg]) the unbalance switches to at half the record."""
+    ``unbalance_change``: (moment factor, phase shift [deg]) the unbalance switches to at half the record;
+    ``offsets``: the run's probe offsets (:func:`probe_offsets`) are on the probes, drifting by ``drift_m``
+    over the record; ``baseline``: the estimator is primed with ``oilwatch baseline`` on another record at
+    100/100 % with the same offsets (before the drift)."""
 
     name: str
     description: str
@@ -43,10 +46,20 @@ class Case:
     ekf: dict = field(default_factory=dict)
     probe_fault: int | None = None
     unbalance_change: tuple[float, float] | None = None
+    offsets: bool = False
+    drift_m: float = 0.0
+    baseline: bool = False
 
 
-def _offsets(data, times, rng, omega):
-    return data + rng.uniform(-OFFSET_RANGE_M, OFFSET_RANGE_M, 4)[None, :]
+def probe_offsets(seed: int) -> np.ndarray:
+    """(4,) the probe zero offsets of a run [m], the same for every offset case of that run's seed."""
+    return np.random.default_rng([seed, 25]).uniform(-OFFSET_RANGE_M, OFFSET_RANGE_M, 4)
+
+
+def apply_offsets(data: np.ndarray, times: np.ndarray, seed: int, drift_m: float = 0.0) -> np.ndarray:
+    """The run's probe offsets, plus a drift growing linearly to ``drift_m`` (a random sign per probe)."""
+    signs = np.where(np.random.default_rng([seed, 3]).uniform(size=4) < 0.5, -1.0, 1.0)
+    return data + probe_offsets(seed)[None, :] + drift_m * signs[None, :] * (times / times[-1])[:, None]
 
 
 def _runout(data, times, rng, omega):
@@ -82,7 +95,20 @@ def _fault(kind: str) -> Injection:
 
 CASES: tuple[Case, ...] = (
     Case("none", "plant and probes as the model"),
-    Case("offsets", "probe zero offsets drawn from +-25 um, no baseline", inject=_offsets),
+    Case("offsets", "probe zero offsets drawn from +-25 um, no baseline", offsets=True),
+    Case(
+        "offsets-baseline",
+        "the same offsets, baseline from another 100/100 record",
+        offsets=True,
+        baseline=True,
+    ),
+    Case(
+        "offsets-drift",
+        "the same offsets, baseline, then 3 um of drift over the record",
+        offsets=True,
+        drift_m=3e-6,
+        baseline=True,
+    ),
     Case("unbalance-x0.5", "unbalance moment x0.5", unbalance=(0.5, 0.0)),
     Case("unbalance-x3", "unbalance moment x3", unbalance=(3.0, 0.0)),
     Case("phase-90", "unbalance phase +90 deg", unbalance=(1.0, 90.0)),

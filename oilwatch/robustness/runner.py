@@ -13,13 +13,15 @@ baseline, the whole record).
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
 
-from estimator.config import EKFConfig
+from estimator.baseline import estimate_baseline
+from estimator.config import EKFConfig, OffsetBaseline
 from estimator.ekf import OilFlowEKF
 from models.machine import load_machine
 from models.probes import read_probes
@@ -29,7 +31,7 @@ from models.system.factory import build_system
 from models.system.nuisance_bound import nuisance_bound
 from models.system.plant import RotorBearingPlant
 
-from .cases import Case
+from .cases import Case, apply_offsets
 
 DT_S = 1e-3
 POINTS_PCT = ((100.0, 100.0), (80.0, 90.0))
@@ -65,6 +67,7 @@ class RobustnessRun:
         self._systems: dict[tuple[float, float], object] = {}
         self._records: dict[tuple, np.ndarray] = {}
         self._bounds: dict[tuple[float, float], np.ndarray] = {}
+        self._baseline: OffsetBaseline | None = None
         self.n_samples = round(duration_s / DT_S)
 
     def _system(self, unbalance: tuple[float, float]):
@@ -103,6 +106,22 @@ class RobustnessRun:
             self._records[key] = np.array(samples)
         return self._records[key]
 
+    def baseline(self, config: EKFConfig) -> OffsetBaseline:
+        """The offsets from a commissioning record at 100/100 % (another noise draw, the run's offsets)."""
+        if self._baseline is None:
+            q = (self.nominal_m3_s, self.nominal_m3_s)
+            plant = RotorBearingPlant(
+                self._system((1.0, 0.0)), DT_S, None, self.noise_m, self.seed + 1, initial_flowrates_m3_s=q
+            )
+            record = np.array([plant.step(q).measured_position_m for _ in range(self.n_samples)])
+            times = DT_S * np.arange(1, len(record) + 1)
+            document = estimate_baseline(self.model, apply_offsets(record, times, self.seed), q, config)
+            self._baseline = OffsetBaseline(
+                tuple(v * 1e-6 for v in document["offsets_um"]),
+                tuple(v * 1e-6 for v in document["offset_std_um"]),
+            )
+        return self._baseline
+
     def bound_pct(self, point_pct: tuple[float, float]) -> np.ndarray:
         """(2,) nuisance Cramer-Rao bound [% of q] with offsets and unbalance unknown, no baseline."""
         if point_pct not in self._bounds:
@@ -119,6 +138,8 @@ class RobustnessRun:
         times = DT_S * np.arange(1, len(data) + 1)
         rng = np.random.default_rng([self.seed, sum(map(ord, case.name))])
         signals = case.inject(data, times, rng, self.model.system.omega_rad_s) if case.inject else data
+        if case.offsets:
+            signals = apply_offsets(signals, times, self.seed, case.drift_m)
         config = EKFConfig.recommended(
             speed_hz=self.machine.nominal_speed_hz,
             first_sample_time_s=DT_S,
@@ -128,6 +149,8 @@ class RobustnessRun:
             unbalance_prior_std=self.unbalance_prior,
             **case.ekf,
         )
+        if case.baseline:
+            config = dataclasses.replace(config, offset_baseline=self.baseline(config))
         trace = OilFlowEKF(self.model, config).run(signals)
         truth = np.array(point_pct) / 100.0 * self.nominal_m3_s
         half = len(data) // 2
