@@ -101,7 +101,10 @@ class RobustnessRun:
                 changed = RotorBearingPlant(
                     self._system(change), DT_S, None, self.noise_m, self.seed, initial_flowrates_m3_s=q
                 )
-                changed.restore(plant.snapshot())
+                snapshot = plant.snapshot()
+                # the cached constant-flow propagator carries the old unbalance's response: rebuild it
+                snapshot["integrator"].update(propagator=None, propagator_flowrates=None, last_flowrates=None)
+                changed.restore(snapshot)
                 samples += [changed.step(q).measured_position_m for _ in range(self.n_samples - first)]
             self._records[key] = np.array(samples)
         return self._records[key]
