@@ -116,7 +116,9 @@ class EKFConfig:
         offset_random_walk_m_sqrt_s : random-walk intensity of the offsets (drift) [m / sqrt(s)].
         unbalance_prior_std : prior std of each part of the complex unbalance ``u`` relative to the machine
             file's (initial estimate 1 + 0i); 0 keeps the machine file's unbalance exact, > 0 adds two
-            unbalance states (a random walk of ``unbalance_random_walk_sqrt_s`` per sqrt(s)).
+            unbalance states (a random walk of ``unbalance_random_walk_sqrt_s`` per sqrt(s), plus
+            ``unbalance_inconsistent_std`` per step while ``model_consistent`` is false: a changed unbalance
+            shows as a 1x innovation the windowed NIS test catches).
         offset_baseline : an :class:`OffsetBaseline` from a commissioning record: the offsets' initial
             estimate and prior std (it adds the offset states even when offset_prior_std_m is 0).
     Innovation gate and probe health (see :mod:`estimator.channels`)
@@ -160,6 +162,7 @@ class EKFConfig:
     offset_baseline: OffsetBaseline | None = None
     unbalance_prior_std: float = 0.0
     unbalance_random_walk_sqrt_s: float = 0.02
+    unbalance_inconsistent_std: float = 0.01
     gate_tail_probability: float = 1.0e-6
     gate_scale_window_s: float = 0.1
     probe_range_m: float | None = None
@@ -220,6 +223,7 @@ class EKFConfig:
             "offset_random_walk_m_sqrt_s",
             "unbalance_prior_std",
             "unbalance_random_walk_sqrt_s",
+            "unbalance_inconsistent_std",
         ):
             require_non_negative(f"EKFConfig.{name}", getattr(self, name))
         for name in (

@@ -190,9 +190,10 @@ class OilFlowEKF:
         if self._n_offsets:
             walk = cfg.offset_random_walk_m_sqrt_s**2 * self._dt
             self._process_noise[self._offsets, self._offsets] = walk * np.eye(self._n_offsets)
+        self._unbalance_walk = cfg.unbalance_random_walk_sqrt_s**2 * self._dt
+        self._unbalance_extra = cfg.unbalance_inconsistent_std**2
         if self._n_unbalance:
-            walk = cfg.unbalance_random_walk_sqrt_s**2 * self._dt
-            self._process_noise[self._unbalance, self._unbalance] = walk * np.eye(2)
+            self._process_noise[self._unbalance, self._unbalance] = self._unbalance_walk * np.eye(2)
 
         self._jacobian = np.zeros((self._size, self._size))
         self._work = np.zeros((self._size, self._size))
@@ -418,6 +419,10 @@ class OilFlowEKF:
             nis, rows = 0.0, 0
         self._since_update = 0 if ok else self._since_update + 1
         consistent = self._consistency(nis, rows)
+        if self._n_unbalance:
+            variance = self._unbalance_walk + (0.0 if consistent else self._unbalance_extra)
+            first = self._unbalance.start
+            self._process_noise[first, first] = self._process_noise[first + 1, first + 1] = variance
         deviation = (math.sqrt(self._P[n, n]), math.sqrt(self._P[n + 1, n + 1]))
         converged = self._converged((float(self._x[n]), float(self._x[n + 1])), deviation)
         q = np.array(self._flowrate_si())
