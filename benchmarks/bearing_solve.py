@@ -1,7 +1,8 @@
 """Steady p-theta solve: semi-smooth Newton (models.bearing.film) against plain Gauss-Seidel.
 
 Both solvers share the discretization and solve the same discrete problem on the same mesh (the
-journal at its nominal equilibrium, 596.3 ml/min, and a starved point at 50 % of q_t), in one run.
+journal at its nominal equilibrium, the machine file's nominal flowrate, and a starved point at 50 % of
+q_t), in one run.
 Prints the median wall time of each and their ratio. Run by hand:
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/bearing_solve.py [--mesh 100 30] [--repeats 21]
@@ -21,6 +22,7 @@ from models.bearing.gauss_seidel import gauss_seidel_film
 from models.bearing.grid import Mesh
 from models.bearing.supply import ML_MIN_PER_M3_S, SupplyFlow
 from models.machine import load_machine
+from models.rotor.assembly import Rotor
 
 
 def median_seconds(repeats: int, function, *args, **kwargs) -> float:
@@ -39,14 +41,16 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=21)
     parser.add_argument("--gs-repeats", type=int, default=5)
     args = parser.parse_args()
-    bearing = load_machine().bearing
+    machine = load_machine()
+    bearing = machine.bearing
     mesh = Mesh(*args.mesh)
-    load, speed = 3272.8, 75.0
+    load, speed = float(Rotor.from_machine(machine).bearing_static_loads_n[0]), machine.nominal_speed_hz
+    nominal_ml_min = machine.lubrication.nominal_flowrate_m3_s * ML_MIN_PER_M3_S
     print(
         f"mesh {mesh.n_circ} x {mesh.n_axial}, one thread, medians of {args.repeats} "
         f"(Newton) and {args.gs_repeats} (Gauss-Seidel) steady solves, cold start"
     )
-    for q_ml_min in (596.3, 272.0):
+    for q_ml_min in (nominal_ml_min, 272.0):
         supply = SupplyFlow(q_ml_min / ML_MIN_PER_M3_S)
         eq = static_equilibrium(bearing, load, speed, supply, mesh)
         ecc = tuple(eq.eccentricity_m)

@@ -17,6 +17,7 @@ import numpy as np
 from models.bearing.grid import PRODUCTION_MESH
 from models.bearing.table import compute_table, flooded_threshold
 from models.machine import load_machine
+from models.rotor.assembly import Rotor
 
 TARGET_S = 60.0
 
@@ -25,10 +26,13 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--points", type=int, default=7)
-    parser.add_argument("--speed-hz", type=float, default=75.0)
+    parser.add_argument("--speed-hz", type=float, default=None, help="default: the machine's nominal speed")
     args = parser.parse_args()
-    bearing = load_machine().bearing
-    load = 3272.8
+    machine = load_machine()
+    bearing = machine.bearing
+    load = float(Rotor.from_machine(machine).bearing_static_loads_n[0])
+    if args.speed_hz is None:
+        args.speed_hz = machine.nominal_speed_hz
     times, threshold_times = [], []
     for _ in range(args.repeats):
         start = time.perf_counter()
@@ -40,7 +44,6 @@ def main() -> None:
             args.speed_hz,
             q_t * np.linspace(0.5, 1.5, args.points),
             PRODUCTION_MESH,
-            progress=False,
         )
         times.append(time.perf_counter() - start)
     median = statistics.median(times)

@@ -38,8 +38,9 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import numpy as np
 from filterpy.kalman import ExtendedKalmanFilter
 
-from estimator.config import NOMINAL_FLOWRATE_M3_S, EKFConfig
+from estimator.config import EKFConfig
 from estimator.ekf import OilFlowEKF
+from estimator.toy_model import NOMINAL_FLOWRATE_M3_S, SPEED_HZ
 from models.machine import load_machine
 from models.system.augmented import GridAugmentedModel
 from models.system.factory import flowrate_table_path, load_system
@@ -67,7 +68,7 @@ class SyntheticRotorModel:
         self._inputs = 1e-6 * rng.standard_normal((n_states, 3))
         self.output_matrix = rng.standard_normal((4, n_states))
         self.velocity_output_matrix = 300.0 * rng.standard_normal((4, n_states))
-        self._omega_dt = 2 * np.pi * 75.0 * dt_s
+        self._omega_dt = 2 * np.pi * SPEED_HZ * dt_s
         self._a = np.empty_like(self._a0)
         self._flow_jacobian = np.empty((n_states, 2))
 
@@ -221,7 +222,8 @@ def make_models(table: str | None) -> dict[str, dict[str, object]]:
     families: dict[str, dict[str, object]] = {
         "synthetic": {"reduced": SyntheticRotorModel(30), "full": SyntheticRotorModel(168)}
     }
-    path = table if table is not None else flowrate_table_path(load_machine(), 75.0)
+    turbine = load_machine()
+    path = table if table is not None else flowrate_table_path(turbine, turbine.nominal_speed_hz)
     if os.path.exists(path):
         families["system"] = {
             "reduced": GridAugmentedModel(load_system(reduced=True, table_path=path)),

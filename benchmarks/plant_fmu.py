@@ -28,11 +28,15 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 REPO_ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO_ROOT))
 
+from models.machine import load_machine  # noqa: E402
+
+NOMINAL_ML_MIN = load_machine().lubrication.nominal_flowrate_m3_s * 6e7
+"""The bundled turbine's nominal flowrate [ml/min] (its machine file)."""
 SCENARIOS = {
     "constant": {},
     "slow drop": {
-        "q1_final_ml_min": 447.2,
-        "q2_final_ml_min": 447.2,
+        "q1_final_ml_min": 0.75 * NOMINAL_ML_MIN,
+        "q2_final_ml_min": 0.75 * NOMINAL_ML_MIN,
         "fault_time_s": 10.0,
         "fault_duration_s": 4.0,
     },
@@ -93,10 +97,10 @@ def model_run(parameters: dict, duration: float) -> float:
 
     ml = 1e-6 / 60.0
     p = {
-        "q1_initial_ml_min": 596.3,
-        "q2_initial_ml_min": 596.3,
-        "q1_final_ml_min": 596.3,
-        "q2_final_ml_min": 596.3,
+        "q1_initial_ml_min": NOMINAL_ML_MIN,
+        "q2_initial_ml_min": NOMINAL_ML_MIN,
+        "q1_final_ml_min": NOMINAL_ML_MIN,
+        "q2_final_ml_min": NOMINAL_ML_MIN,
         "fault_time_s": 10.0,
         "fault_duration_s": 0.1,
         **parameters,

@@ -41,6 +41,7 @@ def estimate_baseline(
     if config.offset_prior_std_m <= 0.0:
         raise InputError("a baseline needs offset_prior_std_m > 0 (the offsets' prior std)")
     q = tuple(float(v) for v in flowrates_m3_s)
+    config = config.for_model(model)
     known = dataclasses.replace(
         config,
         q_initial_m3_s=q,

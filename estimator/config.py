@@ -1,15 +1,19 @@
 """Configuration of the oil-flow EKF and of the starvation alarm, validated on construction.
 
 All values are SI (flowrates in m^3/s). The defaults are the paper's (section 3.2): measurement noise 1 um,
-process-noise stds 10 um, 10 um/s and 0.1 ml/min per step, initial flowrates 596.3 ml/min. The fields the
-paper does not give (initial covariance, gate, convergence and alarm thresholds) are documented where they
-are used.
+process-noise stds 10 um, 10 um/s and 0.1 ml/min per step, initial flowrates at the machine's nominal. The
+fields the paper does not give (initial covariance, gate, convergence and alarm thresholds) are documented
+where they are used. Machine facts are not defaults here: a ``None`` nominal or initial flowrate (and the
+recommended velocity process noise) is taken from the model (:meth:`EKFConfig.for_model`).
+
+:data:`ESTIMATOR_PARAMETERS` is this configuration as a user sets it (field units, ranges, descriptions): the
+estimator FMU's variable table and the CLI's help are generated from it, never retyped.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
 
 from models.validation import (
     InputError,
@@ -22,9 +26,6 @@ from models.validation import (
 ML_MIN = 1.0e-6 / 60.0
 """One millilitre per minute in m^3/s."""
 
-NOMINAL_FLOWRATE_M3_S = 596.3 * ML_MIN
-"""The paper's nominal supply flowrate (0.5 bar groove pressure), 596.3 ml/min."""
-
 VELOCITY_NOISE_MODES = ("displacement-only", "correlated", "paper")
 """How the differentiated velocities enter the update (see :mod:`estimator.measurement`)."""
 
@@ -32,6 +33,12 @@ INITIAL_STATE_MODES = ("zero", "static")
 
 RECOMMENDED_DISPLACEMENT_PROCESS_STD_M = 0.1e-6
 """Displacement process-noise std per step of :meth:`EKFConfig.recommended` [m]."""
+
+
+def _bounded(default: float, low: float, high: float, unit: str, description: str):
+    """A field with its allowed range [low, high], unit and description (read by validation and tables)."""
+    metadata = {"low": low, "high": high, "unit": unit, "description": description}
+    return field(default=default, metadata=metadata)
 
 
 @dataclass(frozen=True)
@@ -45,23 +52,37 @@ class AlarmConfig:
     confidence_z : number of standard deviations of the bounds (2.0: one-sided 97.7 %).
     """
 
-    on_fraction: float = 0.90
-    off_fraction: float = 0.95
-    confidence_z: float = 2.0
-    hold_on_s: float = 0.25
-    hold_off_s: float = 1.0
+    on_fraction: float = _bounded(
+        0.90, 0.05, 1.5, "1",
+        "Alarm sets when q_est + z std stays below this fraction of the nominal flowrate for alarm_hold_on_s",
+    )
+    hold_on_s: float = _bounded(0.25, 0.0, 60.0, "s", "Hold time before the alarm sets")
+    off_fraction: float = _bounded(
+        0.95, 0.05, 1.5, "1",
+        "Alarm clears when q_est - z std stays above this fraction of nominal for alarm_hold_off_s "
+        "(>= alarm_on_fraction: hysteresis)",
+    )
+    hold_off_s: float = _bounded(1.0, 0.0, 600.0, "s", "Hold time before the alarm clears")
+    confidence_z: float = _bounded(
+        2.0, 0.0, 10.0, "1",
+        "Confidence multiplier z of the alarm's bounds q_est +/- z std (2: one-sided 97.7 %)",
+    )
 
     def __post_init__(self) -> None:
-        require_in_range("AlarmConfig.on_fraction", self.on_fraction, 0.05, 1.5)
-        require_in_range("AlarmConfig.off_fraction", self.off_fraction, 0.05, 1.5)
+        for spec in fields(self):
+            unit = spec.metadata["unit"]
+            require_in_range(
+                f"AlarmConfig.{spec.name}",
+                getattr(self, spec.name),
+                spec.metadata["low"],
+                spec.metadata["high"],
+                "" if unit == "1" else unit,
+            )
         if self.off_fraction < self.on_fraction:
             raise InputError(
                 f"AlarmConfig.off_fraction must be >= on_fraction ({self.on_fraction:g}) for "
                 f"hysteresis, got {self.off_fraction:g}"
             )
-        require_in_range("AlarmConfig.confidence_z", self.confidence_z, 0.0, 10.0)
-        require_in_range("AlarmConfig.hold_on_s", self.hold_on_s, 0.0, 60.0, "s")
-        require_in_range("AlarmConfig.hold_off_s", self.hold_off_s, 0.0, 600.0, "s")
 
 
 @dataclass(frozen=True)
@@ -97,8 +118,9 @@ class EKFConfig:
         displacement_process_std_m, velocity_process_std_m_s, flowrate_process_std_m3_s : process-noise stds
             per step (Q); the dynamic part goes through ``model.physical_covariance``.
     Initial estimate
-        q_initial_m3_s : initial flowrate estimate, one value for both bearings or a pair.
-        q_nominal_m3_s : nominal flowrate; the filter's internal flowrate unit and the alarm's reference.
+        q_initial_m3_s : initial flowrate estimate, one value for both bearings or a pair (None: the nominal).
+        q_nominal_m3_s : nominal flowrate; the filter's internal flowrate unit and the alarm's reference
+            (None: the model's ``nominal_flowrate_m3_s``, i.e. its machine file's).
         initial_state : "zero" (the paper) or "static" (the model's static equilibrium at ``q_initial``).
         first_sample_time_s : time of the first sample fed to the filter [s], a multiple of the model's dt.
             The model's unbalance phase counts from t = 0, so a plant whose first output is its state after
@@ -106,7 +128,7 @@ class EKFConfig:
             error of the unbalance force at 75 Hz and 1 ms.
         initial_displacement_std_m, initial_velocity_std_m_s, initial_flowrate_std_m3_s : the initial
             covariance P0 (not given by the paper: a clearance-sized displacement error, its velocity at the
-            spin speed, and a quarter of the nominal flowrate).
+            spin speed, and a quarter of the nominal flowrate: None).
     Probes and their zero offsets
         probe_angle_deg : mounting angle of each bearing's probe pair from the model's axes (see
             :func:`estimator.measurement.probe_rotation`; 45: the API 670 pair either side of the top).
@@ -149,13 +171,13 @@ class EKFConfig:
     displacement_process_std_m: float = 10.0e-6
     velocity_process_std_m_s: float = 10.0e-6
     flowrate_process_std_m3_s: float = 0.1 * ML_MIN
-    q_initial_m3_s: float | tuple[float, float] = NOMINAL_FLOWRATE_M3_S
-    q_nominal_m3_s: float = NOMINAL_FLOWRATE_M3_S
+    q_initial_m3_s: float | tuple[float, float] | None = None
+    q_nominal_m3_s: float | None = None
     initial_state: str = "zero"
     first_sample_time_s: float = 0.0
     initial_displacement_std_m: float = 100.0e-6
     initial_velocity_std_m_s: float = 0.05
-    initial_flowrate_std_m3_s: float = 0.25 * NOMINAL_FLOWRATE_M3_S
+    initial_flowrate_std_m3_s: float | None = None
     probe_angle_deg: float = 0.0
     offset_prior_std_m: float = 0.0
     offset_random_walk_m_sqrt_s: float = 0.2e-6
@@ -197,7 +219,8 @@ class EKFConfig:
             "velocity_process_std_m_s",
             "flowrate_process_std_m3_s",
         ):
-            require_non_negative(f"EKFConfig.{name}", getattr(self, name))
+            if not (name == "velocity_process_std_m_s" and self.velocity_process_std_m_s is None):
+                require_non_negative(f"EKFConfig.{name}", getattr(self, name))
         require_non_negative("EKFConfig.first_sample_time_s", self.first_sample_time_s, "s")
         for name in (
             "q_nominal_m3_s",
@@ -208,9 +231,11 @@ class EKFConfig:
             "converged_drift_fraction",
             "converged_window_s",
         ):
-            require_positive(f"EKFConfig.{name}", getattr(self, name))
-        for value in self.q_initial_pair():
-            require_positive("EKFConfig.q_initial_m3_s", value, "m^3/s")
+            if getattr(self, name) is not None:
+                require_positive(f"EKFConfig.{name}", getattr(self, name))
+        if self.q_initial_m3_s is not None:
+            for value in self.q_initial_pair():
+                require_positive("EKFConfig.q_initial_m3_s", value, "m^3/s")
         require_in_range("EKFConfig.gate_tail_probability", self.gate_tail_probability, 0.0, 0.5)
         if self.probe_range_m is not None:
             require_positive("EKFConfig.probe_range_m", self.probe_range_m, "m")
@@ -248,23 +273,55 @@ class EKFConfig:
             raise InputError(f"EKFConfig.alarm must be an AlarmConfig, got {type(self.alarm)!r}")
 
     @classmethod
-    def recommended(cls, speed_hz: float = 75.0, **overrides) -> EKFConfig:
+    def recommended(cls, speed_hz: float | None = None, **overrides) -> EKFConfig:
         """The paper's configuration with a process noise matched to the model error instead of the paper's.
 
-        Dynamic process-noise stds of 0.1 um and 0.1 um x Omega per step (Omega = 2 pi speed_hz). The truth
+        Dynamic process-noise stds of 0.1 um and 0.1 um x Omega per step (Omega = 2 pi speed_hz; None: the
+        model's speed, resolved by :meth:`for_model`). The truth
         has no process noise; what Q must cover is the model error, far below the paper's 10 um per step.
         Measured on the issue-4 plant (Newmark full model; reduced grid model in the filter; sigma 1 um):
         NIS/m 0.99 against 0.14 with the paper's values, mean |error| of constant flowrates 0.09 % against
         0.59 %, starvation alarm 0.45-0.6 s after the centre of a sudden 25 % drop against 1.2-1.5 s.
         ``overrides`` replace any other field.
         """
-        omega = 2.0 * math.pi * require_positive("speed_hz", speed_hz, "Hz")
+        velocity = None
+        if speed_hz is not None:
+            omega = 2.0 * math.pi * require_positive("speed_hz", speed_hz, "Hz")
+            velocity = RECOMMENDED_DISPLACEMENT_PROCESS_STD_M * omega
         values = {
             "displacement_process_std_m": RECOMMENDED_DISPLACEMENT_PROCESS_STD_M,
-            "velocity_process_std_m_s": RECOMMENDED_DISPLACEMENT_PROCESS_STD_M * omega,
+            "velocity_process_std_m_s": velocity,
         }
         values.update(overrides)
         return cls(**values)
+
+    def for_model(self, model) -> EKFConfig:
+        """This configuration with the machine facts it left open (None) taken from ``model``.
+
+        ``q_nominal_m3_s`` from ``model.nominal_flowrate_m3_s``, ``q_initial_m3_s`` = the nominal,
+        ``initial_flowrate_std_m3_s`` = a quarter of it, and a None velocity process noise (the recommended
+        one) = 0.1 um x 2 pi ``model.speed_hz``. An InputError names what the model lacks.
+        """
+        values = {}
+        nominal = self.q_nominal_m3_s
+        if nominal is None:
+            nominal = getattr(model, "nominal_flowrate_m3_s", None)
+            if nominal is None:
+                raise InputError(
+                    "EKFConfig.q_nominal_m3_s: give it, or use a model with nominal_flowrate_m3_s"
+                )
+            values["q_nominal_m3_s"] = float(nominal)
+        if self.q_initial_m3_s is None:
+            values["q_initial_m3_s"] = float(nominal)
+        if self.initial_flowrate_std_m3_s is None:
+            values["initial_flowrate_std_m3_s"] = INITIAL_FLOWRATE_STD_FRACTION * float(nominal)
+        if self.velocity_process_std_m_s is None:
+            speed = getattr(model, "speed_hz", None)
+            if speed is None:
+                raise InputError("EKFConfig.velocity_process_std_m_s: give it, or use a model with speed_hz")
+            omega = 2.0 * math.pi * float(speed)
+            values["velocity_process_std_m_s"] = RECOMMENDED_DISPLACEMENT_PROCESS_STD_M * omega
+        return replace(self, **values) if values else self
 
     def q_initial_pair(self) -> tuple[float, float]:
         """The initial flowrates (q1, q2) [m^3/s]."""
@@ -280,6 +337,80 @@ class EKFConfig:
             )
         number = require_finite("EKFConfig.q_initial_m3_s", value)
         return (number, number)
+
+
+INITIAL_FLOWRATE_STD_FRACTION = 0.25
+"""Default initial flowrate std (P0) as a fraction of the nominal flowrate."""
+
+
+@dataclass(frozen=True)
+class BoundaryParameter:
+    """One configuration field as a user sets it (an FMU parameter, a CLI ``--set``): in the field's units.
+
+    name: the user's name (``q_std_displacement_um``); field: the :class:`EKFConfig` field (``alarm.x`` for an
+    :class:`AlarmConfig` one); scale: SI value = scale x user value; default: the recommended configuration's
+    value in the user's unit; low, high: allowed range (None: unbounded).
+    """
+
+    name: str
+    field: str
+    unit: str
+    scale: float
+    default: float
+    low: float | None
+    high: float | None
+    description: str
+
+    def si(self, value: float) -> float:
+        """The SI value of a user value."""
+        return value * self.scale
+
+
+def _estimator_parameters() -> tuple[BoundaryParameter, ...]:
+    recommended = EKFConfig.recommended()
+    own = (
+        ("noise_um", "noise_std_m", "um", 1e-6, 1e-3, None,
+         "Std of the white measurement noise of each probe (R = noise^2)"),
+        ("q_std_displacement_um", "displacement_process_std_m", "um", 1e-6, 0.0, None,
+         "Process-noise std per step of every displacement state. Default: the recommended tuning; the "
+         "paper's 10 um makes the filter inconsistent (NIS/m 0.14), more biased and slower to alarm"),
+        ("q_std_flow_ml_min", "flowrate_process_std_m3_s", "ml/min", ML_MIN, 0.0, None,
+         "Process-noise std per step of each flowrate state (paper and recommended: 0.1 ml/min)"),
+        ("gate_tail_probability", "gate_tail_probability", "1", 1.0, 0.0, 0.5,
+         "Innovation gate, per probe: a channel whose squared standardized innovation exceeds the "
+         "chi-square(1) quantile 1 - p times its recent innovation power is rejected (never forced through); "
+         "0 disables it"),
+    )  # fmt: skip
+    table = [
+        BoundaryParameter(name, key, unit, scale, getattr(recommended, key) / scale, low, high, text)
+        for name, key, unit, scale, low, high, text in own
+    ]
+    for spec in fields(AlarmConfig):
+        meta = spec.metadata
+        table.append(
+            BoundaryParameter(
+                f"alarm_{spec.name}", f"alarm.{spec.name}", meta["unit"], 1.0, spec.default,
+                meta["low"], meta["high"], meta["description"],
+            )
+        )  # fmt: skip
+    return tuple(table)
+
+
+ESTIMATOR_PARAMETERS: tuple[BoundaryParameter, ...] = _estimator_parameters()
+"""The estimator's user-settable configuration (FMU parameters of OilFlowEKF, ``--set ekf.NAME``)."""
+
+
+def config_from_parameters(values: dict[str, float], **fixed) -> EKFConfig:
+    """An :class:`EKFConfig` (recommended tuning) from user values of :data:`ESTIMATOR_PARAMETERS` by name
+    (missing ones keep their default) and further SI fields ``fixed``."""
+    direct, alarm = {}, {}
+    for parameter in ESTIMATOR_PARAMETERS:
+        value = parameter.si(values.get(parameter.name, parameter.default))
+        if parameter.field.startswith("alarm."):
+            alarm[parameter.field.removeprefix("alarm.")] = value
+        else:
+            direct[parameter.field] = value
+    return EKFConfig.recommended(**direct, alarm=AlarmConfig(**alarm), **fixed)
 
 
 def config_field_names() -> tuple[str, ...]:

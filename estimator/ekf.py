@@ -43,11 +43,11 @@ then update with the measured displacements (Eqs. 22-24, Joseph form, Cholesky s
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.special import chdtri, ndtri
-from tqdm import tqdm
 
 from models.validation import InputError
 
@@ -123,12 +123,13 @@ class OilFlowEKF:
     Parameters
     ----------
     model : any :class:`estimator.model.AugmentedModel`.
-    config : :class:`estimator.config.EKFConfig` (paper defaults).
+    config : :class:`estimator.config.EKFConfig` (paper defaults; what it leaves open, e.g. the nominal
+        flowrate, comes from the model: :meth:`EKFConfig.for_model`).
     """
 
     def __init__(self, model: AugmentedModel, config: EKFConfig | None = None) -> None:
         self.model = model
-        self.config = config if config is not None else EKFConfig()
+        self.config = (config if config is not None else EKFConfig()).for_model(model)
         self._check_model()
         cfg = self.config
         n = int(model.n_states)
@@ -475,8 +476,12 @@ class OilFlowEKF:
             and drift < cfg.converged_drift_fraction
         )
 
-    def run(self, displacements_m: np.ndarray, progress: bool = False) -> EstimateTrace:
-        """Process a record of K samples (K, 4) [m] with :meth:`step`; return the per-step outputs."""
+    def run(
+        self, displacements_m: np.ndarray, progress: Callable[[int, int], None] | None = None
+    ) -> EstimateTrace:
+        """Process a record of K samples (K, 4) [m] with :meth:`step`; return the per-step outputs.
+
+        ``progress(done, total)`` is called every 100 samples and at the end (for a progress bar)."""
         record = np.asarray(displacements_m, dtype=np.float64)
         if record.ndim != 2 or record.shape[1] != 4:
             raise InputError(f"displacements_m must have shape (K, 4), got {record.shape}")
@@ -496,7 +501,9 @@ class OilFlowEKF:
             offset_m=np.zeros((count, 4)),
             offset_std_m=np.zeros((count, 4)),
         )
-        for k in tqdm(range(count), disable=not progress, desc="EKF", unit="step"):
+        for k in range(count):
+            if progress is not None and k % 100 == 0:
+                progress(k, count)
             report = self.step(record[k])
             trace.q_m3_s[k] = report.q_m3_s
             trace.q_std_m3_s[k] = report.q_std_m3_s
@@ -512,6 +519,8 @@ class OilFlowEKF:
             if self._n_offsets:
                 trace.offset_m[k] = self.offset_m
                 trace.offset_std_m[k] = self.offset_std_m
+        if progress is not None:
+            progress(count, count)
         return trace
 
     def get_state(self) -> dict[str, np.ndarray]:

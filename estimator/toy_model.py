@@ -8,7 +8,8 @@ linearized coefficients and static position depend on that bearing's supply flow
   when starved), damping ``C_b(q) = c0 (q / q_nom)^0.3 diag(1, 1.1)``;
 * static journal position ``r0(q) = e_nom (q_nom / q)^1.2 [sin 60 deg, -cos 60 deg]`` (eccentricity grows as
   the flow falls), entering as the input ``K_b(q) r0(q)``;
-* unbalance forces of Eqs. 5-6 at 75 Hz on both masses (half the G2.5 unbalance each, phases 0 and 90 deg).
+* unbalance forces of Eqs. 5-6 at the turbine's nominal speed on both masses (half the G2.5 unbalance
+  each, phases 0 and 90 deg).
 
 The sizes are the turbine's: 333.6 kg per journal (half of the 6545.6 N rotor), a first mode near 55 Hz,
 orbits of tens of micrometres and a static shift of about 6 um between 100 % and 75 % flow.
@@ -27,16 +28,20 @@ import numpy as np
 from numba import njit
 from scipy.linalg import expm
 
+from models.machine import load_machine
 from models.validation import InputError
 
-from .config import ML_MIN, NOMINAL_FLOWRATE_M3_S
+from .config import ML_MIN
 
 MASS_KG = 3272.8 / 9.81
 STIFFNESS_N_M = 4.0e7
 SHAFT_STIFFNESS_N_M = 3.0e7
 DAMPING_N_S_M = 8.0e4
 ECCENTRICITY_M = 15.0e-6
-SPEED_HZ = 75.0
+_TURBINE = load_machine()
+SPEED_HZ = _TURBINE.nominal_speed_hz
+"""The toy's speed and nominal flowrate are the bundled turbine's (its machine file)."""
+NOMINAL_FLOWRATE_M3_S = _TURBINE.lubrication.nominal_flowrate_m3_s
 UNBALANCE_KG_M = 3.540e-3
 TABLE_BOUNDS_M3_S = (273.0 * ML_MIN, 819.0 * ML_MIN)
 
@@ -184,6 +189,8 @@ class ToyRotor:
 
     def __init__(self, dt_s: float = 1.0e-3, grid_points: int = 33) -> None:
         self.dt_s = float(dt_s)
+        self.speed_hz = SPEED_HZ
+        self.nominal_flowrate_m3_s = NOMINAL_FLOWRATE_M3_S
         self.flowrate_bounds_m3_s = TABLE_BOUNDS_M3_S
         self.output_matrix = np.hstack([np.eye(4), np.zeros((4, 4))])
         self.velocity_output_matrix = np.hstack([np.zeros((4, 4)), np.eye(4)])

@@ -20,17 +20,17 @@ Run ``python -m estimator.velocity_study`` to print the table.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
-from tqdm import tqdm
 
 from .config import (
-    NOMINAL_FLOWRATE_M3_S,
     RECOMMENDED_DISPLACEMENT_PROCESS_STD_M,
     VELOCITY_NOISE_MODES,
     EKFConfig,
 )
 from .ekf import OilFlowEKF
-from .toy_model import SPEED_HZ, ToyRotor, simulate
+from .toy_model import NOMINAL_FLOWRATE_M3_S, SPEED_HZ, ToyRotor, simulate
 
 _OMEGA = 2.0 * np.pi * SPEED_HZ
 PROCESS_NOISE = {
@@ -85,13 +85,14 @@ def velocity_noise_study(
     modes: tuple[str, ...] = VELOCITY_NOISE_MODES,
     duration_s: float = 6.0,
     window_s: float = 3.0,
-    progress: bool = False,
+    progress: Callable[[int, int], None] | None = None,
 ) -> list[dict[str, float | str]]:
-    """Average the metrics of :func:`run_case` over cases and seeds for every (process, mode) pair."""
+    """Average the metrics of :func:`run_case` over cases and seeds for every (process, mode) pair;
+    ``progress(done, total)`` after each pair."""
     model = ToyRotor()
     rows = []
     combos = [(p, m) for p in processes for m in modes]
-    for process, mode in tqdm(combos, disable=not progress, desc="velocity study"):
+    for done, (process, mode) in enumerate(combos):
         runs = [
             run_case(model, mode, process, case, noise_std_m, seed, duration_s, window_s)
             for case in cases
@@ -102,6 +103,8 @@ def velocity_noise_study(
             row[key] = float(np.mean([run[key] for run in runs]))
         row["max_rms_pct"] = float(np.max([run["rms_pct"] for run in runs]))
         rows.append(row)
+        if progress is not None:
+            progress(done + 1, len(combos))
     return rows
 
 
@@ -122,4 +125,4 @@ def format_table(rows: list[dict[str, float | str]]) -> str:
 if __name__ == "__main__":
     for sigma in (1.0e-6, 2.0e-6):
         print(f"\nsigma_v = {sigma * 1e6:g} um")
-        print(format_table(velocity_noise_study(noise_std_m=sigma, progress=True)))
+        print(format_table(velocity_noise_study(noise_std_m=sigma)))

@@ -1,7 +1,14 @@
 """The machine parameters both oilwatch FMUs share: ``machine_file``, ``speed_hz`` and the unbalance.
 
 Both the plant and the estimator build the same rotor-bearing system from the same parameters (the filter
-must know the machine and the unbalance the plant has), so they build it here.
+must know the machine and the unbalance the plant has), so they declare and build it here. Machine facts are
+never start values: 0 (speed, flowrates) or -1 (unbalance) stand for "the machine file's value", resolved
+at initialization from the machine file, which is the FMU's own bundled one unless ``machine_file`` names
+another.
+
+Where the bundled machine lives: ``resources/<relocated fmu_src>/machine/<stem>.toml`` and its tables in
+``machine/tables/`` (written by ``oilwatch build-fmus --machine FILE``); an FMU built without that folder
+uses the bundled generic turbine of its ``models`` package.
 """
 
 from __future__ import annotations
@@ -9,14 +16,41 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from models.machine import BUNDLED_MACHINE, load_machine
+from models.machine import BUNDLED_MACHINE, Machine, load_machine
 from models.system.factory import build_system
 from models.system.rotor_bearing import RotorBearingSystem
 from models.validation import InputError
 
+MACHINE_FOLDER = "machine"
+"""Folder of the FMU's own machine file and its tables, inside the relocated ``fmu_src`` package."""
+
+MACHINE_REALS = (
+    ("speed_hz", 0.0, "Hz", 0.0, 1000.0,
+     "Spin speed; 0: the machine file's nominal speed (a coefficient table must exist for it)"),
+    ("unbalance_g_mm", -1.0, "g.mm", -1.0, None,
+     "Unbalance moment at the machine's unbalance node (the plant's and the estimator's must agree); -1: "
+     "the machine file's ISO grade"),
+    ("unbalance_phase_deg", 0.0, "deg", None, None, "Unbalance phase phi of Eqs. 5-6 (same in both FMUs)"),
+)  # fmt: skip
+"""Real parameters both FMUs declare: name, start, unit, min, max, description."""
+
+
+def declare_machine_parameters(slave) -> None:
+    """Declare ``machine_file``, ``speed_hz`` and the unbalance parameters on an oilwatch slave."""
+    for name, start, unit, low, high, text in MACHINE_REALS:
+        slave.declare_real(
+            name, "parameter", start=start, unit=unit, minimum=low, maximum=high, description=text
+        )
+    slave.declare_string(
+        "machine_file",
+        "parameter",
+        start="",
+        description="Machine file (TOML); empty: the machine bundled in this FMU",
+    )
+
 
 def bundled_machine_file(resources: str | None) -> Path:
-    """The bundled machine file inside an FMU instance's resources folder.
+    """The machine file bundled in an FMU instance's resources folder (module docstring).
 
     Found through the instance's own ``resources`` path, not the module's ``__file__``: a host that loads the
     FMU twice imports the (relocated) package once, from the first extraction folder, which it may have
@@ -24,8 +58,19 @@ def bundled_machine_file(resources: str | None) -> Path:
     """
     if not resources:
         return BUNDLED_MACHINE
+    own = Path(resources) / __name__.split(".")[0] / MACHINE_FOLDER
+    machines = sorted(own.glob("*.toml")) if own.is_dir() else []
+    if machines:
+        return machines[0]
     package = load_machine.__module__.split(".")[0]
     return Path(resources) / package / BUNDLED_MACHINE.name
+
+
+def machine_of(machine_file: str, resources: str | None) -> Machine:
+    """The machine of the ``machine_file`` parameter (empty: the bundled one)."""
+    if machine_file and not Path(machine_file).is_file():
+        raise InputError(f"machine_file: no such file: {machine_file!r}")
+    return load_machine(machine_file or bundled_machine_file(resources))
 
 
 def rotor_bearing_system(
@@ -37,14 +82,13 @@ def rotor_bearing_system(
     *,
     reduced: bool,
 ) -> RotorBearingSystem:
-    """The system of the FMU parameters: ``machine_file`` (empty: the bundled turbine), ``speed_hz``,
-    ``unbalance_g_mm`` (negative: the machine file's ISO-grade unbalance) and ``unbalance_phase_deg``."""
-    if machine_file and not Path(machine_file).is_file():
-        raise InputError(f"machine_file: no such file: {machine_file!r}")
-    machine = load_machine(machine_file or bundled_machine_file(resources))
+    """The system of the FMU parameters: ``machine_file`` (empty: the bundled machine), ``speed_hz`` (0: the
+    machine's nominal), ``unbalance_g_mm`` (negative: the machine file's ISO-grade unbalance) and
+    ``unbalance_phase_deg``."""
+    machine = machine_of(machine_file, resources)
     return build_system(
         machine,
-        speed_hz,
+        speed_hz if speed_hz > 0.0 else None,
         reduced=reduced,
         unbalance_moment_kg_m=None if unbalance_g_mm < 0.0 else unbalance_g_mm * 1e-6,
         unbalance_phase_rad=math.radians(unbalance_phase_deg),

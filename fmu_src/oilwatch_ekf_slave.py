@@ -8,17 +8,16 @@ outputs both supply-flowrate estimates with their standard deviations from P, th
 squared, a convergence flag, one starvation alarm per bearing and whether the sample was used.
 
 Default tuning (deliberately not the paper's): the process-noise stds default to the estimator's recommended
-values (``EKFConfig.recommended``): 0.1 um and 0.1 um x Omega (47.1 um/s at 75 Hz) per step on the dynamic
-states and 0.1 ml/min on the flowrates. The paper's 10 um and 10 um/s made the filter inconsistent on the
-plant (NIS/m 0.14 instead of 1, so its stds are not to be trusted), more biased (mean constant-flow bias
-0.59 % against 0.09 % over 5 cases x 2 seeds) and slower to alarm (1.2-1.5 s after a sudden drop against
-0.45-0.6 s). To run the paper's filter, set
-``q_std_displacement_um = 10``, ``q_std_velocity_um_s = 10``, ``q_std_flow_ml_min = 0.1`` and
-``velocity_channels = 1``.
+values (``EKFConfig.recommended``): 0.1 um and 0.1 um x Omega (47.1 um/s for the bundled turbine) per step on
+the dynamic states and 0.1 ml/min on the flowrates. The paper's 10 um and 10 um/s made the filter inconsistent
+on the plant (NIS/m 0.14 instead of 1, so its stds are not to be trusted), more biased (mean constant-flow
+bias 0.59 % against 0.09 % over 5 cases x 2 seeds) and slower to alarm (1.2-1.5 s after a sudden drop against
+0.45-0.6 s). To run the paper's filter, set ``q_std_displacement_um = 10``, ``q_std_velocity_um_s = 10``,
+``q_std_flow_ml_min = 0.1`` and ``velocity_channels = 1``.
 
-Time alignment. The filter's discrete model is exact for samples on the grid ``t_k = k sample_period_s``
-(the unbalance phase counts from t = 0), and a 1 ms misalignment at 75 Hz is a 27 deg phase error that ruins
-the estimate. Each ``doStep(t, h)`` therefore takes the time its sample refers to from the input
+Time alignment. The filter's discrete model is exact for samples on the grid ``t_k = k sample_period_s`` (the
+unbalance phase counts from t = 0), and a 1 ms misalignment at the turbine's speed is a 27 deg phase error
+that ruins the estimate. Each ``doStep(t, h)`` therefore takes the time its sample refers to from the input
 ``t_sample_s`` (connect it to the plant's output of the same name) or, while it stays at its start value -1
 (not connected, e.g. a real plant), uses ``t + h`` (Gauss-Seidel order: the plant stepped first). A sample
 whose time has not advanced (a repeated sample) is not used twice; a gap of several periods is predicted
@@ -41,69 +40,41 @@ import numpy as np
 from pythonfmu import DefaultExperiment
 
 from estimator.config import (
+    ESTIMATOR_PARAMETERS,
+    INITIAL_FLOWRATE_STD_FRACTION,
     ML_MIN,
     RECOMMENDED_DISPLACEMENT_PROCESS_STD_M,
-    AlarmConfig,
     EKFConfig,
+    config_from_parameters,
 )
 from estimator.ekf import OilFlowEKF as FlowFilter
 from estimator.ekf import StepReport
-from fmu_src.machine_parameters import rotor_bearing_system
+from fmu_src.blas_threads import limit_blas_threads
+from fmu_src.machine_parameters import declare_machine_parameters, rotor_bearing_system
 from fmu_src.slave_base import OilwatchSlave
 from models.system.augmented import GridAugmentedModel
 from models.validation import InputError
 
-NOMINAL_ML_MIN = 596.3
 SAMPLING_PERIOD_S = 1e-3
-INITIAL_FLOW_STD_FRACTION = 0.25
-"""P0 flowrate std as a fraction of the nominal flowrate (EKFConfig's default)."""
 POSITIONS = ("x1", "y1", "x2", "y2")
 VELOCITY_MODES = ("displacement-only", "paper", "correlated")
 GRID_TOLERANCE = 1e-3
 """A sample time within this fraction of a period of the grid is on the grid."""
-REAL_PARAMETERS = (
-    ("speed_hz", 75.0, "Hz", 1.0, 1000.0,
-     "Spin speed; the machine's coefficient table must exist for it (as for the plant)"),
+OWN_REALS = (
     ("sample_period_s", SAMPLING_PERIOD_S, "s", 1e-5, 0.01,
      "Sampling period of the filter's discrete model; its samples lie on t = k period"),
-    ("noise_um", 1.0, "um", 1e-3, None, "Std of the white measurement noise of each probe (R = noise^2)"),
-    ("q_initial_ml_min", NOMINAL_ML_MIN, "ml/min", 0.0, None,
-     "Initial flowrate estimate of both bearings (within the coefficient table's range)"),
-    ("q_nominal_ml_min", NOMINAL_ML_MIN, "ml/min", 0.0, None,
-     "Nominal flowrate, the alarm thresholds' reference (paper: 596.3 ml/min at 0.5 bar)"),
-    ("q_std_displacement_um", 0.1, "um", 0.0, None,
-     "Process-noise std per step of every displacement state. Default 0.1 um, the recommended tuning; "
-     "the paper's 10 um makes the filter inconsistent (NIS/m 0.14), more biased and slower to alarm"),
+    ("q_initial_ml_min", 0.0, "ml/min", 0.0, None,
+     "Initial flowrate estimate of both bearings (within the coefficient table's range); 0: the nominal"),
+    ("q_nominal_ml_min", 0.0, "ml/min", 0.0, None,
+     "Nominal flowrate, the alarm thresholds' reference; 0: the machine file's nominal flowrate"),
     ("q_std_velocity_um_s", -1.0, "um/s", -1.0, None,
-     "Process-noise std per step of every velocity state; -1: the recommended 0.1 um x 2 pi speed_hz "
-     "(47.1 um/s at 75 Hz); the paper's 10 um/s makes the filter inconsistent (NIS/m 0.14)"),
-    ("q_std_flow_ml_min", 0.1, "ml/min", 0.0, None,
-     "Process-noise std per step of each flowrate state (paper and recommended: 0.1 ml/min)"),
-    ("gate_tail_probability", 1e-6, "1", 0.0, 0.5,
-     "Innovation gate, per probe: a channel whose squared standardized innovation exceeds the chi-square(1) "
-     "quantile 1 - p times its recent innovation power is rejected (never forced through); 0 disables it"),
-    ("alarm_on_fraction", 0.90, "1", 0.05, 1.5,
-     "Alarm sets when q_est + z std stays below this fraction of q_nominal_ml_min for alarm_hold_on_s"),
-    ("alarm_hold_on_s", 0.25, "s", 0.0, 60.0, "Hold time before the alarm sets"),
-    ("alarm_off_fraction", 0.95, "1", 0.05, 1.5,
-     "Alarm clears when q_est - z std stays above this fraction of nominal for alarm_hold_off_s "
-     "(>= alarm_on_fraction: hysteresis)"),
-    ("alarm_hold_off_s", 1.0, "s", 0.0, 600.0, "Hold time before the alarm clears"),
-    ("alarm_confidence_z", 2.0, "1", 0.0, 10.0,
-     "Confidence multiplier z of the alarm's bounds q_est +/- z std (2: one-sided 97.7 %)"),
-    ("unbalance_g_mm", -1.0, "g.mm", -1.0, None,
-     "Unbalance moment the plant has (same as its parameter); -1: the machine file's ISO grade"),
-    ("unbalance_phase_deg", 0.0, "deg", None, None, "Unbalance phase phi of Eqs. 5-6 (same as the plant's)"),
+     f"Process-noise std per step of every velocity state; -1: the recommended "
+     f"{RECOMMENDED_DISPLACEMENT_PROCESS_STD_M * 1e6:g} um x 2 pi speed_hz; the paper's 10 um/s makes the "
+     "filter inconsistent (NIS/m 0.14)"),
 )  # fmt: skip
-"""Real parameters: name, start, unit, min, max, description."""
-ALARM_FIELDS = {
-    "alarm_on_fraction": "on_fraction",
-    "alarm_hold_on_s": "hold_on_s",
-    "alarm_off_fraction": "off_fraction",
-    "alarm_hold_off_s": "hold_off_s",
-    "alarm_confidence_z": "confidence_z",
-}
-"""FMU alarm parameter -> ``estimator.AlarmConfig`` field."""
+"""Real parameters of this FMU that are not in the estimator's configuration table: name, start, unit, min,
+max, description. The others (:data:`estimator.config.ESTIMATOR_PARAMETERS`: noise, process noise, gate,
+alarm) are generated from the configuration classes."""
 
 
 class OilFlowEKF(OilwatchSlave):
@@ -119,6 +90,7 @@ class OilFlowEKF(OilwatchSlave):
     state_attributes = ("filter_state",)
 
     def __init__(self, **kwargs):
+        limit_blas_threads()
         super().__init__(**kwargs)
         self.filter: FlowFilter | None = None
         self._measurement = np.zeros(4)
@@ -128,9 +100,20 @@ class OilFlowEKF(OilwatchSlave):
         self._declare_inputs_outputs()
 
     def _declare_parameters(self) -> None:
-        for name, start, unit, low, high, text in REAL_PARAMETERS:
+        declare_machine_parameters(self)
+        for name, start, unit, low, high, text in OWN_REALS:
             self.declare_real(
                 name, "parameter", start=start, unit=unit, minimum=low, maximum=high, description=text
+            )
+        for p in ESTIMATOR_PARAMETERS:
+            self.declare_real(
+                p.name,
+                "parameter",
+                start=p.default,
+                unit=p.unit,
+                minimum=p.low,
+                maximum=p.high,
+                description=p.description,
             )
         self.declare_integer(
             "velocity_channels",
@@ -140,12 +123,6 @@ class OilFlowEKF(OilwatchSlave):
             maximum=2,
             description="0: the four displacements only (default); 1: plus differentiated velocities "
             "with R = noise^2 I (the paper); 2: plus velocities with their exact correlated noise",
-        )
-        self.declare_string(
-            "machine_file",
-            "parameter",
-            start="",
-            description="Machine file (TOML); empty: the bundled generic turbine",
         )
 
     def _declare_inputs_outputs(self) -> None:
@@ -171,7 +148,7 @@ class OilFlowEKF(OilwatchSlave):
             real(
                 f"q{b}_est_ml_min",
                 "output",
-                start=NOMINAL_ML_MIN,
+                start=0.0,
                 unit="ml/min",
                 minimum=0.0,
                 description=f"Estimated supply flowrate of bearing {b}",
@@ -180,7 +157,7 @@ class OilFlowEKF(OilwatchSlave):
             real(
                 f"q{b}_std_ml_min",
                 "output",
-                start=INITIAL_FLOW_STD_FRACTION * NOMINAL_ML_MIN,
+                start=0.0,
                 unit="ml/min",
                 minimum=0.0,
                 description=f"Standard deviation of the bearing-{b} estimate (from the covariance P)",
@@ -241,8 +218,6 @@ class OilFlowEKF(OilwatchSlave):
             self.filter.set_state(state)
 
     def validate_parameters(self) -> None:
-        if not self.q_nominal_ml_min > 0.0:
-            raise InputError(f"q_nominal_ml_min must be > 0 ml/min, got {self.q_nominal_ml_min:g}")
         if self.q_std_velocity_um_s < 0.0 and self.q_std_velocity_um_s != -1.0:
             raise InputError(
                 f"q_std_velocity_um_s must be >= 0 um/s or -1 (recommended), got {self.q_std_velocity_um_s:g}"
@@ -271,14 +246,23 @@ class OilFlowEKF(OilwatchSlave):
             self.unbalance_phase_deg,
             reduced=True,
         )
+        nominal = (
+            self.q_nominal_ml_min if self.q_nominal_ml_min > 0.0 else system.nominal_flowrate_m3_s / ML_MIN
+        )
+        initial = self.q_initial_ml_min if self.q_initial_ml_min > 0.0 else nominal
         low, high = (bound / ML_MIN for bound in system.flowrate_bounds_m3_s)
-        if not low <= self.q_initial_ml_min <= high:
+        if not low <= initial <= high:
+            name = (
+                "q_initial_ml_min"
+                if self.q_initial_ml_min > 0.0
+                else "the nominal flowrate (q_initial_ml_min 0)"
+            )
             raise InputError(
-                f"q_initial_ml_min must lie in the coefficient table's range [{low:.1f}, {high:.1f}] ml/min, "
-                f"got {self.q_initial_ml_min:g} ml/min"
+                f"{name} must lie in the coefficient table's range [{low:.1f}, {high:.1f}] ml/min, "
+                f"got {initial:g} ml/min"
             )
         model = GridAugmentedModel(system, self.sample_period_s)
-        self.filter = FlowFilter(model, self._config())
+        self.filter = FlowFilter(model, self._config(nominal, initial, system.speed_hz))
         built = time.perf_counter()
         self._warm_up()
         self.log(
@@ -289,27 +273,22 @@ class OilFlowEKF(OilwatchSlave):
         )
         self._publish()
 
-    def _config(self) -> EKFConfig:
+    def _config(self, nominal_ml_min: float, initial_ml_min: float, speed_hz: float) -> EKFConfig:
         """The estimator's configuration from the parameters (field units -> SI)."""
-        omega = 2.0 * math.pi * self.speed_hz
+        omega = 2.0 * math.pi * speed_hz
         velocity_std = (
             RECOMMENDED_DISPLACEMENT_PROCESS_STD_M * omega
             if self.q_std_velocity_um_s < 0.0
             else self.q_std_velocity_um_s * 1e-6
         )
-        alarm = AlarmConfig(**{field: getattr(self, name) for name, field in ALARM_FIELDS.items()})
-        return EKFConfig(
-            noise_std_m=self.noise_um * 1e-6,
+        return config_from_parameters(
+            {p.name: getattr(self, p.name) for p in ESTIMATOR_PARAMETERS},
             velocity_noise=VELOCITY_MODES[self.velocity_channels],
-            displacement_process_std_m=self.q_std_displacement_um * 1e-6,
             velocity_process_std_m_s=velocity_std,
-            flowrate_process_std_m3_s=self.q_std_flow_ml_min * ML_MIN,
-            q_initial_m3_s=self.q_initial_ml_min * ML_MIN,
-            q_nominal_m3_s=self.q_nominal_ml_min * ML_MIN,
+            q_initial_m3_s=initial_ml_min * ML_MIN,
+            q_nominal_m3_s=nominal_ml_min * ML_MIN,
             first_sample_time_s=round(self.start_time / self.sample_period_s) * self.sample_period_s,
-            initial_flowrate_std_m3_s=INITIAL_FLOW_STD_FRACTION * self.q_nominal_ml_min * ML_MIN,
-            gate_tail_probability=self.gate_tail_probability,
-            alarm=alarm,
+            initial_flowrate_std_m3_s=INITIAL_FLOWRATE_STD_FRACTION * nominal_ml_min * ML_MIN,
         )
 
     def _warm_up(self) -> None:

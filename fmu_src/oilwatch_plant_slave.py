@@ -9,20 +9,23 @@ Fault: each bearing's supply flowrate follows ``q(t) = q_initial + (q_final - q_
 (1 + exp(-(t - fault_time_s) / tau))`` with ``tau = fault_duration_s / (2 ln 9)``: ``fault_duration_s`` is
 the 10 %-90 % transition time. ``flow_source = 1`` replaces the schedule with the inputs ``q1_in_ml_min``
 and ``q2_in_ml_min`` (held over each communication step), so that an oil-system model can drive them.
+Every flowrate and the speed default to 0, which stands for the machine file's nominal value (machine facts
+live in the machine file, not in start values). The FMU limits the process's OpenBLAS threads to one when it
+is instantiated (:mod:`fmu_src.blas_threads`).
 """
 
 from __future__ import annotations
 
 from pythonfmu import DefaultExperiment
 
-from fmu_src.machine_parameters import rotor_bearing_system
+from fmu_src.blas_threads import limit_blas_threads
+from fmu_src.machine_parameters import declare_machine_parameters, rotor_bearing_system
 from fmu_src.slave_base import OilwatchSlave
 from models.bearing.supply import ML_MIN_PER_M3_S
 from models.system.fault import SigmoidFlowrate
 from models.system.plant import RotorBearingPlant as PlantModel
 from models.validation import InputError
 
-NOMINAL_ML_MIN = 596.3
 SAMPLING_PERIOD_S = 1e-3
 OUTPUTS = ("x1", "y1", "x2", "y2")
 
@@ -39,27 +42,22 @@ class RotorBearingPlant(OilwatchSlave):
     state_attributes = ("plant_snapshot",)
 
     def __init__(self, **kwargs):
+        limit_blas_threads()
         super().__init__(**kwargs)
         self.plant = None
+        self._nominal_ml_min = None
         real = self.declare_real
-        real(
-            "speed_hz",
-            "parameter",
-            start=75.0,
-            unit="Hz",
-            minimum=1.0,
-            maximum=1000.0,
-            description="Spin speed; a coefficient table must exist for it",
-        )
+        declare_machine_parameters(self)
         for b in (1, 2):
             for stage, text in (("initial", "before"), ("final", "after")):
                 real(
                     f"q{b}_{stage}_ml_min",
                     "parameter",
-                    start=NOMINAL_ML_MIN,
+                    start=0.0,
                     unit="ml/min",
                     minimum=0.0,
-                    description=f"Supply flowrate of bearing {b} {text} the fault (sigmoid schedule)",
+                    description=f"Supply flowrate of bearing {b} {text} the fault (sigmoid schedule); 0: the "
+                    "machine file's nominal flowrate",
                 )
         real(
             "fault_time_s",
@@ -87,27 +85,6 @@ class RotorBearingPlant(OilwatchSlave):
         self.declare_integer(
             "seed", "parameter", start=1, minimum=0, description="Seed of the measurement-noise generator"
         )
-        real(
-            "unbalance_g_mm",
-            "parameter",
-            start=-1.0,
-            unit="g.mm",
-            minimum=-1.0,
-            description="Unbalance moment at the machine's unbalance node; -1: the machine file's ISO grade",
-        )
-        real(
-            "unbalance_phase_deg",
-            "parameter",
-            start=0.0,
-            unit="deg",
-            description="Unbalance phase phi of Eqs. 5-6",
-        )
-        self.declare_string(
-            "machine_file",
-            "parameter",
-            start="",
-            description="Machine file (TOML); empty: the bundled generic turbine",
-        )
         self.declare_integer(
             "flow_source",
             "parameter",
@@ -120,10 +97,11 @@ class RotorBearingPlant(OilwatchSlave):
             real(
                 f"q{b}_in_ml_min",
                 "input",
-                start=NOMINAL_ML_MIN,
+                start=0.0,
                 unit="ml/min",
                 minimum=0.0,
-                description=f"Supply flowrate of bearing {b} when flow_source = 1",
+                description=f"Supply flowrate of bearing {b} when flow_source = 1; 0: the machine file's "
+                "nominal flowrate",
             )
         for name in OUTPUTS:
             axis, b = name[0], name[1]
@@ -155,7 +133,7 @@ class RotorBearingPlant(OilwatchSlave):
             real(
                 f"q{b}_ml_min",
                 "output",
-                start=NOMINAL_ML_MIN,
+                start=0.0,
                 unit="ml/min",
                 description=f"True supply flowrate of bearing {b}",
             )
@@ -170,12 +148,13 @@ class RotorBearingPlant(OilwatchSlave):
         if snapshot is not None:
             self.plant.restore(snapshot)
 
-    def validate_parameters(self) -> None:
-        if self.flow_source == 0:
-            for b in (1, 2):
-                for stage in ("initial", "final"):
-                    if getattr(self, f"q{b}_{stage}_ml_min") <= 0.0:
-                        raise InputError(f"q{b}_{stage}_ml_min must be > 0 ml/min")
+    def _flowrate_m3_s(self, name: str) -> float:
+        """A flowrate variable [ml/min] in m^3/s; 0 stands for the machine's nominal flowrate."""
+        value = getattr(self, name)
+        return (value if value > 0.0 else self._nominal_ml_min) / ML_MIN_PER_M3_S
+
+    def _inputs_m3_s(self) -> tuple[float, float]:
+        return (self._flowrate_m3_s("q1_in_ml_min"), self._flowrate_m3_s("q2_in_ml_min"))
 
     def setup(self) -> None:
         system = rotor_bearing_system(
@@ -186,18 +165,19 @@ class RotorBearingPlant(OilwatchSlave):
             self.unbalance_phase_deg,
             reduced=False,
         )
+        self._nominal_ml_min = system.nominal_flowrate_m3_s * ML_MIN_PER_M3_S
         schedules = None
         if self.flow_source == 0:
             schedules = tuple(
                 SigmoidFlowrate(
-                    getattr(self, f"q{b}_initial_ml_min") / ML_MIN_PER_M3_S,
-                    getattr(self, f"q{b}_final_ml_min") / ML_MIN_PER_M3_S,
+                    self._flowrate_m3_s(f"q{b}_initial_ml_min"),
+                    self._flowrate_m3_s(f"q{b}_final_ml_min"),
                     self.fault_time_s,
                     self.fault_duration_s,
                 )
                 for b in (1, 2)
             )
-        inputs = (self.q1_in_ml_min / ML_MIN_PER_M3_S, self.q2_in_ml_min / ML_MIN_PER_M3_S)
+        inputs = self._inputs_m3_s()
         try:
             self.plant = PlantModel(
                 system,
@@ -215,9 +195,7 @@ class RotorBearingPlant(OilwatchSlave):
     def step(self, current_time: float, step_size: float) -> bool:
         if abs(step_size - self.plant.dt_s) > 1e-12 * step_size:
             self.plant.set_period(step_size)
-        inputs = None
-        if self.flow_source == 1:
-            inputs = (self.q1_in_ml_min / ML_MIN_PER_M3_S, self.q2_in_ml_min / ML_MIN_PER_M3_S)
+        inputs = self._inputs_m3_s() if self.flow_source == 1 else None
         self._publish(self.plant.step(inputs))
         return True
 

@@ -10,6 +10,13 @@ What pythonfmu 0.7.0 does, and what this class does about it (verified with fmpy
   After the fatal status, ``fmi2FreeInstance`` and ``fmi2Reset`` still work with pythonfmu; the FMI
   standard allows neither after ``fmi2Fatal``, so a careful host calls nothing more.
 - ``do_step`` returning False gives ``fmi2Discard``.
+- A fixed (non-tunable) parameter set after ``fmi2ExitInitializationMode`` is an error (FMI 2.0,
+  section 4.2.4: fixed parameters may be set only before initialization ends); pythonfmu would store it
+  and the model would silently ignore it. This class refuses it: the value is not stored, a message
+  naming the parameter is logged at status error, and the call fails. pythonfmu 0.7's C++ wrapper maps
+  every Python exception to ``fmi2Fatal`` (``handle_py_exception`` throws its ``fatal_error``) and
+  ignores the return value of the set methods, so ``fmi2Error`` itself cannot be returned from Python;
+  the host sees ``fmi2Fatal`` with the logged reason.
 - ``fmi2GetFMUstate`` returns whatever ``_get_fmu_state`` returns (a Python object held by
   reference; the default saves registered variables only). Here the state also holds deep copies of
   the attributes named in :attr:`OilwatchSlave.state_attributes` (numpy arrays, a
@@ -31,7 +38,7 @@ from typing import Any, ClassVar
 from xml.etree.ElementTree import Element
 
 from pythonfmu import Fmi2Slave
-from pythonfmu.enums import Fmi2Causality, Fmi2Status
+from pythonfmu.enums import Fmi2Causality, Fmi2Status, Fmi2Variability
 
 from models.validation import InputError
 
@@ -46,7 +53,7 @@ from .fmi_variables import (
 
 
 class SlaveInitializationError(RuntimeError):
-    """Raised out of ``exit_initialization_mode`` after the reasons were logged to the host."""
+    """Raised out of ``exit_initialization_mode`` (or a refused set) after the reasons were logged."""
 
 
 class OilwatchSlave(Fmi2Slave):
@@ -58,6 +65,7 @@ class OilwatchSlave(Fmi2Slave):
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
         self._declared: list = []
+        self._initialized = False
         self.start_time = 0.0
         self.stop_time: float | None = None
 
@@ -209,6 +217,38 @@ class OilwatchSlave(Fmi2Slave):
                 self.log(traceback.format_exc(), Fmi2Status.error)
         if problems:
             self.fail(problems, "initialization")
+        self._initialized = True
+
+    # ----------------------------------------------------- setters after initialization
+    def _refuse_fixed_after_initialization(self, vrs, values, call: str) -> None:
+        """Fail (module docstring) when a call after initialization sets a fixed parameter."""
+        if not self._initialized:
+            return
+        problems = [
+            f"{self.vars[vr].name} is a fixed parameter: it can be set only before "
+            f"fmi2ExitInitializationMode; {value!r} was not applied (reset the instance to change it)"
+            for vr, value in zip(vrs, values, strict=True)
+            if self.vars[vr].causality == Fmi2Causality.parameter
+            and self.vars[vr].variability in (Fmi2Variability.fixed, Fmi2Variability.constant)
+        ]
+        if problems:
+            self.fail(problems, call)
+
+    def set_real(self, vrs, values):
+        self._refuse_fixed_after_initialization(vrs, values, "fmi2SetReal")
+        super().set_real(vrs, values)
+
+    def set_integer(self, vrs, values):
+        self._refuse_fixed_after_initialization(vrs, values, "fmi2SetInteger")
+        super().set_integer(vrs, values)
+
+    def set_boolean(self, vrs, values):
+        self._refuse_fixed_after_initialization(vrs, values, "fmi2SetBoolean")
+        super().set_boolean(vrs, values)
+
+    def set_string(self, vrs, values):
+        self._refuse_fixed_after_initialization(vrs, values, "fmi2SetString")
+        super().set_string(vrs, values)
 
     def do_step(self, current_time: float, step_size: float) -> bool:
         """Advance by ``step_size`` [s]; exceptions of :meth:`step` are logged, then re-raised."""

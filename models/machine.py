@@ -14,14 +14,14 @@ from __future__ import annotations
 import math
 import tomllib
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from .bearing.geometry import JournalBearing
-from .validation import InputError
+from .validation import InputError, naming_file, read_text_file
 
 BUNDLED_MACHINE = Path(__file__).resolve().parent / "turbine.toml"
 LOAD_SPLITS = ("equal", "reactions")
@@ -75,15 +75,18 @@ class Unbalance:
 class Lubrication:
     """Nominal oil supply of the bearings.
 
-    Attributes: nominal_supply_pressure_pa [Pa], nominal_flowrate_m3_s [m^3/s] (the paper's
-    596.3 ml/min), table_min/max_fraction_of_threshold: span of the coefficient tables as fractions
-    of the flooded threshold flowrate q_t [-].
+    Attributes: nominal_supply_pressure_pa [Pa] (NaN when the file gives only a flowrate),
+    nominal_flowrate_m3_s [m^3/s] (every flowrate given as a percentage is a percentage of it),
+    table_min/max_fraction_of_threshold: span of the coefficient tables as fractions of the flooded
+    threshold flowrate q_t [-], nominal_flowrate_computed: True when the file gives only the supply
+    pressure and the flowrate was computed from it (:func:`nominal_flowrate_from_pressure`).
     """
 
     nominal_supply_pressure_pa: float
     nominal_flowrate_m3_s: float
     table_min_fraction_of_threshold: float
     table_max_fraction_of_threshold: float
+    nominal_flowrate_computed: bool = False
 
 
 @dataclass(frozen=True, eq=False, repr=False)
@@ -308,22 +311,63 @@ def _read_lubrication(data: Mapping[str, Any]) -> Lubrication:
             "lubrication.table_max_fraction_of_threshold must exceed "
             f"table_min_fraction_of_threshold ({low:g}), got {high:g}"
         )
-    return Lubrication(
-        nominal_supply_pressure_pa=_real(
-            table, "lubrication", "nominal_supply_pressure_bar", "bar", strict=False
+    if "nominal_flowrate_ml_min" not in table and "nominal_supply_pressure_bar" not in table:
+        raise InputError(
+            "[lubrication] needs nominal_flowrate_ml_min or nominal_supply_pressure_bar (the flowrate is "
+            "then computed at that groove pressure)"
         )
-        * 1e5,
-        nominal_flowrate_m3_s=_real(table, "lubrication", "nominal_flowrate_ml_min", "ml/min") / 1e6 / 60.0,
+    pressure = math.nan
+    if "nominal_supply_pressure_bar" in table:
+        pressure = _real(table, "lubrication", "nominal_supply_pressure_bar", "bar", strict=False) * 1e5
+    flowrate = math.nan
+    if "nominal_flowrate_ml_min" in table:
+        flowrate = _real(table, "lubrication", "nominal_flowrate_ml_min", "ml/min") / 1e6 / 60.0
+    return Lubrication(
+        nominal_supply_pressure_pa=pressure,
+        nominal_flowrate_m3_s=flowrate,
         table_min_fraction_of_threshold=low,
         table_max_fraction_of_threshold=high,
+        nominal_flowrate_computed=math.isnan(flowrate),
     )
+
+
+_COMPUTED_FLOWRATES: dict[tuple[str, str], float] = {}
+"""Nominal flowrates computed from the supply pressure in this process, by (file, file text)."""
+
+
+def nominal_flowrate_from_pressure(machine: Machine) -> float:
+    """The steady supply flowrate [m^3/s] at the machine's nominal groove pressure, nominal speed and the
+    first bearing's static load (the paper defines its nominal flowrate so, from a 0.5 bar groove pressure).
+
+    One steady p-theta solve on the production mesh (about a second); every bearing of a machine file
+    shares the geometry, and with ``load_split = "equal"`` the load too.
+    """
+    from .bearing.equilibrium import static_equilibrium
+    from .bearing.grid import PRODUCTION_MESH
+    from .bearing.supply import SupplyPressure
+    from .rotor.assembly import Rotor
+
+    load = float(Rotor.from_machine(machine).bearing_static_loads_n[0])
+    supply = SupplyPressure(machine.lubrication.nominal_supply_pressure_pa)
+    equilibrium = static_equilibrium(machine.bearing, load, machine.nominal_speed_hz, supply, PRODUCTION_MESH)
+    return float(equilibrium.supply_flow_m3_s)
+
+
+def _with_nominal_flowrate(machine: Machine, key: tuple[str, str]) -> Machine:
+    if not machine.lubrication.nominal_flowrate_computed:
+        return machine
+    if key not in _COMPUTED_FLOWRATES:
+        _COMPUTED_FLOWRATES[key] = nominal_flowrate_from_pressure(machine)
+    lubrication = replace(machine.lubrication, nominal_flowrate_m3_s=_COMPUTED_FLOWRATES[key])
+    return replace(machine, lubrication=lubrication)
 
 
 def machine_from_dict(data: Mapping[str, Any], source_path: Path | str = "<dict>") -> Machine:
     """Validate a parsed machine file and return the :class:`Machine` in SI units.
 
     Raises :class:`InputError` naming the offending field for any missing, non-numeric, negative
-    or inconsistent value.
+    or inconsistent value. A ``[lubrication]`` table without ``nominal_flowrate_ml_min`` gets the flowrate
+    computed at ``nominal_supply_pressure_bar`` (:func:`nominal_flowrate_from_pressure`).
     """
     head = _table(data, "machine")
     name = head.get("name", Path(str(source_path)).stem)
@@ -357,7 +401,7 @@ def machine_from_dict(data: Mapping[str, Any], source_path: Path | str = "<dict>
     beta = 0.0
     if "stiffness_proportional_s" in damping:
         beta = _real(damping, "rotor_damping", "stiffness_proportional_s", "s", strict=False)
-    return Machine(
+    machine = Machine(
         name=name,
         source_path=Path(str(source_path)),
         nominal_speed_hz=_real(head, "machine", "nominal_speed_hz", "Hz"),
@@ -374,6 +418,7 @@ def machine_from_dict(data: Mapping[str, Any], source_path: Path | str = "<dict>
         structural_damping_s=beta,
         raw=data,
     )
+    return _with_nominal_flowrate(machine, (str(source_path), repr(sorted(data.items()))))
 
 
 def load_machine(path: str | Path | None = None) -> Machine:
@@ -383,12 +428,10 @@ def load_machine(path: str | Path | None = None) -> Machine:
     non-numeric, negative or inconsistent value (the message names the field).
     """
     source = BUNDLED_MACHINE if path is None else Path(path)
-    try:
-        text = source.read_text(encoding="utf-8")
-    except OSError as error:
-        raise InputError(f"cannot read machine file {str(source)!r}: {error.strerror}") from None
+    text = read_text_file("machine file", source, "a TOML machine file such as models/turbine.toml")
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as error:
         raise InputError(f"machine file {str(source)!r} is not valid TOML: {error}") from None
-    return machine_from_dict(data, source)
+    with naming_file("machine file", source):
+        return machine_from_dict(data, source)

@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
+from pathlib import Path
 
 
 class InputError(ValueError):
@@ -51,3 +54,68 @@ def require_in_range(
         u = f" {unit}" if unit else ""
         raise InputError(f"{name} must lie in [{low:g}, {high:g}{bracket}{u}, got {number:g}{u}")
     return number
+
+
+def read_text_file(kind: str, path: str | Path, hint: str = "") -> str:
+    """The text of the UTF-8 input file ``path`` (a ``kind``, e.g. "machine file"); InputError naming
+    it when it is missing, unreadable, empty or not text (``hint``: what it should be, e.g. "a TOML file")."""
+    source = Path(path)
+    should = f"; give {hint}" if hint else ""
+    try:
+        data = source.read_bytes()
+    except FileNotFoundError:
+        raise InputError(f"cannot read {kind} {str(source)!r}: not found") from None
+    except OSError as error:
+        raise InputError(f"cannot read {kind} {str(source)!r}: {error.strerror}") from None
+    if not data.strip():
+        raise InputError(f"{kind} {str(source)!r} is empty{should}")
+    try:
+        if b"\0" in data:
+            raise UnicodeDecodeError("utf-8", data, data.index(b"\0"), data.index(b"\0") + 1, "NUL byte")
+        return data.decode("utf-8")
+    except UnicodeDecodeError as error:
+        raise InputError(
+            f"{kind} {str(source)!r} is not a text file (binary data at byte {error.start}){should}"
+        ) from None
+
+
+@contextmanager
+def naming_file(kind: str, path: str | Path) -> Iterator[None]:
+    """Re-raise an InputError of the block with ``kind path:`` in front, unless it names the file already:
+    a message about a field of a file must say which file."""
+    try:
+        yield
+    except InputError as error:
+        if str(path) in str(error):
+            raise
+        raise InputError(f"{kind} {str(path)!r}: {error}") from None
+
+
+_KIND_NAMES = {
+    float: "a number",
+    int: "a number",
+    str: "text",
+    list: "a list",
+    dict: "an object",
+    bool: "true/false",
+}
+
+
+def require_fields(mapping: object, where: str, fields: dict[str, type | tuple[type, ...]]) -> Mapping:
+    """``mapping`` if it is a JSON/TOML object holding every key of ``fields`` with a value of its type
+    (``float`` accepts an int, never a bool); InputError naming ``where`` and the missing or bad key."""
+    if not isinstance(mapping, Mapping):
+        raise InputError(
+            f"{where} must be an object with keys {', '.join(fields)}, got {type(mapping).__name__}"
+        )
+    for key, kind in fields.items():
+        if key not in mapping:
+            raise InputError(f"{where} has no key {key!r} (needs {', '.join(fields)})")
+        value = mapping[key]
+        kinds = kind if isinstance(kind, tuple) else (kind,)
+        if float in kinds:
+            kinds = (*kinds, int)
+        if (isinstance(value, bool) and bool not in kinds) or not isinstance(value, kinds):
+            names = " or ".join(dict.fromkeys(_KIND_NAMES.get(k, k.__name__) for k in kinds))
+            raise InputError(f"{where}.{key} must be {names}, got {value!r}")
+    return mapping

@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 
 from estimator.baseline import load_baseline
-from estimator.config import NOMINAL_FLOWRATE_M3_S, EKFConfig
+from estimator.config import EKFConfig
 from estimator.ekf import OilFlowEKF
+from estimator.toy_model import NOMINAL_FLOWRATE_M3_S
 from models.system.augmented import GridAugmentedModel
 from models.system.factory import load_system
 from models.system.plant import RotorBearingPlant

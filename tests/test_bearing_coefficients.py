@@ -113,6 +113,7 @@ def test_halving_the_steps_changes_no_coefficient_by_more_than_half_a_percent(
     np.testing.assert_allclose(c2, c1, rtol=5e-3)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("node", range(len(TABLE_FRACTIONS)))
 def test_halving_the_steps_at_every_table_flowrate(production_points, node):
     """Held-partition differences are smooth: halving the step changes K by ~1e-5 relative."""
@@ -131,6 +132,7 @@ def test_halving_the_steps_at_every_table_flowrate(production_points, node):
     np.testing.assert_allclose(c2, point["C"], rtol=1e-9)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("node", [n for n in range(len(TABLE_FRACTIONS)) if n != THRESHOLD_NODE])
 def test_held_stiffness_agrees_with_free_resolves_at_moderate_steps(production_points, node):
     """Free re-solves at 0.5 % of c (cells switching) scatter about the held derivative.
@@ -144,6 +146,7 @@ def test_held_stiffness_agrees_with_free_resolves_at_moderate_steps(production_p
     np.testing.assert_allclose(free, point["K"], rtol=0.02)
 
 
+@pytest.mark.slow
 def test_threshold_node_takes_the_mean_of_the_one_sided_limits(production_points):
     """At q_t the groove is just full: starved on one side, flooded on the other (a real kink)."""
     point = production_points[THRESHOLD_NODE]
@@ -163,6 +166,7 @@ def test_threshold_node_takes_the_mean_of_the_one_sided_limits(production_points
     assert normwise(free, starved) > 0.02 and normwise(free, flooded) > 0.02
 
 
+@pytest.mark.slow
 def test_squeeze_everywhere_damping_is_the_small_step_limit_of_free_resolves():
     """squeeze="everywhere" re-solves the quasi-steady film: on the held partition it is smooth in
     the velocity, and free re-solves approach it as the velocity step shrinks (3 % off at 1e-2)."""
@@ -198,6 +202,7 @@ def test_full_film_damping_is_symmetric(nominal_equilibrium):
     assert np.all(np.linalg.eigvalsh(damping) > 0.0)  # the film dissipates
 
 
+@pytest.mark.slow
 def test_production_mesh_within_one_percent_of_a_mesh_twice_as_fine():
     k1, c1 = linearized_coefficients(BEARING, LOAD_N, SPEED_HZ, NOMINAL, PRODUCTION_MESH)
     k2, c2 = linearized_coefficients(BEARING, LOAD_N, SPEED_HZ, NOMINAL, FINE_MESH)
@@ -205,6 +210,7 @@ def test_production_mesh_within_one_percent_of_a_mesh_twice_as_fine():
     np.testing.assert_allclose(c1, c2, rtol=0.01)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("node", range(len(TABLE_FRACTIONS)))
 def test_table_coefficients_within_one_percent_of_a_mesh_twice_as_fine(production_points, fine_points, node):
     coarse, fine = production_points[node], fine_points[node]

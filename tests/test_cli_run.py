@@ -20,6 +20,8 @@ from fixtures.fmu_subprocess import REPO_ROOT
 
 from oilwatch.scenarios.runner import COLUMNS
 
+pytestmark = pytest.mark.slow  # each test runs the oilwatch command on the FMUs in a fresh process
+
 HEADER = ["time_s", *COLUMNS.values()]
 
 
@@ -86,6 +88,9 @@ def test_constant_at_nominal_raises_no_alarm_and_json_goes_alone_to_stdout(envir
 def test_ctrl_c_stops_the_run_and_result_csv_keeps_every_step_done(environment, tmp_path):
     out = tmp_path / "stopped"
     csv_path = out / "result.csv"
+    out.mkdir()
+    for name in ("result.csv", "summary.json", "estimates.png"):  # a finished run's files
+        (out / name).write_text("previous run\n")
     process = subprocess.Popen(
         [sys.executable, "-m", "oilwatch", "run", "sudden-drop", "--out", str(out), "--no-progress"],
         cwd=REPO_ROOT,
@@ -115,6 +120,7 @@ def test_ctrl_c_stops_the_run_and_result_csv_keeps_every_step_done(environment, 
     assert seen - 1 <= rows.shape[0] < 20001
     np.testing.assert_allclose(rows[:, 0], np.arange(rows.shape[0]) * 1e-3, atol=1e-9)
     assert np.isfinite(rows).all()
+    assert sorted(path.name for path in out.iterdir()) == ["result.csv"]  # nothing stale beside it
 
 
 def _broken_ssp(built_fmus, folder):

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from estimator.alarm import StarvationAlarm
-from estimator.config import NOMINAL_FLOWRATE_M3_S, AlarmConfig, EKFConfig
+from estimator.config import AlarmConfig, EKFConfig
 from estimator.ekf import OilFlowEKF
-from estimator.toy_model import ToyRotor, simulate
+from estimator.toy_model import NOMINAL_FLOWRATE_M3_S, ToyRotor, simulate
 
 QN = NOMINAL_FLOWRATE_M3_S
 DT = 1e-3
@@ -71,6 +71,7 @@ def _sudden_drop(steps, bearings):
     return q
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sigma", [1e-6, 2e-6])
 def test_never_fires_in_a_nominal_20_s_run(toy, sigma):
     record = simulate(toy, np.full((20000, 2), QN), sigma, seed=21)

@@ -68,8 +68,30 @@ def test_defaults_are_the_papers():
     assert config.displacement_process_std_m == 10e-6
     assert config.velocity_process_std_m_s == 10e-6
     assert config.flowrate_process_std_m3_s == pytest.approx(0.1 * ML_MIN)
-    assert config.q_initial_pair() == pytest.approx((596.3 * ML_MIN, 596.3 * ML_MIN))
+    assert config.q_initial_m3_s is None and config.q_nominal_m3_s is None  # machine facts: from the model
+    resolved = config.for_model(ToyRotor())
+    assert resolved.q_initial_pair() == pytest.approx((596.3 * ML_MIN, 596.3 * ML_MIN))
+    assert resolved.initial_flowrate_std_m3_s == pytest.approx(0.25 * 596.3 * ML_MIN)
     assert config.initial_state == "zero"
+
+
+def test_recommended_velocity_noise_follows_the_model_speed():
+    config = EKFConfig.recommended().for_model(ToyRotor())
+    assert config.velocity_process_std_m_s == pytest.approx(0.1e-6 * 2 * 3.141592653589793 * 75.0)
+    assert EKFConfig.recommended(speed_hz=80.0).velocity_process_std_m_s == pytest.approx(
+        0.1e-6 * 2 * 3.141592653589793 * 80.0
+    )
+
+
+def test_estimator_parameters_are_generated_from_the_config_classes():
+    from estimator.config import ESTIMATOR_PARAMETERS, config_from_parameters
+
+    by_name = {p.name: p for p in ESTIMATOR_PARAMETERS}
+    assert by_name["alarm_on_fraction"].default == AlarmConfig().on_fraction
+    assert (by_name["alarm_hold_off_s"].low, by_name["alarm_hold_off_s"].high) == (0.0, 600.0)
+    assert by_name["q_std_displacement_um"].default == pytest.approx(0.1)
+    config = config_from_parameters({"alarm_hold_on_s": 0.5, "noise_um": 2.0})
+    assert config.alarm.hold_on_s == 0.5 and config.noise_std_m == pytest.approx(2e-6)
 
 
 def test_toy_satisfies_the_protocol():
@@ -95,6 +117,7 @@ def test_static_start_needs_a_model_with_static_state():
         output_matrix = np.zeros((4, 2))
         velocity_output_matrix = np.zeros((4, 2))
         flowrate_bounds_m3_s = (1e-6, 1e-4)
+        nominal_flowrate_m3_s = 5e-5
 
         def transition(self, state, flowrate_m3_s, step):
             return state, np.eye(2), np.zeros((2, 2))

@@ -10,9 +10,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from estimator.config import ML_MIN, NOMINAL_FLOWRATE_M3_S, EKFConfig
+from estimator.config import ML_MIN, EKFConfig
 from estimator.ekf import OilFlowEKF
-from estimator.toy_model import TABLE_BOUNDS_M3_S, ToyRotor, simulate
+from estimator.toy_model import NOMINAL_FLOWRATE_M3_S, TABLE_BOUNDS_M3_S, ToyRotor, simulate
 from models.validation import InputError
 
 QN = NOMINAL_FLOWRATE_M3_S
@@ -51,6 +51,7 @@ def test_nis_averages_the_number_of_measurements(toy):
     assert np.mean(np.abs(error) < 2 * trace.q_std_m3_s[2000:]) > 0.9
 
 
+@pytest.mark.slow
 def test_covariance_stays_symmetric_positive_definite_over_a_long_run(toy):
     record = simulate(toy, np.full((30000, 2), 0.85 * QN), 1e-6, seed=13)
     ekf = OilFlowEKF(toy, EKFConfig.recommended(velocity_noise="correlated"))
@@ -207,6 +208,7 @@ class _MixedCoordinates:
         self.toy = toy
         self.n_states, self.dt_s = 8, toy.dt_s
         self.flowrate_bounds_m3_s = toy.flowrate_bounds_m3_s
+        self.nominal_flowrate_m3_s, self.speed_hz = toy.nominal_flowrate_m3_s, toy.speed_hz
         self.output_matrix = toy.output_matrix @ self.t_inv
         self.velocity_output_matrix = toy.velocity_output_matrix @ self.t_inv
 

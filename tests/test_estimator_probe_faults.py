@@ -14,8 +14,9 @@ import numpy as np
 import pytest
 
 from estimator.channels import DEAD, OK, OUT_OF_RANGE, REJECTED, STUCK
-from estimator.config import NOMINAL_FLOWRATE_M3_S, EKFConfig
+from estimator.config import EKFConfig
 from estimator.ekf import OilFlowEKF
+from estimator.toy_model import NOMINAL_FLOWRATE_M3_S
 from models.system.augmented import GridAugmentedModel
 from models.system.factory import load_system
 from models.system.plant import RotorBearingPlant

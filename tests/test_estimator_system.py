@@ -11,8 +11,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from estimator.config import NOMINAL_FLOWRATE_M3_S, EKFConfig
+from estimator.config import EKFConfig
 from estimator.ekf import OilFlowEKF
+from estimator.toy_model import NOMINAL_FLOWRATE_M3_S
 from models.system.augmented import GridAugmentedModel
 from models.system.factory import load_system
 from models.system.fault import SigmoidFlowrate
@@ -37,6 +38,7 @@ def _constant(q):
     return SigmoidFlowrate(q, q, 1e9, 1.0)
 
 
+@pytest.mark.slow
 def test_constant_flowrates_on_the_plant(systems):
     model, full = systems
     truth = np.array([0.8, 0.9]) * QN

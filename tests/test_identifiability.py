@@ -120,6 +120,7 @@ def test_sensitivity_is_step_insensitive(system):
         np.testing.assert_allclose(bound.std_ml_min, reference.std_ml_min, rtol=1e-4)
 
 
+@pytest.mark.slow
 def test_nonlinear_least_squares_fit_attains_the_bound(system):
     """A maximum-likelihood fit of (q1, q2) to noisy steady records is efficient: its std meets the bound."""
     q_true = np.array([0.9 * Q_NOMINAL, 0.8 * Q_NOMINAL])

@@ -18,6 +18,8 @@ import pytest
 from oilwatch.study import Case, get_case_model
 from oilwatch.study.storage import CaseStore
 
+pytestmark = pytest.mark.slow  # co-simulated study cases through the FMUs
+
 REPO_ROOT = Path(__file__).resolve().parent.parent
 GRID = ["--noise-um", "1", "--grid-step-pct", "12.5", "--duration-s", "1.5", "--discard-s", "1"]
 

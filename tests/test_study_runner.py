@@ -45,6 +45,7 @@ def reference(client, tmp_path_factory):
     )
 
 
+@pytest.mark.slow
 def test_uninterrupted_study_is_complete(reference):
     summary = reference.summary
     assert summary["complete"] and reference.n_new == len(CASES) and not summary["failed_cases"]
@@ -55,6 +56,7 @@ def test_uninterrupted_study_is_complete(reference):
     assert all(path.stat().st_size > 10_000 for path in reference.maps)
 
 
+@pytest.mark.slow
 def test_study_stopped_part_way_and_restarted_gives_the_same_summary(client, reference, tmp_path):
     first = run_study(CASES, tmp_path, MODEL, "synthetic", client=client, max_cases=5, progress=False)
     assert first.stopped_early and first.n_new == 5 and not first.summary["complete"]
@@ -68,6 +70,7 @@ def test_study_stopped_part_way_and_restarted_gives_the_same_summary(client, ref
     assert len(lines) == 1 + len(CASES)
 
 
+@pytest.mark.slow
 def test_killed_study_restarts_where_it_stopped(client, reference, tmp_path):
     """Kill the process running a study (and its local cluster) part-way, then run it again."""
     script = textwrap.dedent(
@@ -102,6 +105,7 @@ def test_killed_study_restarts_where_it_stopped(client, reference, tmp_path):
     assert _comparable(resumed.summary) == _comparable(reference.summary)
 
 
+@pytest.mark.slow
 def test_case_that_always_fails_is_reported_and_the_study_completes(client, tmp_path):
     bad = CASES[4].case_id
     failing = SyntheticCase(fail_case_ids=frozenset({bad}))
@@ -133,6 +137,7 @@ class FlakyCase:
         return SyntheticCase()(case)
 
 
+@pytest.mark.slow
 def test_transient_failures_are_retried(client, reference, tmp_path):
     markers = tmp_path / "markers"
     markers.mkdir()
@@ -150,6 +155,7 @@ def test_transient_failures_are_retried(client, reference, tmp_path):
     assert outcome.summary["noise_levels"][0] == reference.summary["noise_levels"][0]
 
 
+@pytest.mark.slow
 def test_a_dying_worker_is_replaced_and_its_case_rerun(client, tmp_path):
     markers = tmp_path / "markers"
     markers.mkdir()
@@ -160,6 +166,7 @@ def test_a_dying_worker_is_replaced_and_its_case_rerun(client, tmp_path):
     client.wait_for_workers(2, timeout=30)
 
 
+@pytest.mark.slow
 def test_a_restart_with_other_record_settings_is_refused(client, reference):
     longer = make_cases([1.0, 2.0], grid_step_pct=12.5, duration_s=12.0)
     with pytest.raises(InputError, match="--duration-s"):
@@ -174,6 +181,7 @@ def test_unreachable_scheduler_is_an_input_error():
         pass
 
 
+@pytest.mark.slow
 def test_study_runs_unchanged_on_an_existing_cluster(client, reference, tmp_path):
     """``--scheduler ADDRESS``: the runner connects its own client to a running scheduler."""
     outcome = run_study(

@@ -30,6 +30,7 @@ def report():
     return paper_comparison()
 
 
+@pytest.mark.slow
 def test_report_has_the_documented_keys_and_rows(report):
     for key in (
         "rotor_weight_n",
@@ -56,6 +57,7 @@ def test_report_has_the_documented_keys_and_rows(report):
     json.dumps(report)
 
 
+@pytest.mark.slow
 def test_report_figures_are_physically_consistent(report):
     assert report["rotor_weight_n"] == pytest.approx(6545.6, abs=0.5)
     # The paper's flows within 10 % (the expectation); q_t below the flow at 0.5 bar.
@@ -86,6 +88,7 @@ def test_table4_eccentricity_sums_to_the_table_equilibrium_shift():
     assert orbit[1] - orbit[0] == pytest.approx(e_75 - e_100, rel=1e-3)
 
 
+@pytest.mark.slow
 def test_a_speed_of_the_committed_sweep_is_recomputed():
     machine = load_machine()
     rotor = Rotor.from_machine(machine)
@@ -100,6 +103,7 @@ def test_a_speed_of_the_committed_sweep_is_recomputed():
     assert damping == pytest.approx(sweep.damping[i], rel=1e-3, abs=1e-3 * np.abs(damping).max())
 
 
+@pytest.mark.slow
 def test_report_and_orbits_commands(tmp_path, capsys):
     assert main(["report", "--json"]) == 0
     printed = json.loads(capsys.readouterr().out)

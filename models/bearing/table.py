@@ -19,15 +19,15 @@ import dataclasses
 import datetime as dt
 import json
 import platform
+from collections.abc import Callable
 from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
 
 import numpy as np
 from scipy.interpolate import PchipInterpolator
-from tqdm import tqdm
 
-from ..validation import InputError, require_positive
+from ..validation import InputError, naming_file, read_text_file, require_fields, require_positive
 from .equilibrium import (
     DISPLACEMENT_STEP_RATIO,
     coefficients_at,
@@ -166,19 +166,44 @@ class CoefficientTable:
 
     @classmethod
     def load(cls, path: str | Path) -> CoefficientTable:
-        """Read a table written by :meth:`save`."""
+        """Read a table written by :meth:`save`; InputError naming the file and the missing or bad key
+        when it is not one (its structure is checked before any of it is used)."""
+        if not Path(path).is_file():
+            raise InputError(f"coefficient table file not found: {path}")
+        text = read_text_file("coefficient table", path, "a JSON file written by oilwatch bearing-table")
         try:
-            data = json.loads(Path(path).read_text())
-        except FileNotFoundError:
-            raise InputError(f"coefficient table file not found: {path}") from None
+            data = json.loads(text)
         except json.JSONDecodeError as error:
             raise InputError(f"coefficient table {path} is not valid JSON: {error}") from None
-        if data.get("format") != FORMAT:
-            raise InputError(f"{path} is not an {FORMAT} (format={data.get('format')!r})")
-        meta = {k: v for k, v in data.items() if k not in ("format", "format_version", "rows")}
-        meta.pop("speed_hz", None)
-        meta.pop("load_n", None)
-        return cls(data["rows"], data["speed_hz"], data["load_n"], meta)
+        if not isinstance(data, dict) or data.get("format") != FORMAT:
+            found = data.get("format") if isinstance(data, dict) else type(data).__name__
+            raise InputError(f"{path} is not an {FORMAT} (format={found!r})")
+        with naming_file("coefficient table", path):
+            require_fields(data, "the table", _TABLE_FIELDS)
+            for i, row in enumerate(data["rows"]):
+                require_fields(row, f"rows[{i}]", _ROW_FIELDS)
+                for key in ("stiffness_n_per_m", "damping_n_s_per_m"):
+                    require_fields(row[key], f"rows[{i}].{key}", dict.fromkeys(_PAIRS, float))
+            meta = {k: v for k, v in data.items() if k not in ("format", "format_version", "rows")}
+            meta.pop("speed_hz", None)
+            meta.pop("load_n", None)
+            return cls(data["rows"], data["speed_hz"], data["load_n"], meta)
+
+
+_TABLE_FIELDS = {"speed_hz": float, "load_n": float, "rows": list}
+_ROW_FIELDS = {
+    "supply_flowrate_m3_s": float,
+    "regime": str,
+    "eccentricity_x_m": float,
+    "eccentricity_y_m": float,
+    "eccentricity_ratio": float,
+    "attitude_deg": float,
+    "supply_pressure_pa": float,
+    "side_leakage_m3_s": float,
+    "stiffness_n_per_m": dict,
+    "damping_n_s_per_m": dict,
+}
+"""What :meth:`CoefficientTable.load` needs of each row of a table file (the keys of :func:`table_row`)."""
 
 
 def _matrix(entries: dict) -> np.ndarray:
@@ -212,7 +237,7 @@ def compute_table(
     speed_hz: float,
     flowrates_m3_s,
     mesh: Mesh | None = None,
-    progress: bool = True,
+    progress: Callable[[int, int], None] | None = None,
     *,
     flooded_threshold_m3_s: float | None = None,
     provenance: dict | None = None,
@@ -233,7 +258,9 @@ def compute_table(
         require_positive("supply flowrate", q, "m^3/s")
     rows = []
     guess = None
-    for q in tqdm(flows, desc="bearing table", unit="flowrate", disable=not progress):
+    for done, q in enumerate(flows):
+        if progress is not None:
+            progress(done, len(flows))
         supply = SupplyFlow(q)
         eq = static_equilibrium(bearing, load_n, speed_hz, supply, mesh, initial_guess_m=guess)
         stiffness, damping = coefficients_at(bearing, eq, speed_hz, supply, mesh)

@@ -18,13 +18,11 @@ ratio grow with frequency), whose small Im(lambda) would otherwise pose as low-f
 
 from __future__ import annotations
 
-import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
-from tqdm import tqdm
 
 from ..validation import InputError, require_non_negative
 from .assembly import Rotor
@@ -159,11 +157,11 @@ def campbell_diagram(
     bearings_at: Sequence[LinearBearing] | BearingSupplier = (),
     n_modes: int = 8,
     *,
-    progress: bool = False,
+    progress: Callable[[int, int], None] | None = None,
 ) -> CampbellDiagram:
     """Damped modes at each speed of ``speeds_hz`` [Hz] (bearings may depend on speed).
 
-    ``progress`` shows a tqdm bar on stderr (speed-dependent bearings can be slow to evaluate).
+    ``progress(done, total)`` is called after each speed (speed-dependent bearings can be slow to evaluate).
     """
     speeds = np.asarray(speeds_hz, dtype=float)
     if speeds.ndim != 1 or speeds.size == 0:
@@ -173,13 +171,13 @@ def campbell_diagram(
     freqs = np.full((speeds.size, n_modes), np.nan)
     logdec = np.full((speeds.size, n_modes), np.nan)
     forward = np.zeros((speeds.size, n_modes), dtype=bool)
-    for i, speed in enumerate(
-        tqdm(speeds, desc="Campbell", unit="speed", disable=not progress, file=sys.stderr)
-    ):
+    for i, speed in enumerate(speeds):
         for j, mode in enumerate(damped_modes(rotor, float(speed), bearings_at, n_modes)):
             freqs[i, j] = mode.frequency_hz
             logdec[i, j] = mode.log_decrement
             forward[i, j] = mode.whirl == "forward"
+        if progress is not None:
+            progress(i + 1, speeds.size)
     return CampbellDiagram(speeds, freqs, logdec, forward)
 
 

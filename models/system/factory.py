@@ -3,18 +3,22 @@
 Where the tables live: next to the machine file, in ``tables/``, named after the machine file's stem:
 ``tables/<stem>_bearing_<speed>hz.json`` (flowrate table at one speed, ``oilwatch bearing-table``) and
 ``tables/<stem>_speed_sweep.json`` (coefficients over speed at the nominal flowrate,
-``oilwatch speed-sweep``).
-For the bundled generic turbine that is ``models/tables/turbine_bearing_75hz.json``.
+``oilwatch speed-sweep``). For the bundled generic turbine the committed ones are in ``models/tables/``
+(``turbine_bearing_75hz.json``, read-only package data); new tables for it are written to the user cache,
+``$OILWATCH_CACHE/tables/`` (default ``~/.cache/oilwatch/tables/``), never into the installed package, and
+read from there too. A missing table's error names the one command that makes it (with ``--machine``).
 """
 
 from __future__ import annotations
 
+import shlex
 from pathlib import Path
 
 import numpy as np
 
 from ..bearing.table import CoefficientTable
-from ..machine import Machine, load_machine
+from ..cache import user_cache_dir
+from ..machine import BUNDLED_MACHINE, Machine, load_machine
 from ..rotor.assembly import Rotor
 from ..validation import InputError, require_positive
 from .reduction import craig_bampton
@@ -27,15 +31,68 @@ DEFAULT_CUTOFF_HZ = 500.0
 LOAD_RTOL = 5e-3
 
 
+def is_bundled(machine: Machine) -> bool:
+    """Whether ``machine`` is the bundled generic turbine of the installed package."""
+    return machine.source_path.resolve() == BUNDLED_MACHINE.resolve()
+
+
+def table_folders(machine: Machine) -> list[Path]:
+    """Where the machine's tables are looked for, in order; new tables go into the last one."""
+    beside = machine.source_path.parent / "tables"
+    return [beside, user_cache_dir() / "tables"] if is_bundled(machine) else [beside]
+
+
+def _table_path(machine: Machine, name: str) -> Path:
+    folders = table_folders(machine)
+    for folder in folders:
+        if (folder / name).exists():
+            return folder / name
+    return folders[-1] / name
+
+
+def new_table_path(machine: Machine, name: str) -> Path:
+    """Where a new table called ``name`` of the machine is written (never the installed package)."""
+    return table_folders(machine)[-1] / name
+
+
+def flowrate_table_name(machine: Machine, speed_hz: float) -> str:
+    """File name of the machine's flowrate table at ``speed_hz``."""
+    return f"{machine.source_path.stem}_bearing_{speed_hz:g}hz.json"
+
+
 def flowrate_table_path(machine: Machine, speed_hz: float) -> Path:
-    """Default path of the machine's flowrate coefficient table at ``speed_hz``."""
-    return machine.source_path.parent / "tables" / f"{machine.source_path.stem}_bearing_{speed_hz:g}hz.json"
+    """Path of the machine's flowrate coefficient table at ``speed_hz``: the existing one, else where
+    ``oilwatch bearing-table`` writes it (module docstring)."""
+    return _table_path(machine, flowrate_table_name(machine, speed_hz))
 
 
 def speed_sweep_path(machine: Machine, squeeze: str = "full-film") -> Path:
-    """Default path of the machine's speed sweep (a suffix names a non-default squeeze model)."""
+    """Path of the machine's speed sweep (a suffix names a non-default squeeze model): the existing one, else
+    where ``oilwatch speed-sweep`` writes it."""
+    return _table_path(machine, speed_sweep_name(machine, squeeze))
+
+
+def speed_sweep_name(machine: Machine, squeeze: str = "full-film") -> str:
+    """File name of the machine's speed sweep."""
     suffix = "" if squeeze == "full-film" else f"_squeeze_{squeeze}"
-    return machine.source_path.parent / "tables" / f"{machine.source_path.stem}_speed_sweep{suffix}.json"
+    return f"{machine.source_path.stem}_speed_sweep{suffix}.json"
+
+
+def machine_arguments(machine: Machine) -> list[str]:
+    """``["--machine", FILE]`` for a machine file of the user's, nothing for the bundled turbine."""
+    return [] if is_bundled(machine) else ["--machine", str(machine.source_path)]
+
+
+def table_command(machine: Machine, speed_hz: float) -> str:
+    """The command that computes the machine's flowrate table at ``speed_hz``."""
+    speed = ["--speed-hz", f"{speed_hz:g}"]
+    return shlex.join(["oilwatch", "bearing-table", *machine_arguments(machine), *speed])
+
+
+def sweep_command(machine: Machine, squeeze: str = "full-film") -> str:
+    """The command that computes the machine's speed sweep."""
+    squeezing = [] if squeeze == "full-film" else ["--squeeze", squeeze]
+    return shlex.join(["oilwatch", "speed-sweep", *machine_arguments(machine), *squeezing])
 
 
 def load_tables(machine: Machine, rotor: Rotor, speed_hz: float, path: str | Path | None = None):
@@ -44,7 +101,7 @@ def load_tables(machine: Machine, rotor: Rotor, speed_hz: float, path: str | Pat
     if not table_path.exists():
         raise InputError(
             f"speed_hz = {speed_hz:g} Hz: no coefficient table at {table_path}; compute it with "
-            f"`oilwatch bearing-table --speed-hz {speed_hz:g}`"
+            f"`{table_command(machine, speed_hz)}`"
         )
     table = CoefficientTable.load(table_path)
     for node, load in zip(rotor.bearing_nodes, rotor.bearing_static_loads_n, strict=True):
@@ -62,7 +119,10 @@ def load_speed_sweeps(
     """One speed sweep per bearing (all bearings of a machine file share the geometry and the load)."""
     sweep_path = Path(path) if path is not None else speed_sweep_path(machine, squeeze)
     if not sweep_path.exists():
-        raise InputError(f"no speed sweep at {sweep_path}; compute it with `oilwatch speed-sweep`")
+        raise InputError(
+            f"no speed sweep at {sweep_path}; compute it with `{sweep_command(machine, squeeze)}` "
+            "(a few minutes)"
+        )
     sweep = SpeedSweep.load(sweep_path)
     for load in rotor.bearing_static_loads_n:
         if not np.isclose(sweep.load_n, load, rtol=LOAD_RTOL):
@@ -97,7 +157,15 @@ def build_system(
         unit_unbalance = rotor.unbalance_amplitude(1.0)
         loads = np.column_stack([rotor.gravity_force, unit_unbalance.real, unit_unbalance.imag])
         basis = craig_bampton(rotor.mass_matrix, rotor.stiffness_matrix, bearing_dofs, cutoff_hz, loads)
-    return RotorBearingSystem(rotor, tables, speed, basis, unbalance_moment_kg_m, unbalance_phase_rad)
+    return RotorBearingSystem(
+        rotor,
+        tables,
+        speed,
+        basis,
+        unbalance_moment_kg_m,
+        unbalance_phase_rad,
+        machine.lubrication.nominal_flowrate_m3_s,
+    )
 
 
 def load_system(

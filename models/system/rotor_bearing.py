@@ -57,6 +57,7 @@ class RotorBearingSystem:
     basis : optional reduction; ``None`` keeps all ``rotor.n_dof`` physical dofs.
     unbalance_moment_kg_m, unbalance_phase_rad : override the rotor's unbalance (Eqs. 5-6) at its
         unbalance node; ``None`` keeps the machine file's.
+    nominal_flowrate_m3_s : the machine's nominal supply flowrate (the estimator's reference), if known.
     """
 
     def __init__(
@@ -67,8 +68,10 @@ class RotorBearingSystem:
         basis: ReductionBasis | None = None,
         unbalance_moment_kg_m: float | None = None,
         unbalance_phase_rad: float | None = None,
+        nominal_flowrate_m3_s: float | None = None,
     ) -> None:
         speed_hz = require_positive("speed_hz", speed_hz, "Hz")
+        self.nominal_flowrate_m3_s = nominal_flowrate_m3_s
         if len(tables) != len(rotor.bearing_nodes):
             raise InputError(
                 f"tables: need one coefficient table per bearing ({len(rotor.bearing_nodes)}), "

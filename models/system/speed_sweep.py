@@ -11,11 +11,11 @@ from __future__ import annotations
 import datetime
 import json
 import platform
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from tqdm import tqdm
 
 from .. import __version__
 from ..bearing.equilibrium import coefficients_at, static_equilibrium
@@ -79,7 +79,7 @@ class SpeedSweep:
         """Read a sweep written by :meth:`save`; a missing or malformed file raises InputError."""
         try:
             data = json.loads(Path(path).read_text())
-            return cls(
+            sweep = cls(
                 speeds_hz=np.asarray(data["speed_hz"], dtype=float),
                 flowrate_m3_s=float(data["flowrate_ml_min"]) / ML_MIN_PER_M3_S,
                 load_n=float(data["load_n"]),
@@ -90,6 +90,22 @@ class SpeedSweep:
             )
         except (OSError, ValueError, KeyError, TypeError) as error:
             raise InputError(f"speed sweep file {path}: cannot be read ({error})") from None
+        n = sweep.speeds_hz.size
+        shapes = {
+            "speed_hz": (sweep.speeds_hz, (n,)),
+            "eccentricity_um": (sweep.eccentricity_m, (n, 2)),
+            "stiffness_n_per_m": (sweep.stiffness, (n, 2, 2)),
+            "damping_n_s_per_m": (sweep.damping, (n, 2, 2)),
+        }
+        for key, (array, shape) in shapes.items():
+            if array.shape != shape or not np.isfinite(array).all():
+                raise InputError(
+                    f"speed sweep file {path}: {key} must be finite numbers of shape {shape}, "
+                    f"got shape {array.shape}"
+                )
+        if n < 2 or np.any(np.diff(sweep.speeds_hz) <= 0):
+            raise InputError(f"speed sweep file {path}: speed_hz must hold at least 2 increasing speeds")
+        return sweep
 
 
 def compute_speed_sweep(
@@ -99,12 +115,13 @@ def compute_speed_sweep(
     flowrate_m3_s: float,
     mesh: Mesh | None = None,
     command: str = "",
-    progress: bool = True,
+    progress: Callable[[int, int], None] | None = None,
     squeeze: str = "full-film",
 ) -> SpeedSweep:
     """Equilibrium and coefficients at each speed of ``speeds_hz`` [Hz] for supply flowrate [m^3/s].
 
-    ``squeeze`` selects the squeeze-term model of the film solver (see ``models.bearing.film``).
+    ``squeeze`` selects the squeeze-term model of the film solver (see ``models.bearing.film``);
+    ``progress(done, total)`` is called after each speed.
     """
     speeds = np.asarray(speeds_hz, dtype=float)
     if speeds.ndim != 1 or speeds.size < 2 or np.any(np.diff(speeds) <= 0):
@@ -115,7 +132,9 @@ def compute_speed_sweep(
     supply = SupplyFlow(flowrate_m3_s)
     positions, stiffness, damping = [], [], []
     guess = None
-    for speed in tqdm(speeds, desc="speed sweep", unit="speed", disable=not progress):
+    for done, speed in enumerate(speeds):
+        if progress is not None:
+            progress(done, speeds.size)
         eq = static_equilibrium(bearing, load_n, speed, supply, mesh, squeeze=squeeze, initial_guess_m=guess)
         k, c = coefficients_at(bearing, eq, speed, supply, mesh, squeeze=squeeze)
         guess = eq.eccentricity_m

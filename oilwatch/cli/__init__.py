@@ -26,14 +26,46 @@ SUBCOMMANDS: tuple[str, ...] = (
     "study",
     "run",
     "demo",
+    "build_fmus",
     "robustness",
     "baseline",
 )
 
 
+class OneLineParser(argparse.ArgumentParser):
+    """An argument parser whose errors are one line (the command, the argument, what is allowed, where
+    to look) with exit code 2, like the errors the commands raise themselves."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
+
+
+OUTPUTS: dict[str, dict[str, str]] = {
+    "run": {"out": "folder"},
+    "demo": {"out": "folder"},
+    "study": {"out": "folder"},
+    "orbits": {"out": "file"},
+    "campbell": {"out": "file"},
+    "speed-sweep": {"out": "file"},
+    "bearing-table": {"out": "file", "plot": "file"},
+}
+"""Each command's output options (argparse dest -> ``folder`` or ``file``), checked by :func:`main` before
+the command runs (:mod:`oilwatch.cli.outputs`). A new command with an output option adds its line here."""
+
+
+def check_outputs(args: argparse.Namespace) -> None:
+    """Check the output options the user gave (creating nothing); InputError naming the flag."""
+    from .outputs import check_output
+
+    for dest, kind in OUTPUTS.get(args.command, {}).items():
+        value = getattr(args, dest, None)
+        if value is not None:
+            check_output("--" + dest.replace("_", "-"), value, kind)
+
+
 def build_parser() -> argparse.ArgumentParser:
     """Return the top-level parser with every subcommand registered."""
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="oilwatch",
         description="Detect and quantify oil starvation in fluid-film bearings from rotor vibration.",
     )
@@ -48,6 +80,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
+        check_outputs(args)
         return int(args.func(args) or 0)
     except InputError as error:
         print(f"oilwatch {args.command}: error: {error}", file=sys.stderr)

@@ -9,6 +9,9 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
+
+from .machine_option import add_machine_option
 
 
 def register(subparsers) -> None:
@@ -39,7 +42,7 @@ def register(subparsers) -> None:
 
 def add_common_arguments(parser: argparse.ArgumentParser) -> None:
     """Options shared with ``bearing-table``: machine file, speed, load, mesh."""
-    parser.add_argument("--machine", help="machine file (TOML); default: the bundled turbine")
+    add_machine_option(parser)
     parser.add_argument("--speed-hz", type=float, help="shaft speed [Hz]; default: nominal")
     parser.add_argument("--load-n", type=float, help="static bearing load [N]; default: from the rotor model")
     parser.add_argument(
@@ -89,9 +92,13 @@ def run(args) -> int:
         supply = SupplyFlow(q / ML_MIN_PER_M3_S)
     else:
         bar = args.supply_pressure_bar
-        if bar is None:
-            bar = setup["lubrication"].nominal_supply_pressure_pa / 1e5
-        supply = SupplyPressure(require_non_negative("--supply-pressure-bar", bar, "bar") * 1e5)
+        lubrication = setup["lubrication"]
+        if bar is None and math.isnan(lubrication.nominal_supply_pressure_pa):
+            supply = SupplyFlow(lubrication.nominal_flowrate_m3_s)  # the file gives a flowrate, no pressure
+        else:
+            if bar is None:
+                bar = lubrication.nominal_supply_pressure_pa / 1e5
+            supply = SupplyPressure(require_non_negative("--supply-pressure-bar", bar, "bar") * 1e5)
     bearing, load, speed, mesh = (setup[k] for k in ("bearing", "load_n", "speed_hz", "mesh"))
     eq = static_equilibrium(bearing, load, speed, supply, mesh)
     stiffness, damping = coefficients_at(bearing, eq, speed, supply, mesh, squeeze=args.squeeze)

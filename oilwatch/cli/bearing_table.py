@@ -3,8 +3,10 @@
 Computes the flooded threshold q_t (groove full at zero gauge pressure), then the equilibrium and
 the eight coefficients at ``--points`` flowrates evenly spread between the machine file's table
 fractions of q_t (paper: 7 points, 50 % to 150 %), and writes them with units and provenance as
-JSON, by default next to the machine file as ``tables/<machine stem>_bearing_<speed>hz.json``
-(bundled turbine: models/tables/turbine_bearing_75hz.json), where ``models.system`` looks for it.
+JSON, by default next to the machine file as ``tables/<machine stem>_bearing_<speed>hz.json``, where
+``models.system`` looks for it (the bundled turbine: into the user cache, $OILWATCH_CACHE/tables, never
+into the installed package; its committed models/tables/turbine_bearing_75hz.json was made with ``--out``).
+Commands that need a missing table (``run``, ``demo``, ``orbits``, ...) compute it the same way.
 """
 
 from __future__ import annotations
@@ -15,6 +17,8 @@ import sys
 from pathlib import Path
 
 from .bearing import add_common_arguments, machine_setup
+from .machine_option import compute_flowrate_table
+from .outputs import output_file
 
 
 def register(subparsers) -> None:
@@ -37,39 +41,23 @@ def register(subparsers) -> None:
 
 def run(args) -> int:
     """Compute, write and optionally plot the table."""
-    import numpy as np
-
     from models.bearing.supply import ML_MIN_PER_M3_S
-    from models.bearing.table import compute_table, flooded_threshold
     from models.validation import InputError
 
     if args.points < 2:
         raise InputError(f"--points must be >= 2, got {args.points}")
     setup = machine_setup(args)
-    lub = setup["lubrication"]
-    bearing, load, speed, mesh = (setup[k] for k in ("bearing", "load_n", "speed_hz", "mesh"))
-    q_t, _ = flooded_threshold(bearing, load, speed, mesh)
-    flows = q_t * np.linspace(
-        lub.table_min_fraction_of_threshold, lub.table_max_fraction_of_threshold, args.points
-    )
-    table = compute_table(
-        bearing,
-        load,
+    speed = setup["speed_hz"]
+    out, table, q_t = compute_flowrate_table(
+        setup["machine"],
         speed,
-        flows,
-        mesh,
+        points=args.points,
+        load_n=setup["load_n"],
+        mesh=setup["mesh"],
+        out=Path(args.out) if args.out else None,
         progress=not args.quiet,
-        flooded_threshold_m3_s=q_t,
-        provenance={
-            "command_line": command_line(args),
-            "machine_file": str(setup["machine"].source_path),
-        },
+        command=command_line(args),
     )
-    source = setup["machine"].source_path
-    default = source.parent / "tables" / f"{source.stem}_bearing_{speed:g}hz.json"
-    out = Path(args.out) if args.out else default
-    out.parent.mkdir(parents=True, exist_ok=True)
-    table.save(out)
     print(
         f"q_t = {q_t * ML_MIN_PER_M3_S:.2f} ml/min at {speed:g} Hz; {args.points} points written to {out}",
         file=sys.stderr,
@@ -133,5 +121,5 @@ def plot_table(table, q_t: float, path: str) -> None:
         ax.legend(fontsize=8)
     fig.suptitle(f"bearing coefficients at {table.speed_hz:g} Hz, load {table.load_n:.1f} N")
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    fig.savefig(output_file("--plot", path), dpi=120)
     plt.close(fig)

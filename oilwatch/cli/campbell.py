@@ -6,14 +6,15 @@ import argparse
 import json
 import sys
 
+from .machine_option import add_machine_option
 from .modes import (
     add_bearing_options,
-    add_machine_option,
     bearings_for,
     load_rotor,
     require_count,
     uses_fluid_film,
 )
+from .outputs import output_file
 
 LOG_DECREMENT_AXIS_MAX = 2.0
 
@@ -94,7 +95,7 @@ def plot_campbell(diagram, out_path: str, title: str) -> None:
     ax_d.set_xlabel("spin speed [Hz]")
     ax_d.grid(alpha=0.3)
     fig.tight_layout()
-    fig.savefig(out_path, dpi=120)
+    fig.savefig(output_file("--out", out_path), dpi=120)
     plt.close(fig)
 
 
@@ -104,6 +105,8 @@ def run(args: argparse.Namespace) -> int:
 
     from models.rotor.modal import campbell_diagram
     from models.validation import InputError, require_non_negative
+
+    from .progress import progress_bar
 
     machine, rotor = load_rotor(args)
     bearings_at, description = bearings_for(args, machine, rotor, over_speed=True)
@@ -117,13 +120,14 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--speed-max-hz must exceed --speed-min-hz ({low:g} Hz), got {high:g}")
     n_speeds = require_count("--n-speeds", args.n_speeds, 2)
     n_modes = require_count("--n-modes", args.n_modes, 1)
-    diagram = campbell_diagram(
-        rotor,
-        np.linspace(low, high, n_speeds),
-        bearings_at,
-        n_modes,
-        progress=sys.stderr.isatty(),
-    )
+    with progress_bar("Campbell", "speed", sys.stderr.isatty()) as callback:
+        diagram = campbell_diagram(
+            rotor,
+            np.linspace(low, high, n_speeds),
+            bearings_at,
+            n_modes,
+            progress=callback,
+        )
     title = f"{machine.name}\nbearings: {description['model']}"
     plot_campbell(diagram, args.out, title)
     critical = diagram.critical_speeds_hz()

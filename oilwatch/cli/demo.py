@@ -6,6 +6,9 @@ import argparse
 import sys
 from pathlib import Path
 
+from .machine_option import add_machine_option, load_machine_option
+from .run import add_fmu_dir_option
+
 MAX_ERROR_AFTER_PCT = 2.0
 MAX_ALARM_DELAY_S = 2.0
 
@@ -16,14 +19,16 @@ def register(subparsers) -> None:
         "demo",
         help="the sudden-drop scenario at 1 um noise: verdict table and plot (builds the FMUs if needed)",
         description=(
-            "Run 'oilwatch run sudden-drop --noise-um 1' (both supply flowrates 100 -> 75 % of 596.3 "
-            "ml/min, 0.1 s transition centred at 10 s of 20 s), building the FMUs first if they are "
-            "missing, and print a verdict per bearing: pass when the error over the last 2 s is under "
+            "Run 'oilwatch run sudden-drop --noise-um 1' (both supply flowrates 100 -> 75 % of the machine's "
+            "nominal flowrate, 0.1 s transition centred at 10 s of 20 s), building the FMUs first if they "
+            "are missing, and print a verdict per bearing: pass when the error over the last 2 s is under "
             f"{MAX_ERROR_AFTER_PCT:g} % and the starvation alarm comes within {MAX_ALARM_DELAY_S:g} s "
             "after the sigmoid's centre. Exit code 0 when both pass, 1 otherwise."
         ),
     )
     parser.add_argument("--out", default="demo", metavar="DIR", help="output folder (default: demo)")
+    add_machine_option(parser)
+    add_fmu_dir_option(parser)
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.set_defaults(func=run)
 
@@ -67,17 +72,19 @@ def run(args: argparse.Namespace) -> int:
 
     from .run import execute
 
-    settings = make_run("sudden-drop", noise_um=1.0, duration_s=20.0)
+    machine = load_machine_option(args)
+    settings = make_run("sudden-drop", noise_um=1.0, duration_s=20.0, machine=machine)
     out = Path(args.out)
     try:
-        summary = execute(settings, out, None, None, not args.no_progress, "demo")
+        summary = execute(settings, out, args.fmu_dir, None, not args.no_progress, "demo", machine)
     except SlaveError as error:
         print(f"oilwatch demo: error: {error}", file=sys.stderr)
         return 2
     rows = verdict_rows(summary)
+    (initial, final) = settings.q1_ml_min
     print(
-        "oilwatch demo: sudden drop of both oil supply flowrates, 596.3 -> 447.2 ml/min (100 -> 75 %) "
-        f"centred at t = {settings.fault_time_s:g} s, measurement noise 1 um"
+        f"oilwatch demo: {machine.name}: sudden drop of both oil supply flowrates, {initial:.1f} -> "
+        f"{final:.1f} ml/min (100 -> 75 %) centred at t = {settings.fault_time_s:g} s, measurement noise 1 um"
     )
     print("\n".join(format_table(rows)))
     print(

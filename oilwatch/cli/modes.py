@@ -1,7 +1,8 @@
 """``oilwatch modes``: damped natural frequencies, log decrements and whirl at one spin speed.
 
-Also holds the helpers the rotor subcommands share: ``--machine``/bearing options, reading the
-machine, and :func:`bearings_for`, the one place that decides which bearings the rotor sits on.
+Also holds the helpers the rotor subcommands share: bearing options, reading the machine (``--machine``
+is :mod:`oilwatch.cli.machine_option`'s), and :func:`bearings_for`, the one place that decides which
+bearings the rotor sits on.
 """
 
 from __future__ import annotations
@@ -9,18 +10,10 @@ from __future__ import annotations
 import argparse
 import json
 
+from .machine_option import add_machine_option
+
 DEFAULT_BEARING_STIFFNESS_N_M = 1.0e8
 DEFAULT_BEARING_DAMPING_N_S_M = 1.0e4
-
-
-def add_machine_option(parser: argparse.ArgumentParser) -> None:
-    """``--machine FILE`` (default: the bundled generic turbine)."""
-    parser.add_argument(
-        "--machine",
-        metavar="FILE",
-        default=None,
-        help="machine file (TOML, units in the keys); default: the bundled generic turbine",
-    )
 
 
 def add_bearing_options(parser: argparse.ArgumentParser) -> None:
@@ -159,6 +152,13 @@ def run(args: argparse.Namespace) -> int:
     speed_hz = machine.nominal_speed_hz if args.speed_hz is None else args.speed_hz
     speed_hz = require_non_negative("--speed-hz", speed_hz, "Hz")
     n_modes = require_count("--n-modes", args.n_modes, 1)
+    if uses_fluid_film(args) and speed_hz > 0.0:
+        from models.system.factory import flowrate_table_path, speed_sweep_path
+
+        from .machine_option import ensure_flowrate_tables
+
+        if not (flowrate_table_path(machine, speed_hz).exists() or speed_sweep_path(machine).exists()):
+            ensure_flowrate_tables(machine, [speed_hz], "modes")
     bearings_at, description = bearings_for(args, machine, rotor)
     modes = damped_modes(rotor, speed_hz, bearings_at, n_modes)
     if args.json:

@@ -6,7 +6,8 @@ import argparse
 import json
 import sys
 
-from .modes import add_machine_option
+from .machine_option import add_machine_option
+from .outputs import output_file
 
 
 def register(subparsers) -> None:
@@ -40,11 +41,13 @@ def run(args: argparse.Namespace) -> int:
     import matplotlib.pyplot as plt
     import numpy as np
 
-    from models.machine import load_machine
     from models.system.factory import build_system
     from models.system.sensitivity import steady_orbit
 
-    machine = load_machine(args.machine)
+    from .machine_option import ensure_flowrate_tables, load_machine_option
+
+    machine = load_machine_option(args)
+    ensure_flowrate_tables(machine, [machine.nominal_speed_hz], "orbits")
     system = build_system(machine, reduced=False)
     nominal = machine.lubrication.nominal_flowrate_m3_s
     figure, axes = plt.subplots(1, 2, figsize=(11, 5.2))
@@ -75,7 +78,7 @@ def run(args: argparse.Namespace) -> int:
         axis.legend(title="q1 = q2", fontsize=8)
     figure.suptitle(f"Steady unbalance orbits at {system.speed_hz:g} Hz (+: orbit centre)")
     figure.tight_layout()
-    figure.savefig(args.out, dpi=120)
+    figure.savefig(output_file("--out", args.out), dpi=120)
     print(f"wrote {args.out}", file=sys.stderr)
     if args.json:
         print(json.dumps({"speed_hz": system.speed_hz, "orbits": figures}, indent=1))

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from .modes import add_machine_option
+from .machine_option import add_machine_option
 
 ROWS = (
     ("rotor_weight_n", "rotor weight [N]"),
@@ -43,6 +43,10 @@ def run(args: argparse.Namespace) -> int:
     """Compute and print the comparison."""
     from models.system.reproduction import paper_comparison
 
+    from .machine_option import ensure_flowrate_tables, load_machine_option
+
+    machine = load_machine_option(args)
+    ensure_flowrate_tables(machine, [machine.nominal_speed_hz], "report")
     result = paper_comparison(args.machine)
     if args.json:
         print(json.dumps(result, indent=1))

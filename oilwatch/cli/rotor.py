@@ -6,7 +6,8 @@ import argparse
 import json
 import math
 
-from .modes import add_machine_option, load_rotor
+from .machine_option import add_machine_option
+from .modes import load_rotor
 
 
 def register(subparsers) -> None:

@@ -7,6 +7,8 @@ import json
 import sys
 from pathlib import Path
 
+from .machine_option import add_machine_option, load_machine_option
+
 SCENARIO_NAMES = (
     "constant",
     "slow-drop",
@@ -20,6 +22,19 @@ SCENARIO_NAMES = (
 """The names of ``oilwatch.scenarios.SCENARIOS`` (kept here so that --help imports nothing heavy)."""
 
 
+def estimator_parameters_help() -> str:
+    """The estimator's settable parameters with defaults and ranges, generated from its configuration."""
+    from estimator.config import ESTIMATOR_PARAMETERS
+
+    def bounds(p) -> str:
+        low = "" if p.low is None else f"{p.low:g}"
+        high = "" if p.high is None else f"{p.high:g}"
+        return f"[{low}, {high}]" if p.high is not None else f">= {low}"
+
+    unit = {p.name: "" if p.unit == "1" else f" {p.unit}" for p in ESTIMATOR_PARAMETERS}
+    return "; ".join(f"{p.name} ({p.default:g}{unit[p.name]}, {bounds(p)})" for p in ESTIMATOR_PARAMETERS)
+
+
 def register(subparsers) -> None:
     """Add the ``run`` subcommand."""
     parser = subparsers.add_parser(
@@ -28,16 +43,21 @@ def register(subparsers) -> None:
         description=(
             "Simulate one of the paper's real-time scenarios (section 3.2.2): the RotorBearingPlant FMU "
             "and the OilFlowEKF FMU co-simulated by oilwatch's fmpy master (Gauss-Seidel, 1 ms steps). "
-            "Flowrates are percentages of 596.3 ml/min; the sigmoid transition is centred at half the "
+            "Flowrates are percentages of the machine's nominal flowrate and the scenario runs at its "
+            "nominal speed (--machine; default: the bundled turbine); the sigmoid transition is centred at "
+            "half the "
             "duration. Writes DIR/result.csv (flushed every row), DIR/summary.json and "
-            "DIR/estimates.png. The FMUs are built on first use into ~/.cache/oilwatch/build/<source "
-            "hash>/ ($OILWATCH_CACHE overrides ~/.cache/oilwatch) unless --fmu-dir or --ssp is given. "
+            "DIR/estimates.png. A missing coefficient table is computed first (beside the machine file; "
+            "the bundled turbine: the cache). The FMUs of the machine are built on first use into "
+            "~/.cache/oilwatch/build/<hash>/ ($OILWATCH_CACHE overrides ~/.cache/oilwatch) unless --fmu-dir "
+            "or --ssp is given. "
             "Exit code 2 on bad input, 130 when interrupted (result.csv keeps the steps done)."
         ),
         epilog=(
             "scenarios: constant (--q1-pct, --q2-pct; default 100); slow-drop, intermediate-drop, "
             "sudden-drop (both bearings 100 -> 75 %); drop-b1, drop-b2 (one bearing 100 -> 75 %, "
-            "the other nominal); clog-b1, clog-b2 (one bearing 100 -> 75 %, the other 100 -> 125 %)"
+            "the other nominal); clog-b1, clog-b2 (one bearing 100 -> 75 %, the other 100 -> 125 %). "
+            f"Estimator parameters for --set ekf.NAME=VALUE (default, range): {estimator_parameters_help()}"
         ),
     )
     parser.add_argument("scenario", metavar="SCENARIO", help=f"one of: {', '.join(SCENARIO_NAMES)}")
@@ -72,12 +92,9 @@ def register(subparsers) -> None:
         "ekf.velocity_channels=1 (default: the estimator's recommended tuning)",
     )
     parser.add_argument("--out", metavar="DIR", help="output folder (default: oilwatch_runs/SCENARIO)")
+    add_machine_option(parser)
     source = parser.add_mutually_exclusive_group()
-    source.add_argument(
-        "--fmu-dir",
-        metavar="DIR",
-        help="use the FMUs in DIR (from 'python build.py --out DIR'); never builds",
-    )
+    add_fmu_dir_option(source)
     source.add_argument(
         "--ssp",
         metavar="FILE",
@@ -89,14 +106,40 @@ def register(subparsers) -> None:
     parser.set_defaults(func=run)
 
 
-def execute(run_settings, out: Path, fmu_dir: str | None, ssp: str | None, progress: bool, command: str):
-    """Find or build the FMUs, run, and return the summary; report an interruption on stderr and re-raise.
+def add_fmu_dir_option(parser) -> None:
+    """``--fmu-dir DIR`` (shared by ``run`` and ``demo``)."""
+    parser.add_argument(
+        "--fmu-dir",
+        metavar="DIR",
+        help="use the FMUs in DIR (from 'oilwatch build-fmus --out DIR', for the same --machine); never "
+        "builds",
+    )
 
-    Shared by ``oilwatch run`` and ``oilwatch demo``.
+
+def execute(
+    run_settings,
+    out: Path,
+    fmu_dir: str | None,
+    ssp: str | None,
+    progress: bool,
+    command: str,
+    machine=None,
+    labels: dict[str, dict[str, str]] | None = None,
+):
+    """Find or build the FMUs of ``machine`` (computing a missing coefficient table first), run, and return
+    the summary; report an interruption on stderr and re-raise.
+
+    Shared by ``oilwatch run`` and ``oilwatch demo``. The previous run's files in ``out`` are removed once
+    the FMUs are initialized (:func:`~oilwatch.scenarios.runner.run_scenario`), so that a run stopped
+    part-way leaves its own rows in result.csv and no summary or plot of another run beside them.
+    labels: see :func:`parameter_labels`.
     """
     from oilwatch.cosim.errors import SystemDescriptionError
     from oilwatch.scenarios.fmus import ensure_fmus
     from oilwatch.scenarios.runner import run_scenario
+
+    from .machine_option import ensure_flowrate_tables
+    from .outputs import output_folder
 
     def log(text: str) -> None:
         print(f"oilwatch {command}: {text}", file=sys.stderr)
@@ -106,9 +149,15 @@ def execute(run_settings, out: Path, fmu_dir: str | None, ssp: str | None, progr
         if not ssp_path.is_file():
             raise SystemDescriptionError(f"--ssp: SSP file {ssp_path} does not exist")
     else:
-        ssp_path, folder = None, ensure_fmus(fmu_dir, log)
+        ssp_path = None
+    if machine is not None:
+        speeds = (run_settings.speed_hz("plant"), run_settings.speed_hz("ekf"))
+        ensure_flowrate_tables(machine, speeds, command, progress)
+    if ssp is None:
+        folder = ensure_fmus(fmu_dir, log, machine)
+    output_folder("--out", out)
     try:
-        return run_scenario(run_settings, out, fmu_dir=folder, ssp=ssp_path, progress=progress)
+        return run_scenario(run_settings, out, fmu_dir=folder, ssp=ssp_path, progress=progress, labels=labels)
     except KeyboardInterrupt:
         csv_path = out / "result.csv"
         rows = max(0, len(csv_path.read_text().splitlines()) - 1) if csv_path.is_file() else 0
@@ -145,8 +194,9 @@ def describe(summary: dict) -> list[str]:
 
 
 def parse_settings(items: list[str]) -> dict[str, dict[str, object]]:
-    """``["ekf.alarm_hold_on_s=0.5", ...]`` -> ``{"ekf": {"alarm_hold_on_s": 0.5}}`` (numbers as float,
-    other values as text; the FMU converts to its variable's type)."""
+    """``["ekf.alarm_hold_on_s=0.5", ...]`` -> ``{"ekf": {"alarm_hold_on_s": 0.5}}`` (integers as int,
+    other numbers as float, the rest as text; the master checks each against its variable's FMI type,
+    :mod:`oilwatch.cosim.values`, and names it ``--set ekf.alarm_hold_on_s``)."""
     from models.validation import InputError
 
     result: dict[str, dict[str, object]] = {}
@@ -155,12 +205,37 @@ def parse_settings(items: list[str]) -> dict[str, dict[str, object]]:
         role, dot, name = target.partition(".")
         if not (equals and dot and role and name):
             raise InputError(f"--set {item!r}: expected FMU.NAME=VALUE, e.g. ekf.alarm_hold_on_s=0.5")
-        try:
-            value: object = float(text)
-        except ValueError:
-            value = text
+        value: object = text
+        for number in (int, float):
+            try:
+                value = number(text)
+                break
+            except ValueError:
+                continue
         result.setdefault(role, {})[name] = value
     return result
+
+
+def parameter_labels(scenario: str, given: dict[str, dict[str, object]], paper_tuning: dict) -> dict:
+    """How the user gave each FMU parameter of a run, per role: the flag (``--q1-pct``, ``--seed``,
+    ``--set ekf.NAME`` for the ``given`` ones, which win over ``paper_tuning``), so that every error about
+    a parameter names the input the user can change."""
+    flows = {
+        f"q{b}_{end}_ml_min": f"--q{b}-pct"
+        if scenario == "constant"
+        else f"scenario {scenario!r} (bearing {b})"
+        for b in (1, 2)
+        for end in ("initial", "final")
+    }
+    common = {"noise_um": "--noise-um"}
+    labels = {
+        "plant": {**common, **flows, "seed": "--seed", "fault_time_s": "--duration-s"},
+        "ekf": {**common, **{name: "--paper-tuning" for name in paper_tuning}},
+    }
+    for role, values in given.items():
+        for name in values:
+            labels.setdefault(role, {})[name] = f"--set {role}.{name}"
+    return labels
 
 
 def run(args: argparse.Namespace) -> int:
@@ -168,15 +243,20 @@ def run(args: argparse.Namespace) -> int:
     from oilwatch.cosim import SlaveError
     from oilwatch.scenarios import PAPER_TUNING, make_run
 
-    overrides = parse_settings(args.set)
+    given = parse_settings(args.set)
+    overrides = {role: dict(values) for role, values in given.items()}
     if args.paper_tuning:
         overrides["ekf"] = {**PAPER_TUNING, **overrides.get("ekf", {})}
+    machine = load_machine_option(args)
     settings = make_run(
-        args.scenario, args.noise_um, args.duration_s, args.seed, args.q1_pct, args.q2_pct, overrides
+        args.scenario, args.noise_um, args.duration_s, args.seed, args.q1_pct, args.q2_pct, overrides, machine
     )
+    labels = parameter_labels(args.scenario, given, PAPER_TUNING if args.paper_tuning else {})
     out = Path(args.out) if args.out else Path("oilwatch_runs") / args.scenario
     try:
-        summary = execute(settings, out, args.fmu_dir, args.ssp, not args.no_progress, "run")
+        summary = execute(
+            settings, out, args.fmu_dir, args.ssp, not args.no_progress, "run", machine, labels
+        )
     except SlaveError as error:
         print(f"oilwatch run: error: {error}", file=sys.stderr)
         return 2

@@ -9,7 +9,8 @@ from pathlib import Path
 
 from models.validation import InputError, require_positive
 
-from .modes import add_machine_option, load_rotor
+from .machine_option import add_machine_option
+from .modes import load_rotor
 
 
 def register(subparsers) -> None:
@@ -20,7 +21,8 @@ def register(subparsers) -> None:
         description=(
             "Compute each bearing's equilibrium and linearized coefficients at every speed of a sweep, at "
             "one supply flowrate (default: the machine's nominal), and write them with provenance to "
-            "tables/<machine>_speed_sweep.json next to the machine file. `oilwatch report` reads it."
+            "tables/<machine>_speed_sweep.json next to the machine file (the bundled turbine: the user "
+            "cache, $OILWATCH_CACHE/tables). `oilwatch report` reads it."
         ),
     )
     add_machine_option(parser)
@@ -43,8 +45,10 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from models.bearing.supply import ML_MIN_PER_M3_S
-    from models.system.factory import speed_sweep_path
+    from models.system.factory import new_table_path, speed_sweep_name
     from models.system.speed_sweep import compute_speed_sweep
+
+    from .progress import progress_bar
 
     machine, rotor = load_rotor(args)
     low = require_positive("--speed-min-hz", args.speed_min_hz, "Hz")
@@ -56,15 +60,18 @@ def run(args: argparse.Namespace) -> int:
     if args.q_ml_min is not None:
         q_ml_min = require_positive("--q-ml-min", args.q_ml_min, "ml/min")
     speeds = np.arange(low, high + 0.5 * step, step)
-    sweep = compute_speed_sweep(
-        machine.bearing,
-        float(rotor.bearing_static_loads_n[0]),
-        speeds,
-        q_ml_min / ML_MIN_PER_M3_S,
-        command="oilwatch " + shlex.join(sys.argv[1:]),
-        squeeze=args.squeeze,
-    )
-    out_path = Path(args.out) if args.out else speed_sweep_path(machine, args.squeeze)
+    with progress_bar("speed sweep", "speed") as callback:
+        sweep = compute_speed_sweep(
+            machine.bearing,
+            float(rotor.bearing_static_loads_n[0]),
+            speeds,
+            q_ml_min / ML_MIN_PER_M3_S,
+            command="oilwatch " + shlex.join(sys.argv[1:]),
+            progress=callback,
+            squeeze=args.squeeze,
+        )
+    default = new_table_path(machine, speed_sweep_name(machine, args.squeeze))
+    out_path = Path(args.out) if args.out else default
     out_path.parent.mkdir(parents=True, exist_ok=True)
     sweep.save(out_path)
     print(f"wrote {out_path} ({speeds.size} speeds, {q_ml_min:g} ml/min)", file=sys.stderr)

@@ -6,6 +6,8 @@ import argparse
 import json
 import sys
 
+from .machine_option import add_machine_option
+
 
 def register(subparsers) -> None:
     """Add the ``study`` subcommand."""
@@ -13,10 +15,11 @@ def register(subparsers) -> None:
         "study",
         help="identification accuracy over the (q1, q2) grid on Dask: Table 6, Figs. 7-8, Cramer-Rao bound",
         description=(
-            "Identify constant supply flowrates q1, q2 from 100 % down to 75 % of 596.3 ml/min on a "
-            "grid, one Dask task per case, and compare the errors with the paper's Table 6 and the "
-            "Cramer-Rao bound. Each finished case is appended to DIR/cases.csv at once; run the same "
-            "command again to continue a stopped study. Writes DIR/summary.json and "
+            "Identify constant supply flowrates q1, q2 from 100 % down to 75 % of the machine's nominal "
+            "flowrate (--machine; default: the bundled turbine) on a grid, one Dask task per case, and "
+            "compare the errors with the paper's Table 6 and the Cramer-Rao bound. Each finished case is "
+            "appended to DIR/cases.csv at once; run the same command again to continue a stopped study. "
+            "Writes DIR/summary.json and "
             "DIR/error_map_sigma<N>.png. Exit code 1 when some cases kept failing (listed in the "
             "summary), 2 on bad input."
         ),
@@ -78,6 +81,7 @@ def register(subparsers) -> None:
     )
     parser.add_argument("--max-cases", type=int, metavar="N", help="stop after N new cases (run in slices)")
     parser.add_argument("--json", action="store_true", help="print summary.json on stdout")
+    add_machine_option(parser)
     parser.set_defaults(func=run)
 
 
@@ -87,11 +91,18 @@ def run(args: argparse.Namespace) -> int:
     from oilwatch.study import get_case_model, make_cases, run_study
     from oilwatch.study.runner import check_cluster_options
 
+    from .machine_option import ensure_flowrate_tables, load_machine_option
+
     check_cluster_options(args.scheduler, args.workers)
     if args.max_cases is not None and args.max_cases < 1:
         raise InputError(f"--max-cases must be >= 1, got {args.max_cases}")
+    machine = load_machine_option(args)
+    if args.case != "synthetic":
+        ensure_flowrate_tables(machine, [machine.nominal_speed_hz], "study")
     model = get_case_model(args.case, args.fmu_dir)
-    cases = make_cases(args.noise_um, args.grid_step_pct, args.seeds, args.duration_s, args.discard_s)
+    cases = make_cases(
+        args.noise_um, args.grid_step_pct, args.seeds, args.duration_s, args.discard_s, machine
+    )
     outcome = run_study(
         cases,
         args.out,

@@ -26,15 +26,15 @@ from pathlib import Path
 
 from fmpy import extract
 
+from models.cache import user_cache_dir
+
 _HASH_CHUNK = 1 << 20
 KEEP_FOLDERS = 24
 """Unpacked FMUs kept in ``<cache>/fmus`` (least recently used ones beyond this are deleted)."""
 
 
-def cache_root() -> Path:
-    """The oilwatch cache folder: ``$OILWATCH_CACHE`` or ``~/.cache/oilwatch``."""
-    configured = os.environ.get("OILWATCH_CACHE")
-    return Path(configured).expanduser() if configured else Path.home() / ".cache" / "oilwatch"
+cache_root = user_cache_dir
+"""The oilwatch cache folder: ``$OILWATCH_CACHE`` or ``~/.cache/oilwatch`` (shared with the tables)."""
 
 
 def persistent_extraction_enabled() -> bool:

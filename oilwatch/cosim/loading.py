@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import itertools
 import logging
+import re
 import shutil
 import weakref
 import zipfile
@@ -32,6 +33,7 @@ from fmpy.logging import addLoggerProxy
 
 from .errors import SlaveError, SystemDescriptionError
 from .extraction import extract_fmu
+from .values import fmi_value
 
 LOGGER = logging.getLogger("oilwatch.cosim")
 STATUS_NAMES = ("ok", "warning", "discard", "error", "fatal", "pending")
@@ -72,6 +74,8 @@ class Variable:
     variability: str
     unit: str | None
     start: object
+    minimum: str | None = None
+    maximum: str | None = None
 
 
 def _read_description(path: Path):
@@ -109,13 +113,16 @@ class Slave:
         self.model_description = _read_description(self.path)
         md = self.model_description
         self.variables = {
-            v.name: Variable(v.name, v.valueReference, v.type, v.causality, v.variability, v.unit, v.start)
+            v.name: Variable(
+                v.name, v.valueReference, v.type, v.causality, v.variability, v.unit, v.start, v.min, v.max
+            )
             for v in md.modelVariables
         }
         self.log: deque[str] = deque(maxlen=log_size)
         self.time: float | None = None
         self.dead = False
         self.instantiated = False
+        self.labels: dict[str, str] = {}
         self._unzip_dir, self._persistent = None, False
         try:
             # A persistent folder per FMU content keeps numba's on-disk cache valid across runs.
@@ -172,7 +179,15 @@ class Slave:
         if status >= 4:
             # FMI 2.0: after fmi2Fatal no function of the FMU may be called again.
             self.dead = True
-        return SlaveError(self.name, call, self.time, status_name, list(self.log)[-5:])
+        return SlaveError(self.name, call, self.time, status_name, self._labelled(list(self.log)[-5:]))
+
+    def _labelled(self, lines: list[str]) -> list[str]:
+        """Log lines with each labelled variable as the user gave it (``--q1-pct (q1_initial_ml_min)``)."""
+        for name, label in self.labels.items():
+            if label != name:
+                pattern = re.compile(rf"(?<![\w.]){re.escape(name)}(?!\w)")
+                lines = [pattern.sub(f"{label} ({name})", line) for line in lines]
+        return lines
 
     def call(self, fname: str, function, *args, **kwargs):
         """Call ``function`` (an fmpy method); an FMI status above warning raises SlaveError."""
@@ -198,10 +213,18 @@ class Slave:
                 f"it has {sorted(self.variables)}"
             ) from None
 
+    def checked_value(self, name: str, value: object, label: str | None = None) -> object:
+        """``value`` converted to variable ``name``'s FMI type; SystemDescriptionError naming the input as
+        the user gave it (``label``, else a label of :attr:`labels`, else ``instance.name``) when it is not
+        of that type (:func:`~oilwatch.cosim.values.fmi_value`)."""
+        label = label or self.labels.get(name, f"{self.name}.{name}")
+        return fmi_value(self.variable(name), value, label)
+
     def set_values(self, values: dict[str, object]) -> None:
         """Set variables by name (start values of parameters, inputs), each with its own type."""
         for name, value in values.items():
             variable = self.variable(name)
+            value = self.checked_value(name, value)
             vr = [variable.value_reference]
             if variable.type == "Real":
                 self.call("fmi2SetReal", self.fmu.setReal, vr, [float(value)])
@@ -231,8 +254,15 @@ class Slave:
             result[name] = value.decode() if isinstance(value, bytes) else value
         return result
 
-    def initialize(self, start_time: float, stop_time: float | None, values: dict) -> None:
-        """setupExperiment, enterInitializationMode, set ``values``, exitInitializationMode."""
+    def initialize(
+        self, start_time: float, stop_time: float | None, values: dict, labels: dict[str, str] | None = None
+    ) -> None:
+        """setupExperiment, enterInitializationMode, set ``values``, exitInitializationMode.
+
+        labels: how the user gave some of the variables (``{"seed": "--seed"}``), for error messages.
+        """
+        if labels is not None:
+            self.labels = dict(labels)
         self.time = start_time
         self.call("fmi2SetupExperiment", self.fmu.setupExperiment, startTime=start_time, stopTime=stop_time)
         self.call("fmi2EnterInitializationMode", self.fmu.enterInitializationMode)

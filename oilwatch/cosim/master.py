@@ -155,6 +155,7 @@ class Master:
         record_every: int = 1,
         parameters: dict[str, dict[str, object]] | None = None,
         progress: bool = False,
+        labels: dict[str, dict[str, str]] | None = None,
     ) -> RunResult:
         """Simulate from ``start_time`` to ``stop_time`` [s] with macro step ``step_size`` [s].
 
@@ -163,6 +164,8 @@ class Master:
         (an object with start/record/close, or a callable ``f(time, values)``; default a
         MemoryRecorder) at the start time and after every ``record_every``-th step.
         parameters: per-instance overrides of the system's parameter values.
+        labels: per instance, how the user gave a variable (``{"plant": {"seed": "--seed"}}``): errors
+        about it (a value of the wrong FMI type, a message in the FMU's log) name it so.
         """
         system = self.system
         start = system.start_time if start_time is None else start_time
@@ -187,14 +190,15 @@ class Master:
         record = self.default_record() if record is None else list(record)
         probes = self._probes(record)
         recorder = as_recorder(recorder)
-        values = self._parameter_values(parameters or {})
+        labels = labels or {}
+        values = self._parameter_values(parameters or {}, labels)
 
         if self._used:
             for slave in self.slaves.values():
                 slave.reset()
         self._used = True
         for name in order_names:
-            self.slaves[name].initialize(start, stop, values[name])
+            self.slaves[name].initialize(start, stop, values[name], labels.get(name, {}))
         for transfer in self.transfers:
             transfer.move()
 
@@ -233,16 +237,19 @@ class Master:
                 row[position] = value
         recorder.record(time, row)
 
-    def _parameter_values(self, overrides: dict[str, dict[str, object]]) -> dict[str, dict]:
+    def _parameter_values(self, overrides: dict[str, dict[str, object]], labels: dict) -> dict[str, dict]:
+        """Every instance's parameter values, each checked against its variable's FMI type before any
+        slave is initialized (so a bad value stops the run before anything is written)."""
         unknown = sorted(set(overrides) - set(self.slaves))
         if unknown:
             raise SystemDescriptionError(f"parameters for unknown FMU instances {unknown}")
         values = {}
         for spec in self.system.fmus:
+            slave, names = self.slaves[spec.name], labels.get(spec.name, {})
             merged = {**spec.parameters, **overrides.get(spec.name, {})}
-            for name in merged:
-                self.slaves[spec.name].variable(name)
-            values[spec.name] = merged
+            values[spec.name] = {
+                name: slave.checked_value(name, value, names.get(name)) for name, value in merged.items()
+            }
         return values
 
 

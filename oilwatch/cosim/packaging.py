@@ -106,28 +106,26 @@ def copy_package(
 
 def stage_sources(
     staging: Path,
-    repo_root: Path,
+    package_dirs: dict[str, Path],
     script: Path,
-    packages: tuple[str, ...],
     prefix: str,
     data_globs: tuple[str, ...],
 ) -> tuple[Path, list[Path]]:
-    """Copy ``script`` and ``packages`` into ``staging`` with relocated names and imports.
+    """Copy ``script`` and the packages of ``package_dirs`` (name -> folder, installed or in a source tree)
+    into ``staging`` with relocated names and imports.
 
     Returns the staged script and the staged package folders (pythonfmu's ``project_files``).
     Slave scripts (``*_slave.py``) inside bundled packages are left out: each FMU carries only
     its own slave, at the top of ``resources/``.
     """
-    mapping = {package: relocated_name(prefix, package) for package in packages}
+    mapping = {package: relocated_name(prefix, package) for package in package_dirs}
     staged_script = staging / script.name
     shutil.copy2(script, staged_script)
     folders, sources = [], [(staged_script, script)]
-    for package in packages:
+    for package, source in package_dirs.items():
         folder = staging / mapping[package]
-        copied = copy_package(repo_root / package, folder, data_globs, (SLAVE_SCRIPT_PATTERN,))
-        sources += [
-            (path, repo_root / package / path.relative_to(folder)) for path in copied if path.suffix == ".py"
-        ]
+        copied = copy_package(source, folder, data_globs, (SLAVE_SCRIPT_PATTERN,))
+        sources += [(path, source / path.relative_to(folder)) for path in copied if path.suffix == ".py"]
         folders.append(folder)
     for staged, original in sources:
         text = staged.read_text(encoding="utf-8")

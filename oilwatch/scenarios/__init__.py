@@ -1,6 +1,8 @@
 """The paper's real-time oil-starvation scenarios (section 3.2.2, Figs. 10-12) as runnable settings.
 
-Every flowrate is a percentage of the nominal 596.3 ml/min (0.5 bar groove pressure). Each bearing's
+Every flowrate is a percentage of the machine's nominal flowrate (``[lubrication]`` of its machine file; the
+bundled turbine: the paper's 0.5 bar groove pressure) and every scenario runs at the machine's nominal speed.
+Each bearing's
 supply flowrate follows the plant FMU's sigmoid from its initial to its final value, centred at half the
 record (``fault_time_s = duration_s / 2``: 10 s for the paper's 20 s) with the 10 %-90 % transition time
 ``fault_duration_s`` of :data:`models.system.fault.SCENARIO_DURATIONS_S` (slow 4 s, intermediate 1 s,
@@ -30,11 +32,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from models.bearing.supply import ML_MIN_PER_M3_S
+from models.machine import BUNDLED_MACHINE, Machine, load_machine
 from models.system.fault import SCENARIO_DURATIONS_S
 from models.validation import InputError, require_in_range
 
-NOMINAL_ML_MIN = 596.3
-"""Nominal supply flowrate [ml/min] (0.5 bar groove pressure, paper section 3.1)."""
 STARVED_PCT = 75.0
 FLOODED_PCT = 125.0
 WINDOW_S = 2.0
@@ -46,10 +48,10 @@ DURATION_RANGE_S = (1.0, 3600.0)
 PCT_RANGE = (1.0, 200.0)
 PROTECTED = {
     "plant": {
-        "q1_initial_ml_min", "q1_final_ml_min", "q2_initial_ml_min", "q2_final_ml_min",
+        "machine_file", "q1_initial_ml_min", "q1_final_ml_min", "q2_initial_ml_min", "q2_final_ml_min",
         "fault_time_s", "fault_duration_s", "noise_um", "seed", "flow_source",
     },
-    "ekf": {"noise_um", "q_nominal_ml_min", "sample_period_s"},
+    "ekf": {"noise_um", "q_nominal_ml_min", "sample_period_s", "machine_file"},
 }  # fmt: skip
 """Parameters a scenario sets itself, per FMU role (``make_run``'s overrides may not touch them)."""
 PAPER_TUNING = {"q_std_displacement_um": 10.0, "q_std_velocity_um_s": 10.0, "velocity_channels": 1}
@@ -93,7 +95,12 @@ SCENARIOS: dict[str, Scenario] = {
 
 @dataclass(frozen=True)
 class ScenarioRun:
-    """A scenario with everything a run needs; times in s, flowrates in ml/min (the FMUs' units)."""
+    """A scenario with everything a run needs; times in s, flowrates in ml/min (the FMUs' units).
+
+    nominal_ml_min and nominal_speed_hz are the machine's (``machine_file``, empty: the bundled turbine); the
+    plant runs at ``speed_hz`` (the nominal speed unless ``--set plant.speed_hz`` changed it, which the
+    estimator follows unless ``--set ekf.speed_hz`` says otherwise).
+    """
 
     scenario: Scenario
     noise_um: float
@@ -101,8 +108,16 @@ class ScenarioRun:
     seed: int
     q1_ml_min: tuple[float, float]
     q2_ml_min: tuple[float, float]
+    nominal_ml_min: float
+    nominal_speed_hz: float
+    machine_file: str = ""
     overrides: tuple[tuple[str, str, object], ...] = ()
     """Further FMU parameters as (``plant`` or ``ekf``, name, value), e.g. the estimator's tuning."""
+
+    def speed_hz(self, role: str = "plant") -> float:
+        """The spin speed [Hz] the ``plant`` or the ``ekf`` instance is given."""
+        plant = float(self._extra("plant").get("speed_hz", self.nominal_speed_hz))
+        return plant if role == "plant" else float(self._extra("ekf").get("speed_hz", plant))
 
     @property
     def fault_time_s(self) -> float:
@@ -129,12 +144,12 @@ class ScenarioRun:
 
     def _below(self, bearing: int, end: int, on_fraction: float) -> bool:
         flowrates = self.q1_ml_min if bearing == 1 else self.q2_ml_min
-        return flowrates[end] < on_fraction * NOMINAL_ML_MIN
+        return flowrates[end] < on_fraction * self.nominal_ml_min
 
     def plant_parameters(self) -> dict[str, float]:
         """Parameter values of the RotorBearingPlant FMU."""
         return {
-            "speed_hz": 75.0,
+            "machine_file": self.machine_file,
             "q1_initial_ml_min": self.q1_ml_min[0],
             "q1_final_ml_min": self.q1_ml_min[1],
             "q2_initial_ml_min": self.q2_ml_min[0],
@@ -144,6 +159,7 @@ class ScenarioRun:
             "noise_um": self.noise_um,
             "seed": self.seed,
             **self._extra("plant"),
+            "speed_hz": self.speed_hz("plant"),
         }
 
     def _extra(self, role: str) -> dict[str, object]:
@@ -152,11 +168,12 @@ class ScenarioRun:
     def ekf_parameters(self) -> dict[str, float]:
         """Parameter values of the OilFlowEKF FMU (initial estimate: nominal, as in the paper)."""
         return {
-            "speed_hz": 75.0,
+            "machine_file": self.machine_file,
             "noise_um": self.noise_um,
-            "q_initial_ml_min": NOMINAL_ML_MIN,
-            "q_nominal_ml_min": NOMINAL_ML_MIN,
+            "q_initial_ml_min": self.nominal_ml_min,
+            "q_nominal_ml_min": self.nominal_ml_min,
             **self._extra("ekf"),
+            "speed_hz": self.speed_hz("ekf"),
         }
 
 
@@ -168,8 +185,12 @@ def make_run(
     q1_pct: float = 100.0,
     q2_pct: float = 100.0,
     overrides: dict[str, dict[str, object]] | None = None,
+    machine: Machine | None = None,
 ) -> ScenarioRun:
     """Resolve scenario ``name`` into a :class:`ScenarioRun`; ``q1_pct``/``q2_pct`` only for ``constant``.
+
+    machine: the machine (default: the bundled turbine) whose nominal flowrate the percentages refer to
+    and whose nominal speed the scenario runs at (``--set plant.speed_hz=...`` runs it at another speed).
 
     overrides: further FMU parameters, ``{"plant" or "ekf": {name: value}}``; the ones the scenario sets
     (flowrates, fault timing, noise, seed, nominal flowrate) cannot be overridden. The FMU checks names
@@ -203,7 +224,9 @@ def make_run(
                     f"--set {role}.{parameter}: set by the scenario (use the scenario's own options)"
                 )
             extra.append((role, parameter, value))
-    to_ml_min = NOMINAL_ML_MIN / 100.0
+    machine = machine if machine is not None else load_machine()
+    nominal_ml_min = machine.lubrication.nominal_flowrate_m3_s * ML_MIN_PER_M3_S
+    to_ml_min = nominal_ml_min / 100.0
     return ScenarioRun(
         scenario,
         float(noise_um),
@@ -211,5 +234,8 @@ def make_run(
         int(seed),
         tuple(round(p * to_ml_min, 6) for p in scenario.q1_pct),
         tuple(round(p * to_ml_min, 6) for p in scenario.q2_pct),
+        round(nominal_ml_min, 6),
+        machine.nominal_speed_hz,
+        "" if machine.source_path == BUNDLED_MACHINE else str(machine.source_path.resolve()),
         tuple(extra),
     )

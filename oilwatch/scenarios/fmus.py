@@ -1,11 +1,12 @@
-"""Find the two FMUs (and the SSP) a scenario run needs, building them with ``build.py`` when missing.
+"""Find the two FMUs (and the SSP) a scenario run needs, built from the installed package when missing.
 
-Default location: ``<cache>/build/<source hash>/`` (``<cache>`` is ``$OILWATCH_CACHE`` or
-``~/.cache/oilwatch``), where the hash covers every file that goes into the FMUs (``build.py``, the
-``models``, ``estimator`` and ``fmu_src`` packages and the packaging code). Editing the sources therefore
-rebuilds on the next run, and a build never goes stale; the :data:`KEEP_BUILDS` most recently used builds
-are kept. ``--fmu-dir DIR`` uses FMUs built by hand (``python build.py --out DIR``) instead and never
-builds.
+Default location: ``<cache>/build/<hash>/`` (``<cache>`` is ``$OILWATCH_CACHE`` or ``~/.cache/oilwatch``),
+where the hash covers every file that goes into the FMUs: the ``models``, ``estimator`` and ``fmu_src``
+packages and the build code, wherever they are installed, and the machine file with its tables (the FMUs
+bundle them). Editing the sources or the machine therefore rebuilds on the next run, and a build never goes
+stale; the :data:`KEEP_BUILDS` most recently used builds are kept. ``--fmu-dir DIR`` uses FMUs built by hand
+(``oilwatch build-fmus --out DIR``) instead and never builds. No source tree is needed: the build is
+``oilwatch build-fmus`` (:mod:`oilwatch.cosim.fmu_build`) run in a separate process.
 """
 
 from __future__ import annotations
@@ -13,62 +14,63 @@ from __future__ import annotations
 import hashlib
 import os
 import shutil
-import subprocess
-import sys
 import tempfile
 from pathlib import Path
 
 from models.validation import InputError
 
 from ..cosim.extraction import cache_root, prune
+from ..cosim.fmu_build import build_in_subprocess
 
 PLANT_FMU = "RotorBearingPlant.fmu"
 EKF_FMU = "OilFlowEKF.fmu"
 SYSTEM_SSP = "OilStarvation.ssp"
-PACKAGE_ROOT = Path(__file__).resolve().parents[2]
-_SOURCES = ("models", "estimator", "fmu_src")
-_SOURCE_FILES = ("build.py", "oilwatch/cosim/packaging.py", "oilwatch/cosim/fmu_docs.py")
+_BUILD_MODULES = ("packaging.py", "fmu_build.py", "fmu_docs.py")
 _SUFFIXES = (".py", ".toml", ".json")
 KEEP_BUILDS = 4
 """Builds kept in ``<cache>/build`` (least recently used ones beyond this are deleted)."""
 
 
-def source_root() -> Path:
-    """The source tree holding ``build.py``: the one oilwatch runs from (an editable install), else the
-    current folder (a clone after ``pip install .``, as the README's set-up does)."""
-    for candidate in (PACKAGE_ROOT, Path.cwd()):
-        if (candidate / "build.py").is_file() and (candidate / "fmu_src").is_dir():
-            return candidate
-    raise InputError(
-        "cannot build the FMUs: no build.py next to the oilwatch package or in the current folder (run "
-        "from the oilwatch source tree), or pass --fmu-dir with FMUs built by 'python build.py --out DIR'"
-    )
+def build_inputs(machine=None) -> list[tuple[str, Path]]:
+    """Every file that goes into the FMUs of ``machine`` (default: the bundled turbine), with its name."""
+    from models.machine import load_machine
+
+    from ..cosim.fmu_build import FMU_PACKAGES, machine_files, package_dir
+
+    machine = machine if machine is not None else load_machine()
+    cosim = Path(__file__).resolve().parents[1] / "cosim"
+    files = [(f"oilwatch/cosim/{name}", cosim / name) for name in _BUILD_MODULES]
+    for package in FMU_PACKAGES:
+        folder = package_dir(package)
+        files += [
+            (f"{package}/{p.relative_to(folder)}", p)
+            for p in sorted(folder.rglob("*"))
+            if p.suffix in _SUFFIXES and "__pycache__" not in p.parts
+        ]
+    files += [(f"machine/{p.name}", p) for p in machine_files(machine)]
+    return files
 
 
-def source_hash(root: Path) -> str:
-    """SHA-256 (first 16 hex digits) of the FMUs' source files: names and contents."""
-    files = [root / name for name in _SOURCE_FILES]
-    for package in _SOURCES:
-        files += sorted(
-            p for p in (root / package).rglob("*") if p.suffix in _SUFFIXES and "__pycache__" not in p.parts
-        )
+def source_hash(machine=None) -> str:
+    """SHA-256 (first 16 hex digits) of the FMUs' input files (:func:`build_inputs`): names and contents."""
     digest = hashlib.sha256()
-    for path in files:
-        digest.update(str(path.relative_to(root)).encode())
+    for name, path in build_inputs(machine):
+        digest.update(name.encode())
         digest.update(path.read_bytes())
     return digest.hexdigest()[:16]
 
 
-def default_build_dir(root: Path | None = None) -> Path:
-    """Where ``ensure_fmus`` builds the sources of ``root`` (default :func:`source_root`)."""
-    return cache_root() / "build" / source_hash(root or source_root())
+def default_build_dir(machine=None) -> Path:
+    """Where ``ensure_fmus`` builds the FMUs of ``machine`` (default: the bundled turbine)."""
+    return cache_root() / "build" / source_hash(machine)
 
 
-def ensure_fmus(fmu_dir: str | Path | None = None, log=None) -> Path:
+def ensure_fmus(fmu_dir: str | Path | None = None, log=None, machine=None) -> Path:
     """The folder holding RotorBearingPlant.fmu, OilFlowEKF.fmu and OilStarvation.ssp.
 
     fmu_dir: a folder of prebuilt FMUs (an InputError names a missing file); None: the default build
-    folder, built first (about 2 s; ``log(text)`` is told) when it is missing.
+    folder of ``machine`` (default: the bundled turbine), built first (a few seconds; ``log(text)`` is told)
+    when it is missing.
     """
     if fmu_dir is not None:
         folder = Path(fmu_dir)
@@ -76,11 +78,10 @@ def ensure_fmus(fmu_dir: str | Path | None = None, log=None) -> Path:
             if not (folder / name).is_file():
                 raise InputError(
                     f"--fmu-dir: {folder / name} does not exist (build it with "
-                    f"'python build.py --out {folder}', or leave --fmu-dir out to build automatically)"
+                    f"'oilwatch build-fmus --out {folder}', or leave --fmu-dir out to build automatically)"
                 )
         return folder
-    root = source_root()
-    folder = default_build_dir(root)
+    folder = default_build_dir(machine)
     if all((folder / name).is_file() for name in (PLANT_FMU, EKF_FMU, SYSTEM_SSP)):
         os.utime(folder)
         return folder
@@ -89,16 +90,10 @@ def ensure_fmus(fmu_dir: str | Path | None = None, log=None) -> Path:
     folder.parent.mkdir(parents=True, exist_ok=True)
     staging = Path(tempfile.mkdtemp(prefix=".partial-", dir=folder.parent))
     try:
-        # A separate process: building imports the relocated slave modules, which must not linger here.
-        process = subprocess.run(
-            [sys.executable, str(root / "build.py"), "--out", str(staging)],
-            cwd=root,
-            capture_output=True,
-            text=True,
-        )
-        if process.returncode != 0:
-            lines = (process.stderr or process.stdout).strip().splitlines() or ["(no output)"]
-            raise InputError(f"building the FMUs failed: {lines[-1]}")
+        try:
+            build_in_subprocess(staging, None if machine is None else machine.source_path)
+        except InputError as error:
+            raise InputError(f"building the FMUs failed: {error}") from None
         if folder.exists():
             shutil.rmtree(folder, ignore_errors=True)  # an incomplete earlier build
         try:

@@ -43,19 +43,26 @@ COLUMNS = {
     "ekf.measurement_ok": "measurement_ok",
 }
 """Recorded variables (``plant``/``ekf`` instance names) -> result.csv column names."""
+OUTPUT_FILES = ("result.csv", "summary.json", "estimates.png")
+"""The files a run writes in its folder (module docstring)."""
 ROLES = {"plant": "x1_true_um", "ekf": "q1_est_ml_min"}
 """An output that identifies each role's FMU in an SSP whose instances have other names."""
 
 
 class _StopBetweenSteps:
-    """A recorder wrapper that raises KeyboardInterrupt after a row once SIGINT has been received."""
+    """A recorder wrapper that raises KeyboardInterrupt after a row once SIGINT has been received, and
+    removes the files of ``stale`` when the recording starts (every FMU initialized): a run that cannot
+    start leaves the previous run's files as they were, one that starts leaves nothing of them."""
 
-    def __init__(self, inner):
+    def __init__(self, inner, stale: tuple[Path, ...] = ()):
         self.inner = inner
+        self.stale = stale
         self.stop_requested = False
         self.last_time_s: float | None = None
 
     def start(self, columns):
+        for path in self.stale:
+            path.unlink(missing_ok=True)
         self.inner.start(columns)
 
     def record(self, time_s, values):
@@ -119,10 +126,13 @@ def run_scenario(
     ssp: Path | None = None,
     progress: bool = True,
     plot: bool = True,
+    labels: dict[str, dict[str, str]] | None = None,
 ) -> dict:
     """Simulate ``run`` with the FMUs of ``fmu_dir`` (or the system of ``ssp``), write the run's files in
     ``out_dir`` (module docstring) and return the summary. A failing FMU raises SlaveError, a wrong system
-    SystemDescriptionError (an InputError); KeyboardInterrupt leaves result.csv with the steps done."""
+    SystemDescriptionError (an InputError); KeyboardInterrupt leaves result.csv with the steps done.
+    labels: per role (``plant``/``ekf``), how the user gave a parameter (``{"plant": {"seed": "--seed"}}``),
+    for error messages."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     csv_path = out / "result.csv"
@@ -131,7 +141,8 @@ def run_scenario(
         record = [f"{roles[c.split('.')[0]]}.{c.split('.')[1]}" for c in COLUMNS]
         rename = dict(zip(record, COLUMNS.values(), strict=True))
         parameters = {roles["plant"]: run.plant_parameters(), roles["ekf"]: run.ekf_parameters()}
-        recorder = _StopBetweenSteps(CsvRecorder(csv_path, rename=rename))
+        stale = tuple(out / name for name in OUTPUT_FILES)
+        recorder = _StopBetweenSteps(CsvRecorder(csv_path, rename=rename), stale)
         # SIGINT deferred from before loading: an interrupt inside an FMU call would surface as an FMU error.
         with _deferred_sigint(recorder), Master(system) as master:
             result = master.run(
@@ -144,6 +155,7 @@ def run_scenario(
                 recorder=recorder,
                 parameters=parameters,
                 progress=progress,
+                labels={roles[role]: names for role, names in (labels or {}).items()},
             )
     total_s = wallclock.perf_counter() - wall_start
     columns = read_result(csv_path)

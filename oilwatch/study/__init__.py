@@ -8,19 +8,19 @@ outcome.summary["noise_levels"][0]["mean_err_pct"]
 """
 
 from .cases import CaseFailure, CaseResult, SyntheticCase, reduce_record
-from .grid import NOMINAL_Q_ML_MIN, Case, grid_percents, make_cases
+from .grid import Case, bundled_nominal_ml_min, grid_percents, make_cases
 from .registry import CASE_MODELS, CaseModel, get_case_model
 from .runner import StudyOutcome, dask_client, run_study
 
 __all__ = [
     "CASE_MODELS",
-    "NOMINAL_Q_ML_MIN",
     "Case",
     "CaseFailure",
     "CaseModel",
     "CaseResult",
     "StudyOutcome",
     "SyntheticCase",
+    "bundled_nominal_ml_min",
     "dask_client",
     "get_case_model",
     "grid_percents",

@@ -6,8 +6,8 @@ at the 1 ms sampling step for ``case.duration_s``:
 
 * plant: both flowrates held at the case's values (``q*_initial_ml_min = q*_final_ml_min``), started in
   the steady orbit of those flowrates, white noise of ``case.noise_um`` seeded from ``case.rng_seed``;
-* estimator: the FMU's defaults (the recommended tuning, initial estimate 596.3 ml/min, as the paper)
-  with ``noise_um = case.noise_um``;
+* estimator: the FMU's defaults (the recommended tuning, initial estimate the machine's nominal flowrate, as
+  the paper) with ``noise_um = case.noise_um``;
 * the estimates after every step (t = dt ... T) are reduced by :func:`oilwatch.study.cases.reduce_record`.
 
 A worker process loads the two FMUs once and reuses them for every case it runs (``fmi2Reset`` between
@@ -26,8 +26,9 @@ import numpy as np
 
 from models.system.identifiability import cramer_rao_bound
 
+from ..cosim.values import FMI2_INTEGER_RANGE
 from .cases import CaseFailure, CaseResult, reduce_record
-from .grid import NOMINAL_Q_ML_MIN, SAMPLE_DT_S, Case
+from .grid import SAMPLE_DT_S, Case
 
 ML_MIN_TO_M3_S = 1.0 / 6.0e7
 
@@ -47,7 +48,7 @@ def full_system(machine_file: str | None = None, table_path: str | None = None):
 
 def case_crlb(system, case: Case) -> np.ndarray:
     """(2,) Cramer-Rao bound [ml/min] on the std of q1 and q2 for the case's record (all samples)."""
-    flowrates = np.array([case.q1_pct, case.q2_pct]) / 100.0 * NOMINAL_Q_ML_MIN * ML_MIN_TO_M3_S
+    flowrates = np.array([case.q1_ml_min, case.q2_ml_min]) * ML_MIN_TO_M3_S
     bound = cramer_rao_bound(system, flowrates, case.noise_um * 1e-6, case.n_samples, SAMPLE_DT_S)
     return bound.std_ml_min
 
@@ -65,15 +66,16 @@ class ModelCrlb:
     system: object | None = None
 
     def __call__(self, case: Case) -> np.ndarray:
-        system = self.system if self.system is not None else full_system(self.machine_file, self.table_path)
+        machine_file = self.machine_file or case.machine_file or None
+        system = self.system if self.system is not None else full_system(machine_file, self.table_path)
         return case_crlb(system, case)
 
 
 _MASTERS: dict[str | None, object] = {}
 """Per-process masters with their two FMUs loaded, by FMU folder (None: the automatic build)."""
 _RECORD = ["ekf.q1_est_ml_min", "ekf.q2_est_ml_min", "ekf.q1_std_ml_min", "ekf.q2_std_ml_min"]
-FMI_SEED_MODULUS = 2**31
-"""The plant's ``seed`` is an FMI Integer (32-bit signed): the case's 63-bit seed is reduced modulo this."""
+FMI_SEED_MODULUS = FMI2_INTEGER_RANGE[1] + 1
+"""The plant's ``seed`` is an FMI Integer (>= 0, 32 bits): the case's 63-bit seed is reduced modulo this."""
 
 
 def _master(fmu_dir: str | None):
@@ -95,8 +97,15 @@ def case_parameters(case: Case) -> dict[str, dict[str, object]]:
         "q2_final_ml_min": case.q2_ml_min,
         "noise_um": case.noise_um,
         "seed": case.rng_seed % FMI_SEED_MODULUS,
+        "machine_file": case.machine_file,
     }
-    return {"plant": plant, "ekf": {"noise_um": case.noise_um}}
+    ekf = {
+        "noise_um": case.noise_um,
+        "machine_file": case.machine_file,
+        "q_initial_ml_min": case.nominal_ml_min,
+        "q_nominal_ml_min": case.nominal_ml_min,
+    }
+    return {"plant": plant, "ekf": ekf}
 
 
 @dataclass(frozen=True)

@@ -9,7 +9,7 @@ measured (and the FMU path later cross-checked against them) without the co-simu
 * estimator: ``estimator.ekf.OilFlowEKF`` on ``GridAugmentedModel`` of the REDUCED model (the estimator's own
   discrete map, not the truth's), configured by ``EKFConfig.recommended`` with the case's noise level, the
   first sample at t = dt (the plant's first output is its state after one step), initial estimate the paper's
-  (zero states, q = 596.3 ml/min);
+  (zero states, q = the machine's nominal flowrate);
 * the record is reduced with :func:`oilwatch.study.cases.reduce_record` (mean after ``case.discard_s``).
 
 The models are built once per process (a Dask worker keeps them between cases).
@@ -50,7 +50,7 @@ def simulate_record(case: Case, system=None) -> np.ndarray:
     """Measured displacements (n_samples, 4) [m] at the case's constant flowrates, t = dt, 2 dt, ... T."""
     flowrates = (case.q1_ml_min * ML_MIN_TO_M3_S, case.q2_ml_min * ML_MIN_TO_M3_S)
     plant = RotorBearingPlant(
-        system if system is not None else full_system(),
+        system if system is not None else full_system(case.machine_file or None),
         SAMPLE_DT_S,
         None,
         case.noise_um * 1e-6,
@@ -64,8 +64,9 @@ def run_direct_case(case: Case) -> CaseResult:
     """One case of the study with the in-process plant and EKF (see the module docstring)."""
     start = time.perf_counter()
     record = simulate_record(case)
+    model = estimator_model(case.machine_file or None)
     config = EKFConfig.recommended(noise_std_m=case.noise_um * 1e-6, first_sample_time_s=SAMPLE_DT_S)
-    trace = OilFlowEKF(estimator_model(), config).run(record)
+    trace = OilFlowEKF(model, config).run(record)
     times = SAMPLE_DT_S * np.arange(1, case.n_samples + 1)
     return reduce_record(
         case,

@@ -20,7 +20,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from .grid import NOMINAL_Q_ML_MIN, SAMPLE_DT_S, Case
+from .grid import SAMPLE_DT_S, Case
 
 
 class CaseFailure(RuntimeError):
@@ -166,7 +166,7 @@ class SyntheticCase:
         a = self.noise_memory
         innovation = self.noise_std_ml_min(case) * np.sqrt(1.0 - a * a)
         noise = lfilter([1.0], [1.0, -a], innovation * rng.standard_normal((times.size, 2)), axis=0)
-        estimates = settled + (NOMINAL_Q_ML_MIN - settled) * decay + noise
+        estimates = settled + (case.nominal_ml_min - settled) * decay + noise
         stds = np.full((times.size, 2), self.noise_std_ml_min(case)) * (1.0 + 20.0 * decay)
         return reduce_record(case, times, estimates, stds, time.perf_counter() - start)
 

@@ -1,6 +1,7 @@
 """The case grid of the constant-flowrate study (the paper's Sec. 3.2.1, Figs. 7-8, Table 6).
 
-q1 and q2 each run from 100 % down to 75 % of the nominal 596.3 ml/min in steps of ``grid_step_pct``
+q1 and q2 each run from 100 % down to 75 % of the machine's nominal flowrate (its machine file's
+``[lubrication]``; the bundled turbine: the paper's 596.3 ml/min) in steps of ``grid_step_pct``
 (1 % gives 26 x 26 = 676 cases per noise level); every (q1, q2) pair is run at each noise level and with
 each noise seed.
 """
@@ -9,14 +10,22 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from functools import cache
 
 import numpy as np
 
+from models.bearing.supply import ML_MIN_PER_M3_S
+from models.machine import Machine, load_machine
+from models.system.factory import is_bundled
 from models.validation import InputError, require_positive
 
-NOMINAL_Q_ML_MIN = 596.3
-"""The paper's nominal supply flowrate (0.5 bar groove pressure) [ml/min]."""
+
+@cache
+def bundled_nominal_ml_min() -> float:
+    """The bundled turbine's nominal supply flowrate [ml/min] (its machine file)."""
+    return load_machine().lubrication.nominal_flowrate_m3_s * ML_MIN_PER_M3_S
+
 
 HIGH_PCT = 100.0
 LOW_PCT = 75.0
@@ -30,6 +39,8 @@ class Case:
 
     noise_um: std of the white noise on each displacement channel [um]. seed: index of the noise
     realization (0, 1, ...). duration_s: record length [s]; discard_s: initial part left out of the average.
+    machine_file: the machine ("": the bundled turbine); nominal_ml_min: its nominal flowrate [ml/min], which
+    the percentages refer to.
     """
 
     q1_pct: float
@@ -38,6 +49,8 @@ class Case:
     seed: int = 0
     duration_s: float = 10.0
     discard_s: float = 5.0
+    machine_file: str = ""
+    nominal_ml_min: float = field(default_factory=bundled_nominal_ml_min)
 
     @property
     def case_id(self) -> str:
@@ -47,12 +60,12 @@ class Case:
     @property
     def q1_ml_min(self) -> float:
         """True supply flowrate of bearing 1 [ml/min]."""
-        return NOMINAL_Q_ML_MIN * self.q1_pct / 100.0
+        return self.nominal_ml_min * self.q1_pct / 100.0
 
     @property
     def q2_ml_min(self) -> float:
         """True supply flowrate of bearing 2 [ml/min]."""
-        return NOMINAL_Q_ML_MIN * self.q2_pct / 100.0
+        return self.nominal_ml_min * self.q2_pct / 100.0
 
     @property
     def n_samples(self) -> int:
@@ -82,8 +95,10 @@ def make_cases(
     n_seeds: int = 1,
     duration_s: float = 10.0,
     discard_s: float = 5.0,
+    machine: Machine | None = None,
 ) -> list[Case]:
-    """All cases of a study, ordered by noise, seed, q1 (falling), q2 (falling)."""
+    """All cases of a study, ordered by noise, seed, q1 (falling), q2 (falling), on ``machine`` (default:
+    the bundled turbine)."""
     levels = [require_positive("--noise-um", value, "um") for value in noise_um]
     if not levels:
         raise InputError("--noise-um: give at least one noise level")
@@ -97,8 +112,12 @@ def make_cases(
     if round(duration / SAMPLE_DT_S) - round(discard_s / SAMPLE_DT_S) < 1:
         raise InputError("--duration-s: the record after --discard-s holds no 1 ms sample")
     percents = grid_percents(grid_step_pct)
+    machine_file, nominal = "", bundled_nominal_ml_min()
+    if machine is not None and not is_bundled(machine):
+        machine_file = str(machine.source_path.resolve())
+        nominal = machine.lubrication.nominal_flowrate_m3_s * ML_MIN_PER_M3_S
     return [
-        Case(float(q1), float(q2), noise, seed, duration, float(discard_s))
+        Case(float(q1), float(q2), noise, seed, duration, float(discard_s), machine_file, nominal)
         for noise in levels
         for seed in range(int(n_seeds))
         for q1 in percents

@@ -28,7 +28,7 @@ from .cases import CaseResult
 from .grid import Case
 from .plots import error_map_name, plot_error_map
 from .registry import CaseModel
-from .storage import CaseStore, check_manifest, write_json_atomic
+from .storage import CaseStore, check_manifest, study_lock, write_json_atomic
 from .summary import summarize
 
 SCHEDULER_ADDRESS = re.compile(r"^(tcp|tls|ucx|ws|wss)://[^\s/:]+:\d{1,5}$")
@@ -168,6 +168,14 @@ def run_study(
         check_cluster_options(scheduler, workers)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
+    with study_lock(out):
+        return _run_locked(
+            cases, out, model, model_name, client, scheduler, workers, retries, max_cases, progress
+        )
+
+
+def _run_locked(cases, out, model, model_name, client, scheduler, workers, retries, max_cases, progress):
+    """:func:`run_study` while holding the folder's lock."""
     settings = _settings(cases, model_name)
     check_manifest(out, settings)
     log = _CaseLog(CaseStore(out / "cases.csv"))
@@ -286,5 +294,7 @@ def _plot_maps(rows: dict, cases: Sequence[Case], out: Path, model_name: str) ->
         ids = {case.case_id for case in cases if case.noise_um == noise}
         level_rows = [row for case_id, row in rows.items() if case_id in ids]
         if level_rows:
-            paths.append(plot_error_map(level_rows, percents, noise, out / error_map_name(noise), note))
+            nominal = cases[0].nominal_ml_min
+            path = out / error_map_name(noise)
+            paths.append(plot_error_map(level_rows, percents, noise, path, note, nominal))
     return paths

@@ -1,0 +1,99 @@
+"""``--machine FILE``, the same on every command that uses a machine, and the tables such a command needs.
+
+A machine file is a TOML file with units in its keys (``models/machine.py``); without ``--machine`` a command
+uses the bundled generic turbine. Its coefficient tables live in ``tables/`` beside the file (the bundled
+turbine: its committed tables, and new ones in the user cache ``$OILWATCH_CACHE/tables``; see
+``models.system.factory``). A command that needs a flowrate table that does not exist computes it here
+(about 20 s, with a progress bar); a missing speed sweep (a few minutes) is not computed silently: the error
+names the one command that makes it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+MACHINE_HELP = "machine file (TOML, units in the keys); default: the bundled generic turbine"
+TABLE_POINTS = 7
+"""Flowrates of a table computed on demand (the paper's 7, as ``oilwatch bearing-table``)."""
+
+
+def add_machine_option(parser: argparse.ArgumentParser) -> None:
+    """Add ``--machine FILE`` (default: the bundled generic turbine)."""
+    parser.add_argument("--machine", metavar="FILE", default=None, help=MACHINE_HELP)
+
+
+def load_machine_option(args: argparse.Namespace):
+    """The machine of ``--machine`` (an InputError names a bad file)."""
+    from models.machine import load_machine
+
+    return load_machine(args.machine)
+
+
+def compute_flowrate_table(
+    machine,
+    speed_hz: float,
+    *,
+    points: int = TABLE_POINTS,
+    load_n: float | None = None,
+    mesh=None,
+    out: Path | None = None,
+    progress: bool = True,
+    command: str | None = None,
+):
+    """Compute the machine's flowrate coefficient table at ``speed_hz`` and write it (default: where the
+    machine's tables go); return ``(path, table, q_t [m^3/s])``. ``command`` is recorded as provenance
+    (default: the ``oilwatch bearing-table`` command that makes the same table)."""
+    import numpy as np
+
+    from models.bearing.table import compute_table, flooded_threshold
+    from models.rotor.assembly import Rotor
+    from models.system.factory import flowrate_table_name, new_table_path, table_command
+
+    from .progress import progress_bar
+
+    if load_n is None:
+        load_n = float(Rotor.from_machine(machine).bearing_static_loads_n[0])
+    q_t, _ = flooded_threshold(machine.bearing, load_n, speed_hz, mesh)
+    lubrication = machine.lubrication
+    flows = q_t * np.linspace(
+        lubrication.table_min_fraction_of_threshold, lubrication.table_max_fraction_of_threshold, points
+    )
+    with progress_bar(f"bearing table {speed_hz:g} Hz", "flowrate", progress) as callback:
+        table = compute_table(
+            machine.bearing,
+            load_n,
+            speed_hz,
+            flows,
+            mesh,
+            progress=callback,
+            flooded_threshold_m3_s=q_t,
+            provenance={
+                "command_line": command or table_command(machine, speed_hz),
+                "machine_file": str(machine.source_path),
+            },
+        )
+    path = out if out is not None else new_table_path(machine, flowrate_table_name(machine, speed_hz))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    table.save(path)
+    return path, table, q_t
+
+
+def ensure_flowrate_tables(machine, speeds_hz, command: str, progress: bool = True) -> list[Path]:
+    """The machine's flowrate tables at ``speeds_hz``, each computed first (said on stderr) when missing."""
+    from models.system.factory import flowrate_table_path, table_command
+
+    paths = []
+    for speed in sorted({float(s) for s in speeds_hz}):
+        path = flowrate_table_path(machine, speed)
+        if not path.exists():
+            print(
+                f"oilwatch {command}: no coefficient table for {machine.name} at {speed:g} Hz; computing it "
+                f"(the same as `{table_command(machine, speed)}`)",
+                file=sys.stderr,
+            )
+            path, _, _ = compute_flowrate_table(machine, speed, progress=progress)
+            print(f"oilwatch {command}: wrote {path}", file=sys.stderr)
+        paths.append(path)
+    return paths

@@ -1,0 +1,77 @@
+"""Fast checks of the modules whose full tests need the built FMUs or long runs (those are marked slow): the
+two FMU slaves' Python classes driven as pythonfmu would drive them, without building an FMU; the run plot;
+``python -m oilwatch``. Together with the fast tests of each module they make the fast tier
+(``python -m pytest -q -m "not slow"``) touch every module."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+from fixtures.fmu_subprocess import REPO_ROOT, run_json
+
+from oilwatch.scenarios import make_run
+from oilwatch.scenarios.plot import plot_estimates
+from oilwatch.scenarios.summary import summarize
+
+
+def test_both_slaves_initialize_step_and_refuse_a_fixed_parameter_after_initialization():
+    """In a fresh process (the slave modules must not load into the pytest process): each slave declares
+    a unit and a description for every variable, initializes with its defaults, steps 20 ms with finite
+    outputs, and refuses a fixed parameter set after initialization, logging why at status error."""
+    result = run_json(
+        """
+import math
+from pythonfmu.enums import Fmi2Causality, Fmi2Status
+from fmu_src.oilwatch_ekf_slave import OilFlowEKF
+from fmu_src.oilwatch_plant_slave import RotorBearingPlant
+result = {}
+for cls, output in ((RotorBearingPlant, "x1_um"), (OilFlowEKF, "q1_est_ml_min")):
+    slave = cls(instance_name="shell")
+    slave.to_xml()
+    vr = {v.name: v.value_reference for v in slave.vars.values()}
+    undocumented = [v.name for v in slave.vars.values() if not v.description]
+    unitless = [v.name for v in slave.vars.values() if type(v).__name__ == "UnitReal" and not v.unit]
+    slave.setup_experiment(0.0, None, None)
+    slave.enter_initialization_mode()
+    slave.exit_initialization_mode()
+    for k in range(20):
+        slave.do_step(k * 1e-3, 1e-3)
+    value = slave.get_real([vr[output]])[0]
+    try:
+        slave.set_real([vr["noise_um"]], [3.0])
+        refused = None
+    except Exception as error:
+        refused = str(error)
+    errors = [entry.msg for entry in slave.log_queue if entry.status == Fmi2Status.error]
+    result[cls.__name__] = {"undocumented": undocumented, "unitless": unitless,
+                            "finite": math.isfinite(value), "refused": refused, "errors": errors,
+                            "noise_um": slave.noise_um}
+"""
+    )
+    for name, outcome in result.items():
+        assert outcome["undocumented"] == [] and outcome["unitless"] == [], name
+        assert outcome["finite"], name
+        assert "noise_um is a fixed parameter" in outcome["refused"], name
+        assert any("noise_um is a fixed parameter" in message for message in outcome["errors"]), name
+        assert outcome["noise_um"] != 3.0, name  # not applied
+
+
+def test_the_run_plot_is_drawn_from_result_columns(tmp_path):
+    run = make_run("sudden-drop", duration_s=20.0)
+    time_s = np.round(np.arange(20001) * 1e-3, 9)
+    true = np.where(time_s < 10.0, 596.3, 447.225)
+    columns = {"time_s": time_s}
+    for b in (1, 2):
+        columns[f"q{b}_true_ml_min"], columns[f"q{b}_est_ml_min"] = true, true * 1.01
+        columns[f"q{b}_std_ml_min"] = true * 0.005
+        columns[f"starved{b}"] = (time_s >= 10.6).astype(float)
+    path = plot_estimates(run, columns, summarize(run, columns), tmp_path / "estimates.png")
+    assert path.stat().st_size > 10_000
+
+
+def test_python_m_oilwatch_lists_the_commands():
+    command = [sys.executable, "-m", "oilwatch", "--help"]
+    process = subprocess.run(command, cwd=REPO_ROOT, capture_output=True, text=True, timeout=60)
+    assert process.returncode == 0 and "run" in process.stdout and "study" in process.stdout

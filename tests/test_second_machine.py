@@ -1,0 +1,77 @@
+"""oilwatch for another machine, from an installed wheel, in an empty folder (issue 12's acceptance run).
+
+A fresh virtual environment gets oilwatch from its wheel (not editable); in an empty temporary folder a
+second machine file (the bundled turbine with a 150 um clearance, 0.068 Pa s oil and no nominal flowrate: it
+is computed at the file's 0.5 bar groove pressure) goes through ``oilwatch bearing-table --machine M2.toml``,
+``oilwatch run sudden-drop --machine M2.toml --out r`` (100 -> 75 % of that machine's nominal flowrate) and
+``oilwatch demo --machine M2.toml``.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+import time
+
+import pytest
+from fixtures.venvs import REPO_ROOT, build_wheel, clean_env, make_venv
+
+from models.bearing.supply import ML_MIN_PER_M3_S
+from models.machine import load_machine
+
+pytestmark = pytest.mark.slow
+
+
+def second_machine(folder) -> str:
+    """M2.toml in ``folder``: the turbine with another clearance and oil, nominal flowrate from pressure."""
+    text = (REPO_ROOT / "models" / "turbine.toml").read_text(encoding="utf-8")
+    text = re.sub(r"(?m)^name = .*$", 'name = "turbine M2 (150 um, 0.068 Pa s)"', text)
+    text = re.sub(r"(?m)^radial_clearance_um = .*$", "radial_clearance_um = 150.0", text)
+    text = re.sub(r"(?m)^viscosity_pa_s = .*$", "viscosity_pa_s = 0.068", text)
+    text = re.sub(r"(?m)^nominal_flowrate_ml_min = .*\n", "", text)
+    (folder / "M2.toml").write_text(text, encoding="utf-8")
+    return "M2.toml"
+
+
+def test_a_second_machine_runs_end_to_end_from_a_wheel_in_an_empty_folder(tmp_path, capsys):
+    wheel = build_wheel(tmp_path / "dist")
+    python = make_venv(tmp_path / "venv", [str(wheel)])
+    oilwatch = python.parent / "oilwatch"
+    work = tmp_path / "empty"
+    work.mkdir()
+    machine_file = second_machine(work)
+    env = clean_env(OPENBLAS_NUM_THREADS="1", OILWATCH_CACHE=str(tmp_path / "cache"), MPLBACKEND="Agg")
+
+    def oilwatch_command(*arguments):
+        start = time.perf_counter()
+        process = subprocess.run(
+            [str(oilwatch), *arguments], cwd=work, env=env, capture_output=True, text=True, timeout=1800
+        )
+        return process, time.perf_counter() - start
+
+    table, table_s = oilwatch_command("bearing-table", "--machine", machine_file, "--quiet")
+    assert table.returncode == 0, table.stderr
+    assert (work / "tables" / "M2_bearing_75hz.json").is_file()
+    run, run_s = oilwatch_command("run", "sudden-drop", "--machine", machine_file, "--out", "r", "--json")
+    assert run.returncode == 0, run.stderr[-3000:]
+    summary = json.loads(run.stdout)
+    nominal = load_machine(work / machine_file).lubrication.nominal_flowrate_m3_s * ML_MIN_PER_M3_S
+    plant = summary["parameters"]["plant"]
+    assert plant["q1_initial_ml_min"] == pytest.approx(nominal, rel=1e-6)
+    assert plant["q1_final_ml_min"] == pytest.approx(0.75 * nominal, rel=1e-6)
+    assert summary["parameters"]["ekf"]["q_nominal_ml_min"] == pytest.approx(nominal, rel=1e-6)
+    for b in (1, 2):
+        assert summary[f"q{b}_err_pct_after"] < 2.0
+        assert summary[f"alarm_delay_s_b{b}"] is not None and summary[f"false_alarm_s_b{b}"] is None
+    demo, demo_s = oilwatch_command("demo", "--machine", machine_file, "--out", "d")
+    assert demo.returncode == 0, demo.stdout + demo.stderr[-3000:]
+    installed = {p.name for p in (tmp_path / "venv").glob("lib/python*/site-packages/models/tables/*")}
+    assert not [name for name in installed if name.startswith("M2")]  # nothing written into the package
+    with capsys.disabled():
+        print(
+            f"\nsecond machine (nominal {nominal:.1f} ml/min): bearing-table {table_s:.0f} s, run "
+            f"{run_s:.0f} s (simulation {summary['wall_s']:.1f} s, set-up {summary['setup_s']:.1f} s), demo "
+            f"{demo_s:.0f} s; errors after {summary['q1_err_pct_after']:.2f} / "
+            f"{summary['q2_err_pct_after']:.2f} %"
+        )
