@@ -4,7 +4,8 @@ Every sample, each of the four displacement channels is screened (compiled, :fun
 the update and gated (:func:`gate_channels`) on its own innovation; the update then uses every channel that
 passed (:mod:`estimator.kernels`). One health record per probe:
 
-* **dead**: non-finite for ``dead_samples`` in a row (a single NaN only drops that channel from that sample);
+* **dead**: non-finite for ``dead_samples`` in a row while other channels are finite (a single NaN only drops
+  that channel from that sample; a sample with no finite channel is a missing sample, not four dead probes);
 * **stuck**: the reading unchanged (within ``stuck_tolerance_m``) for ``stuck_samples`` in a row: a live probe
   with micrometre noise never repeats itself for long. A reading repeated twice in a row is already dropped
   from the update (a held value carries no measurement), so a stuck probe never feeds the filter;
@@ -71,7 +72,15 @@ def new_health() -> tuple[np.ndarray, np.ndarray]:
 def screen_channels(
     displacement: np.ndarray, health: np.ndarray, values: np.ndarray, settings: np.ndarray, usable: np.ndarray
 ) -> None:
-    """Update the dead / stuck / range records from this sample; ``usable`` (4,) bool: may enter the gate."""
+    """Update the dead / stuck / range records from this sample; ``usable`` (4,) bool: may enter the gate.
+
+    A sample with no finite channel at all is a missing sample (a gap the host predicts through, a lost
+    frame), not evidence against any one probe: it does not count towards ``dead``.
+    """
+    missing = True
+    for i in range(4):
+        if np.isfinite(displacement[i]):
+            missing = False
     for i in range(4):
         z = displacement[i]
         finite = np.isfinite(z)
@@ -82,7 +91,7 @@ def screen_channels(
             else:
                 health[i, STUCK_COUNT] = 0
             values[i, LAST_VALUE] = z
-        else:
+        elif not missing:
             health[i, DEAD_COUNT] += 1
         in_range = finite and abs(z) <= settings[RANGE]
         stuck = health[i, STUCK_COUNT] >= settings[STUCK_SAMPLES]

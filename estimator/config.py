@@ -53,18 +53,27 @@ class AlarmConfig:
     """
 
     on_fraction: float = _bounded(
-        0.90, 0.05, 1.5, "1",
+        0.90,
+        0.05,
+        1.5,
+        "1",
         "Alarm sets when q_est + z std stays below this fraction of the nominal flowrate for alarm_hold_on_s",
     )
     hold_on_s: float = _bounded(0.25, 0.0, 60.0, "s", "Hold time before the alarm sets")
     off_fraction: float = _bounded(
-        0.95, 0.05, 1.5, "1",
+        0.95,
+        0.05,
+        1.5,
+        "1",
         "Alarm clears when q_est - z std stays above this fraction of nominal for alarm_hold_off_s "
         "(>= alarm_on_fraction: hysteresis)",
     )
     hold_off_s: float = _bounded(1.0, 0.0, 600.0, "s", "Hold time before the alarm clears")
     confidence_z: float = _bounded(
-        2.0, 0.0, 10.0, "1",
+        2.0,
+        0.0,
+        10.0,
+        "1",
         "Confidence multiplier z of the alarm's bounds q_est +/- z std (2: one-sided 97.7 %)",
     )
 
