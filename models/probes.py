@@ -37,10 +37,8 @@ def read_probes(machine: Machine) -> Probes:
     section = machine.raw.get("probes", {})
     if not isinstance(section, dict):
         raise InputError("[probes] must be a table")
-    unknown = sorted(set(section) - set(DEFAULTS))
-    if unknown:
-        raise InputError(f"probes: unknown key(s) {', '.join(unknown)}; allowed: {', '.join(DEFAULTS)}")
-    values = {**DEFAULTS, **section}
+    # the section is shared with the recorded-data reader (layout, columns): only these keys are read here
+    values = {key: section.get(key, default) for key, default in DEFAULTS.items()}
     for key, value in values.items():
         if isinstance(value, bool) or not isinstance(value, int | float):
             raise InputError(f"probes.{key} must be a number, got {value!r}")

@@ -22,7 +22,6 @@ def test_the_turbine_declares_its_probes_and_a_file_without_the_section_gets_the
 @pytest.mark.parametrize(
     ("section", "message"),
     [
-        ({"angle": 45.0}, "unknown key"),
         ({"offset_prior_std_um": -1.0}, "probes.offset_prior_std_um"),
         ({"angle_deg": "north"}, "probes.angle_deg must be a number"),
     ],

@@ -25,6 +25,7 @@ SUBCOMMANDS: tuple[str, ...] = (
     "bearing_table",
     "study",
     "run",
+    "estimate",
     "demo",
     "build_fmus",
     "robustness",
@@ -42,6 +43,7 @@ class OneLineParser(argparse.ArgumentParser):
 
 OUTPUTS: dict[str, dict[str, str]] = {
     "run": {"out": "folder"},
+    "estimate": {"out": "folder"},
     "demo": {"out": "folder"},
     "study": {"out": "folder"},
     "orbits": {"out": "file"},

@@ -1,0 +1,196 @@
+"""``oilwatch estimate RECORD...``: the estimator on recorded measurements (CSV, Parquet, TDMS or stdin)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+
+def register(subparsers) -> None:
+    """Add the ``estimate`` subcommand."""
+    from .machine_option import add_machine_option
+
+    parser = subparsers.add_parser(
+        "estimate",
+        help="run the estimator on recorded probe data: estimates.csv, summary.json, views, report.html",
+        description=(
+            "Estimate both bearings' oil supply flowrates from recorded proximity-probe signals, with "
+            "oilwatch's estimator (the OilFlowEKF FMU's filter, in-process, its default tuning). Records: "
+            "CSV (time_s and one column per probe in um along its axis, the record format of 'oilwatch "
+            "baseline'; optional speed_hz and oil_temperature_c), Parquet or NI TDMS (gap voltages in V "
+            "need probes.*.unit = 'V' and rest_gap_v); '-' reads CSV from standard input line by line and "
+            "prints each estimate line as soon as it is computed. The channel mapping and probe "
+            "conventions come from the machine file's [probes] table (see the README), overridden by "
+            "--probe. Any sample rate at or above 1 kHz is anti-alias filtered onto the estimator's 1 kHz "
+            "grid. Writes DIR/estimates.csv (flushed block by block), DIR/summary.json, DIR/trend.png, "
+            "DIR/centerline.png, DIR/orbits.png, DIR/probe_health.png and DIR/report.html. Several "
+            "records run as Dask tasks, one output folder each (DIR/<record name>/). Exit code 2 on a bad "
+            "record (one line naming the column and the row), 130 when interrupted (estimates.csv keeps "
+            "the rows done)."
+        ),
+    )
+    parser.add_argument(
+        "records", nargs="+", metavar="RECORD", help="record file(s), or - for standard input"
+    )
+    add_machine_option(parser)
+    parser.add_argument(
+        "--probe",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="override a key of the machine file's [probes] table, e.g. x1.column=Ch0, layout=api670, "
+        "x1.unit=V, x1.rest_gap_v=-9.5, keyphasor_column=KP (repeatable)",
+    )
+    parser.add_argument(
+        "--out",
+        metavar="DIR",
+        help="output folder (default: estimates/<record name>; several records: DIR/<record name>/)",
+    )
+    parser.add_argument(
+        "--output-every",
+        type=int,
+        default=1,
+        metavar="N",
+        help="write every N-th estimator sample to estimates.csv (default: 1; the summary, alarms and views "
+        "use every sample)",
+    )
+    parser.add_argument("--no-views", action="store_true", help="no PNG views and no report.html")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    parser.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="several records: an existing Dask cluster, e.g. tcp://HOST:8786 (default: a local cluster)",
+    )
+    parser.add_argument("--workers", type=int, metavar="N", help="worker processes of the local cluster")
+    parser.add_argument("--json", action="store_true", help="print summary.json on stdout (files only)")
+    parser.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Check the arguments, then run one record in-process or several on Dask."""
+    from models.validation import InputError
+    from oilwatch.monitoring.estimate import EstimateOptions
+    from oilwatch.records.readers import STDIN
+
+    if args.output_every < 1:
+        raise InputError(f"--output-every must be an integer >= 1, got {args.output_every}")
+    if STDIN in args.records and len(args.records) > 1:
+        raise InputError("- (standard input) must be the only record")
+    live = args.records == [STDIN]
+    options = EstimateOptions(
+        machine_file=args.machine,
+        probe_overrides=tuple(args.probe),
+        output_every=args.output_every,
+        views=not args.no_views,
+        live=live,
+    )
+    if len(args.records) > 1:
+        return _run_many(args, options)
+    source = args.records[0]
+    out = Path(args.out) if args.out else Path("estimates") / _stem(source)
+    if live:
+        summary = _run_one(source, out, options, progress=False, live=sys.stdout)
+        print(_describe(summary), file=sys.stderr)
+        return 0
+    summary = _run_one(source, out, options, progress=not args.no_progress)
+    print(json.dumps(summary, indent=2) if args.json else _describe(summary))
+    return 0
+
+
+def _stem(source: str) -> str:
+    return "stdin" if source == "-" else Path(source).stem
+
+
+def _run_one(source: str, out: Path, options, progress: bool, live=None) -> dict:
+    from tqdm import tqdm
+
+    from oilwatch.monitoring.estimate import EstimateRun
+
+    bar = tqdm(disable=not progress, desc=f"estimate {_stem(source)}", unit_scale=True, file=sys.stderr)
+
+    def total(amount, unit):
+        bar.total, bar.unit = amount, unit
+
+    try:
+        runner = EstimateRun(
+            source, out, options, progress=bar.update, total_callback=total, live_stream=live
+        )
+        try:
+            return runner.run()
+        except KeyboardInterrupt:
+            print(
+                f"oilwatch estimate: interrupted; {out / 'estimates.csv'} keeps the rows done",
+                file=sys.stderr,
+            )
+            raise
+    finally:
+        bar.close()
+
+
+def estimate_task(source: str, out: str, options) -> dict:
+    """The Dask task of one record (single-threaded BLAS, no progress bar)."""
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(limits=1):
+        return _run_one(source, Path(out), options, progress=False)
+
+
+def _run_many(args, options) -> int:
+    from distributed import as_completed
+    from tqdm import tqdm
+
+    from models.validation import InputError
+    from oilwatch.records.readers import open_record
+    from oilwatch.study.runner import check_cluster_options, dask_client
+
+    check_cluster_options(args.scheduler, args.workers)
+    stems = [_stem(source) for source in args.records]
+    if len(set(stems)) != len(stems):
+        raise InputError("several records share a name; give them distinct file names (one folder each)")
+    for source in args.records:
+        open_record(source, "time_s").close()  # a missing or unknown file fails here, before the cluster
+    base = Path(args.out) if args.out else Path("estimates")
+    failed = []
+    with dask_client(args.scheduler, args.workers) as client:
+        futures = {
+            client.submit(estimate_task, source, str(base / stem), options, pure=False): source
+            for source, stem in zip(args.records, stems, strict=True)
+        }
+        for future in tqdm(
+            as_completed(futures), total=len(futures), desc="records", disable=args.no_progress
+        ):
+            source = futures[future]
+            try:
+                summary = future.result()
+            except InputError as error:
+                failed.append(source)
+                print(f"oilwatch estimate: error: {error}", file=sys.stderr)
+                continue
+            print(json.dumps(summary, indent=2) if args.json else _describe(summary))
+    return 2 if failed else 0
+
+
+def _describe(summary: dict) -> str:
+    record = summary["record"]
+    lines = [
+        f"{record['source']} ({record['format']}, {record['rows']} rows at {record['sample_rate_hz']:g} Hz): "
+        f"{summary['duration_s']:.3f} s estimated, RTF {summary['realtime_factor']}"
+    ]
+    for b in (1, 2):
+        q, std = summary[f"q{b}_final_ml_min"], summary[f"q{b}_std_final_ml_min"]
+        numbers = "n/a" if q is None else f"{q:.1f} +- {2 * std:.1f} ml/min (2 std)"
+        lines.append(f"  bearing {b}: {numbers}; {summary['verdict'][f'bearing{b}']}")
+    for alarm in summary["alarms"]:
+        lines.append(f"  alarm: bearing {alarm['bearing']} at {alarm['time_s']:.3f} s")
+    if record["gap_count"]:
+        lines.append(
+            f"  {record['gap_count']} gap(s) bridged with missing samples, the first at row "
+            f"{record['gaps'][0]['row']}"
+        )
+    lines.append(
+        f"  wrote {summary['estimates_csv']}"
+        + (f", {summary['report_html']}" if "report_html" in summary else "")
+    )
+    return "\n".join(lines)

@@ -1,0 +1,364 @@
+"""Run oilwatch's estimator on a recorded machine: record in, estimates, summary and views out.
+
+The estimator is the one the OilFlowEKF FMU wraps, in-process and configured as that FMU's defaults
+(``EKFConfig.recommended`` at the model's speed, the probes' ``noise_um``, initial flowrates at nominal, zero
+initial states, the first sample at the record's first grid time): fed the same samples, it gives the same
+estimates as the co-simulated FMU. The model is the machine file's reduced rotor-bearing system at its
+nominal speed with the machine file's unbalance, sampled at 1 kHz (:data:`ESTIMATOR_DT_S`).
+
+Outputs, in ``out_dir``:
+
+* ``estimates.csv``: one row per estimator sample (or every ``output_every``-th), written and flushed block
+  by block (line by line from standard input), so that nothing is lost when a run stops; columns from
+  :func:`estimate_columns`: time, both flowrate estimates and stds, alarms, NIS, convergence, the
+  conditioned shaft positions, speed, oil temperature, and every further field the estimator's step report
+  carries (nuisance estimates, probe health, model consistency: named after the field, SI suffixes ``_m``
+  and ``_m3_s`` converted to ``_um`` and ``_ml_min``);
+* ``summary.json`` (:func:`summarize`), the views (:mod:`oilwatch.monitoring.views`) and ``report.html``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import TextIO
+
+import numpy as np
+
+from estimator.config import ML_MIN, EKFConfig
+from estimator.ekf import OilFlowEKF, StepReport
+from models.machine import Machine, load_machine
+from models.validation import InputError
+from oilwatch.records import RecordStream, probe_setup
+from oilwatch.records.readers import STDIN
+from oilwatch.study.storage import write_json_atomic
+
+from .history import History
+
+ESTIMATOR_DT_S = 1e-3
+"""The estimator's sampling period (its discrete model's step, as the FMU's default)."""
+BASE_FIELDS = (
+    "step",
+    "q_m3_s",
+    "q_std_m3_s",
+    "nis",
+    "n_measurements",
+    "converged",
+    "measurement_ok",
+    "starved",
+)
+"""StepReport fields every estimator has; any further field becomes extra columns."""
+SPEED_MISMATCH_FRACTION = 0.01
+
+_MODELS: dict[tuple, object] = {}
+
+
+@dataclasses.dataclass(frozen=True)
+class EstimateOptions:
+    """What ``oilwatch estimate`` takes besides the record (see the CLI's help)."""
+
+    machine_file: str | None = None
+    probe_overrides: tuple[str, ...] = ()
+    output_every: int = 1
+    chunk_rows: int = 8192
+    views: bool = True
+    live: bool = False
+
+
+def estimator_model(machine_file: str | None, dt_s: float = ESTIMATOR_DT_S):
+    """The estimator's model of a machine file, built once per process (a Dask worker keeps it)."""
+    from models.system.augmented import GridAugmentedModel
+    from models.system.factory import load_system
+
+    key = (machine_file, dt_s)
+    if key not in _MODELS:
+        _MODELS[key] = GridAugmentedModel(load_system(machine_file, reduced=True), dt_s)
+    return _MODELS[key]
+
+
+def estimator_config(speed_hz: float, noise_um: float, first_sample_time_s: float) -> EKFConfig:
+    """The OilFlowEKF FMU's default configuration (see the module docstring)."""
+    return EKFConfig.recommended(
+        speed_hz=speed_hz, noise_std_m=noise_um * 1e-6, first_sample_time_s=first_sample_time_s
+    )
+
+
+def _field_columns(name: str, value) -> tuple[list[str], float]:
+    """Column names of an extra report field and the factor from its SI unit to the field unit."""
+    base, scale = name, 1.0
+    for suffix, unit, factor in (("_m3_s", "_ml_min", 1.0 / ML_MIN), ("_m", "_um", 1e6)):
+        if name.endswith(suffix):
+            base, scale = name[: -len(suffix)] + unit, factor
+            break
+    size = np.size(value)
+    if size == 1:
+        return [base], scale
+    head, unit = [*base.rsplit("_", 1), ""][:2] if scale != 1.0 else (base, "")
+    tail = f"_{unit}" if unit else ""
+    names = [f"{head}_{label}{tail}" for label in _labels(size)]
+    return names, scale
+
+
+def _labels(size: int) -> list[str]:
+    if size == 4:
+        return ["x1", "y1", "x2", "y2"]
+    if size == 2:
+        return ["b1", "b2"]
+    return [str(i + 1) for i in range(size)]
+
+
+def estimate_columns(report: StepReport) -> tuple[list[str], list[tuple[str, float, int]]]:
+    """The estimates.csv header for an estimator whose step report looks like ``report``, and the extra
+    fields to copy (name, unit factor, size)."""
+    columns = [
+        "time_s",
+        "q1_est_ml_min",
+        "q2_est_ml_min",
+        "q1_std_ml_min",
+        "q2_std_ml_min",
+        "starved1",
+        "starved2",
+        "nis",
+        "n_channels",
+        "converged",
+        "measurement_ok",
+        "x1_um",
+        "y1_um",
+        "x2_um",
+        "y2_um",
+        "speed_hz",
+        "oil_temperature_c",
+    ]
+    extras = []
+    for item in dataclasses.fields(report):
+        if item.name in BASE_FIELDS:
+            continue
+        value = getattr(report, item.name)
+        names, scale = _field_columns(item.name, value)
+        columns += names
+        extras.append((item.name, scale, len(names)))
+    return columns, extras
+
+
+class EstimateRun:
+    """One record through the estimator (module docstring); :meth:`run` returns the summary."""
+
+    def __init__(
+        self,
+        source: str,
+        out_dir: str | Path,
+        options: EstimateOptions,
+        progress: Callable[[int], None] | None = None,
+        total_callback: Callable[[int | None, str], None] | None = None,
+        live_stream: TextIO | None = None,
+    ) -> None:
+        self.source = source
+        self.out = Path(out_dir)
+        self.options = options
+        self.machine: Machine = load_machine(options.machine_file)
+        self.setup = probe_setup(self.machine.raw.get("probes"), options.probe_overrides)
+        self.speed_hz = self.machine.nominal_speed_hz  # the estimator's model runs at the nominal speed
+        chunk_rows = 1 if source == STDIN and options.live else options.chunk_rows
+        self.stream = RecordStream(
+            source,
+            self.setup,
+            self.machine.bearing.clearance_m,
+            ESTIMATOR_DT_S,
+            self.speed_hz,
+            chunk_rows=chunk_rows,
+            progress=progress,
+        )
+        if total_callback is not None:
+            total_callback(self.stream.reader.total, self.stream.reader.progress_unit)
+        self.model = estimator_model(options.machine_file)  # after the record's checks: errors come first
+        self.live_stream = live_stream
+        self.filter: OilFlowEKF | None = None
+        self.history = History(ESTIMATOR_DT_S, self.speed_hz, self.machine.bearing.clearance_m)
+        self.latency_s: list[float] = []
+        self.estimator_s = 0.0  # time in the estimator's steps (the rest: reading, conditioning, writing)
+
+    def run(self) -> dict:
+        """Process the record; write estimates.csv (and, unless ``views`` is off, the views and report)."""
+        self.out.mkdir(parents=True, exist_ok=True)
+        started = None
+        csv_path = self.out / "estimates.csv"
+        with open(csv_path, "w", encoding="utf-8", newline="") as csv_file:
+            writer = _RowWriter(csv_file, self.live_stream, self.options.output_every)
+            for block in self.stream.blocks():
+                first = self.filter is None
+                if first:
+                    self._start(int(block.k[0]), writer)
+                    started = time.perf_counter()
+                rows = self._estimate(block)
+                writer.write(rows)
+                if self.options.live and not first:  # from the arrival of the line to its estimate written
+                    self.latency_s.append(time.perf_counter() - self.stream.reader.received_s)
+                self.history.add(block, rows, self._columns)
+        if self.filter is None:
+            raise InputError(f"{self.stream.reader.name}: no sample to estimate from (record too short)")
+        wall = time.perf_counter() - started
+        summary = summarize(self, wall, csv_path)
+        self._write_summary(summary)
+        if self.options.views:
+            from .report import write_report
+            from .views import write_views
+
+            summary["views"] = {
+                name: str(path) for name, path in write_views(self.history, summary, self.out).items()
+            }
+            summary["report_html"] = str(write_report(summary, self.out))
+            self._write_summary(summary)
+        return summary
+
+    def _write_summary(self, summary: dict) -> None:
+        write_json_atomic(self.out / "summary.json", summary)
+
+    def _start(self, first_k: int, writer: _RowWriter) -> None:
+        """The filter, started one period before the first sample when it can, with a missing sample there:
+        what the OilFlowEKF FMU does in a co-simulation started at the record's start time (the plant's
+        first output is its state after one step), so that both give the same estimates."""
+        lead = 1 if first_k >= 1 else 0
+        config = estimator_config(self.speed_hz, self.setup.noise_um, (first_k - lead) * ESTIMATOR_DT_S)
+        self.filter = OilFlowEKF(self.model, config)
+        missing = np.full(4, np.nan)
+        for sample in (np.zeros(4), np.zeros(4), missing):  # compile the kernels (as the FMU does)
+            self.filter.step(sample)
+        self.filter.reset()
+        for _ in range(lead):
+            self.filter.step(missing)
+        self._first_k = first_k - lead
+        self._columns, self._extras = estimate_columns(self.filter.current_report())
+        writer.header(self._columns)
+
+    def _estimate(self, block) -> np.ndarray:
+        ekf = self.filter
+        expected = self._first_k + ekf.step_count
+        if int(block.k[0]) != expected:
+            raise InputError(f"internal: grid index {int(block.k[0])} after {expected - 1}")  # bridged, never
+        scale = 1.0 / ML_MIN
+        extras = self._extras
+        values = []
+        started = time.perf_counter()
+        for position in block.position_m:
+            report = ekf.step(position)
+            q, std, starved = report.q_m3_s, report.q_std_m3_s, report.starved
+            row = [q[0], q[1], std[0], std[1], starved[0], starved[1], report.nis, report.n_measurements,
+                   report.converged, report.measurement_ok]  # fmt: skip
+            for name, factor, _ in extras:
+                row.extend(np.ravel(np.asarray(getattr(report, name), dtype=np.float64)) * factor)
+            values.append(row)
+        self.estimator_s += time.perf_counter() - started
+        table = np.array(values, dtype=np.float64)
+        table[:, :4] *= scale
+        rows = np.empty((table.shape[0], len(self._columns)))
+        rows[:, 0] = block.time_s
+        rows[:, 1:11] = table[:, :10]
+        rows[:, 11:15] = block.position_m * 1e6
+        rows[:, 15] = block.speed_hz
+        rows[:, 16] = block.oil_temperature_c
+        rows[:, 17:] = table[:, 10:]
+        return rows
+
+
+class _RowWriter:
+    """estimates.csv (and the live stream), flushed after every block."""
+
+    def __init__(self, file: TextIO, live: TextIO | None, every: int) -> None:
+        self.file, self.live, self.every = file, live, every
+        self._count = 0
+        self._format = ""
+
+    def header(self, columns: list[str]) -> None:
+        flags = {"starved1", "starved2", "n_channels", "converged", "measurement_ok"}
+        self._format = ",".join("%d" if name in flags else "%.9g" for name in columns) + "\n"
+        self._format = self._format.replace("%.9g", "%.6f", 1)  # time_s
+        line = ",".join(columns) + "\n"
+        for target in (self.file, self.live):
+            if target is not None:
+                target.write(line)
+                target.flush()
+
+    def write(self, rows: np.ndarray) -> None:
+        every = self.every
+        start = (-self._count) % every
+        self._count += rows.shape[0]
+        picked = rows[start::every]
+        if picked.shape[0] == 0:
+            return
+        fmt = self._format
+        text = "".join(fmt % tuple(row) for row in picked.tolist())
+        text = text.replace("nan", "")  # a missing value is an empty cell, as in the record format
+        self.file.write(text)
+        self.file.flush()
+        if self.live is not None:
+            self.live.write(text)
+            self.live.flush()
+
+
+def final_window(duration_s: float) -> float:
+    """The summary's final window: the last 10 % of the record, at most 30 s."""
+    return min(0.1 * duration_s, 30.0)
+
+
+def summarize(run: EstimateRun, wall_s: float, csv_path: Path) -> dict:
+    """summary.json: final estimates, alarms, record provenance, speed and timing."""
+    history = run.history
+    history.flush()
+    nominal = run.filter.config.q_nominal_m3_s / ML_MIN
+    duration = history.duration_s
+    window = final_window(duration)
+    final = history.final_means(window)
+    summary = {
+        "record": run.stream.provenance(),
+        "machine_file": str(run.machine.source_path),
+        "estimator": {
+            "model": f"reduced rotor-bearing system of {run.machine.name!r} at {run.speed_hz:g} Hz",
+            "dt_s": ESTIMATOR_DT_S,
+            "noise_um": run.setup.noise_um,
+            "first_sample_time_s": run.filter.config.first_sample_time_s,
+            "configuration": "EKFConfig.recommended: the OilFlowEKF FMU's defaults",
+        },
+        "q_nominal_ml_min": nominal,
+        "samples": history.samples,
+        "duration_s": duration,
+        "final_window_s": window,
+        **final,
+        "alarms": history.alarms,
+        "verdict": {},
+        "speed": history.speed_summary(run.speed_hz),
+        "wall_s": round(wall_s, 3),
+        "estimator_s": round(run.estimator_s, 3),
+        "realtime_factor": round(duration / wall_s, 2) if wall_s > 0 else None,
+        "estimates_csv": str(csv_path),
+    }
+    if run.latency_s:
+        latency = np.asarray(run.latency_s)
+        summary["live_latency_ms"] = {
+            "median": round(float(np.median(latency)) * 1e3, 4),
+            "p99": round(float(np.quantile(latency, 0.99)) * 1e3, 4),
+            "max": round(float(latency.max()) * 1e3, 4),
+            "blocks": int(latency.size),
+        }
+    for b in (1, 2):
+        q = summary[f"q{b}_final_ml_min"]
+        alarmed = any(a["bearing"] == b for a in history.alarms)
+        starved_now = bool(history.last_starved[b - 1])
+        summary["verdict"][f"bearing{b}"] = (
+            "STARVED (alarm at the end)"
+            if starved_now
+            else "alarm raised during the record, cleared"
+            if alarmed
+            else "healthy"
+        ) + ("" if q is None else f": {q:.1f} ml/min, {100.0 * q / nominal:.1f} % of nominal")
+    mismatch = summary["speed"].get("max_deviation_fraction")
+    if mismatch is not None and mismatch > SPEED_MISMATCH_FRACTION:
+        print(
+            f"oilwatch estimate: warning: the recorded speed differs from the estimator's model "
+            f"({run.speed_hz:g} Hz) by up to {100 * mismatch:.1f} %: the estimator does not follow the "
+            "speed yet",
+            file=sys.stderr,
+        )
+    return summary

@@ -1,0 +1,228 @@
+"""What a run keeps of its estimates for the summary and the views, in memory bounded by the record's
+length only through fixed-size bins: a ring of the last 30 s at full rate (the final window), 10 ms bins of
+the trends, 0.5 s bins of the shaft centreline and probe health, the first and last second of positions
+(the orbits), and the alarm events."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+TREND_BIN_S = 0.01
+SLOW_BIN_S = 0.5
+ORBIT_S = 1.0
+FINAL_RING_S = 30.0
+BATCH_ROWS = 1024
+# estimates.csv column positions (oilwatch.monitoring.estimate.estimate_columns)
+TIME, Q, STD, STARVED, NIS, CONVERGED, OK, POSITION, SPEED, TEMPERATURE = (
+    0, slice(1, 3), slice(3, 5), slice(5, 7), 7, 9, 10, slice(11, 15), 15, 16
+)  # fmt: skip
+
+
+class _Bins:
+    """Running means of a (n, m) series over fixed bins of ``size`` samples (NaN ignored)."""
+
+    def __init__(self, size: int, width: int) -> None:
+        self.size, self.width = size, width
+        self._sums: list[np.ndarray] = []
+        self._counts: list[np.ndarray] = []
+        self._times: list[np.ndarray] = []
+        self._open: int | None = None
+
+    def add(self, index: np.ndarray, times: np.ndarray, values: np.ndarray) -> None:
+        bins = index // self.size
+        starts = np.flatnonzero(np.r_[True, bins[1:] != bins[:-1]])
+        finite = np.isfinite(values)
+        sums = np.add.reduceat(np.where(finite, values, 0.0), starts, axis=0)
+        counts = np.add.reduceat(finite.astype(float), starts, axis=0)
+        first = int(bins[starts[0]])
+        if self._open is not None and first == self._open:
+            self._sums[-1][-1] += sums[0]
+            self._counts[-1][-1] += counts[0]
+            sums, counts, starts = sums[1:], counts[1:], starts[1:]
+        if starts.size:
+            self._sums.append(sums)
+            self._counts.append(counts)
+            self._times.append(times[starts])
+        self._open = int(bins[-1])
+
+    def arrays(self) -> tuple[np.ndarray, np.ndarray]:
+        if not self._times:
+            return np.zeros(0), np.zeros((0, self.width))
+        sums, counts = np.vstack(self._sums), np.vstack(self._counts)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.concatenate(self._times), np.where(counts > 0, sums / counts, np.nan)
+
+
+class _Ring:
+    """The last ``size`` rows of a (n, width) series (a circular buffer: O(rows added) per call)."""
+
+    def __init__(self, size: int, width: int) -> None:
+        self.data = np.full((size, width), np.nan)
+        self.count = 0
+
+    def add(self, values: np.ndarray) -> None:
+        size = self.data.shape[0]
+        values = values[-size:]
+        n = values.shape[0]
+        start = self.count % size
+        first = min(n, size - start)
+        self.data[start : start + first] = values[:first]
+        self.data[: n - first] = values[first:]
+        self.count += n
+
+    def last(self, n: int) -> np.ndarray:
+        """The last ``n`` rows in order (at most the buffer's size, at most those added)."""
+        size = self.data.shape[0]
+        n = min(n, size, self.count)
+        index = (self.count - n + np.arange(n)) % size
+        return self.data[index]
+
+
+class History:
+    """Accumulates the rows of :class:`oilwatch.monitoring.estimate.EstimateRun` (module docstring)."""
+
+    def __init__(self, dt_s: float, speed_hz: float, clearance_m: float) -> None:
+        self.dt, self.speed_hz, self.clearance_m = dt_s, speed_hz, clearance_m
+        self.samples = 0
+        self.first_k: int | None = None
+        self.trend = _Bins(max(1, round(TREND_BIN_S / dt_s)), 6)  # q1 q2 std1 std2 starved1 starved2
+        self.slow = _Bins(max(1, round(SLOW_BIN_S / dt_s)), 4 + 4 + 2)  # positions, valid, ok, nis
+        self.extra_bins: _Bins | None = None
+        self.extra_names: list[str] = []
+        self._final = _Ring(max(1, round(FINAL_RING_S / dt_s)), 4)
+        self._orbit_n = max(2, round(ORBIT_S / dt_s))
+        self._start_k: list[np.ndarray] = []
+        self._start_p: list[np.ndarray] = []
+        self._start_count = 0
+        self._end = _Ring(self._orbit_n, 5)  # k, positions
+        self.alarms: list[dict] = []
+        self.last_starved = np.zeros(2, dtype=bool)
+        self._speed = [math.inf, -math.inf, 0.0, 0]  # min, max, sum, count
+        self.last_time_s: float | None = None
+        self.first_time_s: float | None = None
+        self._pending: list[tuple[np.ndarray, np.ndarray]] = []
+        self._pending_rows = 0
+        self._columns: list[str] = []
+
+    @property
+    def duration_s(self) -> float:
+        return (self.samples + self._pending_rows) * self.dt
+
+    def add(self, block, rows: np.ndarray, columns: list[str]) -> None:
+        """Keep a block's rows (processed in batches of :data:`BATCH_ROWS`: a live record comes line by line,
+        and the bins cost per call, not per row)."""
+        self._pending.append((block.k, rows))
+        self._pending_rows += rows.shape[0]
+        self._columns = columns
+        if self._pending_rows >= BATCH_ROWS:
+            self.flush()
+
+    def flush(self) -> None:
+        """Process the rows kept by :meth:`add` (call before reading the results)."""
+        if not self._pending:
+            return
+        k = np.concatenate([item[0] for item in self._pending])
+        rows = np.vstack([item[1] for item in self._pending])
+        self._pending, self._pending_rows = [], 0
+        self._process(k, rows, self._columns)
+
+    def _process(self, k: np.ndarray, rows: np.ndarray, columns: list[str]) -> None:
+        count = rows.shape[0]
+        if self.first_k is None:
+            self.first_k = int(k[0])
+            self.first_time_s = float(rows[0, TIME])
+            self.extra_names = [name for name in columns[17:] if _is_health(name)]
+            if self.extra_names:
+                self.extra_bins = _Bins(self.slow.size, len(self.extra_names))
+            self._extra_index = [columns.index(name) for name in self.extra_names]
+            self._consistent = columns.index("model_consistent") if "model_consistent" in columns else None
+        index = k - self.first_k
+        times = rows[:, TIME]
+        self.last_time_s = float(times[-1])
+        self.trend.add(index, times, np.column_stack([rows[:, Q], rows[:, STD], rows[:, STARVED]]))
+        positions = rows[:, POSITION]
+        ok = rows[:, OK]
+        nis = np.where(ok > 0, rows[:, NIS], np.nan)
+        self.slow.add(index, times, np.column_stack([positions, np.isfinite(positions), ok, nis]))
+        if self.extra_bins is not None:
+            self.extra_bins.add(index, times, rows[:, self._extra_index])
+        self._alarm_events(rows)
+        self._final_ring(rows)
+        self._orbits(k, positions)
+        speed = rows[:, SPEED]
+        finite = speed[np.isfinite(speed)]
+        if finite.size:
+            s = self._speed
+            s[0], s[1] = min(s[0], float(finite.min())), max(s[1], float(finite.max()))
+            s[2] += float(finite.sum())
+            s[3] += finite.size
+        self.samples += count
+
+    def _alarm_events(self, rows: np.ndarray) -> None:
+        starved = rows[:, STARVED] > 0.5
+        previous = np.vstack([self.last_starved[None, :], starved[:-1]])
+        for b in (0, 1):
+            for i in np.flatnonzero(starved[:, b] & ~previous[:, b]):
+                consistent = None if self._consistent is None else bool(rows[i, self._consistent] > 0.5)
+                self.alarms.append(
+                    {"bearing": b + 1, "time_s": float(rows[i, TIME]), "consistent": consistent}
+                )
+            for i in np.flatnonzero(~starved[:, b] & previous[:, b]):
+                for alarm in reversed(self.alarms):
+                    if alarm["bearing"] == b + 1 and "cleared_s" not in alarm:
+                        alarm["cleared_s"] = float(rows[i, TIME])
+                        break
+        self.last_starved = starved[-1].copy()
+
+    def _final_ring(self, rows: np.ndarray) -> None:
+        self._final.add(np.column_stack([rows[:, Q], rows[:, STD]]))
+
+    def _orbits(self, k: np.ndarray, positions: np.ndarray) -> None:
+        if self._start_count < self._orbit_n:
+            take = self._orbit_n - self._start_count
+            self._start_k.append(k[:take])
+            self._start_p.append(positions[:take])
+            self._start_count += min(take, k.size)
+        self._end.add(np.column_stack([k, positions]))
+
+    def final_means(self, window_s: float) -> dict:
+        """Mean estimate and mean reported std over the last ``window_s`` (and the estimate's spread)."""
+        tail = self._final.last(max(1, round(window_s / self.dt)))
+        out = {}
+        for b in (0, 1):
+            q, std = tail[:, b], tail[:, 2 + b]
+            out[f"q{b + 1}_final_ml_min"] = _finite(np.nanmean(q))
+            out[f"q{b + 1}_std_final_ml_min"] = _finite(np.nanmean(std))
+            out[f"q{b + 1}_spread_final_ml_min"] = _finite(np.nanstd(q))
+        return out
+
+    def speed_summary(self, model_speed_hz: float) -> dict:
+        low, high, total, count = self._speed
+        if count == 0:
+            return {"model_speed_hz": model_speed_hz, "recorded": False}
+        deviation = max(abs(low - model_speed_hz), abs(high - model_speed_hz)) / model_speed_hz
+        return {
+            "model_speed_hz": model_speed_hz,
+            "recorded": True,
+            "min_hz": low,
+            "max_hz": high,
+            "mean_hz": total / count,
+            "max_deviation_fraction": deviation,
+        }
+
+    def orbits(self) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+        """{"start": (k, positions), "end": (k, positions)} at full rate (positions [um])."""
+        start = (np.concatenate(self._start_k), np.vstack(self._start_p)) if self._start_p else None
+        end = self._end.last(self._orbit_n)
+        return {"start": start, "end": (end[:, 0].astype(np.int64), end[:, 1:])}
+
+
+def _is_health(name: str) -> bool:
+    return any(word in name for word in ("ok", "fault", "health", "consistent"))
+
+
+def _finite(value: float) -> float | None:
+    value = float(value)
+    return value if math.isfinite(value) else None

@@ -1,0 +1,105 @@
+"""``report.html``: one self-contained page (no external resource: plots embedded as base64 PNG, inline
+CSS, no script) with the verdict per bearing, the numbers and the views of a run."""
+
+from __future__ import annotations
+
+import base64
+import html
+import json
+from pathlib import Path
+
+from .views import VIEW_FILES
+
+CAPTIONS = {
+    "trend": "Flowrate estimate of each bearing with its +-2 std band and the alarms",
+    "centerline": "Shaft centreline: average journal position inside the clearance circle over time",
+    "orbits": "1x-filtered orbits at the start and at the end of the record",
+    "probe_health": "Probe health over time",
+}
+STYLE = (
+    "body{font-family:sans-serif;max-width:1000px;margin:1em auto;color:#222}"
+    "table{border-collapse:collapse;margin:0.5em 0}"
+    "td,th{border:1px solid #bbb;padding:3px 8px;text-align:right}"
+    "th{background:#eee}.bad{color:#b00;font-weight:bold}.ok{color:#060;font-weight:bold}"
+    "img{max-width:100%}figure{margin:1em 0}figcaption{font-size:90%;color:#555}"
+    "pre{background:#f6f6f6;padding:0.5em;font-size:80%;overflow-x:auto}"
+)
+
+
+def _number(value, digits: int = 2) -> str:
+    return "-" if value is None else f"{value:.{digits}f}"
+
+
+def write_report(summary: dict, out_dir: Path) -> Path:
+    """Write ``out_dir/report.html`` from the summary and the view PNGs beside it; return its path."""
+    record = summary["record"]
+    nominal = summary["q_nominal_ml_min"]
+    rows = []
+    for b in (1, 2):
+        verdict = summary["verdict"][f"bearing{b}"]
+        css = "ok" if verdict.startswith("healthy") else "bad"
+        q = summary[f"q{b}_final_ml_min"]
+        pct = None if q is None else 100.0 * q / nominal
+        rows.append(
+            f"<tr><th>bearing {b}</th><td class='{css}'>{html.escape(verdict)}</td>"
+            f"<td>{_number(q, 1)}</td><td>{_number(pct, 2)}</td>"
+            f"<td>{_number(summary[f'q{b}_std_final_ml_min'], 2)}</td></tr>"
+        )
+    alarms = (
+        "".join(
+            f"<tr><td>{a['bearing']}</td><td>{a['time_s']:.3f}</td><td>{_number(a.get('cleared_s'), 3)}</td>"
+            f"<td>{'-' if a['consistent'] is None else a['consistent']}</td></tr>"
+            for a in summary["alarms"]
+        )
+        or "<tr><td colspan='4'>no alarm</td></tr>"
+    )
+    facts = [
+        ("record", record["source"]),
+        ("format", record["format"]),
+        ("rows", record["rows"]),
+        ("sample rate [Hz]", _number(record["sample_rate_hz"], 1)),
+        ("estimator rate [Hz]", _number(record["estimator_rate_hz"], 1)),
+        ("anti-alias FIR taps", record["anti_alias_taps"]),
+        ("duration estimated [s]", _number(summary["duration_s"], 3)),
+        ("final window [s]", _number(summary["final_window_s"], 3)),
+        ("keyphasor pulses", record["keyphasor_pulses"]),
+        ("time origin shift [s]", f"{record['time_shift_s']:.6f}"),
+        ("speed source", record["speed_source"]),
+        ("gaps bridged", f"{record['gap_count']} ({record['missing_samples']} missing samples)"),
+        ("machine file", summary["machine_file"]),
+        ("estimator", summary["estimator"]["model"]),
+        ("real-time factor", _number(summary["realtime_factor"], 1)),
+    ]
+    fact_rows = "".join(f"<tr><th>{html.escape(k)}</th><td>{html.escape(str(v))}</td></tr>" for k, v in facts)
+    figures = []
+    for name, file in VIEW_FILES.items():
+        path = out_dir / file
+        if path.is_file():
+            data = base64.b64encode(path.read_bytes()).decode("ascii")
+            figures.append(
+                f"<figure><img alt='{name}' src='data:image/png;base64,{data}'>"
+                f"<figcaption>{html.escape(CAPTIONS[name])}</figcaption></figure>"
+            )
+    page = (
+        "<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>"
+        f"<title>oilwatch estimate: {html.escape(record['source'])}</title><style>{STYLE}</style>"
+        "</head><body>"
+        f"<h1>Oil supply of {html.escape(record['source'])}</h1>"
+        "<h2>Verdict</h2><table><tr><th></th><th>verdict</th><th>flowrate [ml/min]</th><th>% of nominal</th>"
+        f"<th>std [ml/min]</th></tr>{''.join(rows)}</table>"
+        f"<p>Final values: mean over the last {summary['final_window_s']:.3g} s; nominal {nominal:.1f} "
+        "ml/min.</p>"
+        "<h2>Alarms</h2><table><tr><th>bearing</th><th>set [s]</th><th>cleared [s]</th>"
+        f"<th>model consistent</th></tr>{alarms}</table>"
+        f"<h2>Record and estimator</h2><table>{fact_rows}</table>"
+        f"<h2>Views</h2>{''.join(figures)}"
+        f"<h2>Summary</h2><pre>{html.escape(json.dumps(_without_views(summary), indent=1))}</pre>"
+        "</body></html>\n"
+    )
+    path = out_dir / "report.html"
+    path.write_text(page, encoding="utf-8")
+    return path
+
+
+def _without_views(summary: dict) -> dict:
+    return {key: value for key, value in summary.items() if key not in ("views", "report_html")}

@@ -1,0 +1,202 @@
+"""The views a monitoring engineer expects from the estimates (matplotlib, PNG files):
+
+* ``trend.png``: each bearing's flowrate estimate with its +-2 std band, the nominal flowrate, the alarm's
+  set threshold and the alarms (shaded while set);
+* ``centerline.png``: the shaft centreline plot, the average journal position (0.5 s means) inside the
+  clearance circle over time, from the bearing centre, with the cold-rest position at the bottom;
+* ``orbits.png``: the 1x-filtered orbits (the synchronous component over whole revolutions, phase-referenced
+  to the estimator's rotor angle, i.e. to the keyphasor when there is one) of the first and the last second,
+  about their mean position, with the keyphasor dot (rotor angle 0);
+* ``probe_health.png``: per probe the fraction of valid samples, the fraction of samples the estimator
+  accepted, the mean NIS against its expectation, and every health output the estimator provides.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from .history import History
+
+VIEW_FILES = {
+    "trend": "trend.png",
+    "centerline": "centerline.png",
+    "orbits": "orbits.png",
+    "probe_health": "probe_health.png",
+}
+PROBES = ("x1", "y1", "x2", "y2")
+
+
+def write_views(history: History, summary: dict, out_dir: Path) -> dict[str, Path]:
+    """Draw the four views into ``out_dir``; return their paths by name."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    paths = {}
+    for name, draw in (
+        ("trend", _trend),
+        ("centerline", _centerline),
+        ("orbits", _orbits),
+        ("probe_health", _probe_health),
+    ):
+        figure = draw(history, summary)
+        path = out_dir / VIEW_FILES[name]
+        figure.savefig(path, dpi=110)
+        import matplotlib.pyplot as plt
+
+        plt.close(figure)
+        paths[name] = path
+    return paths
+
+
+def _trend(history: History, summary: dict):
+    import matplotlib.pyplot as plt
+
+    times, values = history.trend.arrays()
+    nominal = summary["q_nominal_ml_min"]
+    figure, axes = plt.subplots(2, 1, figsize=(9, 6), sharex=True, constrained_layout=True)
+    for b, ax in enumerate(axes):
+        q, std, starved = values[:, b], values[:, 2 + b], values[:, 4 + b] > 0.5
+        ax.fill_between(times, q - 2 * std, q + 2 * std, color="tab:blue", alpha=0.25, label="+-2 std")
+        ax.plot(times, q, color="tab:blue", lw=1.2, label="estimate")
+        ax.axhline(nominal, color="0.4", ls="--", lw=0.8, label=f"nominal {nominal:.1f}")
+        ax.axhline(0.9 * nominal, color="tab:red", ls=":", lw=0.8, label="alarm set (90 %)")
+        if starved.any():
+            ax.fill_between(
+                times,
+                0,
+                1,
+                where=starved,
+                transform=ax.get_xaxis_transform(),
+                color="tab:red",
+                alpha=0.12,
+                label="alarm",
+            )
+        for alarm in summary["alarms"]:
+            if alarm["bearing"] == b + 1:
+                ax.axvline(alarm["time_s"], color="tab:red", lw=1.0)
+        final = summary.get(f"q{b + 1}_final_ml_min")
+        title = f"bearing {b + 1}: {summary['verdict'][f'bearing{b + 1}']}"
+        ax.set_title(title if final is not None else f"bearing {b + 1}", fontsize=10)
+        ax.set_ylabel("supply flowrate [ml/min]")
+        # the range of the converged part: the first 5 % (at most 1 s) hold the start-up transient
+        settled = times >= times[0] + min(1.0, 0.05 * (times[-1] - times[0])) if times.size else times
+        low = np.nanmin((q - 2 * std)[settled]) if settled.any() else 0.5 * nominal
+        high = np.nanmax((q + 2 * std)[settled]) if settled.any() else 1.5 * nominal
+        ax.set_ylim(max(0.0, min(low, 0.85 * nominal)), max(high, 1.05 * nominal))
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7, loc="lower left", ncol=5)
+    axes[-1].set_xlabel("record time [s]")
+    return figure
+
+
+def _centerline(history: History, summary: dict):
+    import matplotlib.pyplot as plt
+
+    times, values = history.slow.arrays()
+    clearance_um = history.clearance_m * 1e6
+    figure, axes = plt.subplots(1, 2, figsize=(9, 4.6), constrained_layout=True)
+    circle = np.linspace(0.0, 2.0 * math.pi, 361)
+    for b, ax in enumerate(axes):
+        x, y = values[:, 2 * b], values[:, 2 * b + 1]
+        ax.plot(clearance_um * np.cos(circle), clearance_um * np.sin(circle), color="0.3", lw=1.0)
+        ax.plot([0], [0], "+", color="0.3", ms=10)
+        ax.plot([0], [-clearance_um], "v", color="0.3", ms=6, label="cold rest")
+        points = ax.scatter(x, y, c=times, s=10, cmap="viridis", zorder=3)
+        ax.plot(x, y, color="0.5", lw=0.5, zorder=2)
+        ax.set_aspect("equal")
+        ax.set_xlim(-1.1 * clearance_um, 1.1 * clearance_um)
+        ax.set_ylim(-1.1 * clearance_um, 1.1 * clearance_um)
+        if x.size:
+            eccentricity = math.hypot(x[-1], y[-1]) / clearance_um
+            ax.annotate(f"last: ({x[-1]:.1f}, {y[-1]:.1f}) um, e/c = {eccentricity:.3f}", (0.02, 0.02),
+                        xycoords="axes fraction", fontsize=8)  # fmt: skip
+        ax.set_title(f"bearing {b + 1}: average position (0.5 s means)", fontsize=10)
+        ax.set_xlabel("x [um] (horizontal)")
+        ax.set_ylabel("y [um] (vertical)")
+        ax.legend(fontsize=7, loc="upper right")
+        ax.grid(alpha=0.3)
+    figure.colorbar(points, ax=axes, label="record time [s]", shrink=0.8)
+    return figure
+
+
+def synchronous_orbit(k: np.ndarray, positions_um: np.ndarray, dt_s: float, speed_hz: float) -> dict | None:
+    """The 1x component of (n, 4) positions over the whole revolutions they span: mean (4,), complex
+    amplitude (4,) (x(t) = mean + Re(A exp(i Omega t)), t = k dt the model time) and the revolutions used."""
+    revolutions = math.floor(k.size * dt_s * speed_hz)
+    if revolutions < 1:
+        return None
+    n = round(revolutions / (speed_hz * dt_s))
+    k, p = k[:n], positions_um[:n]
+    good = np.all(np.isfinite(p), axis=1)
+    if good.sum() < 0.5 * n:
+        return None
+    k, p = k[good], p[good]
+    phase = np.exp(-1j * 2.0 * math.pi * speed_hz * dt_s * k)
+    mean = p.mean(axis=0)
+    amplitude = 2.0 * ((p - mean) * phase[:, None]).mean(axis=0)
+    return {"mean": mean, "amplitude": amplitude, "revolutions": revolutions}
+
+
+def _orbits(history: History, summary: dict):
+    import matplotlib.pyplot as plt
+
+    figure, axes = plt.subplots(1, 2, figsize=(9, 4.6), constrained_layout=True)
+    theta = np.linspace(0.0, 2.0 * math.pi, 181)
+    speed = history.speed_hz
+    for label, style in (("start", "-"), ("end", "--")):
+        data = history.orbits()[label]
+        if data is None:
+            continue
+        fit = synchronous_orbit(data[0], data[1], history.dt, speed)
+        if fit is None:
+            continue
+        for b, ax in enumerate(axes):
+            ax_x, ax_y = fit["amplitude"][2 * b], fit["amplitude"][2 * b + 1]
+            x = np.real(ax_x * np.exp(1j * theta))
+            y = np.real(ax_y * np.exp(1j * theta))
+            line = ax.plot(x, y, style, lw=1.4, label=f"{label} ({fit['revolutions']} rev)")[0]
+            ax.plot([np.real(ax_x)], [np.real(ax_y)], "o", color=line.get_color(), ms=5)
+    for b, ax in enumerate(axes):
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.plot([0], [0], "+", color="0.3")
+        ax.set_title(f"bearing {b + 1}: 1x orbit about its mean (dot: keyphasor)", fontsize=10)
+        ax.set_xlabel("x [um]")
+        ax.set_ylabel("y [um]")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    return figure
+
+
+def _probe_health(history: History, summary: dict):
+    import matplotlib.pyplot as plt
+
+    times, values = history.slow.arrays()
+    rows = 3 if history.extra_bins is not None else 2
+    figure, axes = plt.subplots(rows, 1, figsize=(9, 2.4 * rows + 0.6), sharex=True, constrained_layout=True)
+    ax = axes[0]
+    for i, name in enumerate(PROBES):
+        ax.plot(times, 100.0 * values[:, 4 + i], lw=1.2, label=f"{name} valid")
+    ax.plot(times, 100.0 * values[:, 8], "k--", lw=1.0, label="accepted by the estimator")
+    ax.set_ylabel("samples [%]")
+    ax.set_ylim(-5, 105)
+    ax.legend(fontsize=7, ncol=5, loc="lower left")
+    ax.grid(alpha=0.3)
+    ax.set_title("probe health (0.5 s bins)", fontsize=10)
+    ax = axes[1]
+    ax.plot(times, values[:, 9], color="tab:purple", lw=1.2, label="mean NIS of accepted samples")
+    ax.axhline(4.0, color="0.4", ls="--", lw=0.8, label="expected (4 channels)")
+    ax.set_ylabel("NIS")
+    ax.legend(fontsize=7)
+    ax.grid(alpha=0.3)
+    if history.extra_bins is not None:
+        extra_t, extra = history.extra_bins.arrays()
+        for i, name in enumerate(history.extra_names):
+            axes[2].plot(extra_t, extra[:, i], lw=1.0, label=name)
+        axes[2].set_ylabel("estimator health")
+        axes[2].legend(fontsize=7, ncol=4)
+        axes[2].grid(alpha=0.3)
+    axes[-1].set_xlabel("record time [s]")
+    return figure
