@@ -9,6 +9,10 @@ Rule (one per bearing i, evaluated every step from the estimate q_i and its std 
   ``hold_off_s``: a clearly recovered flow, with a gap between the two levels so that an estimate hovering
   near one threshold cannot make the alarm chatter.
 
+Each alarm also records whether the estimator's model was consistent with the data (``model_consistent`` of
+:mod:`estimator.ekf`) when it was raised: ``starved_consistent``. An alarm raised while the model was not
+consistent may be the machine's departure from the model rather than starvation.
+
 Defaults (:class:`estimator.config.AlarmConfig`): z = 2, 90 % to set, 95 % to clear, holds 0.25 s and 1 s.
 Designed for: firing within 2 s of the centre of a sudden 25 % drop and never in a 20 s nominal run at sigma
 1 um (both checked in ``tests/test_estimator_alarm.py``).
@@ -22,7 +26,7 @@ from models.validation import InputError
 
 from .config import AlarmConfig
 
-_STATE_KEYS = ("alarm_starved", "alarm_on_count", "alarm_off_count")
+_STATE_KEYS = ("alarm_starved", "alarm_on_count", "alarm_off_count", "alarm_raised_consistent")
 
 
 class StarvationAlarm:
@@ -42,14 +46,23 @@ class StarvationAlarm:
         self._starved = np.zeros(n_bearings, dtype=bool)
         self._on_count = np.zeros(n_bearings, dtype=np.int64)
         self._off_count = np.zeros(n_bearings, dtype=np.int64)
+        self._raised_consistent = np.zeros(n_bearings, dtype=bool)
 
     @property
     def starved(self) -> np.ndarray:
         """(n_bearings,) bool copy of the current alarm flags."""
         return self._starved.copy()
 
-    def update(self, flowrate_m3_s: np.ndarray, std_m3_s: np.ndarray) -> np.ndarray:
-        """Advance one step with the estimates and stds [m^3/s], (n_bearings,) each; return the flags."""
+    @property
+    def starved_consistent(self) -> np.ndarray:
+        """(n_bearings,) bool: the alarm is set and was raised while the model was consistent."""
+        return self._starved & self._raised_consistent
+
+    def update(
+        self, flowrate_m3_s: np.ndarray, std_m3_s: np.ndarray, model_consistent: bool = True
+    ) -> np.ndarray:
+        """Advance one step with the estimates and stds [m^3/s], (n_bearings,) each, and the model
+        consistency flag of this step; return the alarm flags."""
         z = self.config.confidence_z
         for i in range(self._starved.size):
             if self._starved[i]:
@@ -63,6 +76,7 @@ class StarvationAlarm:
                 self._on_count[i] = self._on_count[i] + 1 if low else 0
                 if self._on_count[i] >= self._hold_on_steps:
                     self._starved[i] = True
+                    self._raised_consistent[i] = model_consistent
                     self._on_count[i] = 0
         return self._starved.copy()
 
@@ -72,6 +86,7 @@ class StarvationAlarm:
             "alarm_starved": self._starved.copy(),
             "alarm_on_count": self._on_count.copy(),
             "alarm_off_count": self._off_count.copy(),
+            "alarm_raised_consistent": self._raised_consistent.copy(),
         }
 
     def set_state(self, state: dict[str, np.ndarray]) -> None:
@@ -86,3 +101,4 @@ class StarvationAlarm:
         self._starved[:] = np.asarray(state["alarm_starved"], dtype=bool)
         self._on_count[:] = np.asarray(state["alarm_on_count"], dtype=np.int64)
         self._off_count[:] = np.asarray(state["alarm_off_count"], dtype=np.int64)
+        self._raised_consistent[:] = np.asarray(state["alarm_raised_consistent"], dtype=bool)

@@ -53,18 +53,27 @@ class AlarmConfig:
     """
 
     on_fraction: float = _bounded(
-        0.90, 0.05, 1.5, "1",
+        0.90,
+        0.05,
+        1.5,
+        "1",
         "Alarm sets when q_est + z std stays below this fraction of the nominal flowrate for alarm_hold_on_s",
     )
     hold_on_s: float = _bounded(0.25, 0.0, 60.0, "s", "Hold time before the alarm sets")
     off_fraction: float = _bounded(
-        0.95, 0.05, 1.5, "1",
+        0.95,
+        0.05,
+        1.5,
+        "1",
         "Alarm clears when q_est - z std stays above this fraction of nominal for alarm_hold_off_s "
         "(>= alarm_on_fraction: hysteresis)",
     )
     hold_off_s: float = _bounded(1.0, 0.0, 600.0, "s", "Hold time before the alarm clears")
     confidence_z: float = _bounded(
-        2.0, 0.0, 10.0, "1",
+        2.0,
+        0.0,
+        10.0,
+        "1",
         "Confidence multiplier z of the alarm's bounds q_est +/- z std (2: one-sided 97.7 %)",
     )
 
@@ -83,6 +92,27 @@ class AlarmConfig:
                 f"AlarmConfig.off_fraction must be >= on_fraction ({self.on_fraction:g}) for "
                 f"hysteresis, got {self.off_fraction:g}"
             )
+
+
+@dataclass(frozen=True)
+class OffsetBaseline:
+    """Probe zero offsets from a commissioning baseline (:mod:`estimator.baseline`): the estimator's prior.
+
+    offsets_m, std_m : (x1, y1, x2, y2) estimates and their stds [m], std > 0.
+    """
+
+    offsets_m: tuple[float, float, float, float]
+    std_m: tuple[float, float, float, float]
+
+    def __post_init__(self) -> None:
+        for name in ("offsets_m", "std_m"):
+            values = getattr(self, name)
+            if len(values) != 4:
+                raise InputError(f"OffsetBaseline.{name} needs 4 values (x1, y1, x2, y2), got {len(values)}")
+            for value in values:
+                require_finite(f"OffsetBaseline.{name}", value)
+        for value in self.std_m:
+            require_positive("OffsetBaseline.std_m", value, "m")
 
 
 @dataclass(frozen=True)
@@ -108,11 +138,37 @@ class EKFConfig:
         initial_displacement_std_m, initial_velocity_std_m_s, initial_flowrate_std_m3_s : the initial
             covariance P0 (not given by the paper: a clearance-sized displacement error, its velocity at the
             spin speed, and a quarter of the nominal flowrate: None).
-    Innovation gate
-        gate_tail_probability : a measurement whose NIS exceeds the chi-square quantile ``1 - p`` for its
-            number of channels is rejected (0 disables the gate).
-        gate_max_consecutive_rejections : after this many rejections in a row the next measurement is used
-            anyway, so that a real sudden change cannot lock the filter out.
+    Probes and their zero offsets
+        probe_angle_deg : mounting angle of each bearing's probe pair from the model's axes (see
+            :func:`estimator.measurement.probe_rotation`; 45: the API 670 pair either side of the top).
+        offset_prior_std_m : prior std of each probe's zero offset; 0 (the paper's calibrated probes) keeps
+            the offsets out of the state, > 0 adds four offset states (the machine file's ``[probes]``
+            section gives it for a real machine, 25 um by default).
+        offset_random_walk_m_sqrt_s : random-walk intensity of the offsets (drift) [m / sqrt(s)].
+        unbalance_prior_std : prior std of each part of the complex unbalance ``u`` relative to the machine
+            file's (initial estimate 1 + 0i); 0 keeps the machine file's unbalance exact, > 0 adds two
+            unbalance states (a random walk of ``unbalance_random_walk_sqrt_s`` per sqrt(s), plus
+            ``unbalance_inconsistent_std`` per step while ``model_consistent`` is false: a changed unbalance
+            shows as a 1x innovation the windowed NIS test catches).
+        offset_baseline : an :class:`OffsetBaseline` from a commissioning record: the offsets' initial
+            estimate and prior std (it adds the offset states even when offset_prior_std_m is 0).
+    Innovation gate and probe health (see :mod:`estimator.channels`)
+        gate_tail_probability : a channel whose squared standardized innovation exceeds the chi-square(1)
+            quantile ``1 - p`` times its recent innovation power is rejected (0 disables the gate).
+        gate_scale_window_s : time constant of that fading-memory innovation power [s].
+        probe_range_m : a reading with ``|x| >`` this is physically impossible (the probe is out of range);
+            None: the model's radial clearance (``model.clearance_m``) plus ``probe_range_margin_m``, or no
+            range check when the model does not give its clearance.
+        probe_dead_s, probe_stuck_s, probe_rejected_s : non-finite, unchanged (within
+            ``probe_stuck_tolerance_m``), or alone rejected by the gate for this long in a row flags a probe
+            faulty; probe_recover_s : a faulty probe returns after looking healthy for this long in a row.
+    Change detection and model consistency (see :mod:`estimator.ekf`)
+        change_window_s : time constant of the fading-memory mean of each channel's standardized innovation.
+        change_tail_probability : a bearing whose two channels' mean innovation exceeds the chi-square(2)
+            quantile ``1 - p`` of its null distribution is changing: its flowrate gets the extra process noise
+        change_flowrate_std_fraction : (std per step, as a fraction of nominal) while the test fires.
+        consistency_window_s, consistency_tail_probability : ``model_consistent`` is false when the sum of the
+            NIS over the last window exceeds the chi-square quantile ``1 - p`` of its degrees of freedom.
     Convergence flag
         converged_std_fraction : both flowrate stds below this fraction of nominal, and
         converged_drift_fraction : both estimates moved less than this fraction of nominal over
@@ -131,8 +187,27 @@ class EKFConfig:
     initial_displacement_std_m: float = 100.0e-6
     initial_velocity_std_m_s: float = 0.05
     initial_flowrate_std_m3_s: float | None = None
+    probe_angle_deg: float = 0.0
+    offset_prior_std_m: float = 0.0
+    offset_random_walk_m_sqrt_s: float = 0.2e-6
+    offset_baseline: OffsetBaseline | None = None
+    unbalance_prior_std: float = 0.0
+    unbalance_random_walk_sqrt_s: float = 0.02
+    unbalance_inconsistent_std: float = 0.01
     gate_tail_probability: float = 1.0e-6
-    gate_max_consecutive_rejections: int = 5
+    gate_scale_window_s: float = 0.1
+    probe_range_m: float | None = None
+    probe_range_margin_m: float = 100.0e-6
+    probe_dead_s: float = 0.05
+    probe_stuck_s: float = 0.1
+    probe_stuck_tolerance_m: float = 0.0
+    probe_rejected_s: float = 0.05
+    probe_recover_s: float = 0.5
+    change_window_s: float = 0.05
+    change_tail_probability: float = 1.0e-3
+    change_flowrate_std_fraction: float = 0.003
+    consistency_window_s: float = 1.0
+    consistency_tail_probability: float = 1.0e-3
     converged_std_fraction: float = 0.03
     converged_drift_fraction: float = 0.01
     converged_window_s: float = 1.0
@@ -171,14 +246,37 @@ class EKFConfig:
             for value in self.q_initial_pair():
                 require_positive("EKFConfig.q_initial_m3_s", value, "m^3/s")
         require_in_range("EKFConfig.gate_tail_probability", self.gate_tail_probability, 0.0, 0.5)
-        if (
-            not isinstance(self.gate_max_consecutive_rejections, int)
-            or isinstance(self.gate_max_consecutive_rejections, bool)
-            or self.gate_max_consecutive_rejections < 0
+        if self.probe_range_m is not None:
+            require_positive("EKFConfig.probe_range_m", self.probe_range_m, "m")
+        require_in_range("EKFConfig.probe_angle_deg", self.probe_angle_deg, -360.0, 360.0, "deg")
+        for name in (
+            "probe_range_margin_m",
+            "probe_stuck_tolerance_m",
+            "change_flowrate_std_fraction",
+            "offset_prior_std_m",
+            "offset_random_walk_m_sqrt_s",
+            "unbalance_prior_std",
+            "unbalance_random_walk_sqrt_s",
+            "unbalance_inconsistent_std",
         ):
+            require_non_negative(f"EKFConfig.{name}", getattr(self, name))
+        for name in (
+            "gate_scale_window_s",
+            "probe_dead_s",
+            "probe_stuck_s",
+            "probe_rejected_s",
+            "probe_recover_s",
+            "change_window_s",
+            "consistency_window_s",
+        ):
+            require_in_range(f"EKFConfig.{name}", getattr(self, name), 1e-6, 600.0, "s")
+        require_in_range("EKFConfig.change_tail_probability", self.change_tail_probability, 1e-15, 0.5)
+        require_in_range(
+            "EKFConfig.consistency_tail_probability", self.consistency_tail_probability, 1e-15, 0.5
+        )
+        if self.offset_baseline is not None and not isinstance(self.offset_baseline, OffsetBaseline):
             raise InputError(
-                "EKFConfig.gate_max_consecutive_rejections must be an integer >= 0, "
-                f"got {self.gate_max_consecutive_rejections!r}"
+                f"EKFConfig.offset_baseline must be an OffsetBaseline, got {type(self.offset_baseline)!r}"
             )
         if not isinstance(self.alarm, AlarmConfig):
             raise InputError(f"EKFConfig.alarm must be an AlarmConfig, got {type(self.alarm)!r}")
@@ -288,8 +386,9 @@ def _estimator_parameters() -> tuple[BoundaryParameter, ...]:
         ("q_std_flow_ml_min", "flowrate_process_std_m3_s", "ml/min", ML_MIN, 0.0, None,
          "Process-noise std per step of each flowrate state (paper and recommended: 0.1 ml/min)"),
         ("gate_tail_probability", "gate_tail_probability", "1", 1.0, 0.0, 0.5,
-         "Innovation gate: a sample whose NIS exceeds the chi-square quantile 1 - p is rejected (at most "
-         f"{recommended.gate_max_consecutive_rejections} in a row); 0 disables the gate"),
+         "Innovation gate, per probe: a channel whose squared standardized innovation exceeds the "
+         "chi-square(1) quantile 1 - p times its recent innovation power is rejected (never forced through); "
+         "0 disables it"),
     )  # fmt: skip
     table = [
         BoundaryParameter(name, key, unit, scale, getattr(recommended, key) / scale, low, high, text)

@@ -1,7 +1,9 @@
 """The augmented-state Extended Kalman Filter that estimates the two oil supply flowrates (paper Eqs. 17-24).
 
-Augmented state ``x = [s; q / q_nominal]``: the model's dynamic states ``s`` (SI) and the two flowrates as
-fractions of the nominal flowrate. The model works in m^3/s, where a flowrate of 1e-5 and a process-noise std
+Augmented state ``x = [s; q / q_nominal; o]``: the model's dynamic states ``s`` (SI), the two flowrates as
+fractions of the nominal flowrate and, when ``offset_prior_std_m > 0``, the four probe zero offsets ``o`` [m]
+(random walks; each probe reads ``Rot H s + o``, Rot the probes' mounting angle, ``probe_angle_deg``).
+The model works in m^3/s, where a flowrate of 1e-5 and a process-noise std
 of 1.7e-9 sit beside displacements of 1e-5 m; in fractions of nominal the flowrate entries of P are
 O(1e-4..1e-1), which keeps the flowrate block of P and its Jacobian columns well scaled. Everything at the
 interface is SI.
@@ -10,19 +12,32 @@ Per step (:meth:`OilFlowEKF.step`): predict with the model (Eqs. 19-21, skipped 
 then update with the measured displacements (Eqs. 22-24, Joseph form, Cholesky solve; see
 :mod:`estimator.kernels`).
 
-* Bad input: a NaN or infinite sample skips the update (prediction only) and reports ``measurement_ok`` false.
-* Innovation gate: a sample whose NIS exceeds the chi-square quantile ``1 - gate_tail_probability`` for its
-  number of channels is rejected like a bad sample; after ``gate_max_consecutive_rejections`` rejections in a
-  row the next sample is used regardless, so that a genuine abrupt change cannot lock the filter out.
-* Differentiated velocities use only two consecutive accepted samples; after a skipped or rejected sample the
-  next update uses the four displacements alone.
+* Probe faults (:mod:`estimator.channels`): every channel is screened and gated on its own; the update uses
+  every channel that passed (a NaN on one probe drops that channel, not the update). A probe that is dead,
+  stuck, out of its physical range or persistently rejected alone is flagged (``probe_status``) and excluded
+  until it has looked healthy for ``probe_recover_s``. Nothing is ever forced through the gate.
+* Differentiated velocities (eight-channel modes) use a channel's two consecutive accepted samples.
+* Change detection and adaptive process noise: a fading-memory mean of each channel's standardized
+  innovation (time constant ``change_window_s``; white and N(0, a / (2 - a)) per channel under the model,
+  ``a`` its weight) is tested per bearing against the chi-square(2) quantile of
+  ``change_tail_probability``; while it fires, that bearing's flowrate gets the extra process noise
+  ``change_flowrate_std_fraction`` of nominal per step (Bar-Shalom, Li & Kirubarajan 2001, sec. 11.2: a
+  process-noise level switched by an innovation test). A flowrate change shows first as a persistent mean
+  innovation of its bearing's probes; the filter's std then widens at once so that it covers the lag of the
+  estimate, and shrinks again with the data once the innovation is white.
+* ``model_consistent``: the sum of the NIS over the last ``consistency_window_s`` does not exceed the
+  chi-square quantile ``1 - consistency_tail_probability`` of its degrees of freedom (Bar-Shalom et al.
+  sec. 5.4.2, the time-average NIS test; Wilson-Hilferty approximation of the quantile). A discrepancy that
+  the states can absorb (an offset that looks like a flow change) stays invisible to it; one they cannot
+  (a wrong 1x orbit) shows. The alarm records whether the model was consistent when it was raised.
 * Flowrate bounds: after each update, a flowrate outside the coefficient table's range is projected onto it in
   the metric of P^-1 (Simon & Chia, IEEE Trans. AES 38, 2002: the minimum-variance estimate given that the
   active bound holds exactly), which also moves the correlated dynamic states; P is left unchanged, a
   conservative choice that keeps the flowrate free to leave the bound (the projected covariance would have
   zero variance there). The model is therefore never evaluated outside its table.
-* ``converged``: both flowrate stds below ``converged_std_fraction`` of nominal and both estimates changed by
-  less than ``converged_drift_fraction`` of nominal over the last ``converged_window_s``.
+* ``converged``: both flowrate stds below ``converged_std_fraction`` of nominal, both estimates changed by
+  less than ``converged_drift_fraction`` of nominal over the last ``converged_window_s``, and some channel
+  updated the filter within that window.
 """
 
 from __future__ import annotations
@@ -32,10 +47,11 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.special import chdtri
+from scipy.special import chdtri, ndtri
 
 from models.validation import InputError
 
+from . import channels
 from .alarm import StarvationAlarm
 from .config import EKFConfig
 from .kernels import UPDATE_ACCEPTED, filter_step
@@ -49,9 +65,12 @@ class StepReport:
     """What the filter reports after one sample.
 
     step : index k of the sample just processed. q_m3_s, q_std_m3_s : (2,) estimates and their stds from P
-    [m^3/s]. nis : normalized innovation squared of this sample (0 when no update was attempted).
-    n_measurements : channels used by the update (8, 4, or 0 when skipped or rejected). converged : see module
-    docstring. measurement_ok : the sample was finite and passed the gate. starved : (2,) bool alarm flags.
+    [m^3/s]. nis : normalized innovation squared of this sample (0 when no update was made).
+    n_measurements : rows used by the update (0 when no channel was usable or all were rejected).
+    converged : see module docstring. measurement_ok : the update used at least one channel.
+    starved : (2,) bool alarm flags. probe_status : (4,) int codes of :mod:`estimator.channels` (0 healthy).
+    model_consistent : the windowed NIS test passes. changing : (2,) bool, the change test fires on the
+    bearing. starved_consistent : (2,) bool, alarm raised while the model was consistent.
     """
 
     step: int
@@ -62,11 +81,20 @@ class StepReport:
     converged: bool
     measurement_ok: bool
     starved: np.ndarray
+    probe_status: np.ndarray
+    model_consistent: bool
+    changing: np.ndarray
+    starved_consistent: np.ndarray
+
+    @property
+    def probe_faulty(self) -> np.ndarray:
+        """(4,) bool: the probe is flagged faulty and excluded."""
+        return self.probe_status != channels.OK
 
 
 @dataclass
 class EstimateTrace:
-    """Per-step outputs of :meth:`OilFlowEKF.run` for K samples: arrays (K, 2) or (K,), fields as
+    """Per-step outputs of :meth:`OilFlowEKF.run` for K samples: arrays (K, 2), (K, 4) or (K,), fields as
     StepReport."""
 
     q_m3_s: np.ndarray
@@ -76,6 +104,17 @@ class EstimateTrace:
     converged: np.ndarray
     measurement_ok: np.ndarray
     starved: np.ndarray
+    probe_status: np.ndarray
+    model_consistent: np.ndarray
+    changing: np.ndarray
+    starved_consistent: np.ndarray
+    offset_m: np.ndarray
+    offset_std_m: np.ndarray
+
+    @property
+    def probe_faulty(self) -> np.ndarray:
+        """(K, 4) bool: probe flagged faulty."""
+        return self.probe_status != channels.OK
 
 
 class OilFlowEKF:
@@ -95,7 +134,16 @@ class OilFlowEKF:
         cfg = self.config
         n = int(model.n_states)
         self._n = n
-        self._size = n + 2
+        self._n_offsets = 4 if cfg.offset_prior_std_m > 0.0 or cfg.offset_baseline is not None else 0
+        self._n_unbalance = 2 if cfg.unbalance_prior_std > 0.0 else 0
+        if self._n_unbalance and not callable(getattr(model, "transition_with_unbalance", None)):
+            raise InputError(
+                "EKFConfig.unbalance_prior_std > 0 needs a model with transition_with_unbalance()"
+            )
+        self._offsets = slice(n + 2, n + 2 + self._n_offsets)
+        self._unbalance = slice(n + 2 + self._n_offsets, n + 2 + self._n_offsets + self._n_unbalance)
+        self._size = n + 2 + self._n_offsets + self._n_unbalance
+        self._no_unbalance = np.zeros((n, 0))
         self._q_nominal = cfg.q_nominal_m3_s
         low, high = model.flowrate_bounds_m3_s
         self._bounds = (float(low), float(high))
@@ -108,36 +156,50 @@ class OilFlowEKF:
                 f"got {cfg.first_sample_time_s:g} s"
             )
 
-        self._obs4, self._noise4 = displacement_channels(model, cfg.noise_std_m)
-        channels8 = velocity_channels(model, cfg.noise_std_m, cfg.velocity_noise)
+        angle = math.radians(cfg.probe_angle_deg)
+        pad = np.zeros((4, self._n_unbalance))
+        obs4, self._noise4 = displacement_channels(model, cfg.noise_std_m, angle, self._n_offsets)
+        self._obs4 = np.hstack([obs4, pad])
+        channels8 = velocity_channels(model, cfg.noise_std_m, cfg.velocity_noise, angle, self._n_offsets)
+        if channels8 is not None:
+            channels8 = (np.hstack([channels8[0], np.vstack([pad, pad])]), channels8[1])
         # displacement-only: empty eight-channel arrays tell the compiled step to use four channels
         self._obs8, self._noise8 = (
             channels8 if channels8 is not None else (np.zeros((0, self._size)), np.zeros((0, 0)))
         )
-        p = cfg.gate_tail_probability
-        # chdtri(m, p) is the chi-square quantile with upper tail p (m degrees of freedom)
-        gate4 = float(chdtri(4, p)) if p > 0.0 else np.inf
-        gate8 = float(chdtri(8, p)) if p > 0.0 else np.inf
+        self._channel_settings = self._channel_settings_from(cfg)
+        change_alpha = min(1.0, self._dt / cfg.change_window_s)
+        self._q_var = (cfg.flowrate_process_std_m3_s / self._q_nominal) ** 2
         self._settings = np.array(
             [
-                gate4,
-                gate8,
-                float(cfg.gate_max_consecutive_rejections),
                 1.0 / self._dt,
                 *self._bounds_scaled,
+                change_alpha / (2.0 - change_alpha),  # null variance of the fading-memory mean
+                float(chdtri(2, cfg.change_tail_probability)),
+                self._q_var,
+                cfg.change_flowrate_std_fraction**2,  # internal unit: fractions of nominal
             ]
         )
+        self._consistency_steps = max(1, round(cfg.consistency_window_s / self._dt))
+        self._consistency_z = float(ndtri(1.0 - cfg.consistency_tail_probability))
 
         self._process_noise = np.zeros((self._size, self._size))
         self._process_noise[:n, :n] = self._physical(
             cfg.displacement_process_std_m, cfg.velocity_process_std_m_s
         )
-        q_var = (cfg.flowrate_process_std_m3_s / self._q_nominal) ** 2
-        self._process_noise[n:, n:] = q_var * np.eye(2)
+        self._process_noise[n : n + 2, n : n + 2] = self._q_var * np.eye(2)
+        if self._n_offsets:
+            walk = cfg.offset_random_walk_m_sqrt_s**2 * self._dt
+            self._process_noise[self._offsets, self._offsets] = walk * np.eye(self._n_offsets)
+        self._unbalance_walk = cfg.unbalance_random_walk_sqrt_s**2 * self._dt
+        self._unbalance_extra = cfg.unbalance_inconsistent_std**2
+        if self._n_unbalance:
+            self._process_noise[self._unbalance, self._unbalance] = self._unbalance_walk * np.eye(2)
 
         self._jacobian = np.zeros((self._size, self._size))
         self._work = np.zeros((self._size, self._size))
         self._z8 = np.zeros(8)
+        self._accepted = np.zeros(4, dtype=bool)
         self._window = max(1, round(cfg.converged_window_s / self._dt))
         self.alarm = StarvationAlarm(cfg.alarm, self._dt, self._q_nominal)
         self.reset()
@@ -165,6 +227,28 @@ class OilFlowEKF:
         if self.config.initial_state == "static" and not has_static_state(model):
             raise InputError("EKFConfig.initial_state='static' needs a model with static_state()")
 
+    def _channel_settings_from(self, cfg: EKFConfig) -> np.ndarray:
+        """The settings array of :mod:`estimator.channels` from the configuration and the model."""
+        p = cfg.gate_tail_probability
+        gate = float(chdtri(1, p)) if p > 0.0 else np.inf
+        if cfg.probe_range_m is not None:
+            limit = cfg.probe_range_m
+        elif getattr(self.model, "clearance_m", None) is not None:
+            limit = float(self.model.clearance_m) + cfg.probe_range_margin_m
+        else:
+            limit = np.inf
+        values = np.zeros(channels.N_CHANNEL_SETTINGS)
+        values[channels.GATE] = gate
+        values[channels.RANGE] = limit
+        values[channels.DEAD_SAMPLES] = max(1, round(cfg.probe_dead_s / self._dt))
+        values[channels.STUCK_SAMPLES] = max(2, round(cfg.probe_stuck_s / self._dt))
+        values[channels.STUCK_TOLERANCE] = cfg.probe_stuck_tolerance_m
+        values[channels.REJECTED_SAMPLES] = max(1, round(cfg.probe_rejected_s / self._dt))
+        values[channels.RECOVER_SAMPLES] = max(1, round(cfg.probe_recover_s / self._dt))
+        values[channels.POWER_ALPHA] = min(1.0, self._dt / cfg.gate_scale_window_s)
+        values[channels.BIAS_ALPHA] = min(1.0, self._dt / cfg.change_window_s)
+        return values
+
     def _physical(self, displacement_std: float, velocity_std: float) -> np.ndarray:
         n = self._n
         if displacement_std == 0.0 and velocity_std == 0.0:
@@ -184,15 +268,27 @@ class OilFlowEKF:
         self._x = np.zeros(self._size)
         if cfg.initial_state == "static":
             self._x[:n] = self.model.static_state(q0)
-        self._x[n:] = q0 / self._q_nominal
+        self._x[n : n + 2] = q0 / self._q_nominal
         self._P = np.zeros((self._size, self._size))
         self._P[:n, :n] = self._physical(cfg.initial_displacement_std_m, cfg.initial_velocity_std_m_s)
-        self._P[n:, n:] = (cfg.initial_flowrate_std_m3_s / self._q_nominal) ** 2 * np.eye(2)
-        self._previous = np.zeros(4)
-        self._counters = np.zeros(2, dtype=np.int64)  # previous sample valid, consecutive rejections
+        self._P[n : n + 2, n : n + 2] = (cfg.initial_flowrate_std_m3_s / self._q_nominal) ** 2 * np.eye(2)
+        if cfg.offset_baseline is not None:
+            self._x[self._offsets] = cfg.offset_baseline.offsets_m
+            self._P[self._offsets, self._offsets] = np.diag(np.square(cfg.offset_baseline.std_m))
+        elif self._n_offsets:
+            self._P[self._offsets, self._offsets] = cfg.offset_prior_std_m**2 * np.eye(self._n_offsets)
+        if self._n_unbalance:
+            self._x[self._unbalance] = (1.0, 0.0)
+            self._P[self._unbalance, self._unbalance] = cfg.unbalance_prior_std**2 * np.eye(2)
+        self._health, self._health_values = channels.new_health()
         self._step = 0
         self._history = np.zeros((self._window, 2))
-        self._last = (0.0, 0, False, False)
+        self._since_update = 0
+        self._nis_window = np.zeros((self._consistency_steps, 2))  # NIS and rows of each step
+        self._nis_sums = np.zeros(2)
+        self._changing = np.zeros(2, dtype=bool)
+        self._process_noise[n : n + 2, n : n + 2] = self._q_var * np.eye(2)
+        self._last = (0.0, 0, False, False, True)
         self.alarm = StarvationAlarm(cfg.alarm, self._dt, self._q_nominal)
 
     @property
@@ -213,7 +309,27 @@ class OilFlowEKF:
     def flowrate_std_m3_s(self) -> np.ndarray:
         """(2,) standard deviations of the flowrate estimates from P [m^3/s]."""
         n = self._n
-        return np.sqrt(np.diag(self._P)[n:]) * self._q_nominal
+        return np.sqrt(np.diag(self._P)[n : n + 2]) * self._q_nominal
+
+    @property
+    def offset_m(self) -> np.ndarray:
+        """(4,) estimated probe zero offsets [m] (zeros when the offsets are not estimated)."""
+        return self._x[self._offsets].copy() if self._n_offsets else np.zeros(4)
+
+    @property
+    def offset_std_m(self) -> np.ndarray:
+        """(4,) their stds [m] (zeros when the offsets are not estimated)."""
+        return np.sqrt(np.diag(self._P)[self._offsets]) if self._n_offsets else np.zeros(4)
+
+    @property
+    def unbalance(self) -> np.ndarray:
+        """(2,) the estimated unbalance (real, imaginary) relative to the machine file's ((1, 0) if fixed)."""
+        return self._x[self._unbalance].copy() if self._n_unbalance else np.array([1.0, 0.0])
+
+    @property
+    def unbalance_std(self) -> np.ndarray:
+        """(2,) its stds (zeros when the unbalance is not estimated)."""
+        return np.sqrt(np.diag(self._P)[self._unbalance]) if self._n_unbalance else np.zeros(2)
 
     @property
     def dynamic_state(self) -> np.ndarray:
@@ -222,21 +338,26 @@ class OilFlowEKF:
 
     @property
     def covariance(self) -> np.ndarray:
-        """(n + 2, n + 2) copy of P; the flowrate block is in the internal unit (fractions of nominal)^2."""
+        """(N, N) copy of P, N = n + 2 (+ 4 with offset states); the flowrate block is in the internal unit
+        (fractions of nominal)^2, the offsets' in m^2."""
         return self._P.copy()
 
     def current_report(self) -> StepReport:
         """The report of the last processed sample, rebuilt from the state (e.g. after :meth:`set_state`)."""
-        nis, channels, ok, converged = self._last
+        nis, rows, ok, converged, consistent = self._last
         return StepReport(
             self._step - 1,
             self.flowrate_m3_s,
             self.flowrate_std_m3_s,
             nis,
-            channels,
+            rows,
             converged,
             ok,
             self.alarm.starved,
+            self._health[:, channels.STATUS].copy(),
+            consistent,
+            self._changing.copy(),
+            self.alarm.starved_consistent,
         )
 
     @property
@@ -248,20 +369,28 @@ class OilFlowEKF:
         """Process one sample of the measured displacements (x1, y1, x2, y2) [m], shape (4,).
 
         The sample belongs to time ``first_sample_time_s + k dt`` with k = :attr:`step_count`; the prediction
-        from the previous sample runs first. Non-finite entries mean a bad sample.
+        from the previous sample runs first. A non-finite entry drops that channel from this sample.
         """
         displacement = np.ascontiguousarray(displacement_m, dtype=np.float64)
         if displacement.shape != (4,):
             raise InputError(f"displacement_m must have shape (4,), got {displacement.shape}")
         n = self._n
         predict = self._step > 0
-        if predict:
+        unbalance_jac = self._no_unbalance
+        if predict and self._n_unbalance:
+            next_state, state_jac, flow_jac, unbalance_jac = self.model.transition_with_unbalance(
+                self._x[:n],
+                np.array(self._flowrate_si()),
+                self._first_step + self._step - 1,
+                self._x[self._unbalance],
+            )
+        elif predict:
             next_state, state_jac, flow_jac = self.model.transition(
                 self._x[:n], np.array(self._flowrate_si()), self._first_step + self._step - 1
             )
         else:
             next_state, state_jac, flow_jac = self._x[:n], self._work[:n, :n], self._work[:n, :2]
-        status, nis, channels = filter_step(
+        status, nis, rows, _ = filter_step(
             self._x,
             self._P,
             predict,
@@ -269,31 +398,68 @@ class OilFlowEKF:
             np.ascontiguousarray(state_jac, dtype=np.float64),
             np.ascontiguousarray(flow_jac, dtype=np.float64),
             self._q_nominal,
+            np.ascontiguousarray(unbalance_jac, dtype=np.float64),
             self._process_noise,
             self._jacobian,
             self._work,
             displacement,
-            self._previous,
-            self._counters,
             self._z8,
             self._obs4,
             self._noise4,
             self._obs8,
             self._noise8,
             self._settings,
+            self._health,
+            self._health_values,
+            self._channel_settings,
+            self._accepted,
+            self._changing,
         )
         ok = status == UPDATE_ACCEPTED
-        if not math.isfinite(nis):
-            nis = 0.0
+        if not (ok and math.isfinite(nis)):
+            nis, rows = 0.0, 0
+        self._since_update = 0 if ok else self._since_update + 1
+        consistent = self._consistency(nis, rows)
+        if self._n_unbalance:
+            variance = self._unbalance_walk + (0.0 if consistent else self._unbalance_extra)
+            first = self._unbalance.start
+            self._process_noise[first, first] = self._process_noise[first + 1, first + 1] = variance
         deviation = (math.sqrt(self._P[n, n]), math.sqrt(self._P[n + 1, n + 1]))
         converged = self._converged((float(self._x[n]), float(self._x[n + 1])), deviation)
         q = np.array(self._flowrate_si())
         std = np.array(deviation) * self._q_nominal
-        starved = self.alarm.update(q, std)
-        self._last = (nis, channels, ok, converged)
-        report = StepReport(self._step, q, std, nis, channels, converged, ok, starved)
+        starved = self.alarm.update(q, std, consistent)
+        self._last = (nis, rows, ok, converged, consistent)
+        report = StepReport(
+            self._step,
+            q,
+            std,
+            nis,
+            rows,
+            converged,
+            ok,
+            starved,
+            self._health[:, channels.STATUS].copy(),
+            consistent,
+            self._changing.copy(),
+            self.alarm.starved_consistent,
+        )
         self._step += 1
         return report
+
+    def _consistency(self, nis: float, rows: int) -> bool:
+        """Windowed NIS test (module docstring) including this step."""
+        slot = self._step % self._consistency_steps
+        sums, window = self._nis_sums, self._nis_window
+        sums[0] += nis - window[slot, 0]
+        sums[1] += rows - window[slot, 1]
+        window[slot, 0], window[slot, 1] = nis, rows
+        dof = sums[1]
+        if self._step + 1 < self._consistency_steps or dof < 1.0:
+            return True
+        # Wilson-Hilferty: chi2 quantile ~ dof (1 - 2/(9 dof) + z sqrt(2/(9 dof)))^3
+        c = 2.0 / (9.0 * dof)
+        return bool(sums[0] <= dof * (1.0 - c + self._consistency_z * math.sqrt(c)) ** 3)
 
     def _converged(self, scaled: tuple[float, float], deviation: tuple[float, float]) -> bool:
         """Apply the convergence rule to q / q_nominal and its std; record q for the drift test."""
@@ -305,6 +471,7 @@ class OilFlowEKF:
         history[slot, 1] = scaled[1]
         return (
             self._step >= self._window
+            and self._since_update < self._window
             and max(deviation) < cfg.converged_std_fraction
             and drift < cfg.converged_drift_fraction
         )
@@ -327,6 +494,12 @@ class OilFlowEKF:
             converged=np.zeros(count, dtype=bool),
             measurement_ok=np.zeros(count, dtype=bool),
             starved=np.zeros((count, 2), dtype=bool),
+            probe_status=np.zeros((count, 4), dtype=np.int64),
+            model_consistent=np.zeros(count, dtype=bool),
+            changing=np.zeros((count, 2), dtype=bool),
+            starved_consistent=np.zeros((count, 2), dtype=bool),
+            offset_m=np.zeros((count, 4)),
+            offset_std_m=np.zeros((count, 4)),
         )
         for k in range(count):
             if progress is not None and k % 100 == 0:
@@ -339,6 +512,13 @@ class OilFlowEKF:
             trace.converged[k] = report.converged
             trace.measurement_ok[k] = report.measurement_ok
             trace.starved[k] = report.starved
+            trace.probe_status[k] = report.probe_status
+            trace.model_consistent[k] = report.model_consistent
+            trace.changing[k] = report.changing
+            trace.starved_consistent[k] = report.starved_consistent
+            if self._n_offsets:
+                trace.offset_m[k] = self.offset_m
+                trace.offset_std_m[k] = self.offset_std_m
         if progress is not None:
             progress(count, count)
         return trace

@@ -13,14 +13,12 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .channels import BIAS, LAST_ACCEPTED, POWER, PREVIOUS_ACCEPTED, gate_channels, screen_channels
+
 UPDATE_ACCEPTED = 0
 UPDATE_GATED = 1
 UPDATE_NOT_POSITIVE = 2
 UPDATE_SKIPPED = 3
-
-PREVIOUS_VALID = 0
-REJECTIONS = 1
-"""Indices in the ``counters`` array of :func:`filter_step`."""
 
 
 @njit(cache=True)
@@ -29,23 +27,31 @@ def predict_covariance(
     state_jacobian: np.ndarray,
     flowrate_jacobian: np.ndarray,
     flowrate_scale: float,
+    unbalance_jacobian: np.ndarray,
     process_noise: np.ndarray,
     augmented_jacobian: np.ndarray,
     work: np.ndarray,
 ) -> None:
-    """In place ``P <- J P J^T + Q`` (Eq. 20) with ``J = [[df/ds, df/dq c], [0, I]]``, symmetrized.
+    """In place ``P <- J P J^T + Q`` (Eq. 20), symmetrized; J = [[df/ds, df/dq c, 0, df/du], [0, I]].
 
-    covariance : (N, N) P, N = n + 2. state_jacobian : (n, n). flowrate_jacobian : (n, 2) per model flowrate
-    unit; flowrate_scale c converts it to the filter's unit. process_noise : (N, N) Q.
-    augmented_jacobian, work : (N, N) scratch.
+    The state is ``[s (n), q (2), probe offsets (0 or 4), unbalance (0 or 2)]``, the nuisances random walks.
+
+    covariance : (N, N) P. state_jacobian : (n, n). flowrate_jacobian : (n, 2) per model flowrate unit;
+    flowrate_scale c converts it to the filter's unit. unbalance_jacobian : (n, 0 or 2), the last columns.
+    process_noise : (N, N) Q. augmented_jacobian, work : (N, N) scratch.
     """
     n = state_jacobian.shape[0]
     size = covariance.shape[0]
+    n_unbalance = unbalance_jacobian.shape[1]
     for i in range(n):
         for j in range(n):
             augmented_jacobian[i, j] = state_jacobian[i, j]
-        for j in range(n, size):
+        for j in range(n, n + 2):
             augmented_jacobian[i, j] = flowrate_jacobian[i, j - n] * flowrate_scale
+        for j in range(n + 2, size - n_unbalance):
+            augmented_jacobian[i, j] = 0.0
+        for j in range(n_unbalance):
+            augmented_jacobian[i, size - n_unbalance + j] = unbalance_jacobian[i, j]
     for i in range(n, size):
         for j in range(size):
             augmented_jacobian[i, j] = 1.0 if i == j else 0.0
@@ -125,6 +131,29 @@ def update(
 
     Returns ``(status, nis)`` with status UPDATE_ACCEPTED, UPDATE_GATED (x and P untouched) or
     UPDATE_NOT_POSITIVE (the innovation covariance lost definiteness; x and P untouched).
+    """
+    return update_with_cross(
+        state,
+        covariance,
+        observation,
+        np.dot(observation, covariance),
+        measurement,
+        measurement_noise,
+        gate_threshold,
+    )
+
+
+@njit(cache=True)
+def update_with_cross(
+    state: np.ndarray,
+    covariance: np.ndarray,
+    observation: np.ndarray,
+    cross: np.ndarray,
+    measurement: np.ndarray,
+    measurement_noise: np.ndarray,
+    gate_threshold: float,
+) -> tuple[int, float]:
+    """:func:`update` with ``cross = H P`` (m, N) already computed.
 
     The Joseph form ``P+ = (I - K H) P (I - K H)^T + K R K^T`` is evaluated as
     ``A = P - K (H P)``, ``P+ = A + (K R - A H^T) K^T``, which costs O(m N^2) instead of O(N^3); the second
@@ -133,7 +162,6 @@ def update(
     """
     m = observation.shape[0]
     size = state.shape[0]
-    cross = np.dot(observation, covariance)  # H P, (m, N)
     innovation_cov = np.dot(cross, observation.T) + measurement_noise
     for i in range(m):
         for j in range(i):
@@ -172,14 +200,18 @@ def update(
 
 
 @njit(cache=True)
-def project_flowrates(state: np.ndarray, covariance: np.ndarray, low: float, high: float) -> None:
-    """Project the two flowrate entries (the last two of ``state``) onto [low, high] in the P^-1 metric.
+def project_flowrates(
+    state: np.ndarray, covariance: np.ndarray, low: float, high: float, first: int = -1
+) -> None:
+    """Project the two flowrate entries (``first``, ``first + 1``; -1: the last two) onto [low, high] in the
+    P^-1 metric.
 
     For the active set A: ``x <- x - P[:, A] P[A, A]^-1 (x_A - bound_A)`` (Simon & Chia 2002), which moves the
     correlated dynamic states with the flowrates; then the active entries are set exactly to their bounds.
     """
     size = state.shape[0]
-    first = size - 2
+    if first < 0:
+        first = size - 2  # the flowrates are the last two entries
     excess = np.zeros(2)
     active = np.zeros(2, dtype=np.bool_)
     for b in range(2):
@@ -217,28 +249,37 @@ def filter_step(
     state_jacobian: np.ndarray,
     flowrate_jacobian: np.ndarray,
     flowrate_scale: float,
+    unbalance_jacobian: np.ndarray,
     process_noise: np.ndarray,
     augmented_jacobian: np.ndarray,
     work: np.ndarray,
     displacement: np.ndarray,
-    previous: np.ndarray,
-    counters: np.ndarray,
     stacked: np.ndarray,
     observation4: np.ndarray,
     noise4: np.ndarray,
     observation8: np.ndarray,
     noise8: np.ndarray,
     settings: np.ndarray,
-) -> tuple[int, float, int]:
+    health: np.ndarray,
+    health_values: np.ndarray,
+    channel_settings: np.ndarray,
+    accepted: np.ndarray,
+    changing: np.ndarray,
+) -> tuple[int, float, int, int]:
     """One complete EKF step after the model's transition, in place: the hot path in one compiled call.
 
     predict : whether ``next_state`` and the Jacobians are to be applied (False on the first sample).
-    displacement : (4,) sample [m]; a non-finite entry skips the update. previous : (4,) last accepted sample.
-    counters : int64 [previous_valid, consecutive rejections]. stacked : (8,) scratch for the eight channels.
+    displacement : (4,) sample [m]; non-finite entries drop their channels. stacked : (8,) scratch.
     observation8, noise8 : the eight-channel H_a and R, or (0, N) and (0, 0) arrays in displacement-only mode.
-    settings : [gate4, gate8, max consecutive rejections, 1/dt, flowrate low, flowrate high] (filter units).
+    settings : [1/dt, flowrate low, flowrate high, change-test null variance, change-test threshold, flowrate
+    process variance, extra variance while changing] (filter units). health, health_values,
+    channel_settings : the probe records of :mod:`estimator.channels`. accepted : (4,) bool out, the
+    displacement channels used. changing : (2,) bool out, the change test of :func:`detect_change`.
 
-    Returns ``(status, nis, channels used)``; status is one of the UPDATE_* constants.
+    Every screened channel that passes its own gate is used (:mod:`estimator.channels`); a differentiated
+    velocity channel only when its displacement channel was accepted in this and the previous sample.
+    Returns ``(status, nis, rows used, channels rejected by the gate)``; status is one of the UPDATE_*
+    constants (UPDATE_SKIPPED when no channel was usable, UPDATE_GATED when all usable ones were rejected).
     """
     n = state_jacobian.shape[0]
     if predict:
@@ -249,32 +290,82 @@ def filter_step(
             state_jacobian,
             flowrate_jacobian,
             flowrate_scale,
+            unbalance_jacobian,
             process_noise,
             augmented_jacobian,
             work,
         )
+    usable = np.zeros(4, dtype=np.bool_)
+    screen_channels(displacement, health, health_values, channel_settings, usable)
+    cross4 = np.dot(observation4, covariance)
+    innovation = np.zeros(4)
+    variance = np.ones(4)
     for i in range(4):
-        if not np.isfinite(displacement[i]):
-            counters[PREVIOUS_VALID] = 0
-            return UPDATE_SKIPPED, 0.0, 0
-    if observation8.shape[0] == 8 and counters[PREVIOUS_VALID] == 1:
+        if usable[i]:
+            innovation[i] = displacement[i] - np.dot(observation4[i], state)
+            variance[i] = np.dot(cross4[i], observation4[i]) + noise4[i, i]
+    rejected = gate_channels(innovation, variance, health, health_values, channel_settings, usable, accepted)
+    rows = np.zeros(8, dtype=np.int64)
+    m = 0
+    for i in range(4):
+        if accepted[i]:
+            rows[m] = i
+            stacked[m] = displacement[i]
+            m += 1
+    eight = observation8.shape[0] == 8
+    m4 = m
+    if eight:
         for i in range(4):
-            stacked[i] = displacement[i]
-            stacked[4 + i] = (displacement[i] - previous[i]) * settings[3]
-        observation, measured, noise, gate = observation8, stacked, noise8, settings[1]
+            if accepted[i] and health[i, PREVIOUS_ACCEPTED] == 1:
+                rows[m] = 4 + i
+                stacked[m] = (displacement[i] - health_values[i, LAST_ACCEPTED]) * settings[0]
+                m += 1
+    for i in range(4):
+        health[i, PREVIOUS_ACCEPTED] = 1 if accepted[i] else 0
+        if accepted[i]:
+            health_values[i, LAST_ACCEPTED] = displacement[i]
+    detect_change(state, n, health_values, process_noise, settings, changing)
+    if m == 0:
+        return (UPDATE_GATED if rejected > 0 else UPDATE_SKIPPED), 0.0, 0, rejected
+    index = rows[:m]
+    measured = stacked[:m].copy()
+    if eight:
+        observation = observation8[index]
+        noise = noise8[index][:, index]
+        cross = cross4[index[:m4]] if m == m4 else np.dot(observation, covariance)
     else:
-        observation, measured, noise, gate = observation4, displacement, noise4, settings[0]
-    if counters[REJECTIONS] >= settings[2]:
-        gate = np.inf
-    status, nis = update(state, covariance, observation, measured, noise, gate)
+        observation = observation4[index]
+        noise = noise4[index][:, index]
+        cross = cross4[index]
+    status, nis = update_with_cross(state, covariance, observation, cross, measured, noise, np.inf)
     if status == UPDATE_ACCEPTED:
-        counters[REJECTIONS] = 0
-        counters[PREVIOUS_VALID] = 1
-        for i in range(4):
-            previous[i] = displacement[i]
-        project_flowrates(state, covariance, settings[4], settings[5])
-        return status, nis, observation.shape[0]
-    if status == UPDATE_GATED:
-        counters[REJECTIONS] += 1
-    counters[PREVIOUS_VALID] = 0
-    return status, nis, 0
+        project_flowrates(state, covariance, settings[1], settings[2], n)
+        return status, nis, m, rejected
+    return status, nis, 0, rejected
+
+
+@njit(cache=True)
+def detect_change(
+    state: np.ndarray,
+    first: int,
+    health_values: np.ndarray,
+    process_noise: np.ndarray,
+    settings: np.ndarray,
+    changing: np.ndarray,
+) -> None:
+    """The per-bearing mean-innovation test (:mod:`estimator.ekf`); sets the flowrate process noise of the
+    next prediction in ``process_noise`` and the flags ``changing`` (2,); the flowrates are
+    ``state[first : first + 2]``.
+
+    Each channel's mean is compared with its null spread scaled by the channel's observed innovation power
+    (at least 1), so that a measurement noise larger than configured widens the test rather than firing it.
+    A flowrate held on a table bound gets no extra noise: the bias there is the bound's.
+    """
+    for b in range(2):
+        statistic = 0.0
+        for i in (2 * b, 2 * b + 1):
+            statistic += health_values[i, BIAS] ** 2 / max(1.0, health_values[i, POWER])
+        q = state[first + b]
+        fires = statistic / settings[3] > settings[4] and settings[1] < q < settings[2]
+        changing[b] = fires
+        process_noise[first + b, first + b] = settings[5] + (settings[6] if fires else 0.0)

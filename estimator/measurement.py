@@ -39,28 +39,51 @@ import numpy as np
 from .model import AugmentedModel
 
 
-def displacement_channels(model: AugmentedModel, noise_std_m: float) -> tuple[np.ndarray, np.ndarray]:
-    """Return ``(H_a, R)`` for the four displacement channels: H_a (4, n + 2) = [H, 0], R = sigma^2 I_4."""
+def probe_rotation(probe_angle_rad: float) -> np.ndarray:
+    """(4, 4) map from the bearings' (x1, y1, x2, y2) to the probe signals along the probes' axes.
+
+    Each bearing's probe pair is mounted at ``probe_angle_rad`` from the model's axes, counter-clockwise from
+    +x towards +y (x horizontal, y vertical up): its X probe reads ``cos a x + sin a y``, its Y probe
+    ``-sin a x + cos a y``. 0: probes along the model's axes; 45 deg: the API 670 pair 45 deg either side of
+    top dead centre.
+    """
+    c, s = np.cos(probe_angle_rad), np.sin(probe_angle_rad)
+    block = np.array([[c, s], [-s, c]])
+    rotation = np.zeros((4, 4))
+    rotation[:2, :2] = block
+    rotation[2:, 2:] = block
+    return rotation
+
+
+def displacement_channels(
+    model: AugmentedModel, noise_std_m: float, probe_angle_rad: float = 0.0, n_offsets: int = 0
+) -> tuple[np.ndarray, np.ndarray]:
+    """Return ``(H_a, R)`` for the four displacement channels: H_a (4, n + 2 + n_offsets) = [Rot H, 0, I],
+    R = sigma^2 I_4; ``n_offsets`` is 0 or 4 (one zero-offset state per probe after the flowrates)."""
     n = model.n_states
-    observation = np.zeros((4, n + 2))
-    observation[:, :n] = np.asarray(model.output_matrix, dtype=float)
+    observation = np.zeros((4, n + 2 + n_offsets))
+    observation[:, :n] = probe_rotation(probe_angle_rad) @ np.asarray(model.output_matrix, dtype=float)
+    if n_offsets:
+        observation[:, n + 2 :] = np.eye(4)
     return observation, noise_std_m**2 * np.eye(4)
 
 
 def velocity_channels(
-    model: AugmentedModel, noise_std_m: float, mode: str
+    model: AugmentedModel, noise_std_m: float, mode: str, probe_angle_rad: float = 0.0, n_offsets: int = 0
 ) -> tuple[np.ndarray, np.ndarray] | None:
     """Return ``(H_a, R)`` for the eight channels ``[d_k, (d_k - d_{k-1})/dt]``, or None if ``mode`` uses
     none.
 
-    H_a is (8, n + 2) = [[H, 0], [H_v, 0]]; R (8, 8) as described in the module docstring.
+    H_a is (8, n + 2 + n_offsets) = [[Rot H, 0, I], [Rot H_v, 0, 0]] (a constant offset has no velocity); R
+    (8, 8) as described in the module docstring.
     """
     if mode == "displacement-only":
         return None
     n = model.n_states
-    observation = np.zeros((8, n + 2))
-    observation[:4, :n] = np.asarray(model.output_matrix, dtype=float)
-    observation[4:, :n] = np.asarray(model.velocity_output_matrix, dtype=float)
+    rotation = probe_rotation(probe_angle_rad)
+    observation = np.zeros((8, n + 2 + n_offsets))
+    observation[:4] = displacement_channels(model, noise_std_m, probe_angle_rad, n_offsets)[0]
+    observation[4:, :n] = rotation @ np.asarray(model.velocity_output_matrix, dtype=float)
     variance = noise_std_m**2
     if mode == "paper":
         return observation, variance * np.eye(8)

@@ -23,6 +23,8 @@ An optional third, ``static_state(flowrate)``, gives the static equilibrium for 
 option of :class:`estimator.config.EKFConfig`; models without it support only the paper's zero initial state.
 Two optional attributes carry the machine facts a configuration may leave open (``EKFConfig.for_model``):
 ``nominal_flowrate_m3_s`` (the machine file's nominal supply flowrate) and ``speed_hz`` (the model's speed).
+An optional attribute ``clearance_m`` (the bearings' radial clearance [m]) sets the probes' physical range
+(``EKFConfig.probe_range_m``); without it there is no range check.
 """
 
 from __future__ import annotations

@@ -5,14 +5,18 @@ The state is a flat ``dict[str, numpy.ndarray]`` (scalars as 0-d arrays), every 
 ====================  ==========  =====================================================================
 key                   shape       meaning
 ====================  ==========  =====================================================================
-x                     (n+2,)      augmented estimate [s; q / q_nominal]
-P                     (n+2, n+2)  its covariance
-previous              (4,)        last accepted displacement sample [m] (for the differentiated velocity)
-previous_valid        ()          bool: ``previous`` may be differentiated against
+x                     (N,)        augmented estimate [s; q / q_nominal; offsets (when estimated)]
+P                     (N, N)      its covariance
+health                (4, 6)      int: probe records (:mod:`estimator.channels`)
+health_values         (4, 4)      float: last reading, innovation power and mean, last accepted reading
 step                  ()          int: samples processed
-rejections            ()          int: consecutive gate rejections
+since_update          ()          int: samples since the last update that used a channel
 q_history             (W, 2)      ring buffer of q / q_nominal for the convergence drift test
-last                  (4,)        float: nis, n_measurements, measurement_ok, converged of the last step
+nis_window            (C, 2)      ring buffer of NIS and rows for the consistency test
+nis_sums              (2,)        their running sums
+process_noise_q       (2,)        the flowrate process variances of the next prediction (change test)
+changing              (2,)        bool: change test firing per bearing
+last                  (5,)        float: nis, n_measurements, measurement_ok, converged, model_consistent
 alarm_*               (2,)        the alarm flags and hold counters (see :mod:`estimator.alarm`)
 ====================  ==========  =====================================================================
 """
@@ -25,24 +29,26 @@ import numpy as np
 
 from models.validation import InputError
 
-from .kernels import PREVIOUS_VALID, REJECTIONS
-
 if TYPE_CHECKING:
     from .ekf import OilFlowEKF
 
 
 def export_state(ekf: OilFlowEKF) -> dict[str, np.ndarray]:
     """Return the state of ``ekf`` as a dict of array copies."""
-    nis, channels, ok, converged = ekf._last
+    n = ekf._n
     state = {
         "x": ekf._x.copy(),
         "P": ekf._P.copy(),
-        "previous": ekf._previous.copy(),
-        "previous_valid": np.array(bool(ekf._counters[PREVIOUS_VALID])),
+        "health": ekf._health.copy(),
+        "health_values": ekf._health_values.copy(),
         "step": np.array(ekf._step, dtype=np.int64),
-        "rejections": np.array(ekf._counters[REJECTIONS], dtype=np.int64),
+        "since_update": np.array(ekf._since_update, dtype=np.int64),
         "q_history": ekf._history.copy(),
-        "last": np.array([nis, channels, float(ok), float(converged)]),
+        "nis_window": ekf._nis_window.copy(),
+        "nis_sums": ekf._nis_sums.copy(),
+        "process_noise_q": np.diag(ekf._process_noise)[n : n + 2].copy(),
+        "changing": ekf._changing.copy(),
+        "last": np.array([float(v) for v in ekf._last]),
     }
     state.update(ekf.alarm.get_state())
     return state
@@ -67,11 +73,17 @@ def import_state(ekf: OilFlowEKF, state: dict[str, np.ndarray]) -> None:
         raise InputError("EKF state 'x' and 'P' must be finite")
     ekf._x[:] = x
     ekf._P[:, :] = covariance
-    ekf._previous[:] = _checked(state, "previous", (4,))
-    ekf._counters[PREVIOUS_VALID] = int(bool(_checked(state, "previous_valid", ())))
+    ekf._health[:, :] = _checked(state, "health", ekf._health.shape)
+    ekf._health_values[:, :] = _checked(state, "health_values", ekf._health_values.shape)
     ekf._step = int(_checked(state, "step", ()))
-    ekf._counters[REJECTIONS] = int(_checked(state, "rejections", ()))
+    ekf._since_update = int(_checked(state, "since_update", ()))
     ekf._history[:, :] = _checked(state, "q_history", ekf._history.shape)
-    nis, channels, ok, converged = _checked(state, "last", (4,))
-    ekf._last = (float(nis), int(channels), bool(ok), bool(converged))
+    ekf._nis_window[:, :] = _checked(state, "nis_window", ekf._nis_window.shape)
+    ekf._nis_sums[:] = _checked(state, "nis_sums", (2,))
+    n = ekf._n
+    noise = _checked(state, "process_noise_q", (2,))
+    ekf._process_noise[n, n], ekf._process_noise[n + 1, n + 1] = float(noise[0]), float(noise[1])
+    ekf._changing[:] = _checked(state, "changing", (2,))
+    nis, rows, ok, converged, consistent = _checked(state, "last", (5,))
+    ekf._last = (float(nis), int(rows), bool(ok), bool(converged), bool(consistent))
     ekf.alarm.set_state(state)

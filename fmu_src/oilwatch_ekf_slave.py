@@ -23,8 +23,9 @@ that ruins the estimate. Each ``doStep(t, h)`` therefore takes the time its samp
 whose time has not advanced (a repeated sample) is not used twice; a gap of several periods is predicted
 through without updates; a sample off the grid is skipped (logged once). With a Jacobi master (libcosim) the
 plant's outputs arrive one step late but with their own time stamp, so the filter stays aligned and its
-estimate (time stamp ``t_estimate_s``) lags one step. A NaN or infinite position skips the update (prediction
-only) and reports ``measurement_ok`` false.
+estimate (time stamp ``t_estimate_s``) lags one step. A NaN or infinite position drops that probe's channel
+from the update (the others are used); a NaN or infinite ``t_sample_s`` is a skipped sample (predicted
+through), never an error.
 
 The estimator's numba kernels compile on first use in a process (5-10 s); ``setup`` warms them up during
 initialization and logs the time, so that no ``doStep`` pays for it.
@@ -202,7 +203,7 @@ class OilFlowEKF(OilwatchSlave):
             "measurement_ok",
             "output",
             start=False,
-            description="The last sample was finite and passed the innovation gate",
+            description="The last sample updated the filter (at least one probe channel was used)",
         )
 
     # --------------------------------------------------------------------- initialization
@@ -300,7 +301,8 @@ class OilFlowEKF(OilwatchSlave):
     def step(self, current_time: float, step_size: float) -> bool:
         end = current_time + step_size
         stamp = self.t_sample_s
-        sample_time = end if (math.isnan(stamp) or stamp < 0.0) else stamp
+        bad_stamp = not math.isfinite(stamp)  # NaN or inf: a skipped sample, predicted through
+        sample_time = end if (bad_stamp or stamp < 0.0) else stamp
         period = self.sample_period_s
         if sample_time > end + GRID_TOLERANCE * period:
             raise InputError(
@@ -326,7 +328,7 @@ class OilFlowEKF(OilwatchSlave):
         measurement[1] = self.y1_um * 1e-6
         measurement[2] = self.x2_um * 1e-6
         measurement[3] = self.y2_um * 1e-6
-        if math.isnan(stamp):
+        if bad_stamp:
             measurement[:] = np.nan
         self._publish(self.filter.step(measurement))
         return True

@@ -137,6 +137,7 @@ BOOLS = [ev[n] for n in ("converged", "starved1", "starved2", "measurement_ok")]
 h = 1e-3
 # steps 2000-2099: one probe NaN, +inf or -inf in turn
 BAD = {2000 + i: (i % 4, (math.nan, math.inf, -math.inf, math.nan)[i % 4]) for i in range(100)}
+BAD.update({2500: (4, math.inf), 2501: (4, math.nan)})  # non-finite time stamps: skipped samples
 
 def outputs():
     return ekf.getReal(REALS) + [float(v) for v in ekf.getBoolean(BOOLS)] + ekf.getInteger([ev["n_channels"]])
@@ -155,6 +156,7 @@ def run(k0, k1):
 
 rows = run(0, 3000)
 result = {"ok": [r[9] for r in rows[1990:2110]], "finite": all(all(map(math.isfinite, r)) for r in rows),
+          "stamp_ok": [r[9] for r in rows[2499:2503]], "stamp_t": [r[5] for r in rows[2499:2503]],
           "q_before": rows[1999][:2], "q_after": rows[2999][:2]}
 for k in range(3000, 3005):  # the plant takes five steps, the filter one communication step of 5 h
     plant.doStep(k * h, h)
@@ -279,9 +281,12 @@ def test_the_fmu_runs_its_own_bundled_code_in_a_process_that_did_not_build_it(co
     assert any("numba kernels compiled" in line for line in cosim["init_log"])
 
 
-def test_nan_and_infinite_inputs_skip_the_update_and_keep_the_state_finite(direct):
-    assert direct["ok"] == [1.0] * 10 + [0.0] * 100 + [1.0] * 10
+def test_nan_and_infinite_inputs_drop_their_channel_and_keep_the_state_finite(direct):
+    assert direct["ok"] == [1.0] * 120  # one bad probe at a time: the other three update the filter
     assert direct["finite"]
+    # an infinite or NaN t_sample_s is a skipped sample (predicted through), not a fatal error
+    assert direct["stamp_ok"] == [1.0, 0.0, 0.0, 1.0]
+    assert direct["stamp_t"] == pytest.approx([2.5, 2.501, 2.502, 2.503], abs=1e-9)
     for before, after in zip(direct["q_before"], direct["q_after"], strict=True):
         assert after == pytest.approx(0.8 * QN, rel=0.03) and math.isfinite(before)
 

@@ -76,36 +76,39 @@ def test_flowrates_stay_inside_the_table(toy):
     assert np.abs(trace.q_m3_s[2000:] / low - 1).max() < 0.02
 
 
-def test_nan_and_inf_samples_skip_the_update_and_keep_the_state_finite(toy, constant_record):
+def test_a_nan_drops_its_channel_and_inf_samples_keep_the_state_finite(toy, constant_record):
     data = constant_record.displacement_m.copy()
     data[3000, 1] = np.nan
     data[3001:3003] = np.inf
-    data[4000:4050] = np.nan
+    data[4000:4040] = np.nan  # shorter than probe_dead_s: a dropout, not a dead probe
     # gate off: this test is about bad samples only (the eight-channel modes' NIS is inflated, see
     # test_estimator_velocity_noise, so a tight gate would also reject a few good samples)
     config = EKFConfig.recommended(velocity_noise="correlated", gate_tail_probability=0.0)
     ekf = OilFlowEKF(toy, config)
     trace = ekf.run(data)
-    bad = ~np.isfinite(data).all(axis=1)
+    bad = ~np.isfinite(data).any(axis=1)
     assert (trace.measurement_ok == ~bad).all()
     assert (trace.n_measurements[bad] == 0).all()
-    # the first good sample after a bad one has no valid previous sample: displacements only
-    assert trace.n_measurements[3003] == 4 and trace.n_measurements[4050] == 4
-    assert trace.n_measurements[3004] == 8 and trace.n_measurements[4051] == 8
+    assert trace.n_measurements[3000] == 6  # three displacements and their three velocities
+    # a channel's first good sample after a bad one has no previous sample: its displacement only
+    assert trace.n_measurements[3003] == 4 and trace.n_measurements[4040] == 4
+    assert trace.n_measurements[3004] == 8 and trace.n_measurements[4041] == 8
+    assert not trace.probe_faulty.any()
     assert np.isfinite(ekf.dynamic_state).all() and np.isfinite(ekf.covariance).all()
     reference = OilFlowEKF(toy, config).run(constant_record.displacement_m)
     assert np.abs(trace.q_m3_s[5000:] - reference.q_m3_s[5000:]).max() < 0.005 * QN
 
 
-def test_a_spike_is_gated_and_does_not_corrupt_the_estimate(toy, constant_record):
+def test_a_spike_is_gated_on_its_own_channel_and_does_not_corrupt_the_estimate(toy, constant_record):
     clean = OilFlowEKF(toy, EKFConfig.recommended(velocity_noise="correlated"))
     spiked = OilFlowEKF(toy, EKFConfig.recommended(velocity_noise="correlated"))
     data = constant_record.displacement_m.copy()
     data[6000, 2] += 200e-6
     reference = clean.run(constant_record.displacement_m)
     trace = spiked.run(data)
-    assert not trace.measurement_ok[6000] and trace.nis[6000] > 1e3
-    assert trace.n_measurements[6001] == 4  # the spike is not differentiated against
+    assert trace.measurement_ok[6000] and trace.n_measurements[6000] == 6  # three others, their velocities
+    assert trace.n_measurements[6001] == 7  # the spike is not differentiated against
+    assert not trace.probe_faulty.any()
     deviation = np.abs(trace.q_m3_s[6000:] - reference.q_m3_s[6000:]).max()
     assert deviation < 1e-3 * QN
     ungated = OilFlowEKF(
@@ -114,14 +117,28 @@ def test_a_spike_is_gated_and_does_not_corrupt_the_estimate(toy, constant_record
     assert np.abs(ungated.q_m3_s[6000:] - reference.q_m3_s[6000:]).max() > 10 * deviation
 
 
-def test_gate_lets_a_persistent_change_through(toy, constant_record):
+def test_a_change_on_every_channel_widens_the_gate_without_flagging_probes(toy, constant_record):
     data = constant_record.displacement_m.copy()
     data[5000:] += 40e-6
-    config = EKFConfig.recommended(gate_max_consecutive_rejections=5)
-    trace = OilFlowEKF(toy, config).run(data)
-    assert not trace.measurement_ok[5000:5005].any()
-    assert trace.measurement_ok[5005]
+    trace = OilFlowEKF(toy, EKFConfig.recommended()).run(data)
+    assert not trace.measurement_ok[5000]
+    assert trace.measurement_ok[5000:5100].any() and trace.measurement_ok[5500:].all()
+    assert not trace.probe_faulty.any()
     assert np.isfinite(trace.q_m3_s).all()
+
+
+def test_a_jump_on_one_probe_flags_that_probe_and_leaves_the_estimate(toy, constant_record):
+    data = constant_record.displacement_m.copy()
+    data[5000:, 1] += 40e-6
+    config = EKFConfig.recommended()
+    trace = OilFlowEKF(toy, config).run(data)
+    reference = OilFlowEKF(toy, config).run(constant_record.displacement_m)
+    flagged = np.flatnonzero(trace.probe_faulty[:, 1])
+    assert flagged.size and flagged[0] == 5000 + round(config.probe_rejected_s / 1e-3) - 1
+    assert trace.probe_faulty[flagged[0] :, 1].all() and not trace.probe_faulty[:, [0, 2, 3]].any()
+    assert (trace.n_measurements[flagged[0] :] == 3).all()
+    std = trace.q_std_m3_s[5000:]
+    assert (np.abs(trace.q_m3_s[5000:] - reference.q_m3_s[5000:]) < 2.0 * std).all()
 
 
 def test_save_and_restore_continue_bit_identically(toy, constant_record):
@@ -212,3 +229,20 @@ def test_estimates_do_not_depend_on_the_models_coordinates(toy, constant_record)
     mixed = OilFlowEKF(_MixedCoordinates(toy), config).run(data)
     np.testing.assert_allclose(mixed.q_m3_s, plain.q_m3_s, rtol=1e-7)
     np.testing.assert_allclose(mixed.nis, plain.nis, rtol=1e-5, atol=1e-8)
+
+
+def test_probes_mounted_at_an_angle_are_read_along_their_axes(toy, constant_record):
+    angle = np.radians(45.0)
+    c, s = np.cos(angle), np.sin(angle)
+    data = constant_record.displacement_m.copy()
+    for x, y in ((0, 1), (2, 3)):
+        data[:, x], data[:, y] = (
+            c * constant_record.displacement_m[:, x] + s * constant_record.displacement_m[:, y],
+            -s * constant_record.displacement_m[:, x] + c * constant_record.displacement_m[:, y],
+        )
+    truth = constant_record.flowrate_m3_s[0]
+    mounted = OilFlowEKF(toy, EKFConfig.recommended(probe_angle_deg=45.0)).run(data)
+    assert np.abs(mounted.q_m3_s[5000:].mean(axis=0) / truth - 1).max() < 0.01
+    assert not mounted.probe_faulty.any()
+    ignored = OilFlowEKF(toy, EKFConfig.recommended()).run(data)
+    assert np.abs(ignored.q_m3_s[5000:].mean(axis=0) / truth - 1).max() > 0.05

@@ -41,6 +41,9 @@ class _AugmentedModelBase:
         self.speed_hz = system.speed_hz
         self.nominal_flowrate_m3_s = system.nominal_flowrate_m3_s
         self._transform_pinv = pinv(system.transform)
+        clearances = [getattr(t, "metadata", {}).get("bearing", {}).get("clearance_m") for t in system.tables]
+        # the probes' physical range (estimator.channels): None when a table does not say
+        self.clearance_m = max(clearances) if all(c is not None for c in clearances) else None
 
     def exogenous(self, step: int) -> np.ndarray:
         """``w_k = [1, cos(Omega t_k), sin(Omega t_k)]`` for ``t_k = k dt``."""
@@ -164,6 +167,7 @@ class GridAugmentedModel(_AugmentedModelBase):
         self._next = np.empty(n)
         self._transition = np.empty((n, n))
         self._flow_jacobian = np.empty((n, 2))
+        self._unbalance_jacobian = np.empty((n, 2))
 
     def transition(
         self, state: np.ndarray, flowrate_m3_s: np.ndarray, step: int
@@ -178,3 +182,35 @@ class GridAugmentedModel(_AugmentedModelBase):
             self._transition,
             self._flow_jacobian,
         )
+
+    def transition_with_unbalance(
+        self, state: np.ndarray, flowrate_m3_s: np.ndarray, step: int, unbalance: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """``(s_next, df/ds, df/dq, df/du)`` for the unbalance ``u = a + i b`` relative to the machine file's.
+
+        The unbalance load ``Re(u F exp(i Omega t))`` enters the exact map as the exogenous input
+        ``[1, a cos - b sin, a sin + b cos]``, so ``s_next`` stays exact. ``df/du`` (n, 2) is
+        ``G_h [cos, sin]`` and ``G_h [-sin, cos]`` with the harmonic input columns ``G_h`` of the nearest grid
+        node (a Jacobian for the covariance only; the arrays are reused on the next call).
+        """
+        w = self.exogenous(step)
+        a, b = float(unbalance[0]), float(unbalance[1])
+        loaded = np.array([1.0, a * w[1] - b * w[2], a * w[2] + b * w[1]])
+        nxt, ad, jq = self.grid.propagate(
+            state,
+            loaded,
+            float(flowrate_m3_s[0]),
+            float(flowrate_m3_s[1]),
+            self._next,
+            self._transition,
+            self._flow_jacobian,
+        )
+        harmonic = self.grid.forcing[self._node(0, flowrate_m3_s[0]), self._node(1, flowrate_m3_s[1]), :, 1:]
+        self._unbalance_jacobian[:, 0] = harmonic @ w[1:]
+        self._unbalance_jacobian[:, 1] = harmonic @ np.array([-w[2], w[1]])
+        return nxt, ad, jq, self._unbalance_jacobian
+
+    def _node(self, axis: int, q: float) -> int:
+        """Index (ghost layer included) of the grid node nearest to q along one flowrate axis."""
+        nodes = self.grid.q1_nodes_m3_s if axis == 0 else self.grid.q2_nodes_m3_s
+        return 1 + min(max(round((float(q) - nodes[0]) / (nodes[1] - nodes[0])), 0), nodes.size - 1)

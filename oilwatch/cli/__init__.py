@@ -29,6 +29,8 @@ SUBCOMMANDS: tuple[str, ...] = (
     "estimate",
     "demo",
     "build_fmus",
+    "robustness",
+    "baseline",
 )
 
 

@@ -1,0 +1,112 @@
+"""``oilwatch baseline``: probe zero offsets from a commissioning record at known, healthy flowrates."""
+
+from __future__ import annotations
+
+import argparse
+import csv
+from pathlib import Path
+
+PROBE_COLUMNS = ("x1_um", "y1_um", "x2_um", "y2_um")
+"""The record's probe columns, in um along each probe's axis (the plant FMU's output names)."""
+
+
+def register(subparsers) -> None:
+    """Add the ``baseline`` subcommand."""
+    parser = subparsers.add_parser(
+        "baseline",
+        help="estimate the probe zero offsets from a record at known flowrates (commissioning)",
+        description=(
+            "Read a record (CSV: time_s and the probe columns x1_um, y1_um, x2_um, y2_um along each probe's "
+            "axis; optional speed_hz and oil_temperature_c are not used yet) taken at known, healthy "
+            "flowrates (default: the machine's nominal), estimate the four probe zero offsets with their "
+            "covariance and write them as JSON: the estimator's prior for later runs."
+        ),
+    )
+    parser.add_argument("--record", required=True, metavar="FILE", help="the commissioning record (CSV)")
+    parser.add_argument("--machine", default=None, metavar="FILE", help="machine file (default: the turbine)")
+    parser.add_argument("--q1-ml-min", type=float, default=None, help="known flowrate of bearing 1 [ml/min]")
+    parser.add_argument("--q2-ml-min", type=float, default=None, help="known flowrate of bearing 2 [ml/min]")
+    parser.add_argument("--noise-um", type=float, default=1.0, help="probe noise std [um] (default: 1)")
+    parser.add_argument(
+        "--offset-prior-um",
+        type=float,
+        default=None,
+        help="prior std of each offset [um] (default: the machine file's [probes] offset_prior_std_um, 25)",
+    )
+    parser.add_argument("--out", required=True, metavar="FILE", help="baseline JSON to write")
+    parser.set_defaults(func=run)
+
+
+def read_record(path: str | Path, dt_s: float):
+    """(times (K,) [s], positions (K, 4) [m]) from a record CSV; rows with a non-finite time are skipped."""
+    import numpy as np
+
+    from models.validation import InputError
+
+    try:
+        with open(path, newline="") as handle:
+            reader = csv.DictReader(handle)
+            missing = [c for c in ("time_s", *PROBE_COLUMNS) if c not in (reader.fieldnames or [])]
+            if missing:
+                raise InputError(f"--record {path}: missing column(s) {', '.join(missing)}")
+            rows = [[row["time_s"], *(row[c] for c in PROBE_COLUMNS)] for row in reader]
+    except FileNotFoundError:
+        raise InputError(f"--record: file not found: {path}") from None
+    try:
+        table = np.array(rows, dtype=float).reshape(-1, 5)
+    except ValueError as error:
+        raise InputError(f"--record {path}: not numeric ({error})") from None
+    table = table[np.isfinite(table[:, 0])]
+    if len(table) < 2:
+        raise InputError(f"--record {path}: needs at least 2 samples with a finite time_s")
+    steps = np.diff(table[:, 0])
+    if not np.allclose(steps, dt_s, rtol=1e-6, atol=1e-9):
+        raise InputError(
+            f"--record {path}: samples must be {dt_s:g} s apart (the estimator's period), got "
+            f"{steps.min():g} to {steps.max():g} s"
+        )
+    return table[:, 0], table[:, 1:] * 1e-6
+
+
+def run(args: argparse.Namespace) -> int:
+    from estimator.baseline import estimate_baseline, save_baseline
+    from estimator.config import ML_MIN, EKFConfig
+    from models.machine import load_machine
+    from models.probes import read_probes
+    from models.system.augmented import GridAugmentedModel
+    from models.system.factory import build_system
+    from models.validation import InputError, require_in_range
+
+    require_in_range("--noise-um", args.noise_um, 0.01, 100.0, "um")
+    machine = load_machine(args.machine)
+    probes = read_probes(machine)
+    prior_um = probes.offset_prior_std_m * 1e6 if args.offset_prior_um is None else args.offset_prior_um
+    require_in_range("--offset-prior-um", prior_um, 0.01, 1000.0, "um")
+    nominal = machine.lubrication.nominal_flowrate_m3_s
+    flows = [nominal if v is None else v * ML_MIN for v in (args.q1_ml_min, args.q2_ml_min)]
+    model = GridAugmentedModel(build_system(machine, reduced=True))
+    low, high = model.flowrate_bounds_m3_s
+    for name, value in zip(("--q1-ml-min", "--q2-ml-min"), flows, strict=True):
+        require_in_range(name, value / ML_MIN, low / ML_MIN, high / ML_MIN, "ml/min")
+    times, positions = read_record(args.record, model.dt_s)
+    first = round(times[0] / model.dt_s) * model.dt_s
+    if abs(first - times[0]) > 1e-6 * model.dt_s:
+        raise InputError(f"--record: time_s must lie on multiples of {model.dt_s:g} s, got {times[0]:g}")
+    config = EKFConfig.recommended(
+        speed_hz=machine.nominal_speed_hz,
+        noise_std_m=args.noise_um * 1e-6,
+        first_sample_time_s=first,
+        probe_angle_deg=probes.angle_deg,
+        offset_prior_std_m=prior_um * 1e-6,
+        offset_random_walk_m_sqrt_s=probes.offset_random_walk_m_sqrt_s,
+        q_nominal_m3_s=nominal,
+    )
+    document = estimate_baseline(model, positions, flows, config)
+    document.update(record=str(args.record), machine_file=args.machine)
+    save_baseline(document, args.out)
+    offsets = ", ".join(
+        f"{c} {o:+.2f} +- {s:.2f}"
+        for c, o, s in zip(PROBE_COLUMNS, document["offsets_um"], document["offset_std_um"], strict=True)
+    )
+    print(f"baseline: offsets [um] {offsets}; written to {args.out}")
+    return 0

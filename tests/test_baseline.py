@@ -1,0 +1,59 @@
+"""``oilwatch baseline``: probe offsets from a record at known flowrates, and their use as the prior."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from estimator.baseline import load_baseline
+from estimator.config import EKFConfig
+from estimator.ekf import OilFlowEKF
+from estimator.toy_model import NOMINAL_FLOWRATE_M3_S
+from models.system.augmented import GridAugmentedModel
+from models.system.factory import load_system
+from models.system.plant import RotorBearingPlant
+from models.validation import InputError
+from oilwatch.cli import main
+
+QN = NOMINAL_FLOWRATE_M3_S
+DT = 1e-3
+OFFSETS = np.array([-12e-6, 20e-6, 7e-6, -18e-6])
+
+
+@pytest.fixture(scope="module")
+def record(tmp_path_factory):
+    plant = RotorBearingPlant(load_system(reduced=False), DT, None, 1e-6, 21, initial_flowrates_m3_s=(QN, QN))
+    data = np.array([plant.step((QN, QN)).measured_position_m for _ in range(3000)]) + OFFSETS
+    path = tmp_path_factory.mktemp("baseline") / "commissioning.csv"
+    times = DT * np.arange(1, len(data) + 1)
+    table = np.column_stack([times, data * 1e6, np.full(len(data), 75.0)])
+    header = "time_s,x1_um,y1_um,x2_um,y2_um,speed_hz"
+    np.savetxt(path, table, delimiter=",", header=header, comments="", fmt="%.9g")
+    return path, data
+
+
+def test_the_baseline_recovers_the_offsets_and_primes_the_estimator(record, tmp_path, capsys):
+    path, data = record
+    out = tmp_path / "baseline.json"
+    assert main(["baseline", "--record", str(path), "--out", str(out)]) == 0
+    assert "offsets [um]" in capsys.readouterr().out
+    baseline = load_baseline(out)
+    offsets, std = np.array(baseline.offsets_m), np.array(baseline.std_m)
+    assert (np.abs(offsets - OFFSETS) < np.maximum(3.0 * std, 0.3e-6)).all() and (std < 1e-6).all()
+    # primed with the baseline, the estimator reads the flowrate, not the offsets (20 um would read +100 %)
+    model = GridAugmentedModel(load_system(reduced=True), DT)
+    primed = OilFlowEKF(model, EKFConfig.recommended(first_sample_time_s=DT, offset_baseline=baseline))
+    trace = primed.run(data)
+    assert np.abs(trace.q_m3_s[2000:].mean(axis=0) / QN - 1).max() < 0.02
+
+
+def test_bad_records_are_named(tmp_path, capsys):
+    bad = tmp_path / "bad.csv"
+    bad.write_text("time_s,x1_um,y1_um\n0.001,1,2\n")
+    assert main(["baseline", "--record", str(bad), "--out", str(tmp_path / "b.json")]) == 2
+    assert "missing column(s) x2_um, y2_um" in capsys.readouterr().err
+    assert main(["baseline", "--record", str(tmp_path / "none.csv"), "--out", str(tmp_path / "b.json")]) == 2
+    assert "file not found" in capsys.readouterr().err
+    with pytest.raises(InputError, match="not an oilwatch commissioning baseline"):
+        bad.write_text("{}")
+        load_baseline(bad)
