@@ -21,6 +21,7 @@ import numpy as np
 from ..machine import Machine
 from ..rotor.assembly import Rotor
 from ..validation import InputError, require_non_negative, require_positive
+from .measurement import film_state
 from .nonlinear_studies import orbit_setup
 from .plant import PlantSample
 
@@ -61,6 +62,7 @@ class TransientFilmPlant:
         if abs(q0[0] - q0[1]) > 1e-9 * q0[0]:
             raise InputError("the transient-film plant starts from equal flowrates in both bearings")
         self.sim, _, start, _ = orbit_setup(machine, mesh, q0[0], dt_s=self.dt_s / self.substeps)
+        self._clearance_m = np.full(2, machine.bearing.clearance_m)  # two identical bearings
         start.time_s = start_time_s
         self.state = start
         self.rng = np.random.default_rng(seed)
@@ -90,7 +92,8 @@ class TransientFilmPlant:
         """The sample at the current time (a fresh noise draw)."""
         true = self.sim.selector @ self.state.r
         measured = true + self.noise_std_m * self.rng.standard_normal(true.size)
-        return PlantSample(true, measured, self._current.copy())
+        ratio, thickness = film_state(true, self._clearance_m)
+        return PlantSample(true, measured, self._current.copy(), ratio, thickness)
 
     def set_period(self, dt_s: float) -> None:
         """The period is fixed at instantiation (the films' step is part of their state)."""
