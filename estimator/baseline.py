@@ -8,7 +8,10 @@ their stds become the prior of later runs (:class:`estimator.config.OffsetBaseli
 commissioning is then tracked by the offsets' random walk.
 
 File format (JSON, units in the keys): ``format``, ``format_version``, ``flowrates_ml_min`` (2,),
-``offsets_um`` (4,), ``offset_std_um`` (4,), ``offset_covariance_um2`` (4, 4), ``samples``, ``record``.
+``offsets_um`` (4,), ``offset_std_um`` (4,), ``offset_covariance_um2`` (4, 4), ``samples``, ``record``;
+and/or ``runout``: the probes' slow-roll vectors with their stds (:meth:`SlowRollVectors.to_document`, from a
+slow-roll record, :func:`estimator.runout.fit_slow_roll`), which the estimator subtracts
+(``EKFConfig.runout``, :func:`load_runout`).
 """
 
 from __future__ import annotations
@@ -24,6 +27,7 @@ from models.validation import InputError
 from .config import ML_MIN, EKFConfig, OffsetBaseline
 from .ekf import OilFlowEKF
 from .model import AugmentedModel
+from .runout import SlowRollVectors
 
 FORMAT = "oilwatch commissioning baseline"
 FORMAT_VERSION = 1
@@ -73,8 +77,7 @@ def save_baseline(document: dict, path: str | Path) -> None:
     Path(path).write_text(json.dumps(document, indent=1) + "\n")
 
 
-def load_baseline(path: str | Path) -> OffsetBaseline:
-    """Read a baseline file into the estimator's prior (one-line InputError on a bad file)."""
+def _read_document(path: str | Path) -> dict:
     try:
         data = json.loads(Path(path).read_text())
     except FileNotFoundError:
@@ -83,9 +86,27 @@ def load_baseline(path: str | Path) -> OffsetBaseline:
         raise InputError(f"baseline file {path} is not valid JSON: {error}") from None
     if not isinstance(data, dict) or data.get("format") != FORMAT:
         raise InputError(f"{path} is not an {FORMAT} file")
+    return data
+
+
+def load_baseline(path: str | Path) -> OffsetBaseline:
+    """Read a baseline file into the estimator's prior (one-line InputError on a bad file)."""
+    data = _read_document(path)
+    if "offsets_um" not in data:
+        raise InputError(f"baseline file {path} holds no offsets (made from a slow-roll record only)")
     try:
         offsets = tuple(float(v) * 1e-6 for v in data["offsets_um"])
         std = tuple(float(v) * 1e-6 for v in data["offset_std_um"])
     except (KeyError, TypeError, ValueError) as error:
         raise InputError(f"baseline file {path}: bad or missing offsets ({error})") from None
     return OffsetBaseline(offsets, std)
+
+
+def load_runout(path: str | Path) -> SlowRollVectors | None:
+    """The slow-roll vectors of a baseline file (None when it has none; one-line InputError on a bad file)."""
+    data = _read_document(path)
+    if "runout" not in data:
+        return None
+    if not isinstance(data["runout"], dict):
+        raise InputError(f"baseline file {path}: runout must be a table")
+    return SlowRollVectors.from_document(data["runout"], f"baseline file {path}")

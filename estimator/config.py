@@ -23,6 +23,8 @@ from models.validation import (
     require_positive,
 )
 
+from .runout import SlowRollVectors
+
 ML_MIN = 1.0e-6 / 60.0
 """One millilitre per minute in m^3/s."""
 
@@ -152,6 +154,9 @@ class EKFConfig:
             shows as a 1x innovation the windowed NIS test catches).
         offset_baseline : an :class:`OffsetBaseline` from a commissioning record: the offsets' initial
             estimate and prior std (it adds the offset states even when offset_prior_std_m is 0).
+        runout : the probes' slow-roll (runout) vectors, :class:`estimator.runout.SlowRollVectors` (from
+            ``oilwatch baseline --slow-roll-record``): subtracted from each sample at its rotor angle, their
+            fit's uncertainty added to the measurement noise (None: no compensation).
     Innovation gate and probe health (see :mod:`estimator.channels`)
         gate_tail_probability : a channel whose squared standardized innovation exceeds the chi-square(1)
             quantile ``1 - p`` times its recent innovation power is rejected (0 disables the gate).
@@ -191,6 +196,7 @@ class EKFConfig:
     offset_prior_std_m: float = 0.0
     offset_random_walk_m_sqrt_s: float = 0.2e-6
     offset_baseline: OffsetBaseline | None = None
+    runout: SlowRollVectors | None = None
     unbalance_prior_std: float = 0.0
     unbalance_random_walk_sqrt_s: float = 0.02
     unbalance_inconsistent_std: float = 0.01
@@ -274,6 +280,8 @@ class EKFConfig:
         require_in_range(
             "EKFConfig.consistency_tail_probability", self.consistency_tail_probability, 1e-15, 0.5
         )
+        if self.runout is not None and not isinstance(self.runout, SlowRollVectors):
+            raise InputError(f"EKFConfig.runout must be SlowRollVectors, got {type(self.runout)!r}")
         if self.offset_baseline is not None and not isinstance(self.offset_baseline, OffsetBaseline):
             raise InputError(
                 f"EKFConfig.offset_baseline must be an OffsetBaseline, got {type(self.offset_baseline)!r}"

@@ -57,6 +57,7 @@ from .config import EKFConfig
 from .kernels import UPDATE_ACCEPTED, filter_step
 from .measurement import displacement_channels, velocity_channels
 from .model import AugmentedModel, has_static_state
+from .runout import RunoutCompensation
 from .state import export_state, import_state
 
 
@@ -159,6 +160,10 @@ class OilFlowEKF:
         angle = math.radians(cfg.probe_angle_deg)
         pad = np.zeros((4, self._n_unbalance))
         obs4, self._noise4 = displacement_channels(model, cfg.noise_std_m, angle, self._n_offsets)
+        # slow-roll runout compensation (estimator/runout.py): its residual uncertainty adds to R
+        omega = 2 * math.pi * model.speed_hz
+        self._runout = RunoutCompensation(cfg.runout, omega, self._dt, cfg.first_sample_time_s)
+        self._noise4 = self._noise4 + self._runout.residual_covariance_m2()
         self._obs4 = np.hstack([obs4, pad])
         channels8 = velocity_channels(model, cfg.noise_std_m, cfg.velocity_noise, angle, self._n_offsets)
         if channels8 is not None:
@@ -374,6 +379,7 @@ class OilFlowEKF:
         displacement = np.ascontiguousarray(displacement_m, dtype=np.float64)
         if displacement.shape != (4,):
             raise InputError(f"displacement_m must have shape (4,), got {displacement.shape}")
+        displacement = self._runout.compensate(displacement, self._step)
         n = self._n
         predict = self._step > 0
         unbalance_jac = self._no_unbalance

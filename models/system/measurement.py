@@ -57,7 +57,7 @@ class ProbeErrors:
     )
     fault: str = field(default="none", metadata=_meta("", 0, 3, "fault: none, dead (NaN), stuck, glitch"))
     fault_time_s: float = field(default=math.inf, metadata=_meta("s", 0.0, math.inf, "time the fault starts"))
-    glitch_m: float = field(default=0.0, metadata=_meta("m", -1e-3, 1e-3, "size of a glitch fault"))
+    glitch_m: float = field(default=0.0, metadata=_meta("m", -1.0, 1.0, "size of a glitch fault"))
     glitch_duration_s: float = field(
         default=0.0, metadata=_meta("s", 0.0, math.inf, "length of a glitch fault")
     )

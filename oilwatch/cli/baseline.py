@@ -1,4 +1,5 @@
-"""``oilwatch baseline``: probe zero offsets from a commissioning record at known, healthy flowrates."""
+"""``oilwatch baseline``: probe zero offsets from a commissioning record at known, healthy flowrates, and the
+probes' runout (slow-roll vectors) from a slow-roll record."""
 
 from __future__ import annotations
 
@@ -19,10 +20,20 @@ def register(subparsers) -> None:
             "Read a record (CSV: time_s and the probe columns x1_um, y1_um, x2_um, y2_um along each probe's "
             "axis; optional speed_hz and oil_temperature_c are not used yet) taken at known, healthy "
             "flowrates (default: the machine's nominal), estimate the four probe zero offsets with their "
-            "covariance and write them as JSON: the estimator's prior for later runs."
+            "covariance and write them as JSON: the estimator's prior for later runs. With "
+            "--slow-roll-record, also fit each probe's 1x and 2x slow-roll (runout) vectors to a record "
+            "taken at slow roll, store them with their stds and subtract them from the commissioning "
+            "record (and, in later runs, from every sample: API 670 slow-roll compensation)."
         ),
     )
-    parser.add_argument("--record", required=True, metavar="FILE", help="the commissioning record (CSV)")
+    parser.add_argument("--record", default=None, metavar="FILE", help="the commissioning record (CSV)")
+    parser.add_argument(
+        "--slow-roll-record",
+        default=None,
+        metavar="FILE",
+        help="a record at slow roll (CSV: time_s, the probe columns in um and rotor_angle_deg from the "
+        "keyphasor, or speed_hz with time_s = 0 at a keyphasor pulse): the probes' runout vectors",
+    )
     parser.add_argument("--machine", default=None, metavar="FILE", help="machine file (default: the turbine)")
     parser.add_argument("--q1-ml-min", type=float, default=None, help="known flowrate of bearing 1 [ml/min]")
     parser.add_argument("--q2-ml-min", type=float, default=None, help="known flowrate of bearing 2 [ml/min]")
@@ -68,9 +79,48 @@ def read_record(path: str | Path, dt_s: float):
     return table[:, 0], table[:, 1:] * 1e-6
 
 
+def read_slow_roll_record(path: str | Path):
+    """(times (K,) [s], signals (K, 4) [m], rotor angle (K,) [rad]) of a slow-roll record: the rotor angle
+    from its ``rotor_angle_deg`` column, or the integral of ``speed_hz`` from time_s = 0 (a keyphasor
+    pulse)."""
+    import numpy as np
+
+    from models.validation import InputError
+
+    try:
+        with open(path, newline="") as handle:
+            reader = csv.DictReader(handle)
+            names = reader.fieldnames or []
+            angle = next((c for c in ("rotor_angle_deg", "speed_hz") if c in names), None)
+            missing = [c for c in ("time_s", *PROBE_COLUMNS) if c not in names]
+            if missing or angle is None:
+                need = ", ".join(missing + ([] if angle else ["rotor_angle_deg or speed_hz"]))
+                raise InputError(f"--slow-roll-record {path}: missing column(s) {need}")
+            rows = [[row["time_s"], *(row[c] for c in PROBE_COLUMNS), row[angle]] for row in reader]
+    except FileNotFoundError:
+        raise InputError(f"--slow-roll-record: file not found: {path}") from None
+    try:
+        table = np.array(rows, dtype=float).reshape(-1, 6)
+    except ValueError as error:
+        raise InputError(f"--slow-roll-record {path}: not numeric ({error})") from None
+    table = table[np.isfinite(table[:, 0]) & np.isfinite(table[:, 5])]
+    if len(table) < 2 or np.any(np.diff(table[:, 0]) <= 0.0):
+        raise InputError(f"--slow-roll-record {path}: needs increasing time_s over at least 2 samples")
+    times = table[:, 0]
+    if angle == "rotor_angle_deg":
+        theta = np.unwrap(np.radians(table[:, 5]))
+    else:
+        speed = table[:, 5]
+        steps = 0.5 * (speed[1:] + speed[:-1]) * np.diff(times)
+        theta = 2.0 * np.pi * (speed[0] * times[0] + np.concatenate([[0.0], np.cumsum(steps)]))
+    return times, table[:, 1:5] * 1e-6, theta
+
+
 def run(args: argparse.Namespace) -> int:
-    from estimator.baseline import estimate_baseline, save_baseline
+
+    from estimator.baseline import FORMAT, FORMAT_VERSION, estimate_baseline, save_baseline
     from estimator.config import ML_MIN, EKFConfig
+    from estimator.runout import fit_slow_roll
     from models.machine import load_machine
     from models.probes import read_probes
     from models.system.augmented import GridAugmentedModel
@@ -78,6 +128,30 @@ def run(args: argparse.Namespace) -> int:
     from models.validation import InputError, require_in_range
 
     require_in_range("--noise-um", args.noise_um, 0.01, 100.0, "um")
+    if args.record is None and args.slow_roll_record is None:
+        raise InputError("oilwatch baseline needs --record FILE, --slow-roll-record FILE or both")
+    runout = None
+    if args.slow_roll_record is not None:
+        runout = fit_slow_roll(*read_slow_roll_record(args.slow_roll_record))
+        doc = runout.to_document()
+        described = "; ".join(
+            f"{c[:2]} 1x {a:.3f} um at {p:.1f} deg (std {s:.3f}), 2x {b:.3f} um at {q:.1f} deg"
+            for c, a, p, s, b, q in zip(
+                PROBE_COLUMNS,
+                *(
+                    doc[f"runout_{k}"]
+                    for k in ("1x_um", "1x_phase_deg", "1x_std_um", "2x_um", "2x_phase_deg")
+                ),
+                strict=True,
+            )
+        )
+        print(f"baseline: slow-roll vectors {described}")
+    if args.record is None:
+        document = {"format": FORMAT, "format_version": FORMAT_VERSION, "runout": runout.to_document()}
+        document.update(slow_roll_record=str(args.slow_roll_record), machine_file=args.machine)
+        save_baseline(document, args.out)
+        print(f"baseline: runout only; written to {args.out}")
+        return 0
     machine = load_machine(args.machine)
     probes = read_probes(machine)
     prior_um = probes.offset_prior_std_m * 1e6 if args.offset_prior_um is None else args.offset_prior_um
@@ -100,9 +174,12 @@ def run(args: argparse.Namespace) -> int:
         offset_prior_std_m=prior_um * 1e-6,
         offset_random_walk_m_sqrt_s=probes.offset_random_walk_m_sqrt_s,
         q_nominal_m3_s=nominal,
+        runout=runout,
     )
     document = estimate_baseline(model, positions, flows, config)
     document.update(record=str(args.record), machine_file=args.machine)
+    if runout is not None:
+        document.update(runout=runout.to_document(), slow_roll_record=str(args.slow_roll_record))
     save_baseline(document, args.out)
     offsets = ", ".join(
         f"{c} {o:+.2f} +- {s:.2f}"

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
 
@@ -13,10 +14,11 @@ def register(subparsers) -> None:
         "robustness",
         help="run the plant with each machine-vs-model discrepancy against the estimator",
         description=(
-            "For each discrepancy (probe offsets, unbalance size and phase, runout, probe mounting angle, "
-            "probe faults) and truth point (100/100 and 80/90 % of nominal), simulate the plant, apply the "
-            "discrepancy, run the estimator and print the errors beside the filter's own stds, false alarms, "
-            "detections, flagged probes and the error over the nuisance Cramer-Rao bound. Writes "
+            "For each discrepancy (probe offsets, unbalance size and phase, viscosity, speed and temperature "
+            "ramps, runout, sensitivity, probe mounting angle, probe faults) and truth point (100/100 and "
+            "80/90 % of nominal), simulate the plant with it (its measurement chain, unbalance, film and "
+            "operating point), run the estimator and print the errors beside the filter's own stds, false "
+            "alarms, detections, flagged probes and the error over the nuisance Cramer-Rao bound. Writes "
             "DIR/robustness.json (row by row) and DIR/robustness.md."
         ),
     )
@@ -42,6 +44,13 @@ def register(subparsers) -> None:
         "--cases", nargs="+", default=None, metavar="NAME", help="cases to run (default: all)"
     )
     parser.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        metavar="N",
+        help="worker processes, one case at a time each (default: one per core)",
+    )
+    parser.add_argument(
         "--out", default="robustness", metavar="DIR", help="output folder (default: robustness)"
     )
     parser.set_defaults(func=run)
@@ -60,6 +69,8 @@ def run(args: argparse.Namespace) -> int:
         args.offset_prior_um = read_probes(load_machine(args.machine)).offset_prior_std_m * 1e6
     require_in_range("--offset-prior-um", args.offset_prior_um, 0.0, 1000.0, "um")
     require_in_range("--unbalance-prior", args.unbalance_prior, 0.0, 100.0)
+    workers = (os.cpu_count() or 1) if args.workers is None else args.workers
+    require_in_range("--workers", workers, 1, 256)
     cases = CASES if args.cases is None else [case_by_name(name) for name in args.cases]
     out = Path(args.out)
     try:
@@ -75,6 +86,7 @@ def run(args: argparse.Namespace) -> int:
         offset_prior_um=args.offset_prior_um,
         unbalance_prior=args.unbalance_prior,
         out_dir=out,
+        workers=workers,
         progress=lambda text: print(f"robustness: {text}", file=sys.stderr, flush=True),
     )
     table = "\n".join(format_table(rows))

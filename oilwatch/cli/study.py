@@ -68,7 +68,8 @@ def register(subparsers) -> None:
         default="cosim",
         metavar="NAME",
         help="case model: cosim (plant + EKF FMUs through the master), direct (the same models "
-        "in-process, no FMI) or synthetic (machinery test) (default: cosim)",
+        "in-process, no FMI), direct-nuisances (direct with the probe offsets and the unbalance unknown "
+        "estimator states) or synthetic (machinery test) (default: cosim)",
     )
     parser.add_argument(
         "--fmu-dir",

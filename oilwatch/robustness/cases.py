@@ -1,54 +1,84 @@
 """The discrepancies between a real machine and the estimator's model that ``oilwatch robustness`` plays.
 
-Each case changes the plant (its unbalance) or the probe signals (offsets, runout, mounting angle, faults)
-and never the estimator's model; the estimator gets only what a user would configure (the probes' mounting
-angle, the offsets' prior std). Signal discrepancies are injected into the plant's measured positions here,
-in-process, until the plant FMU carries its own measurement chain.
-
-The probes read along their own axes: with a mounting angle a, probe X reads ``cos a x + sin a y`` and probe
-Y ``-sin a x + cos a y`` (:func:`estimator.measurement.probe_rotation`).
+Each case changes the PLANT: its unbalance, its film viscosity, its speed and oil temperature, and its
+measurement chain (issue 13's :mod:`models.system.measurement`: probe zero offsets, sensitivity errors,
+1x/2x runout, faults, the probes' mounting angle). The estimator's model never changes; the estimator gets
+only what a user would configure: the probes' mounting angle, the nuisances' priors, a commissioning baseline
+(:mod:`estimator.baseline`, from another plant record at 100/100 % with the same probes) and the slow-roll
+runout vectors (:mod:`oilwatch.robustness.slow_roll`: the same measurement chain at slow roll).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from estimator.measurement import probe_rotation
+from models.system.measurement import ProbeErrors
 
 OFFSET_RANGE_M = 25e-6
 """Probe zero offsets are drawn uniformly from +-25 um (ordinary: the bearing centre is known only from the
 cold-rest position and a clearance with a tolerance)."""
 
+DRIFT_M = 3e-6
+"""Offset drift after the baseline: each probe's offset moves by 3 um (random sign) before the run."""
+
+RUNOUT_M = (2e-6, 1e-6)
+"""Runout amplitudes at 1x and 2x on every probe (phases drawn per probe)."""
+
 FAULT_CHANNEL = 1
 """Probe faults are put on y1, the channel that carries most of bearing 1's information."""
 
-Injection = Callable[[np.ndarray, np.ndarray, np.random.Generator, float], np.ndarray]
-"""``(measured (K, 4) [m], times (K,) [s], rng, omega [rad/s]) -> signals (K, 4)``."""
+SENSITIVITY_ERROR = 0.05
+"""The sensitivity case: every probe's scale factor 5 % off (random sign): API 670 allows +-5 % on the
+incremental scale factor of a probe, cable and driver set."""
 
 
 @dataclass(frozen=True)
 class Case:
-    """One discrepancy. ``unbalance``: (moment factor, phase shift [deg]) of the plant's unbalance;
-    ``inject``: what the measurement chain does to the positions; ``ekf``: estimator settings a user would
-    give (EKFConfig fields); ``probe_fault``: the faulty channel the estimator must flag, if any;
-    ``unbalance_change``: (moment factor, phase shift [deg]) the unbalance switches to at half the record;
-    ``offsets``: the run's probe offsets (:func:`probe_offsets`) are on the probes, drifting by ``drift_m``
-    over the record; ``baseline``: the estimator is primed with ``oilwatch baseline`` on another record at
-    100/100 % with the same offsets (before the drift)."""
+    """One discrepancy (fields in the field's words; the module docstring says what each changes).
+
+    offsets / drift : the run's probe zero offsets (:func:`probe_errors`), moved by DRIFT_M after the
+        baseline; baseline : the estimator is primed with ``oilwatch baseline`` on another record at 100/100 %
+        with the same probes (before the drift); runout : RUNOUT_M on every probe; compensate_runout : the
+        slow-roll vectors are subtracted; sensitivity : SENSITIVITY_ERROR on every probe; fault : the y1
+        probe's fault (dead, stuck, glitch, huge); mounting_angle_deg : their angle (told to the estimator);
+        unbalance : (moment factor, phase shift [deg]); unbalance_change : the same at half the record;
+        viscosity_factor : the film's viscosity over the oil law's; temperature_rise_c : a measured oil
+        temperature ramp over the record; speed_ramp_hz : a measured speed ramp (start, end) over the
+        record; ekf : EKFConfig fields a user would set; operating_point : the case needs the estimator to
+        follow speed / temperature / viscosity (issue 13 / 14 estimator side).
+    """
 
     name: str
     description: str
-    unbalance: tuple[float, float] = (1.0, 0.0)
-    inject: Injection | None = None
-    ekf: dict = field(default_factory=dict)
-    probe_fault: int | None = None
-    unbalance_change: tuple[float, float] | None = None
     offsets: bool = False
-    drift_m: float = 0.0
+    drift: bool = False
     baseline: bool = False
+    runout: bool = False
+    compensate_runout: bool = False
+    sensitivity: bool = False
+    fault: str | None = None
+    mounting_angle_deg: float = 0.0
+    unbalance: tuple[float, float] = (1.0, 0.0)
+    unbalance_change: tuple[float, float] | None = None
+    viscosity_factor: float = 1.0
+    temperature_rise_c: float = 0.0
+    speed_ramp_hz: tuple[float, float] | None = None
+    ekf: dict = field(default_factory=dict)
+    operating_point: bool = False
+    all_at_once: bool = False
+
+    @property
+    def probe_fault(self) -> int | None:
+        """The faulty channel the estimator must flag, if any."""
+        return FAULT_CHANNEL if self.fault is not None else None
+
+    @property
+    def tolerance_pct(self) -> float:
+        """The issue's error criterion: 3 % for all at once, else 2 %."""
+        return 3.0 if self.all_at_once else 2.0
 
 
 def probe_offsets(seed: int) -> np.ndarray:
@@ -56,42 +86,46 @@ def probe_offsets(seed: int) -> np.ndarray:
     return np.random.default_rng([seed, 25]).uniform(-OFFSET_RANGE_M, OFFSET_RANGE_M, 4)
 
 
-def apply_offsets(data: np.ndarray, times: np.ndarray, seed: int, drift_m: float = 0.0) -> np.ndarray:
-    """The run's probe offsets, plus a drift growing linearly to ``drift_m`` (a random sign per probe)."""
-    signs = np.where(np.random.default_rng([seed, 3]).uniform(size=4) < 0.5, -1.0, 1.0)
-    return data + probe_offsets(seed)[None, :] + drift_m * signs[None, :] * (times / times[-1])[:, None]
+def probe_errors(case: Case, seed: int, duration_s: float, after_baseline: bool) -> tuple[ProbeErrors, ...]:
+    """The four probes' errors of a case: the run's (``after_baseline``) or the baseline record's."""
+    rng = np.random.default_rng([seed, 7])
+    signs = np.where(rng.uniform(size=4) < 0.5, -1.0, 1.0)
+    runout_phases = rng.uniform(-math.pi, math.pi, (2, 4))
+    sensitivity_signs = np.where(rng.uniform(size=4) < 0.5, -1.0, 1.0)
+    offsets = probe_offsets(seed) if case.offsets else np.zeros(4)
+    if case.drift and after_baseline:
+        offsets = offsets + DRIFT_M * signs
+    probes = []
+    for k in range(4):
+        values = {"zero_offset_m": float(offsets[k])}
+        if case.runout:
+            values.update(
+                runout_1x_m=RUNOUT_M[0],
+                runout_1x_phase_rad=float(runout_phases[0, k]),
+                runout_2x_m=RUNOUT_M[1],
+                runout_2x_phase_rad=float(runout_phases[1, k]),
+            )
+        if case.sensitivity:
+            values["sensitivity_error"] = SENSITIVITY_ERROR * float(sensitivity_signs[k])
+        if after_baseline and case.fault is not None and k == FAULT_CHANNEL:
+            values.update(_fault(case.fault, duration_s))
+        probes.append(ProbeErrors(**values))
+    return tuple(probes)
 
 
-def _runout(data, times, rng, omega):
-    phases = rng.uniform(0.0, 2.0 * np.pi, (2, 4))
-    once = 2e-6 * np.cos(omega * times[:, None] + phases[0][None, :])
-    twice = 1e-6 * np.cos(2.0 * omega * times[:, None] + phases[1][None, :])
-    return data + once + twice
+def _fault(kind: str, duration_s: float) -> dict:
+    if kind in ("dead", "stuck"):
+        return {"fault": kind, "fault_time_s": duration_s / 6.0}  # 10 s of 60 s
+    size, length = (500e-6, 0.1) if kind == "glitch" else (1.0, 0.5)  # "huge": 1e6 um
+    return {
+        "fault": "glitch",
+        "fault_time_s": duration_s / 3.0,
+        "glitch_m": size,
+        "glitch_duration_s": length,
+    }
 
 
-def _api670(data, times, rng, omega):
-    return data @ probe_rotation(np.radians(45.0)).T
-
-
-def _fault(kind: str) -> Injection:
-    def inject(data, times, rng, omega):
-        out = data.copy()
-        duration = times[-1]
-        later = times >= duration / 6.0  # 10 s of 60 s
-        burst = (times >= duration / 3.0) & (times < duration / 3.0 + (0.1 if kind == "glitch" else 0.5))
-        channel = out[:, FAULT_CHANNEL]
-        if kind == "dead":
-            channel[later] = np.nan
-        elif kind == "stuck":
-            channel[later] = channel[np.flatnonzero(later)[0] - 1]
-        elif kind == "glitch":
-            channel[burst] += 500e-6
-        else:
-            channel[burst] = 1.0
-        return out
-
-    return inject
-
+_GROUPS = dict(offsets=True, baseline=True, unbalance=(3.0, 90.0), viscosity_factor=1.1, runout=True)
 
 CASES: tuple[Case, ...] = (
     Case("none", "plant and probes as the model"),
@@ -104,9 +138,9 @@ CASES: tuple[Case, ...] = (
     ),
     Case(
         "offsets-drift",
-        "the same offsets, baseline, then 3 um of drift over the record",
+        "the same offsets, baseline, then each offset moved by 3 um",
         offsets=True,
-        drift_m=3e-6,
+        drift=True,
         baseline=True,
     ),
     Case("unbalance-x0.5", "unbalance moment x0.5", unbalance=(0.5, 0.0)),
@@ -115,22 +149,55 @@ CASES: tuple[Case, ...] = (
     Case("phase-180", "unbalance phase +180 deg", unbalance=(1.0, 180.0)),
     Case("phase-270", "unbalance phase +270 deg", unbalance=(1.0, 270.0)),
     Case("unbalance-change", "unbalance x2 and +120 deg at half the record", unbalance_change=(2.0, 120.0)),
-    Case("runout", "runout 2 um at 1x and 1 um at 2x on every probe", inject=_runout),
     Case(
-        "api670",
-        "probes at 45 deg either side of the top (API 670), angle given",
-        inject=_api670,
-        ekf={"probe_angle_deg": 45.0},
+        "viscosity-0.9",
+        "film viscosity x0.9, baseline",
+        viscosity_factor=0.9,
+        baseline=True,
+        operating_point=True,
     ),
-    Case("dead", "probe y1 dead (NaN) from 1/6 of the record", inject=_fault("dead"), probe_fault=1),
-    Case("stuck", "probe y1 stuck from 1/6 of the record", inject=_fault("stuck"), probe_fault=1),
-    Case("glitch", "probe y1 +500 um for 0.1 s at 1/3 of the record", inject=_fault("glitch"), probe_fault=1),
     Case(
-        "huge", "probe y1 reads 1e6 um for 0.5 s at 1/3 of the record", inject=_fault("huge"), probe_fault=1
+        "viscosity-1.1",
+        "film viscosity x1.1, baseline",
+        viscosity_factor=1.1,
+        baseline=True,
+        operating_point=True,
+    ),
+    Case(
+        "temperature-ramp",
+        "oil temperature +10 degC over the record, measured",
+        temperature_rise_c=10.0,
+        operating_point=True,
+    ),
+    Case(
+        "speed-ramp",
+        "speed 72 -> 78 Hz over the record, measured",
+        speed_ramp_hz=(72.0, 78.0),
+        operating_point=True,
+    ),
+    Case(
+        "runout",
+        "runout 2 um at 1x and 1 um at 2x on every probe, slow-roll compensation",
+        runout=True,
+        compensate_runout=True,
+    ),
+    Case("runout-uncompensated", "the same runout, not compensated", runout=True),
+    Case("sensitivity", "every probe's scale factor 5 % off (API 670 tolerance)", sensitivity=True),
+    Case("api670", "probes at 45 deg either side of the top (API 670), angle given", mounting_angle_deg=45.0),
+    Case("dead", "probe y1 dead (NaN) from 1/6 of the record", fault="dead"),
+    Case("stuck", "probe y1 stuck from 1/6 of the record", fault="stuck"),
+    Case("glitch", "probe y1 +500 um for 0.1 s at 1/3 of the record", fault="glitch"),
+    Case("huge", "probe y1 reads 1e6 um for 0.5 s at 1/3 of the record", fault="huge"),
+    Case(
+        "all-at-once",
+        "offsets, baseline, unbalance x3 at +90 deg, viscosity x1.1, runout (compensated), within 3 %",
+        compensate_runout=True,
+        operating_point=True,
+        all_at_once=True,
+        **_GROUPS,
     ),
 )
-"""The issue's list as far as the plant supports it today (no viscosity, temperature, speed or baseline cases
-yet: they need the plant's measurement chain and operating-condition inputs)."""
+"""The issue's done-when list (and two more: runout uncompensated, sensitivity errors)."""
 
 
 def case_by_name(name: str) -> Case:

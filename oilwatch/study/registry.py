@@ -1,7 +1,8 @@
 """The case models a study can run, by name (``oilwatch study --case NAME``).
 
 ``cosim`` (the default: the plant FMU and the EKF FMU through the master), ``direct`` (the same plant model
-and EKF in-process, without FMI; a cross-check of the FMU path) and ``synthetic`` (machinery tests).
+and EKF in-process, without FMI; a cross-check of the FMU path), ``direct-nuisances`` (the same with the
+machine's nuisances unknown estimator states) and ``synthetic`` (machinery tests).
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ import numpy as np
 from models.validation import InputError
 
 from .case_cosim import CosimCase, ModelCrlb
-from .case_direct import run_direct_case
+from .case_direct import run_direct_case, run_direct_case_nuisances_unknown
 from .cases import CaseResult, SyntheticCase
 from .grid import Case
 
@@ -46,6 +47,12 @@ CASE_MODELS: dict[str, CaseModel] = {
         run_direct_case,
         ModelCrlb(),
         "plant model (full, Newmark) and EKF (reduced grid model) in-process, without FMI",
+    ),
+    "direct-nuisances": CaseModel(
+        run_direct_case_nuisances_unknown,
+        ModelCrlb(),
+        "as direct, with the probe offsets and the complex unbalance unknown estimator states (the "
+        "machine file's [probes] prior; the plant has none): the price of not knowing them",
     ),
     "synthetic": CaseModel(
         _SYNTHETIC,
