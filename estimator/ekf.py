@@ -161,8 +161,7 @@ class OilFlowEKF:
         pad = np.zeros((4, self._n_unbalance))
         obs4, self._noise4 = displacement_channels(model, cfg.noise_std_m, angle, self._n_offsets)
         # slow-roll runout compensation (estimator/runout.py): its residual uncertainty adds to R
-        omega = 2 * math.pi * model.speed_hz
-        self._runout = RunoutCompensation(cfg.runout, omega, self._dt, cfg.first_sample_time_s)
+        self._runout = RunoutCompensation.for_model(cfg.runout, model, cfg.first_sample_time_s)
         self._noise4 = self._noise4 + self._runout.residual_covariance_m2()
         self._obs4 = np.hstack([obs4, pad])
         channels8 = velocity_channels(model, cfg.noise_std_m, cfg.velocity_noise, angle, self._n_offsets)

@@ -167,6 +167,18 @@ class RunoutCompensation:
         self._dt = float(dt_s)
         self._t0 = float(first_sample_time_s)
 
+    @classmethod
+    def for_model(
+        cls, vectors: SlowRollVectors | None, model, first_sample_time_s: float
+    ) -> RunoutCompensation:
+        """The compensation at the model's speed (``model.speed_hz``) and period (``model.dt_s``)."""
+        if vectors is None:
+            return cls(None, 0.0, model.dt_s, first_sample_time_s)
+        speed = getattr(model, "speed_hz", None)
+        if speed is None:
+            raise InputError("EKFConfig.runout needs a model with speed_hz (the rotor angle of each sample)")
+        return cls(vectors, 2.0 * math.pi * speed, model.dt_s, first_sample_time_s)
+
     def residual_covariance_m2(self) -> np.ndarray:
         """(4, 4) extra measurement-noise covariance [m^2] of the displacement channels (zeros without)."""
         if self.vectors is None:
