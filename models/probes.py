@@ -3,10 +3,18 @@
 Read from :attr:`models.machine.Machine.raw` (the section is optional; every key has a default)::
 
     [probes]
-    angle_deg = 0.0                  # mounting angle of each bearing's X/Y pair from the model's axes,
-                                     # counter-clockwise from +x (45: API 670, either side of the top)
+    layout = "xy"                    # the probes' mounting: "xy" (X at 0 deg, Y at 90 deg from horizontal)
+                                     # or "api670" (X at 45, Y at 135: either side of top dead centre)
+    # x1.angle_deg = 30.0            # or each probe's own angle (the recorded-data reader's per-probe key)
     offset_prior_std_um = 25.0       # std of each probe's zero offset before any baseline
     offset_random_walk_um_sqrt_s = 0.2   # drift of the offsets [um / sqrt(s)]
+
+One fact, one key: the probes' angles (``layout``, or per probe ``x1.angle_deg`` ...) are read here for the
+estimator and the plant and by the recorded-data reader (:mod:`oilwatch.records.probes`) from the same keys.
+The estimator's probe model needs each bearing's Y probe 90 deg counter-clockwise of its X probe and the
+same angle on both bearings: :attr:`Probes.angle_deg` is the X probes' angle (``EKFConfig.probe_angle_deg``).
+The old estimator-only key ``angle_deg`` at the top of the section is refused with a one-line error naming
+the key that replaces it.
 
 The offsets' prior: the bearing centre is known only from the cold-rest position and a clearance with a
 tolerance, so zero offsets of 10-25 um are ordinary.
@@ -14,17 +22,21 @@ tolerance, so zero offsets of 10-25 um are ordinary.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from .machine import Machine
 from .validation import InputError, require_in_range
 
-DEFAULTS = {"angle_deg": 0.0, "offset_prior_std_um": 25.0, "offset_random_walk_um_sqrt_s": 0.2}
+LAYOUTS = {"xy": (0.0, 90.0), "api670": (45.0, 135.0)}
+"""Mounting angles (X probe, Y probe) [deg] of the named layouts, counter-clockwise from the model's +x."""
+
+DEFAULTS = {"offset_prior_std_um": 25.0, "offset_random_walk_um_sqrt_s": 0.2}
 
 
 @dataclass(frozen=True)
 class Probes:
-    """SI values of the ``[probes]`` section: angle_deg [deg], offset_prior_std_m [m],
+    """SI values of the ``[probes]`` section: angle_deg (the X probes' angle) [deg], offset_prior_std_m [m],
     offset_random_walk_m_sqrt_s [m / sqrt(s)]."""
 
     angle_deg: float
@@ -32,18 +44,54 @@ class Probes:
     offset_random_walk_m_sqrt_s: float
 
 
+def _probe_angles(section: dict) -> dict[str, float]:
+    """Each probe's mounting angle [deg] from ``layout`` and the per-probe ``angle_deg`` keys."""
+    if "angle_deg" in section:
+        raise InputError(
+            "probes.angle_deg is no longer read: give the mounting as probes.layout ('xy': 0 deg, "
+            "'api670': 45 deg) or per probe (x1.angle_deg, ...), the keys the recorded-data reader shares"
+        )
+    layout = section.get("layout", "xy")
+    if layout not in LAYOUTS:
+        raise InputError(f"probes.layout must be one of {', '.join(LAYOUTS)}, got {layout!r}")
+    angles = {}
+    for name in ("x1", "y1", "x2", "y2"):
+        table = section.get(name, {})
+        value = table.get("angle_deg", LAYOUTS[layout][name[0] == "y"]) if isinstance(table, dict) else None
+        if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+            raise InputError(f"probes.{name}.angle_deg must be a number, got {value!r}")
+        angles[name] = float(value)
+    return angles
+
+
+def probe_pair_angle_deg(section: dict) -> float:
+    """The X probes' angle [deg] the estimator and the plant use (module docstring; one-line InputError when
+    the probes are not two perpendicular pairs at the same angle)."""
+    angles = _probe_angles(section)
+    x_angle = angles["x1"]
+    for bearing in ("1", "2"):
+        x, y = angles["x" + bearing], angles["y" + bearing]
+        if abs(math.remainder(x - x_angle, 360.0)) > 1e-9 or abs(math.remainder(y - x - 90.0, 360.0)) > 1e-9:
+            raise InputError(
+                f"probes: the estimator needs each Y probe 90 deg counter-clockwise of its X probe and the "
+                f"same angle on both bearings; got x1 {angles['x1']:g}, y1 {angles['y1']:g}, x2 "
+                f"{angles['x2']:g}, y2 {angles['y2']:g} deg"
+            )
+    return math.remainder(x_angle, 360.0)
+
+
 def read_probes(machine: Machine) -> Probes:
     """The machine's probe section with its defaults (one-line InputError naming a bad key)."""
     section = machine.raw.get("probes", {})
     if not isinstance(section, dict):
         raise InputError("[probes] must be a table")
-    # the section is shared with the recorded-data reader (layout, columns): only these keys are read here
+    # the section is shared with the recorded-data reader (columns, units): only these keys are read here
     values = {key: section.get(key, default) for key, default in DEFAULTS.items()}
     for key, value in values.items():
         if isinstance(value, bool) or not isinstance(value, int | float):
             raise InputError(f"probes.{key} must be a number, got {value!r}")
     return Probes(
-        angle_deg=require_in_range("probes.angle_deg", float(values["angle_deg"]), -360.0, 360.0, "deg"),
+        angle_deg=probe_pair_angle_deg(section),
         offset_prior_std_m=require_in_range(
             "probes.offset_prior_std_um", float(values["offset_prior_std_um"]), 0.0, 1000.0, "um"
         )

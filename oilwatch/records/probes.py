@@ -33,6 +33,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from models.probes import LAYOUTS  # one key for the reader, the estimator and the plant
 from models.validation import InputError
 
 PROBE_NAMES = ("x1", "y1", "x2", "y2")
@@ -40,8 +41,6 @@ UNITS = ("um", "V")
 EDGES = ("falling", "rising")
 API670_SENSITIVITY_V_PER_MM = 7.87
 """API 670 scale factor, 200 mV/mil."""
-LAYOUTS = {"xy": (0.0, 90.0), "api670": (45.0, 135.0)}
-"""Mounting angles (X probe, Y probe) [deg] of the named layouts."""
 PROBE_KEYS = ("column", "angle_deg", "unit", "sensitivity_v_per_mm", "rest_gap_v", "zero_um")
 TOP_KEYS = (
     "layout",

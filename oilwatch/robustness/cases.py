@@ -43,7 +43,8 @@ class Case:
         baseline; baseline : the estimator is primed with ``oilwatch baseline`` on another record at 100/100 %
         with the same probes (before the drift); runout : RUNOUT_M on every probe; compensate_runout : the
         slow-roll vectors are subtracted; sensitivity : SENSITIVITY_ERROR on every probe; fault : the y1
-        probe's fault (dead, stuck, glitch, huge); mounting_angle_deg : their angle (told to the estimator);
+        probe's fault (dead, stuck, glitch, huge); mounting_angle_deg : their angle
+        (told to the estimator; None: the machine file's [probes] layout);
         unbalance : (moment factor, phase shift [deg]); unbalance_change : the same at half the record;
         viscosity_factor : the film's viscosity over the oil law's; temperature_rise_c : a measured oil
         temperature ramp over the record; speed_ramp_hz : a measured speed ramp (start, end) over the
@@ -60,7 +61,7 @@ class Case:
     compensate_runout: bool = False
     sensitivity: bool = False
     fault: str | None = None
-    mounting_angle_deg: float = 0.0
+    mounting_angle_deg: float | None = None
     unbalance: tuple[float, float] = (1.0, 0.0)
     unbalance_change: tuple[float, float] | None = None
     viscosity_factor: float = 1.0

@@ -94,11 +94,15 @@ class RobustnessRun:
     def _temperature(self, case: Case, t: float) -> float:
         return self.machine.nominal_oil_temperature_c + case.temperature_rise_c * t / self.duration_s
 
+    def mounting_angle_deg(self, case: Case) -> float:
+        """The probes' angle: the case's, else the machine file's ([probes] layout)."""
+        return self.probes.angle_deg if case.mounting_angle_deg is None else case.mounting_angle_deg
+
     def chain(self, case: Case, after_baseline: bool) -> MeasurementChain:
         """The plant's probes for the case (the run's, or the baseline record's)."""
         return MeasurementChain(
             probe_errors(case, self.seed, self.duration_s, after_baseline),
-            math.radians(case.mounting_angle_deg),
+            math.radians(self.mounting_angle_deg(case)),
             self.noise_m,
         )
 
@@ -150,7 +154,7 @@ class RobustnessRun:
             offset_prior_std_m=self.settings["offset_prior_um"] * 1e-6,
             offset_random_walk_m_sqrt_s=self.probes.offset_random_walk_m_sqrt_s,
             unbalance_prior_std=self.settings["unbalance_prior"],
-            probe_angle_deg=case.mounting_angle_deg,
+            probe_angle_deg=self.mounting_angle_deg(case),
         )
         if "viscosity_factor_prior_std" in {f.name for f in dataclasses.fields(EKFConfig)}:
             values["viscosity_factor_prior_std"] = self.settings["viscosity_prior"]
