@@ -53,12 +53,54 @@ def register(subparsers) -> None:
     parser.add_argument(
         "--out", default="robustness", metavar="DIR", help="output folder (default: robustness)"
     )
+    parser.add_argument(
+        "--from-json",
+        nargs="+",
+        default=None,
+        metavar="FILE",
+        help="make the table from earlier robustness.json files instead of running (a later file's row "
+        "replaces an earlier one of the same case and point)",
+    )
+    parser.add_argument(
+        "--readme",
+        default=None,
+        metavar="FILE",
+        help="also write the table into FILE between <!-- generated robustness: ... --> and "
+        "<!-- /generated robustness -->",
+    )
     parser.set_defaults(func=run)
+
+
+def _rows_from_json(paths) -> list[dict]:
+    import json
+
+    from models.validation import InputError
+
+    rows: dict[tuple, dict] = {}
+    for path in paths:
+        try:
+            document = json.loads(Path(path).read_text())
+            found = document["rows"]
+        except (OSError, ValueError, KeyError, TypeError) as error:
+            raise InputError(f"--from-json {path}: not a robustness.json ({error})") from None
+        for row in found:
+            rows[(row["case"], row["q1_pct"], row["q2_pct"])] = row
+    return list(rows.values())
 
 
 def run(args: argparse.Namespace) -> int:
     from models.validation import InputError, require_in_range
     from oilwatch.robustness import CASES, case_by_name, format_table, run_robustness
+
+    from .readme_block import replace_block
+
+    command = "oilwatch robustness " + " ".join(sys.argv[2:]) if sys.argv[1:2] == ["robustness"] else ""
+    if args.from_json is not None:
+        table = "\n".join(format_table(_rows_from_json(args.from_json)))
+        print(table)
+        if args.readme is not None:
+            replace_block(args.readme, "robustness", table, command or "oilwatch robustness --from-json")
+        return 0
 
     require_in_range("--duration-s", args.duration_s, 1.0, 3600.0, "s")
     require_in_range("--noise-um", args.noise_um, 0.01, 100.0, "um")
@@ -92,4 +134,6 @@ def run(args: argparse.Namespace) -> int:
     table = "\n".join(format_table(rows))
     (out / "robustness.md").write_text(table + "\n")
     print(table)
+    if args.readme is not None:
+        replace_block(args.readme, "robustness", table, command or "oilwatch robustness")
     return 0

@@ -1,0 +1,72 @@
+"""The README's study tables, generated from the studies' ``summary.json`` (never retyped).
+
+    python -m oilwatch.study.readme_tables --readme README.md known=DIR unknown=DIR
+
+writes, between ``<!-- generated study-nuisances: ... -->`` and ``<!-- /generated study-nuisances -->``, one
+row per study and noise level: the study's label, its case model, the Table 6 figures (mean, std and max of
+the relative error over both bearings and all cases) beside the paper's, the share of cases complete, the
+RMS error over the known-nuisance Cramer-Rao bound, and the study's wall time.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from models.validation import InputError
+
+from ..cli.readme_block import replace_block
+
+
+def table_lines(studies: list[tuple[str, dict]]) -> list[str]:
+    """Markdown rows of (label, summary) pairs."""
+    lines = [
+        "| nuisances | case model | noise [um] | cases | mean error % (paper) | std % (paper) "
+        "| max % (paper) | RMS error / bound (nuisances known) | wall time |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for label, summary in studies:
+        wall = summary.get("timing", {}).get("wall_s")
+        for level in summary["noise_levels"]:
+            paper = level.get("paper") or {}
+            cells = [
+                label,
+                summary["settings"]["case_model"],
+                f"{level['noise_um']:g}",
+                f"{level['n_cases']}/{level['n_expected']}",
+                f"{level['mean_err_pct']:.2f} ({paper.get('mean_err_pct', float('nan')):.2f})",
+                f"{level['std_err_pct']:.2f} ({paper.get('std_err_pct', float('nan')):.2f})",
+                f"{level['max_err_pct']:.2f} ({paper.get('max_err_pct', float('nan')):.2f})",
+                f"{level['mean_crlb_ratio']:.2f}",
+                "-" if wall is None else f"{wall / 60.0:.0f} min",
+            ]
+            lines.append("| " + " | ".join(cells) + " |")
+    return lines
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("--readme", default=None, metavar="FILE", help="README to update (default: print)")
+    parser.add_argument("studies", nargs="+", metavar="LABEL=DIR", help="a label and a study's --out folder")
+    args = parser.parse_args(argv)
+    studies = []
+    for item in args.studies:
+        label, _, folder = item.partition("=")
+        path = Path(folder) / "summary.json"
+        try:
+            studies.append((label, json.loads(path.read_text())))
+        except (OSError, ValueError) as error:
+            raise InputError(f"{item}: cannot read {path}: {error}") from None
+    table = "\n".join(table_lines(studies))
+    print(table)
+    if args.readme is not None:
+        command = "python -m oilwatch.study.readme_tables " + " ".join(args.studies)
+        replace_block(args.readme, "study-nuisances", table, command)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
