@@ -41,6 +41,13 @@ def register(subparsers) -> None:
         "0: the machine file's unbalance taken as exact (default: 2)",
     )
     parser.add_argument(
+        "--viscosity-prior",
+        type=float,
+        default=0.1,
+        help="prior std of the estimator's viscosity factor per bearing, in the cases that change the film "
+        "or the operating point (needs an estimator that follows them; default: 0.1)",
+    )
+    parser.add_argument(
         "--cases", nargs="+", default=None, metavar="NAME", help="cases to run (default: all)"
     )
     parser.add_argument(
@@ -111,6 +118,7 @@ def run(args: argparse.Namespace) -> int:
         args.offset_prior_um = read_probes(load_machine(args.machine)).offset_prior_std_m * 1e6
     require_in_range("--offset-prior-um", args.offset_prior_um, 0.0, 1000.0, "um")
     require_in_range("--unbalance-prior", args.unbalance_prior, 0.0, 100.0)
+    require_in_range("--viscosity-prior", args.viscosity_prior, 0.0, 0.5)
     workers = (os.cpu_count() or 1) if args.workers is None else args.workers
     require_in_range("--workers", workers, 1, 256)
     cases = CASES if args.cases is None else [case_by_name(name) for name in args.cases]
@@ -127,6 +135,7 @@ def run(args: argparse.Namespace) -> int:
         seed=args.seed,
         offset_prior_um=args.offset_prior_um,
         unbalance_prior=args.unbalance_prior,
+        viscosity_prior=args.viscosity_prior,
         out_dir=out,
         workers=workers,
         progress=lambda text: print(f"robustness: {text}", file=sys.stderr, flush=True),
