@@ -180,7 +180,13 @@ class RobustnessRun:
             )
             record, _, _ = self.record(healthy, (100.0, 100.0), self.seed + 1, after_baseline=False)
             q = (self.nominal_m3_s, self.nominal_m3_s)
-            document = estimate_baseline(self.model, record, q, config)
+            # the estimator's own model: with viscosity states, the baseline separates them from the offsets
+            model = (
+                self._operating_model()
+                if case.operating_point and self.follows_operating_point
+                else self.model
+            )
+            document = estimate_baseline(model, record, q, config)
             baseline = OffsetBaseline(
                 tuple(v * 1e-6 for v in document["offsets_um"]),
                 tuple(v * 1e-6 for v in document["offset_std_um"]),
