@@ -149,3 +149,11 @@ def test_bad_chain_parameters_are_refused_naming_them():
         ProbeErrors(fault="broken")
     with pytest.raises(InputError, match="mounting angle"):
         MeasurementChain(mounting_angle_rad=4.0)
+
+
+def test_a_zero_offset_drifts_at_its_rate():
+    chain = MeasurementChain((ProbeErrors(zero_offset_m=2e-6, zero_drift_m_s=5e-8),) + (ProbeErrors(),) * 3)
+    held = np.zeros(4)
+    rng = np.random.default_rng(0)
+    start, later = (chain.measure(np.zeros(4), 0.0, t, rng, held) for t in (0.0, 60.0))
+    assert start[0] == pytest.approx(2e-6) and later[0] == pytest.approx(5e-6) and later[1] == 0.0

@@ -10,7 +10,8 @@ probe p of bearing b reports, in this order:
    of slow-roll vectors): a_1 cos(theta + phi_1) + a_2 cos(2 theta + phi_2), theta the rotor angle from the
    keyphasor (Omega t at constant speed);
 3. times 1 + the sensitivity error (scale factor off its nominal 7.87 V/mm);
-4. plus the zero offset (the bearing centre is known only to the clearance's tolerance);
+4. plus the zero offset (the bearing centre is known only to the clearance's tolerance), drifting at
+   ``zero_drift_m_s`` from t = 0 (electronics and thermal drift);
 5. plus white noise (std ``noise_std_m``);
 6. then its fault: ``dead`` from ``fault_time_s`` on (NaN, an open circuit), ``stuck`` from then on at its
    last value before that time, or ``glitch``: + ``glitch_m`` during [fault_time_s, fault_time_s +
@@ -43,6 +44,10 @@ class ProbeErrors:
 
     zero_offset_m: float = field(
         default=0.0, metadata=_meta("m", -500e-6, 500e-6, "zero offset added to the reading")
+    )
+    zero_drift_m_s: float = field(
+        default=0.0,
+        metadata=_meta("m/s", -1e-6, 1e-6, "drift rate of the zero offset (offset + rate x time)"),
     )
     sensitivity_error: float = field(
         default=0.0, metadata=_meta("1", -0.5, 0.5, "relative scale-factor error: reading x (1 + error)")
@@ -109,6 +114,10 @@ class MeasurementChain:
             out[k] = (reading[k] + runout) * (1.0 + p.sensitivity_error) + p.zero_offset_m
         return out
 
+    def drift_m(self, time_s: float) -> np.ndarray:
+        """(4,) the offsets' drift at ``time_s`` [m] (rate x time)."""
+        return np.array([p.zero_drift_m_s * time_s for p in self.probes])
+
     def measure(
         self,
         true_m: np.ndarray,
@@ -121,7 +130,7 @@ class MeasurementChain:
         (updated in place: it is what a stuck probe repeats)."""
         t = require_finite("time", time_s)
         noise = self.noise_std_m * rng.standard_normal(4)
-        measured = self.probe_readings(true_m, rotor_angle_rad) + noise
+        measured = self.probe_readings(true_m, rotor_angle_rad) + noise + self.drift_m(t)
         for k, p in enumerate(self.probes):
             if p.fault == "none" or t < p.fault_time_s:
                 held[k] = measured[k]

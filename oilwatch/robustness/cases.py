@@ -22,7 +22,7 @@ OFFSET_RANGE_M = 25e-6
 cold-rest position and a clearance with a tolerance)."""
 
 DRIFT_M = 3e-6
-"""Offset drift after the baseline: each probe's offset moves by 3 um (random sign) before the run."""
+"""Offset drift after the baseline: each probe's offset drifts linearly by 3 um (random sign) over the run."""
 
 RUNOUT_M = (2e-6, 1e-6)
 """Runout amplitudes at 1x and 2x on every probe (phases drawn per probe)."""
@@ -39,11 +39,11 @@ incremental scale factor of a probe, cable and driver set."""
 class Case:
     """One discrepancy (fields in the field's words; the module docstring says what each changes).
 
-    offsets / drift : the run's probe zero offsets (:func:`probe_errors`), moved by DRIFT_M after the
-        baseline; baseline : the estimator is primed with ``oilwatch baseline`` on another record at 100/100 %
-        with the same probes (before the drift); runout : RUNOUT_M on every probe; compensate_runout : the
-        slow-roll vectors are subtracted; sensitivity : SENSITIVITY_ERROR on every probe; fault : the y1
-        probe's fault (dead, stuck, glitch, huge); mounting_angle_deg : their angle
+    offsets / drift : the run's probe zero offsets (:func:`probe_errors`), drifting by DRIFT_M over the
+        run after the baseline; baseline : the estimator is primed with ``oilwatch baseline`` on another
+        record at 100/100 % with the same probes (before the drift); runout : RUNOUT_M on every probe;
+        compensate_runout : the slow-roll vectors are subtracted; sensitivity : SENSITIVITY_ERROR on every
+        probe; fault : the y1 probe's fault (dead, stuck, glitch, huge); mounting_angle_deg : their angle
         (told to the estimator; None: the machine file's [probes] layout);
         unbalance : (moment factor, phase shift [deg]); unbalance_change : the same at half the record;
         viscosity_factor : the film's viscosity over the oil law's; temperature_rise_c : a measured oil
@@ -94,11 +94,10 @@ def probe_errors(case: Case, seed: int, duration_s: float, after_baseline: bool)
     runout_phases = rng.uniform(-math.pi, math.pi, (2, 4))
     sensitivity_signs = np.where(rng.uniform(size=4) < 0.5, -1.0, 1.0)
     offsets = probe_offsets(seed) if case.offsets else np.zeros(4)
-    if case.drift and after_baseline:
-        offsets = offsets + DRIFT_M * signs
+    drift = DRIFT_M * signs / duration_s if case.drift and after_baseline else np.zeros(4)
     probes = []
     for k in range(4):
-        values = {"zero_offset_m": float(offsets[k])}
+        values = {"zero_offset_m": float(offsets[k]), "zero_drift_m_s": float(drift[k])}
         if case.runout:
             values.update(
                 runout_1x_m=RUNOUT_M[0],
@@ -139,7 +138,7 @@ CASES: tuple[Case, ...] = (
     ),
     Case(
         "offsets-drift",
-        "the same offsets, baseline, then each offset moved by 3 um",
+        "the same offsets, baseline, then each offset drifting by 3 um over the record",
         offsets=True,
         drift=True,
         baseline=True,
