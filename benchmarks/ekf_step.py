@@ -54,6 +54,8 @@ class SyntheticRotorModel:
         rng = np.random.default_rng(seed)
         self.n_states = n_states
         self.dt_s = dt_s
+        self.nominal_flowrate_m3_s = NOMINAL_FLOWRATE_M3_S
+        self.speed_hz = SPEED_HZ
         self.flowrate_bounds_m3_s = (0.45 * NOMINAL_FLOWRATE_M3_S, 1.4 * NOMINAL_FLOWRATE_M3_S)
         modes = n_states // 2
         base = np.zeros((n_states, n_states))

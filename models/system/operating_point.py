@@ -52,6 +52,11 @@ class ConditionedTable:
         """Flowrates [m^3/s] the table covers at the current conditions."""
         return self._slice.flowrate_range_m3_s
 
+    @property
+    def flowrates_m3_s(self) -> np.ndarray:
+        """The table's flowrate nodes [m^3/s] at the current conditions (its fractions times q_t)."""
+        return self.table.fraction_nodes * self._slice.flooded_threshold_m3_s
+
     def evaluate_many(self, q_m3_s: np.ndarray) -> np.ndarray:
         """Rows (m, 10) ``[e_x, e_y, K, C]`` (SI) at the flowrates (m,) [m^3/s]."""
         return self._slice.rows(q_m3_s)
