@@ -396,6 +396,9 @@ def _estimator_parameters() -> tuple[BoundaryParameter, ...]:
          "paper's 10 um makes the filter inconsistent (NIS/m 0.14), more biased and slower to alarm"),
         ("q_std_flow_ml_min", "flowrate_process_std_m3_s", "ml/min", ML_MIN, 0.0, None,
          "Process-noise std per step of each flowrate state (paper and recommended: 0.1 ml/min)"),
+        ("viscosity_factor_prior_std", "viscosity_factor_prior_std", "1", 1.0, 0.0, 0.5,
+         "Prior std of each bearing's viscosity factor (film over the oil law at the measured temperature); "
+         "0: known (1, the paper's calibrated setting); > 0 estimates both (needs bearing_table = 1)"),
         ("gate_tail_probability", "gate_tail_probability", "1", 1.0, 0.0, 0.5,
          "Innovation gate, per probe: a channel whose squared standardized innovation exceeds the "
          "chi-square(1) quantile 1 - p times its recent innovation power is rejected (never forced through); "

@@ -43,6 +43,10 @@ from .operating_maps import OperatingMaps
 from .operating_point import ConditionedTable
 from .rotor_bearing import RotorBearingSystem
 
+SAME_VISCOSITY = 1e-9
+"""An oil viscosity within this relative difference of the reference's is the reference's (the oil law at
+the nominal temperature reproduces the machine's viscosity to about 1e-12)."""
+
 
 @dataclass(frozen=True)
 class Recentring:
@@ -122,6 +126,8 @@ class OperatingAugmentedModel:
             if not math.isfinite(temperature):
                 raise InputError(f"oil_temperature_c must be finite, got {oil_temperature_c!r}")
             log_viscosity = math.log(self.oil.dynamic_viscosity_pa_s(temperature))
+            if abs(log_viscosity - self._log_mu0) < SAME_VISCOSITY:
+                log_viscosity = self._log_mu0  # the nominal temperature: today's model exactly
         if speed != self._speed and self._last_step is not None:
             # the phase goes on from where the previous speed took it
             following = self._last_step + 1
