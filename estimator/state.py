@@ -5,7 +5,7 @@ The state is a flat ``dict[str, numpy.ndarray]`` (scalars as 0-d arrays), every 
 ====================  ==========  =====================================================================
 key                   shape       meaning
 ====================  ==========  =====================================================================
-x                     (N,)        augmented estimate [s; q / q_nominal; offsets (when estimated)]
+x                     (N,)        [s; q / q_nominal; offsets, viscosity factors, unbalance if estimated]
 P                     (N, N)      its covariance
 health                (4, 6)      int: probe records (:mod:`estimator.channels`)
 health_values         (4, 4)      float: last reading, innovation power and mean, last accepted reading
