@@ -18,6 +18,7 @@ SCENARIO_NAMES = (
     "drop-b2",
     "clog-b1",
     "clog-b2",
+    "operating-ramps",
 )
 """The names of ``oilwatch.scenarios.SCENARIOS`` (kept here so that --help imports nothing heavy)."""
 
