@@ -30,6 +30,12 @@ def table_lines(studies: list[tuple[str, dict]]) -> list[str]:
         wall = summary.get("timing", {}).get("wall_s")
         for level in summary["noise_levels"]:
             paper = level.get("paper") or {}
+            if not level["n_cases"]:
+                lines.append(
+                    f"| {label} | {summary['settings']['case_model']} | {level['noise_um']:g} | "
+                    f"0/{level['n_expected']} | not run | | | | |"
+                )
+                continue
             cells = [
                 label,
                 summary["settings"]["case_model"],
