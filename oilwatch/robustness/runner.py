@@ -41,6 +41,7 @@ from models.system.measurement import MeasurementChain, UnbalanceChange
 from models.system.nuisance_bound import nuisance_bound
 from models.system.operating_point import operating_system
 from models.system.plant import RotorBearingPlant
+from models.validation import InputError
 
 from .cases import Case, case_by_name, probe_errors
 from .slow_roll import slow_roll_vectors
@@ -281,7 +282,10 @@ def _worker_row(settings: dict, name: str, point) -> dict:
     global _RUN
     if _RUN is None or _RUN.settings != settings:
         _RUN = RobustnessRun(settings)
-    return _RUN.run_case(case_by_name(name), tuple(point))
+    try:
+        return _RUN.run_case(case_by_name(name), tuple(point))
+    except InputError as error:  # a case the models cannot run (e.g. outside a table) is reported, not fatal
+        return {"case": name, "q1_pct": point[0], "q2_pct": point[1], "error": str(error)}
 
 
 def run_robustness(
@@ -342,6 +346,9 @@ def format_table(rows: Sequence[dict]) -> list[str]:
         "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
+        if "error" in r:
+            lines.append(f"| {r['case']} | {r['q1_pct']:g}/{r['q2_pct']:g} | not run: {r['error']} |")
+            continue
         detected = "-" if not r["detected"] else ("yes" if all(r["detected"]) else "NO")
         flagged = ",".join(("x1", "y1", "x2", "y2")[c] for c in r["flagged_probes"]) or "-"
         error, std, ratio = r["error_pct"], r["std_pct"], r["error_over_bound"]
