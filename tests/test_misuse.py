@@ -307,29 +307,7 @@ for name, params, labels in [
     assert "--noise-um (noise_um) must" in result["fmu_log"], result["fmu_log"]
 
 
-def test_a_fixed_parameter_set_after_initialization_fails_naming_it(toys):
-    from test_fmi_slave_behaviour import PRELUDE
-
-    result = run_json(
-        PRELUDE
-        + f"""
-plant, vr = load({str(toys / "ToyPlant.fmu")!r})
-plant.setReal([vr["noise_um"]], [0.5])  # before initialization: allowed
-init(plant, vr, {{"noise_um": 0.0}})  # in initialization mode: allowed
-plant.doStep(0.0, 1e-3)
-try:
-    plant.setReal([vr["noise_um"]], [3.0])
-    status = "ok"
-except FMICallException as error:
-    status = error.status
-result = {{"status": status, "log": LOG}}
-"""
-    )
-    assert result["status"] >= 3  # fmi2Error or worse: pythonfmu 0.7 can only return fmi2Fatal
-    errors = [message for status, message in result["log"] if status == 3]
-    assert any(
-        "noise_um is a fixed parameter" in message and "3.0 was not applied" in message for message in errors
-    )
+# A fixed parameter set after initialization (fmi2Error, the instance steps on): tests/test_fmi_set_status.py
 
 
 @pytest.mark.slow
