@@ -7,6 +7,9 @@ import json
 import sys
 from pathlib import Path
 
+from oilwatch.experiment_config import ScenarioConfig
+
+from .config_options import add_config_options
 from .machine_option import add_machine_option, load_machine_option
 
 SCENARIO_NAMES = (
@@ -61,23 +64,7 @@ def register(subparsers) -> None:
         ),
     )
     parser.add_argument("scenario", metavar="SCENARIO", help=f"one of: {', '.join(SCENARIO_NAMES)}")
-    parser.add_argument(
-        "--noise-um", type=float, default=1.0, help="measurement noise std of each probe [um] (default: 1)"
-    )
-    parser.add_argument("--duration-s", type=float, default=20.0, help="record length [s] (default: 20)")
-    parser.add_argument("--seed", type=int, default=1, help="seed of the measurement noise (default: 1)")
-    parser.add_argument(
-        "--q1-pct",
-        type=float,
-        default=100.0,
-        help="constant: bearing 1 flowrate [%% of nominal] (default: 100)",
-    )
-    parser.add_argument(
-        "--q2-pct",
-        type=float,
-        default=100.0,
-        help="constant: bearing 2 flowrate [%% of nominal] (default: 100)",
-    )
+    add_config_options(parser, ScenarioConfig)
     parser.add_argument(
         "--set",
         action="append",
