@@ -21,6 +21,7 @@ from models.bearing.operating_table import OperatingTable, operating_table_path
 from models.bearing.table import CoefficientTable
 from models.machine import load_machine
 from models.rotor.assembly import Rotor
+from models.system.factory import flowrate_table_path
 
 ISSUE_POINTS = [(60.0, 0.07, 0.8), (60.0, 0.07, 1.0), (90.0, 0.12, 0.8), (90.0, 0.12, 1.0)]
 SPREAD = [
@@ -63,7 +64,7 @@ def main() -> None:
         f"worst: eccentricity ratio {worst[0]:.3f} %, K {worst[1]:.3f} %, C {worst[2]:.3f} % "
         "of the largest entry"
     )
-    one_d = CoefficientTable.load(machine.source_path.parent / "tables" / "turbine_bearing_75hz.json")
+    one_d = CoefficientTable.load(flowrate_table_path(machine, machine.nominal_speed_hz))
     q_lo, q_hi = one_d.flowrate_range_m3_s
     worst = np.zeros(3)
     for q in np.linspace(q_lo, q_hi, 41):
