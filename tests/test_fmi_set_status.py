@@ -14,17 +14,11 @@ import zipfile
 
 import pytest
 from fixtures.fmu_subprocess import run_json
-from fixtures.toy_fmus import toy_fmu_dir
 from fmpy import read_model_description
 from test_c_host import HOST_SOURCE, _clean_environment
 from test_fmi_slave_behaviour import PRELUDE
 
 REFUSAL = "noise_um is a fixed parameter: it can be set only before fmi2ExitInitializationMode; 3.0 was not"
-
-
-@pytest.fixture(scope="module")
-def toys(tmp_path_factory):
-    return toy_fmu_dir(tmp_path_factory)
 
 
 def _fmpy_case(toys, logging_on: bool, late: str) -> dict:

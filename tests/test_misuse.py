@@ -15,7 +15,6 @@ from types import SimpleNamespace
 
 import pytest
 from fixtures.fmu_subprocess import REPO_ROOT, run_json
-from fixtures.toy_fmus import toy_fmu_dir
 
 from models.bearing.table import CoefficientTable
 from models.machine import BUNDLED_MACHINE, load_machine
@@ -271,11 +270,6 @@ def test_concurrent_atomic_writes_never_lose_their_temporary_file(tmp_path):
 
 
 # ------------------------------------------------------------------ FMUs: values, labels, set after init
-@pytest.fixture(scope="module")
-def toys(tmp_path_factory):
-    return toy_fmu_dir(tmp_path_factory)
-
-
 def test_master_names_the_input_as_the_user_gave_it(toys):
     result = run_json(
         f"""
