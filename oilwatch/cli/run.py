@@ -57,7 +57,8 @@ def register(subparsers) -> None:
             "Exit code 2 on bad input, 130 when interrupted (result.csv keeps the steps done)."
         ),
         epilog=(
-            "scenarios: constant (--q1-pct, --q2-pct; default 100); slow-drop, intermediate-drop, "
+            f"scenarios: constant (--q1-pct, --q2-pct; default {ScenarioConfig.q1_pct:g}); slow-drop, "
+            "intermediate-drop, "
             "sudden-drop (both bearings 100 -> 75 %); drop-b1, drop-b2 (one bearing 100 -> 75 %, "
             "the other nominal); clog-b1, clog-b2 (one bearing 100 -> 75 %, the other 100 -> 125 %). "
             f"Estimator parameters for --set ekf.NAME=VALUE (default, range): {estimator_parameters_help()}"
