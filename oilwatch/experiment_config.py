@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, fields
+from numbers import Real
 
 from models.validation import InputError, require_in_range
 
@@ -59,7 +60,13 @@ def check_ranges(config) -> None:
         name, unit = flag(spec.name), "" if meta["unit"] == "1" else meta["unit"]
         integer = isinstance(spec.default, int) and not isinstance(spec.default, bool)
         for item in value if isinstance(value, tuple | list) else [value]:
-            if integer and (isinstance(item, bool) or not isinstance(item, int | float) or int(item) != item):
+            whole = (
+                isinstance(item, Real)
+                and not isinstance(item, bool)
+                and math.isfinite(item)
+                and item == int(item)
+            )
+            if integer and not whole:
                 raise InputError(f"{name} must be an integer ({allowed_text(spec)}), got {item!r}")
             low = -math.inf if meta["low"] is None else meta["low"]
             high = math.inf if meta["high"] is None else meta["high"]
