@@ -36,6 +36,12 @@ def register(subparsers) -> None:
     )
     add_machine_option(parser)
     parser.add_argument(
+        "--baseline",
+        metavar="FILE",
+        help="commissioning baseline (JSON of 'oilwatch baseline'): the probe offsets' prior (default: the "
+        "machine file's [probes] offset_prior_std_um, 25 um for the turbine)",
+    )
+    parser.add_argument(
         "--probe",
         action="append",
         default=[],
@@ -79,8 +85,16 @@ def run(args: argparse.Namespace) -> int:
     if STDIN in args.records and len(args.records) > 1:
         raise InputError("- (standard input) must be the only record")
     live = args.records == [STDIN]
+    if args.baseline is not None:
+        from estimator.baseline import load_baseline
+
+        try:
+            load_baseline(args.baseline)  # a bad file fails here, before any record is read
+        except InputError as error:
+            raise InputError(f"--baseline: {error}") from None
     options = EstimateOptions(
         machine_file=args.machine,
+        baseline_file=args.baseline,
         probe_overrides=tuple(args.probe),
         output_every=args.output_every,
         views=not args.no_views,
