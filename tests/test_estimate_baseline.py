@@ -1,7 +1,7 @@
-"""``oilwatch estimate --baseline`` (issue 15): the commissioning baseline of ``oilwatch baseline`` is the probe
-offsets' prior of the in-process estimator, as ``baseline_file`` is the estimator FMU's. A record whose probes
-carry +-20 um zero offsets gives the right flowrates with a smaller std, and sooner, with the baseline than
-with the machine file's 25 um prior alone."""
+"""``oilwatch estimate --baseline`` (issue 15): the commissioning baseline of ``oilwatch baseline`` is the
+probe offsets' prior of the in-process estimator, as ``baseline_file`` is the estimator FMU's. A record whose
+probes carry +-20 um zero offsets gives the right flowrates with a smaller std, and sooner, with the baseline
+than with the machine file's 25 um prior alone."""
 
 from __future__ import annotations
 

@@ -42,6 +42,13 @@ def register(subparsers) -> None:
         "machine file's [probes] offset_prior_std_um, 25 um for the turbine)",
     )
     parser.add_argument(
+        "--offset-prior-um",
+        type=float,
+        metavar="STD",
+        help="prior std of each probe's zero offset [um] (default: the machine file's [probes] "
+        "offset_prior_std_um; 0: the offsets are known to be zero, the estimator FMU's default)",
+    )
+    parser.add_argument(
         "--probe",
         action="append",
         default=[],
@@ -92,9 +99,14 @@ def run(args: argparse.Namespace) -> int:
             load_baseline(args.baseline)  # a bad file fails here, before any record is read
         except InputError as error:
             raise InputError(f"--baseline: {error}") from None
+    if args.offset_prior_um is not None:
+        from models.validation import require_in_range
+
+        require_in_range("--offset-prior-um", args.offset_prior_um, 0.0, 1000.0, "um")
     options = EstimateOptions(
         machine_file=args.machine,
         baseline_file=args.baseline,
+        offset_prior_std_um=args.offset_prior_um,
         probe_overrides=tuple(args.probe),
         output_every=args.output_every,
         views=not args.no_views,

@@ -66,6 +66,7 @@ class EstimateOptions:
 
     machine_file: str | None = None
     baseline_file: str | None = None
+    offset_prior_std_um: float | None = None
     probe_overrides: tuple[str, ...] = ()
     output_every: int = 1
     chunk_rows: int = 8192
@@ -187,6 +188,10 @@ class EstimateRun:
         self.setup = probe_setup(self.machine.raw.get("probes"), options.probe_overrides)
         self.speed_hz = self.machine.nominal_speed_hz  # the estimator's model runs at the nominal speed
         self.probes = read_probes(self.machine)
+        if options.offset_prior_std_um is not None:
+            self.probes = dataclasses.replace(
+                self.probes, offset_prior_std_m=options.offset_prior_std_um * 1e-6
+            )
         self.baseline = None
         if options.baseline_file is not None:
             from estimator.baseline import load_baseline

@@ -3,7 +3,8 @@
 Writes, in ``out_dir``:
 
 * ``result.csv``: one row per 1 ms sample (time, true and estimated flowrates, their stds, alarms, NIS,
-  convergence), flushed after every row, so a run stopped part-way keeps what it had;
+  convergence, the probe signals and operating point in the record format), flushed after every row, so a
+  run stopped part-way keeps what it had;
 * ``summary.json``: the scenario, its parameters and the figures of :mod:`oilwatch.scenarios.summary`;
 * ``estimates.png``: the plot of :mod:`oilwatch.scenarios.plot`.
 
@@ -41,8 +42,13 @@ COLUMNS = {
     "ekf.nis": "nis",
     "ekf.converged": "converged",
     "ekf.measurement_ok": "measurement_ok",
+    **{f"plant.{probe}_um": f"{probe}_um" for probe in ("x1", "y1", "x2", "y2")},
 }
-"""Recorded variables (``plant``/``ekf`` instance names) -> result.csv column names."""
+"""Recorded variables (``plant``/``ekf`` instance names) -> result.csv column names. The probe columns are the
+plant's measured signals in um along each probe's axis, under the record format's names, so that a
+result.csv is a record for ``oilwatch estimate`` and ``oilwatch baseline --record``."""
+OPERATING_INPUTS = {"speed_hz": "speed_hz", "oil_temperature_c": "oil_temperature_c"}
+"""The plant's operating-point inputs recorded under the record format's names, when the plant has them."""
 OUTPUT_FILES = ("result.csv", "summary.json", "estimates.png")
 """The files a run writes in its folder (module docstring)."""
 ROLES = {"plant": "x1_true_um", "ekf": "q1_est_ml_min"}
@@ -102,6 +108,19 @@ def scenario_system(fmu_dir: Path | None = None, ssp: Path | None = None):
     yield plant_and_estimator(fmu_dir), {"plant": "plant", "ekf": "ekf"}
 
 
+def _operating_columns(system: SystemDescription, plant: str) -> dict[str, str]:
+    """``{"plant.<input>": <column>}`` for the :data:`OPERATING_INPUTS` the plant FMU has as inputs."""
+    from fmpy import read_model_description
+
+    spec = next(s for s in system.fmus if s.name == plant)
+    inputs = {
+        v.name
+        for v in read_model_description(str(spec.path), validate=False).modelVariables
+        if v.causality == "input"
+    }
+    return {f"plant.{name}": column for name, column in OPERATING_INPUTS.items() if name in inputs}
+
+
 def _roles(system: SystemDescription, origin: str) -> dict[str, str]:
     from fmpy import read_model_description
 
@@ -138,8 +157,9 @@ def run_scenario(
     csv_path = out / "result.csv"
     wall_start = wallclock.perf_counter()
     with scenario_system(fmu_dir, ssp) as (system, roles):
-        record = [f"{roles[c.split('.')[0]]}.{c.split('.')[1]}" for c in COLUMNS]
-        rename = dict(zip(record, COLUMNS.values(), strict=True))
+        columns = {**COLUMNS, **_operating_columns(system, roles["plant"])}
+        record = [f"{roles[c.split('.')[0]]}.{c.split('.')[1]}" for c in columns]
+        rename = dict(zip(record, columns.values(), strict=True))
         parameters = {roles["plant"]: run.plant_parameters(), roles["ekf"]: run.ekf_parameters()}
         stale = tuple(out / name for name in OUTPUT_FILES)
         recorder = _StopBetweenSteps(CsvRecorder(csv_path, rename=rename), stale)
