@@ -399,7 +399,8 @@ class NuisanceOutput:
     ``<stem>_<label>_std[_<unit>]`` (no unit suffix for unit "1").
 
     estimate, std : names of the :class:`estimator.ekf.OilFlowEKF` properties giving the (n,) SI values;
-    scale : user value = scale x SI value; description : with ``{label}`` for the component.
+    scale : user value = scale x SI value; description : with ``{label}`` for the component; known : the
+    estimates' values (user unit) while the nuisance is known (not estimated; None: zeros).
     """
 
     stem: str
@@ -409,6 +410,7 @@ class NuisanceOutput:
     estimate: str
     std: str
     description: str
+    known: tuple[float, ...] | None = None
 
     def names(self, label: str) -> tuple[str, str]:
         """(estimate name, std name) of one component."""
@@ -421,7 +423,7 @@ NUISANCE_OUTPUTS = (
                    "Estimated zero offset of probe {label} along its axis (0 while the offsets are known)"),
     NuisanceOutput("unbalance", ("re", "im"), "1", 1.0, "unbalance", "unbalance_std",
                    "Estimated unbalance relative to the machine file's, {label} part (re: real, im: "
-                   "imaginary; 1 and 0 while it is known)"),
+                   "imaginary; 1 and 0 while it is known)", (1.0, 0.0)),
 )  # fmt: skip
 
 
@@ -435,14 +437,19 @@ def nuisance_values(ekf) -> list[float]:
     return values
 
 
-def nuisance_names() -> list[tuple[str, str, str]]:
-    """(name, unit, description) of every nuisance output, estimates and stds interleaved."""
+def nuisance_names() -> list[tuple[str, str, str, float]]:
+    """(name, unit, description, value while known) of every nuisance output, estimates and stds
+    interleaved."""
     out = []
     for row in NUISANCE_OUTPUTS:
-        for label in row.labels:
+        known = row.known or (0.0,) * len(row.labels)
+        for label, start in zip(row.labels, known, strict=True):
             text = row.description.format(label=label)
             estimate, std = row.names(label)
-            out += [(estimate, row.unit, text), (std, row.unit, f"Std of {estimate} (from the covariance P)")]
+            out += [
+                (estimate, row.unit, text, start),
+                (std, row.unit, f"Std of {estimate} (from the covariance P)", 0.0),
+            ]
     return out
 
 

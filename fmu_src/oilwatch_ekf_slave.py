@@ -101,7 +101,7 @@ class OilFlowEKF(OilwatchSlave):
         self._measurement = np.zeros(4)
         self._missing = np.full(4, np.nan)
         self._warned_off_grid = False
-        self._nuisance_names = [name for name, _, _ in nuisance_names()]
+        self._nuisance_names = [row[0] for row in nuisance_names()]
         self._declare_parameters()
         self._declare_inputs_outputs()
 
@@ -146,8 +146,9 @@ class OilFlowEKF(OilwatchSlave):
                 "input",
                 start=0.0,
                 unit="um",
-                description=f"Measured {name[0]} position of the shaft in bearing {name[1]}, from the "
-                "bearing centre; NaN or infinite: no measurement this step",
+                description=f"Measured signal of probe {name}: the shaft's displacement in bearing {name[1]} "
+                f"from the bearing centre along the probe's axis ({name[0]} turned by probe_angle_deg), plus "
+                "the probe's zero offset; NaN or infinite: no measurement this step",
             )
         real(
             "t_sample_s",
@@ -234,8 +235,8 @@ class OilFlowEKF(OilwatchSlave):
                 maximum=len(STATUS_NAMES) - 1,
                 description=f"Health of probe {name}: {codes} (a faulty probe is excluded until it recovers)",
             )
-        for name, unit, text in nuisance_names():
-            real(name, "output", start=0.0, unit=unit, description=text)
+        for name, unit, text, start in nuisance_names():
+            real(name, "output", start=start, unit=unit, description=text)
 
     # --------------------------------------------------------------------- initialization
     @property

@@ -165,7 +165,7 @@ def estimate_columns(report: StepReport) -> tuple[list[str], list[tuple[str, flo
         names, scale = _field_columns(item.name, value)
         columns += names
         extras.append((item.name, scale, len(names)))
-    columns += [name for name, _, _ in nuisance_names()]
+    columns += [row[0] for row in nuisance_names()]
     return columns, extras
 
 
@@ -376,6 +376,7 @@ def summarize(run: EstimateRun, wall_s: float, csv_path: Path) -> dict:
         "realtime_factor": round(duration / wall_s, 2) if wall_s > 0 else None,
         "estimates_csv": str(csv_path),
     }
+    summary["probes"] = _probe_summary(run)
     if run.latency_s:
         latency = np.asarray(run.latency_s)
         summary["live_latency_ms"] = {
@@ -404,3 +405,22 @@ def summarize(run: EstimateRun, wall_s: float, csv_path: Path) -> dict:
             file=sys.stderr,
         )
     return summary
+
+
+def _probe_summary(run: EstimateRun) -> dict:
+    """Per probe at the end of the record: the estimator's offset estimate and std [um] (model frame), its
+    status, and the time it was flagged faulty."""
+    from estimator.channels import STATUS_NAMES
+
+    values = dict(zip((row[0] for row in nuisance_names()), nuisance_values(run.filter), strict=True))
+    history = run.history
+    out = {}
+    for i, name in enumerate(("x1", "y1", "x2", "y2")):
+        status = None if history.last_status is None else int(history.last_status[i])
+        out[name] = {
+            "offset_um": values[f"offset_{name}_um"],
+            "offset_std_um": values[f"offset_{name}_std_um"],
+            "status_final": None if status is None else STATUS_NAMES[status],
+            "flagged_s": round(float(history.flagged_samples[i]) * history.dt, 6),
+        }
+    return out
