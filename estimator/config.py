@@ -15,6 +15,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, fields, replace
 
+import numpy as np
+
 from models.validation import (
     InputError,
     require_finite,
@@ -435,6 +437,24 @@ def nuisance_values(ekf) -> list[float]:
         for i in range(len(row.labels)):
             values += (float(estimate[i]) * row.scale, float(std[i]) * row.scale)
     return values
+
+
+def nuisance_snapshot(ekf) -> tuple:
+    """The SI arrays behind the nuisance outputs of a filter now: (estimate, std) of each row, for
+    :func:`nuisance_table` (cheap per sample: no conversion)."""
+    return tuple(getattr(ekf, name) for row in NUISANCE_OUTPUTS for name in (row.estimate, row.std))
+
+
+def nuisance_table(snapshots: list) -> np.ndarray:
+    """(n, m) user-unit values of n :func:`nuisance_snapshot` results, in :func:`nuisance_names` order (the
+    rows of :func:`nuisance_values`)."""
+    columns = []
+    for j, row in enumerate(NUISANCE_OUTPUTS):
+        estimate = np.array([s[2 * j] for s in snapshots], dtype=np.float64).reshape(len(snapshots), -1)
+        std = np.array([s[2 * j + 1] for s in snapshots], dtype=np.float64).reshape(len(snapshots), -1)
+        for i in range(len(row.labels)):
+            columns += [estimate[:, i] * row.scale, std[:, i] * row.scale]
+    return np.column_stack(columns)
 
 
 def nuisance_names() -> list[tuple[str, str, str, float]]:

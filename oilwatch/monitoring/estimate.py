@@ -31,7 +31,16 @@ from typing import TextIO
 
 import numpy as np
 
-from estimator.config import ML_MIN, EKFConfig, OffsetBaseline, nuisance_names, nuisance_values
+from estimator.config import (
+    ML_MIN,
+    NUISANCE_OUTPUTS,
+    EKFConfig,
+    OffsetBaseline,
+    nuisance_names,
+    nuisance_snapshot,
+    nuisance_table,
+    nuisance_values,
+)
 from estimator.ekf import OilFlowEKF, StepReport
 from models.machine import Machine, load_machine
 from models.probes import Probes, read_probes
@@ -158,8 +167,9 @@ def estimate_columns(report: StepReport) -> tuple[list[str], list[tuple[str, flo
         "oil_temperature_c",
     ]
     extras = []
+    covered = {name for row in NUISANCE_OUTPUTS for name in (row.estimate, row.std)}
     for item in dataclasses.fields(report):
-        if item.name in BASE_FIELDS:
+        if item.name in BASE_FIELDS or item.name in covered:  # nuisances: the columns of nuisance_names()
             continue
         value = getattr(report, item.name)
         names, scale = _field_columns(item.name, value)
@@ -276,22 +286,26 @@ class EstimateRun:
         expected = self._first_k + ekf.step_count
         if int(block.k[0]) != expected:
             raise InputError(f"internal: grid index {int(block.k[0])} after {expected - 1}")  # bridged, never
-        scale = 1.0 / ML_MIN
-        extras = self._extras
-        values = []
+        step, snapshot = ekf.step, nuisance_snapshot
+        reports, nuisances = [], []
         started = time.perf_counter()
-        for position in block.position_m:
-            report = ekf.step(position)
-            q, std, starved = report.q_m3_s, report.q_std_m3_s, report.starved
-            row = [q[0], q[1], std[0], std[1], starved[0], starved[1], report.nis, report.n_measurements,
-                   report.converged, report.measurement_ok]  # fmt: skip
-            for name, factor, _ in extras:
-                row.extend(np.ravel(np.asarray(getattr(report, name), dtype=np.float64)) * factor)
-            row += nuisance_values(ekf)
-            values.append(row)
+        for position in block.position_m:  # only the steps here: the rows are built per block below
+            reports.append(step(position))
+            nuisances.append(snapshot(ekf))
         self.estimator_s += time.perf_counter() - started
-        table = np.array(values, dtype=np.float64)
-        table[:, :4] *= scale
+        scale = 1.0 / ML_MIN
+        columns = [
+            np.array([r.q_m3_s for r in reports]) * scale,
+            np.array([r.q_std_m3_s for r in reports]) * scale,
+            np.array([r.starved for r in reports]),
+            np.array([(r.nis, r.n_measurements, r.converged, r.measurement_ok) for r in reports]),
+        ]
+        for name, factor, size in self._extras:
+            values = np.array([getattr(r, name) for r in reports], dtype=np.float64)
+            values = values.reshape(len(reports), size)
+            columns.append(values * factor)
+        columns.append(nuisance_table(nuisances))
+        table = np.column_stack(columns)
         rows = np.empty((table.shape[0], len(self._columns)))
         rows[:, 0] = block.time_s
         rows[:, 1:11] = table[:, :10]
