@@ -264,17 +264,16 @@ def test_further_fields_of_the_estimator_s_step_report_become_estimate_columns_i
     @dataclass(slots=True)
     class NuisanceReport(StepReport):  # nuisance estimates issue 14's estimator is still to report
         offset_m: np.ndarray = None
-        viscosity_factor: np.ndarray = None
 
     report = NuisanceReport(0, np.zeros(2), np.zeros(2), 0.0, 4, False, True, np.zeros(2, bool),
-                            np.zeros(4, int), True, np.zeros(2, bool), np.zeros(2, bool),
-                            offset_m=np.zeros(4), viscosity_factor=np.ones(2))  # fmt: skip
+                            np.zeros(4, int), True, np.zeros(2, bool), np.zeros(2, bool), np.ones(2),
+                            np.zeros(2), offset_m=np.zeros(4))  # fmt: skip
     columns, extras = estimate_columns(report)
     assert columns[:5] == ["time_s", "q1_est_ml_min", "q2_est_ml_min", "q1_std_ml_min", "q2_std_ml_min"]
     assert columns[17:] == [
         "probe_status_x1", "probe_status_y1", "probe_status_x2", "probe_status_y2", "model_consistent",
         "changing_b1", "changing_b2", "starved_consistent_b1", "starved_consistent_b2",
+        "viscosity_factor_b1", "viscosity_factor_b2", "viscosity_factor_std_b1", "viscosity_factor_std_b2",
         "offset_x1_um", "offset_y1_um", "offset_x2_um", "offset_y2_um",
-        "viscosity_factor_b1", "viscosity_factor_b2",
     ]  # fmt: skip
     assert ("offset_m", 1e6, 4) in extras
