@@ -220,18 +220,21 @@ class OperatingAugmentedModel:
         nxt, ad, jq, _, ju = self.transition_full(state, flowrate_m3_s, step, unbalance=unbalance)
         return nxt, ad, jq, ju
 
-    def transition_full(self, state, flowrate_m3_s, step, viscosity_factor=None, unbalance=None):
+    def transition_full(
+        self, state, flowrate_m3_s, step, viscosity_factor=None, unbalance=None, exogenous=None
+    ):
         """``(s_next, df/ds, df/dq, df/df (n, 2) or None, df/du (n, 2) or None)`` at the operating point.
 
         ``viscosity_factor`` (2,) or None (1, and no Jacobian): each bearing's film viscosity over the oil
         law's. ``unbalance`` (2,) or None: the complex unbalance relative to the machine file's (as
-        ``GridAugmentedModel.transition_with_unbalance``). The arrays are reused on the next call.
+        ``GridAugmentedModel.transition_with_unbalance``). ``exogenous`` (3,): this ``w`` instead of the
+        phase's (the phase is then left alone). The arrays are reused on the next call.
         """
         q1, q2 = float(flowrate_m3_s[0]), float(flowrate_m3_s[1])
         f1, f2 = (1.0, 1.0) if viscosity_factor is None else map(float, viscosity_factor)
         if not (f1 > 0.0 and f2 > 0.0):
             raise InputError(f"viscosity factors must be > 0, got ({f1:g}, {f2:g})")
-        w = self.exogenous(step)
+        w = self.exogenous(step) if exogenous is None else exogenous
         loaded = w
         if unbalance is not None:
             a, b = float(unbalance[0]), float(unbalance[1])
@@ -313,17 +316,11 @@ class OperatingAugmentedModel:
         n = self.n_states
         zero = np.zeros(n)
         forcing = np.empty((n, 3))
-        saved = (self._anchor, self._last_step, self._keyphasor)
         for column in range(3):
             w = np.zeros(3)
             w[column] = 1.0
-            self.exogenous = lambda _step, w=w: w  # a probe of the map, restored below
-            try:
-                nxt, ad, _, _, _ = self.transition_full(zero, flowrate_m3_s, 0, viscosity_factor)
-            finally:
-                del self.exogenous
+            nxt, ad, _, _, _ = self.transition_full(zero, flowrate_m3_s, 0, viscosity_factor, exogenous=w)
             forcing[:, column] = nxt
-        self._anchor, self._last_step, self._keyphasor = saved
         return ad.copy(), forcing
 
     def exact_map(self, flowrate_m3_s, viscosity_factor=(1.0, 1.0)) -> tuple[np.ndarray, np.ndarray]:
