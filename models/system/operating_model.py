@@ -23,9 +23,10 @@ the keyphasor's angle when given (:meth:`set_operating_point`).
 Model error (``python scripts/operating_model_error.py --fraction F``, ``tests/test_operating_model.py``):
 the static probe positions and 1x orbit amplitudes of the model's map against the exact map's on the
 dimensionless table (worst probe) along the issue's ramps (72-78 Hz, +0..+10 degC, factors 0.95-1.05,
-100/100 and 80/90 % flow), with the centre F thresholds away in every axis: F = 0 (the grid's own
-interpolation) <= 0.003 um static, 0.0003 um orbit; F = 0.5 <= 0.012 / 0.0015 um; F = 1 (the worst corner a
-step meets before re-centring) <= 0.083 / 0.031 um; the static y sensitivity is 0.14 um per % of flow. The
+100/100 and 80/90 % flow; synchronous 1x load), with the centre F thresholds away in every axis: F = 0
+(the grid's own interpolation) <= 0.003 um static, 0.002 um orbit; F = 0.5 <= 0.012 / 0.009 um; F = 1 (the
+worst corner a step meets before re-centring) <= 0.083 / 0.034 um; the static y sensitivity is 0.14 um per %
+of flow, the orbits 2.5-7.4 um. The
 README section "Speed and oil temperature: the estimator follows them" has the table.
 """
 
@@ -37,13 +38,14 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from ..bearing.operating_table import OperatingTable, operating_table_path
+from ..bearing.coefficient_kinds import QUASI_STATIC
+from ..bearing.operating_table import operating_table_path
 from ..machine import Machine
 from ..oil import Oil
 from ..validation import InputError, require_positive
 from .augmented import GridAugmentedModel
 from .operating_maps import OperatingMaps
-from .operating_point import ConditionedTable
+from .operating_point import ConditionedTable, operating_table_of
 from .rotor_bearing import RotorBearingSystem
 
 NEVER = -(10**12)
@@ -383,30 +385,33 @@ def build_operating_model(
     the command when the table is missing."""
     if reference_table not in REFERENCE_TABLES:
         raise InputError(f"reference_table must be one of {REFERENCE_TABLES}, got {reference_table!r}")
-    path = operating_table_path(machine.source_path)
-    if not path.exists():
-        raise InputError(
-            f"following speed and oil temperature needs the dimensionless bearing table {path}: compute it "
-            "with `oilwatch bearing-map`"
-        )
-    table = OperatingTable.load(path)
-    table.check_geometry(machine.bearing)
+    synchronous_kind = machine.dynamic_coefficients != QUASI_STATIC
+    for kind in (QUASI_STATIC, machine.dynamic_coefficients) if synchronous_kind else (QUASI_STATIC,):
+        path = operating_table_path(machine.source_path, kind)
+        if not path.exists():
+            raise InputError(
+                f"following speed and oil temperature needs the dimensionless bearing table {path}: compute "
+                f"it with `oilwatch bearing-map --coefficients {kind}`"
+            )
+    table = operating_table_of(machine, QUASI_STATIC)
+    synchronous = operating_table_of(machine) if synchronous_kind else None
     mu0 = system.tables[0].metadata["bearing"]["viscosity_pa_s"]
     if reference_table == "dimensionless":
-        tables = [ConditionedTable(table, w, system.speed_hz, mu0) for w in system.static_loads_n]
+        speed, loads = system.speed_hz, system.static_loads_n
         system = RotorBearingSystem(
             system.rotor,
-            tables,
-            system.speed_hz,
+            [ConditionedTable(table, w, speed, mu0) for w in loads],
+            speed,
             system.basis,
             system.unbalance_moment_kg_m,
             system.unbalance_phase_rad,
             system.nominal_flowrate_m3_s,
+            None if synchronous is None else [ConditionedTable(synchronous, w, speed, mu0) for w in loads],
         )
     # the dimensionless table is C1 Catmull-Rom between its nodes: 3 grid intervals per table interval
     subdivisions = 3 if reference_table == "dimensionless" else 5
     reference = GridAugmentedModel(system, dt_s, subdivisions=subdivisions, progress=progress)
-    maps = OperatingMaps(system, table, dt_s)
+    maps = OperatingMaps(system, table, dt_s, synchronous)
     return OperatingAugmentedModel(reference, maps, machine.oil, mu0, recentring)
 
 
