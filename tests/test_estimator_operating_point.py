@@ -33,11 +33,7 @@ TRUTH = np.array([0.8, 1.0]) * QN
 def record():
     """(measured (K, 4), speed (K,), temperature (K,)): sample k at t_{k+1}, the operating point held over
     the period before it."""
-    # The operating model's 1x load is the quasi-static one (it does not take the synchronous 1x load of
-    # models.system.rotor_bearing yet): the plant the same, so that this test measures the ramp following.
-    system = operating_system(
-        MACHINE, SPEED(0.0), MACHINE.oil.dynamic_viscosity_pa_s(TEMPERATURE(0.0)), coefficients="quasi-static"
-    )
+    system = operating_system(MACHINE, SPEED(0.0), MACHINE.oil.dynamic_viscosity_pa_s(TEMPERATURE(0.0)))
     plant = RotorBearingPlant(
         system, DT, None, 1e-6, 7, initial_flowrates_m3_s=tuple(TRUTH), oil=MACHINE.oil,
         oil_temperature_c=TEMPERATURE(0.0),
