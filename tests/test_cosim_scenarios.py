@@ -189,9 +189,11 @@ def test_libcosim_runs_the_same_ssp_and_agrees_with_the_fmpy_master(built_fmus, 
     the step t -> t + h, one step later than under oilwatch's Gauss-Seidel order. The plant FMU's
     t_sample_s keeps the filter on its time grid, so libcosim's estimate at t + h must equal fmpy's at t.
     Only the start differs: libcosim's filter also uses the sample of t = 0, which Gauss-Seidel never
-    passes, and that difference decays as the filter forgets its start. Tolerances (measured: 0.02 ml/min
-    after 1 s, 1e-4 ml/min after 3 s): with the one-step shift, 0.1 ml/min (0.02 % of nominal) from 1 s on
-    and 0.005 ml/min from 4 s on; without it, one step's change of the estimate plus 0.1 ml/min. The
+    passes, and that difference decays as the filter forgets its start. Tolerances (measured on the
+    synchronous-coefficient default, largest shifted difference per half second: 0.96 ml/min in 0.5-1 s,
+    0.26 in 1-1.5 s, 0.028 in 1.5-2 s, 4e-4 in 3-3.5 s, 1e-9 after 3.5 s): with the one-step shift,
+    0.1 ml/min (0.02 % of nominal) from 1.5 s on and 0.005 ml/min from 4 s on; without it, one step's change
+    of the estimate plus 0.1 ml/min from 1.5 s on. The
     alarms come one step later in libcosim (one more step allowed for threshold crossings)."""
     duration = 6.0
     ssp = tmp_path / "SuddenDrop6s.ssp"
@@ -225,11 +227,11 @@ result = {{"fmpy": {{k: v.tolist() for k, v in fmpy_rows.items()}},
     for b in (1, 2):
         key = f"ekf.q{b}_est_ml_min"
         shifted = np.abs(osp[key] - fm[key][:-1])
-        assert shifted[time_s >= 1.0].max() < 0.1, shifted[time_s >= 1.0].max()
+        assert shifted[time_s >= 1.5].max() < 0.1, shifted[time_s >= 1.5].max()
         assert shifted[time_s >= 4.0].max() < 0.005
         same_time = np.abs(osp[key] - fm[key][1:])
         one_step_change = np.abs(np.diff(fm[key]))
-        assert np.all(same_time[time_s >= 1.0] <= one_step_change[time_s >= 1.0] + 0.1)
+        assert np.all(same_time[time_s >= 1.5] <= one_step_change[time_s >= 1.5] + 0.1)
         assert np.abs(osp[key][-1] - 447.225) < 0.02 * 447.225  # both saw the drop
         alarm_osp = time_s[np.argmax(osp[f"ekf.starved{b}"] > 0)]
         alarm_fmpy = fm["time"][np.argmax(fm[f"ekf.starved{b}"] > 0)]
