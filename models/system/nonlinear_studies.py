@@ -84,12 +84,14 @@ def orbit_setup(
     flowrate_m3_s: float,
     steps_per_revolution: int = 64,
     dt_s: float | None = None,
+    **options,
 ):
     """(simulation, static state, start on the frequency-dependent linear orbit, film models) of a run
-    with ``steps_per_revolution`` steps per revolution (or the step ``dt_s`` [s])."""
+    with ``steps_per_revolution`` steps per revolution (or the step ``dt_s`` [s]); ``options`` go to
+    :class:`NonlinearRotorBearing`."""
     speed = machine.nominal_speed_hz
     h = 1.0 / speed / steps_per_revolution if dt_s is None else dt_s
-    sim = NonlinearRotorBearing(machine, speed, mesh, h, reference_flowrate_m3_s=flowrate_m3_s)
+    sim = NonlinearRotorBearing(machine, speed, mesh, h, reference_flowrate_m3_s=flowrate_m3_s, **options)
     flows = (flowrate_m3_s, flowrate_m3_s)
     static = sim.static_state(flows)
     models = _film_models(machine, sim, (sim.selector @ static.r).reshape(-1, 2), flowrate_m3_s)
