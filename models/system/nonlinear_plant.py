@@ -151,8 +151,13 @@ def _refuse_chain_options(options: dict) -> None:
     from .measurement import MeasurementChain
 
     chain, change = options.get("chain"), options.get("unbalance_change")
-    ideal = MeasurementChain()
-    if chain is not None and (chain.probes != ideal.probes or chain.mounting_angle_rad != 0.0):
+    ideal = MeasurementChain().probes[0]
+    # Without a fault its start time and glitch do not matter (the FMU's "never" is 1e9 s, not inf).
+    errors = ("zero_offset_m", "sensitivity_error", "runout_1x_m", "runout_2x_m", "fault")
+    if chain is not None and (
+        any(getattr(p, name) != getattr(ideal, name) for p in chain.probes for name in errors)
+        or chain.mounting_angle_rad != 0.0
+    ):
         raise InputError("film_model = transient-film has ideal probes: leave the probe parameters at 0")
     if change is not None and math.isfinite(change.time_s):
         raise InputError("film_model = transient-film has no unbalance change: leave unbalance_change_time_s")
