@@ -14,7 +14,6 @@ time (``benchmarks/transient_film.py`` and the README give the real-time factor)
 from __future__ import annotations
 
 import copy
-import math
 
 import numpy as np
 
@@ -147,19 +146,23 @@ TRANSIENT_PLANT_MESH = (60, 16)
 the frequency-dependent model agree with it within 1.1 % and 1.7 deg)."""
 
 
+NEVER_S = 1e9
+"""The FMU's start value for "no fault / no change" times [s]."""
+
+
 def _refuse_chain_options(options: dict) -> None:
     from .measurement import MeasurementChain
 
     chain, change = options.get("chain"), options.get("unbalance_change")
     ideal = MeasurementChain().probes[0]
-    # Without a fault its start time and glitch do not matter (the FMU's "never" is 1e9 s, not inf).
+    # Without a fault its start time and glitch do not matter (the FMU's "never" is NEVER_S, not inf).
     errors = ("zero_offset_m", "sensitivity_error", "runout_1x_m", "runout_2x_m", "fault")
     if chain is not None and (
         any(getattr(p, name) != getattr(ideal, name) for p in chain.probes for name in errors)
         or chain.mounting_angle_rad != 0.0
     ):
         raise InputError("film_model = transient-film has ideal probes: leave the probe parameters at 0")
-    if change is not None and math.isfinite(change.time_s):
+    if change is not None and change.time_s < NEVER_S:
         raise InputError("film_model = transient-film has no unbalance change: leave unbalance_change_time_s")
     if options.get("oil") is not None or options.get("viscosity_factor", 1.0) != 1.0:
         raise InputError(
