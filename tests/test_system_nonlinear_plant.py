@@ -21,6 +21,7 @@ def test_plant_steps_follow_the_schedule_and_restore_bit_identically():
     plant = TransientFilmPlant(MACHINE, Mesh(60, 16), 1e-3, schedules, 1e-6, seed=3)
     first = plant.step()
     assert first.true_position_m.shape == (4,)
+    assert plant.rotor_angle_rad == pytest.approx(2.0 * np.pi * MACHINE.nominal_speed_hz * 1e-3)  # keyphasor
     snapshot = plant.snapshot()
     a = [plant.step()]
     plant.restore(snapshot)

@@ -110,6 +110,12 @@ class TransientFilmPlant:
         ratio, thickness = film_state(true, self._clearance_m)
         return PlantSample(true, measured, self._current.copy(), ratio, thickness)
 
+    @property
+    def rotor_angle_rad(self) -> float:
+        """The rotor's angle from the keyphasor mark [rad]: Omega t at the fixed speed (the unbalance
+        load is Re(F_u exp(i Omega t)))."""
+        return self.sim.omega * self.time_s
+
     def set_period(self, dt_s: float) -> None:
         """The period is fixed at instantiation (the films' step is part of their state)."""
         if abs(dt_s - self.dt_s) > 1e-12 * self.dt_s:
