@@ -5,7 +5,9 @@ the equilibrium at its nominal flowrate; after one warm-up revolution the wall t
 both bearings is recorded (warm: partitions, LU preconditioners and numba caches in place), for the
 default stepper (projected SOR sweeps, active set as fallback or finisher) and for the active set
 alone. Beside them the warm-started steady solve (``solve_film`` from the neighbouring solution) at
-the same positions. Prints medians, their ratios, the sweeps per step and the residual they reached.
+the same positions. Prints wall-time medians, their ratios, the process CPU time (what one core
+spends, less inflated than the wall time on a shared machine), the sweeps per step and the residual
+they reached.
 Run by hand:
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/transient_film.py [--mesh 240 72] [--revolutions 2]
@@ -50,6 +52,7 @@ def main() -> None:
         name: [f.from_steady(eq.film, eq.eccentricity_m) for f in films] for name, films in steppers.items()
     }
     times = {name: [] for name in steppers}
+    cpu = {name: [] for name in steppers}
     sweeps, residuals, steady = [], [], []
     omega = 2.0 * math.pi * speed
     dt = 1.0 / speed / 64
@@ -58,10 +61,11 @@ def main() -> None:
     for k in range(1, n_steps + 1):
         e = eq.eccentricity_m + 3e-6 * np.array([math.cos(omega * k * dt) - 1.0, math.sin(omega * k * dt)])
         for name, films in steppers.items():
-            start = time.perf_counter()
+            start, start_cpu = time.perf_counter(), time.process_time()
             states[name] = [f.step(s, e, q, dt) for f, s in zip(films, states[name], strict=True)]
             if k > 64:
                 times[name].append(time.perf_counter() - start)
+                cpu[name].append(time.process_time() - start_cpu)
         start = time.perf_counter()
         previous = solve_film(machine.bearing, speed, tuple(e), supply, mesh=mesh, warm_start=previous)
         if k > 64:

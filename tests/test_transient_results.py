@@ -16,7 +16,7 @@ from models.machine import load_machine
 from models.rotor.assembly import Rotor
 from models.system.frequency_stability import film_impedances, film_roots, least_stable
 from models.system.nonlinear import NonlinearRotorBearing
-from models.system.nonlinear_studies import SAMPLE_STEPS, orbit_setup
+from models.system.nonlinear_studies import SAMPLE_STEPS, linear_orbits, orbit_setup
 from models.system.transient_comparison import results_path, synchronous_table_path, transient_figures
 
 MACHINE = load_machine(None)
@@ -70,6 +70,16 @@ def test_orbit_run_start_recomputes():
     np.testing.assert_allclose(
         record["bearing_positions_m"][-1].ravel() * 1e6, run["sample_positions_um"], atol=1e-5
     )
+
+
+@pytest.mark.skipif("orbit_mesh" not in RESULTS, reason="no orbit mesh study in the results")
+def test_linear_orbit_of_the_mesh_study_recomputes():
+    run = RESULTS["orbit_mesh"]["by_flowrate_pct"]["100"]["runs"]["60x16"]
+    again = linear_orbits(MACHINE, Mesh(60, 16), MACHINE.lubrication.nominal_flowrate_m3_s)
+    np.testing.assert_allclose(again["static_position_um"], run["static_position_um"], atol=1e-6)
+    for name in ("frequency-dependent", "full-film"):
+        np.testing.assert_allclose(again[name]["amplitude_um"], run[name]["amplitude_um"], rtol=1e-6)
+        np.testing.assert_allclose(again[name]["phase_deg"], run[name]["phase_deg"], atol=1e-4)
 
 
 def test_coupled_integration_holds_the_static_equilibrium():
