@@ -1,8 +1,9 @@
 """Transient film step (both bearings) against the steady solve, on one mesh, in one run.
 
 The journals follow a 3 um circular whirl at the machine's nominal speed (64 steps per revolution) about
-the equilibrium at its nominal flowrate; after one warm-up revolution the wall time of each step of
-both bearings is recorded (warm: partitions, LU preconditioners and numba caches in place), for the
+the equilibrium at its nominal flowrate; after a warm-up (one revolution unless ``--warmup-steps``) the
+wall time of each step of both bearings is recorded (warm: partitions, LU preconditioners and numba
+caches in place), for the
 default stepper (projected SOR sweeps, active set as fallback or finisher) and for the active set
 alone. Beside them the warm-started steady solve (``solve_film`` from the neighbouring solution) at
 the same positions. Prints wall-time medians, their ratios, the process CPU time (what one core
@@ -11,6 +12,7 @@ they reached.
 Run by hand:
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/transient_film.py [--mesh 240 72] [--revolutions 2]
+        [--warmup-steps 64]
 """
 
 from __future__ import annotations
@@ -35,7 +37,8 @@ from models.rotor.assembly import Rotor
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--mesh", type=int, nargs=2, default=(240, 72))
-    parser.add_argument("--revolutions", type=int, default=2)
+    parser.add_argument("--revolutions", type=int, default=2, help="measured revolutions (64 steps each)")
+    parser.add_argument("--warmup-steps", type=int, default=64, help="steps before the measurement (64)")
     args = parser.parse_args()
     machine = load_machine(None)
     mesh = Mesh(*args.mesh)
@@ -57,18 +60,19 @@ def main() -> None:
     omega = 2.0 * math.pi * speed
     dt = 1.0 / speed / 64
     previous = eq.film
-    n_steps = 64 * (1 + args.revolutions)
+    warmup = args.warmup_steps
+    n_steps = warmup + 64 * args.revolutions
     for k in range(1, n_steps + 1):
         e = eq.eccentricity_m + 3e-6 * np.array([math.cos(omega * k * dt) - 1.0, math.sin(omega * k * dt)])
         for name, films in steppers.items():
             start, start_cpu = time.perf_counter(), time.process_time()
             states[name] = [f.step(s, e, q, dt) for f, s in zip(films, states[name], strict=True)]
-            if k > 64:
+            if k > warmup:
                 times[name].append(time.perf_counter() - start)
                 cpu[name].append(time.process_time() - start_cpu)
         start = time.perf_counter()
         previous = solve_film(machine.bearing, speed, tuple(e), supply, mesh=mesh, warm_start=previous)
-        if k > 64:
+        if k > warmup:
             steady.append(time.perf_counter() - start)
             sweeps.extend(s.sweeps for s in states["default (sweeps)"])
             residuals.extend(s.sweep_residual for s in states["default (sweeps)"])
