@@ -20,8 +20,14 @@ Two model families, each at the reduced and the full size; both filters only see
 The FMU is ``--fmu`` (default: built into a temporary folder with ``build.build_fmus``); its line needs the
 system family, whose reduced-model response feeds it.
 
+Under ramps (issue 13): the estimator on ``models.system.operating_model.OperatingAugmentedModel`` (reduced,
+following the measured speed and oil temperature) while the speed ramps at 1 Hz/s (72 -> 78 Hz) and the oil
+warms by 10 degC per minute, every step a new operating point (its re-centrings included in the mean), beside
+the same filter on the reference grid at constant conditions, and the FMU with ``bearing_table = 1`` fed the
+same ramps through its ``speed_hz`` and ``oil_temperature_c`` inputs.
+
 Usage: ``OPENBLAS_NUM_THREADS=1 python benchmarks/ekf_step.py [--steps 3000] [--repeats 5] [--table JSON]
-[--fmu OilFlowEKF.fmu]``
+[--fmu OilFlowEKF.fmu] [--only-ramps]``
 """
 
 from __future__ import annotations
@@ -54,6 +60,8 @@ class SyntheticRotorModel:
         rng = np.random.default_rng(seed)
         self.n_states = n_states
         self.dt_s = dt_s
+        self.nominal_flowrate_m3_s = NOMINAL_FLOWRATE_M3_S
+        self.speed_hz = SPEED_HZ
         self.flowrate_bounds_m3_s = (0.45 * NOMINAL_FLOWRATE_M3_S, 1.4 * NOMINAL_FLOWRATE_M3_S)
         modes = n_states // 2
         base = np.zeros((n_states, n_states))
@@ -164,12 +172,41 @@ class _ModelOnly:
         self.k += 1
 
 
-def time_fmu(fmu_path: Path, record: np.ndarray, repeats: int) -> tuple[float, float]:
+RAMP_HZ_PER_S = 1.0
+WARMING_C_PER_S = 10.0 / 60.0
+
+
+def ramp_point(k: int, dt: float = 1.0e-3) -> tuple[float, float]:
+    """(speed [Hz], oil temperature over nominal [degC]) of sample k of the benchmark's ramps."""
+    t = k * dt
+    return 72.0 + RAMP_HZ_PER_S * (t % 6.0), WARMING_C_PER_S * (t % 60.0)
+
+
+class _RampFilter:
+    """An OilFlowEKF fed the benchmark's ramps with every sample."""
+
+    def __init__(self, model, config: EKFConfig, nominal_c: float) -> None:
+        self.ekf = OilFlowEKF(model, config)
+        self.nominal_c = nominal_c
+        self.k = 0
+
+    def step(self, z: np.ndarray) -> None:
+        speed, warming = ramp_point(self.k)
+        self.ekf.step(z, speed, self.nominal_c + warming)
+        self.k += 1
+
+
+def time_fmu(
+    fmu_path: Path, record: np.ndarray, repeats: int, ramps: float | None = None
+) -> tuple[float, float]:
     """Median and minimum over ``repeats`` passes of ``record`` of the cost per FMU step [us], including
     setReal of the four positions, doStep, getReal of four outputs and getBoolean of four flags.
 
     ``record[k]`` is the model's output at t_k = k dt; doStep(t, dt) gets the sample of t + dt (the FMU's
     unconnected ``t_sample_s``), so the filter sees aligned data. One instance runs on through the passes.
+    ``ramps``: the nominal oil temperature [degC]; the FMU then runs with ``bearing_table = 1`` and gets the
+    benchmark's ramps on its ``speed_hz`` and ``oil_temperature_c`` inputs with every step (setReal
+    included in the cost).
     """
     from fmpy import extract, read_model_description
     from fmpy.fmi2 import FMU2Slave
@@ -182,15 +219,21 @@ def time_fmu(fmu_path: Path, record: np.ndarray, repeats: int) -> tuple[float, f
         instanceName="ekf",
     )
     vr = {v.name: v.valueReference for v in md.modelVariables}
-    inputs = [vr[n] for n in ("x1_um", "y1_um", "x2_um", "y2_um")]
+    names = ["x1_um", "y1_um", "x2_um", "y2_um"] + (["speed_hz", "oil_temperature_c"] if ramps else [])
+    inputs = [vr[n] for n in names]
     reals = [vr[n] for n in ("q1_est_ml_min", "q2_est_ml_min", "q1_std_ml_min", "q2_std_ml_min")]
     flags = [vr[n] for n in ("starved1", "starved2", "converged", "measurement_ok")]
     fmu.instantiate()
     fmu.setupExperiment(startTime=0.0)
     fmu.enterInitializationMode()
+    if ramps is not None:
+        fmu.setInteger([vr["bearing_table"]], [1])
+        fmu.setReal([vr["speed_hz"], vr["oil_temperature_c"]], [72.0, ramps])
     fmu.exitInitializationMode()  # builds the model and compiles (or loads) the numba kernels
     dt = 1.0e-3
     samples = (record * 1e6).tolist()
+    if ramps is not None:
+        samples = [row + list(_shift(ramp_point(j), ramps)) for j, row in enumerate(samples)]
     steps = len(samples) - 1
     samples_us, k = [], 0
     for _ in range(repeats):
@@ -205,6 +248,55 @@ def time_fmu(fmu_path: Path, record: np.ndarray, repeats: int) -> tuple[float, f
     fmu.terminate()
     fmu.freeInstance()
     return float(np.median(samples_us)), float(np.min(samples_us))
+
+
+def _shift(point: tuple[float, float], nominal_c: float) -> tuple[float, float]:
+    return point[0], nominal_c + point[1]
+
+
+def operating_rows(args, record: np.ndarray) -> list[tuple[str, tuple[float, float]]]:
+    """The estimator under the 1 Hz/s speed ramp and the oil warming, beside the reference at constant."""
+    from models.system.operating_model import build_operating_model
+
+    machine = load_machine()
+    model = build_operating_model(load_system(reduced=True), machine)
+    nominal_c = machine.nominal_oil_temperature_c
+    config = EKFConfig(velocity_noise="displacement-only", gate_tail_probability=0.0)
+    _RampFilter(model, config, nominal_c).ekf.run(record[:10])  # compile outside the timing
+    rows = [
+        (
+            "OilFlowEKF, reference grid (26 states), constant",
+            time_per_step(lambda: OilFlowEKF(model.reference, config), record, args.repeats),
+        ),
+        (
+            "OilFlowEKF, operating model (26 states), 1 Hz/s + 10 degC/min",
+            time_per_step(lambda: _RampFilter(model, config, nominal_c), record, args.repeats),
+        ),
+    ]
+    centre = np.array(
+        [0.8 * model.nominal_flowrate_m3_s, 0.8 * model.nominal_flowrate_m3_s, 74.0, -2.5, -2.5]
+    )
+    costs = []
+    for _ in range(args.repeats):
+        start = time.perf_counter()
+        model.place_centre(centre)
+        costs.append((time.perf_counter() - start) * 1e6)
+    rows.append(
+        ("one re-centring of the operating model (7 Frechet derivatives)", (np.median(costs), min(costs)))
+    )
+    print(f"(operating model: {model.recentre_count} re-centrings over the timed ramps and this row)")
+    with tempfile.TemporaryDirectory(prefix="oilwatch_bench_") as folder:
+        path = ekf_fmu(args.fmu, folder)
+        rows.append(
+            ("OilFlowEKF FMU under fmpy, bearing_table 0, constant", time_fmu(path, record, args.repeats))
+        )
+        rows.append(
+            (
+                "OilFlowEKF FMU under fmpy, bearing_table 1, 1 Hz/s + 10 degC/min",
+                time_fmu(path, record, args.repeats, ramps=nominal_c),
+            )
+        )
+    return rows
 
 
 def ekf_fmu(path: str | None, out_dir: str) -> Path:
@@ -234,17 +326,31 @@ def make_models(table: str | None) -> dict[str, dict[str, object]]:
     return families
 
 
+def print_rows(rows) -> None:
+    """The table of median and minimum cost per step and the real-time factor at 1 kHz."""
+    print(f"{'step (model included unless alone)':<70} {'median us':>10} {'min us':>8} {'RTF@1kHz':>9}")
+    for label, (median, best) in rows:
+        print(f"{label:<70} {median:10.1f} {best:8.1f} {1000.0 / median:9.1f}")
+    print("(RTF from the median; machine shared, so the minimum is the better cost estimate)\n")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=3000)
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--table", default=None, help="bearing coefficient table JSON for the system model")
     parser.add_argument("--fmu", default=None, help="OilFlowEKF.fmu to time (default: build one)")
+    parser.add_argument("--only-ramps", action="store_true", help="only the rows under speed/oil ramps")
     args = parser.parse_args()
+    if args.only_ramps:
+        record = measurements(GridAugmentedModel(load_system(reduced=True)), args.steps)
+        print_rows(operating_rows(args, record))
+        return
 
     rows = []
     headline = []
-    for family, models in make_models(args.table).items():
+    families = make_models(args.table)
+    for family, models in families.items():
         costs = {}
         for size, model in models.items():
             label = f"{family} {size} ({model.n_states} states)"
@@ -271,10 +377,12 @@ def main() -> None:
             costs[("fmu", "fmpy")] = cost[0]
         headline.append((family, costs))
 
-    print(f"{'step (model included unless alone)':<66} {'median us':>10} {'min us':>8} {'RTF@1kHz':>9}")
-    for label, (median, best) in rows:
-        print(f"{label:<66} {median:10.1f} {best:8.1f} {1000.0 / median:9.1f}")
-    print("(RTF from the median; machine shared, so the minimum is the better cost estimate)\n")
+    rows += (
+        operating_rows(args, measurements(families["system"]["reduced"], args.steps))
+        if ("system" in families)
+        else []
+    )
+    print_rows(rows)
     for family, costs in headline:
         baseline = costs[("full", "filterpy")]
         ours = costs[("reduced", "displacement-only")]

@@ -152,6 +152,13 @@ class EKFConfig:
             shows as a 1x innovation the windowed NIS test catches).
         offset_baseline : an :class:`OffsetBaseline` from a commissioning record: the offsets' initial
             estimate and prior std (it adds the offset states even when offset_prior_std_m is 0).
+    Viscosity factors (issue 14 item 1)
+        viscosity_factor_prior_std : prior std of each bearing's effective viscosity factor ``f_b`` (the
+            film's viscosity over the oil law's at the measured oil temperature: film heating and model error;
+            prior 1); 0 (the paper's calibrated setting) keeps both factors at 1 and out of the state, > 0
+            adds two random-walk states (needs a model with ``transition_full``, e.g.
+            ``models.system.operating_model.OperatingAugmentedModel``).
+        viscosity_factor_random_walk_sqrt_s : their random-walk intensity [1 / sqrt(s)].
     Innovation gate and probe health (see :mod:`estimator.channels`)
         gate_tail_probability : a channel whose squared standardized innovation exceeds the chi-square(1)
             quantile ``1 - p`` times its recent innovation power is rejected (0 disables the gate).
@@ -191,6 +198,8 @@ class EKFConfig:
     offset_prior_std_m: float = 0.0
     offset_random_walk_m_sqrt_s: float = 0.2e-6
     offset_baseline: OffsetBaseline | None = None
+    viscosity_factor_prior_std: float = 0.0
+    viscosity_factor_random_walk_sqrt_s: float = 0.002
     unbalance_prior_std: float = 0.0
     unbalance_random_walk_sqrt_s: float = 0.02
     unbalance_inconsistent_std: float = 0.01
@@ -258,6 +267,7 @@ class EKFConfig:
             "unbalance_prior_std",
             "unbalance_random_walk_sqrt_s",
             "unbalance_inconsistent_std",
+            "viscosity_factor_random_walk_sqrt_s",
         ):
             require_non_negative(f"EKFConfig.{name}", getattr(self, name))
         for name in (
@@ -270,6 +280,7 @@ class EKFConfig:
             "consistency_window_s",
         ):
             require_in_range(f"EKFConfig.{name}", getattr(self, name), 1e-6, 600.0, "s")
+        require_in_range("EKFConfig.viscosity_factor_prior_std", self.viscosity_factor_prior_std, 0.0, 0.5)
         require_in_range("EKFConfig.change_tail_probability", self.change_tail_probability, 1e-15, 0.5)
         require_in_range(
             "EKFConfig.consistency_tail_probability", self.consistency_tail_probability, 1e-15, 0.5
@@ -385,6 +396,9 @@ def _estimator_parameters() -> tuple[BoundaryParameter, ...]:
          "paper's 10 um makes the filter inconsistent (NIS/m 0.14), more biased and slower to alarm"),
         ("q_std_flow_ml_min", "flowrate_process_std_m3_s", "ml/min", ML_MIN, 0.0, None,
          "Process-noise std per step of each flowrate state (paper and recommended: 0.1 ml/min)"),
+        ("viscosity_factor_prior_std", "viscosity_factor_prior_std", "1", 1.0, 0.0, 0.5,
+         "Prior std of each bearing's viscosity factor (film over the oil law at the measured temperature); "
+         "0: known (1, the paper's calibrated setting); > 0 estimates both (needs bearing_table = 1)"),
         ("gate_tail_probability", "gate_tail_probability", "1", 1.0, 0.0, 0.5,
          "Innovation gate, per probe: a channel whose squared standardized innovation exceeds the "
          "chi-square(1) quantile 1 - p times its recent innovation power is rejected (never forced through); "

@@ -1,8 +1,15 @@
 """The augmented-state Extended Kalman Filter that estimates the two oil supply flowrates (paper Eqs. 17-24).
 
-Augmented state ``x = [s; q / q_nominal; o]``: the model's dynamic states ``s`` (SI), the two flowrates as
-fractions of the nominal flowrate and, when ``offset_prior_std_m > 0``, the four probe zero offsets ``o`` [m]
-(random walks; each probe reads ``Rot H s + o``, Rot the probes' mounting angle, ``probe_angle_deg``).
+Augmented state ``x = [s; q / q_nominal; o; f; u]``: the model's dynamic states ``s`` (SI), the two flowrates
+as fractions of the nominal flowrate and, when their prior std is > 0, the four probe zero offsets ``o`` [m]
+(random walks; each probe reads ``Rot H s + o``, Rot the probes' mounting angle, ``probe_angle_deg``), the two
+bearings' viscosity factors ``f`` (random walks around 1; ``viscosity_factor_prior_std``) and the complex
+unbalance ``u``.
+
+Operating point: :meth:`OilFlowEKF.step` takes the measured speed and oil temperature of the sample (and a
+keyphasor angle when there is one) and hands them to a model that follows them (``set_operating_point``,
+:class:`models.system.operating_model.OperatingAugmentedModel`) before predicting to the sample: the plant
+holds them over the period that ends at the sample, and so does the prediction.
 The model works in m^3/s, where a flowrate of 1e-5 and a process-noise std
 of 1.7e-9 sit beside displacements of 1e-5 m; in fractions of nominal the flowrate entries of P are
 O(1e-4..1e-1), which keeps the flowrate block of P and its Jacobian columns well scaled. Everything at the
@@ -59,6 +66,9 @@ from .measurement import displacement_channels, velocity_channels
 from .model import AugmentedModel, has_static_state
 from .state import export_state, import_state
 
+MIN_VISCOSITY_FACTOR = 0.2
+"""The model never sees a viscosity factor below this (a random walk kept physical)."""
+
 
 @dataclass(slots=True)
 class StepReport:
@@ -71,6 +81,8 @@ class StepReport:
     starved : (2,) bool alarm flags. probe_status : (4,) int codes of :mod:`estimator.channels` (0 healthy).
     model_consistent : the windowed NIS test passes. changing : (2,) bool, the change test fires on the
     bearing. starved_consistent : (2,) bool, alarm raised while the model was consistent.
+    viscosity_factor, viscosity_factor_std : (2,) each bearing's estimated viscosity factor and its std
+    (1 and 0 when the factors are not estimated).
     """
 
     step: int
@@ -85,6 +97,8 @@ class StepReport:
     model_consistent: bool
     changing: np.ndarray
     starved_consistent: np.ndarray
+    viscosity_factor: np.ndarray
+    viscosity_factor_std: np.ndarray
 
     @property
     def probe_faulty(self) -> np.ndarray:
@@ -110,6 +124,8 @@ class EstimateTrace:
     starved_consistent: np.ndarray
     offset_m: np.ndarray
     offset_std_m: np.ndarray
+    viscosity_factor: np.ndarray
+    viscosity_factor_std: np.ndarray
 
     @property
     def probe_faulty(self) -> np.ndarray:
@@ -140,10 +156,21 @@ class OilFlowEKF:
             raise InputError(
                 "EKFConfig.unbalance_prior_std > 0 needs a model with transition_with_unbalance()"
             )
+        self._n_viscosity = 2 if cfg.viscosity_factor_prior_std > 0.0 else 0
+        if self._n_viscosity and not callable(getattr(model, "transition_full", None)):
+            raise InputError(
+                "EKFConfig.viscosity_factor_prior_std > 0 needs a model with transition_full() (one that "
+                "follows the operating point: models.system.operating_model)"
+            )
         self._offsets = slice(n + 2, n + 2 + self._n_offsets)
-        self._unbalance = slice(n + 2 + self._n_offsets, n + 2 + self._n_offsets + self._n_unbalance)
-        self._size = n + 2 + self._n_offsets + self._n_unbalance
-        self._no_unbalance = np.zeros((n, 0))
+        first = n + 2 + self._n_offsets
+        self._viscosity = slice(first, first + self._n_viscosity)
+        self._unbalance = slice(first + self._n_viscosity, first + self._n_viscosity + self._n_unbalance)
+        self._size = first + self._n_viscosity + self._n_unbalance
+        # the trailing nuisance columns of the Jacobian (viscosity factors, unbalance): see kernels
+        self._n_trailing = self._n_viscosity + self._n_unbalance
+        self._trailing_jacobian = np.zeros((n, self._n_trailing))
+        self._follows = callable(getattr(model, "set_operating_point", None))
         self._q_nominal = cfg.q_nominal_m3_s
         low, high = model.flowrate_bounds_m3_s
         self._bounds = (float(low), float(high))
@@ -157,7 +184,7 @@ class OilFlowEKF:
             )
 
         angle = math.radians(cfg.probe_angle_deg)
-        pad = np.zeros((4, self._n_unbalance))
+        pad = np.zeros((4, self._n_trailing))
         obs4, self._noise4 = displacement_channels(model, cfg.noise_std_m, angle, self._n_offsets)
         self._obs4 = np.hstack([obs4, pad])
         channels8 = velocity_channels(model, cfg.noise_std_m, cfg.velocity_noise, angle, self._n_offsets)
@@ -195,6 +222,9 @@ class OilFlowEKF:
         self._unbalance_extra = cfg.unbalance_inconsistent_std**2
         if self._n_unbalance:
             self._process_noise[self._unbalance, self._unbalance] = self._unbalance_walk * np.eye(2)
+        if self._n_viscosity:
+            walk = cfg.viscosity_factor_random_walk_sqrt_s**2 * self._dt
+            self._process_noise[self._viscosity, self._viscosity] = walk * np.eye(2)
 
         self._jacobian = np.zeros((self._size, self._size))
         self._work = np.zeros((self._size, self._size))
@@ -280,7 +310,13 @@ class OilFlowEKF:
         if self._n_unbalance:
             self._x[self._unbalance] = (1.0, 0.0)
             self._P[self._unbalance, self._unbalance] = cfg.unbalance_prior_std**2 * np.eye(2)
+        if self._n_viscosity:
+            self._x[self._viscosity] = 1.0
+            self._P[self._viscosity, self._viscosity] = cfg.viscosity_factor_prior_std**2 * np.eye(2)
+        if callable(getattr(self.model, "reset_operating_state", None)):
+            self.model.reset_operating_state()
         self._health, self._health_values = channels.new_health()
+        self._operating = (getattr(self.model, "speed_hz", None), None)
         self._step = 0
         self._history = np.zeros((self._window, 2))
         self._since_update = 0
@@ -332,6 +368,16 @@ class OilFlowEKF:
         return np.sqrt(np.diag(self._P)[self._unbalance]) if self._n_unbalance else np.zeros(2)
 
     @property
+    def viscosity_factor(self) -> np.ndarray:
+        """(2,) each bearing's estimated viscosity factor (film over the oil law's; ones if not estimated)."""
+        return self._x[self._viscosity].copy() if self._n_viscosity else np.ones(2)
+
+    @property
+    def viscosity_factor_std(self) -> np.ndarray:
+        """(2,) their stds (zeros when the factors are not estimated)."""
+        return np.sqrt(np.diag(self._P)[self._viscosity]) if self._n_viscosity else np.zeros(2)
+
+    @property
     def dynamic_state(self) -> np.ndarray:
         """(n,) copy of the dynamic-state estimate s [SI]."""
         return self._x[: self._n].copy()
@@ -358,6 +404,8 @@ class OilFlowEKF:
             consistent,
             self._changing.copy(),
             self.alarm.starved_consistent,
+            self.viscosity_factor,
+            self.viscosity_factor_std,
         )
 
     @property
@@ -365,25 +413,50 @@ class OilFlowEKF:
         """Number of samples processed."""
         return self._step
 
-    def step(self, displacement_m: np.ndarray) -> StepReport:
+    def step(
+        self,
+        displacement_m: np.ndarray,
+        speed_hz: float | None = None,
+        oil_temperature_c: float | None = None,
+        rotor_angle_rad: float | None = None,
+    ) -> StepReport:
         """Process one sample of the measured displacements (x1, y1, x2, y2) [m], shape (4,).
 
         The sample belongs to time ``first_sample_time_s + k dt`` with k = :attr:`step_count`; the prediction
         from the previous sample runs first. A non-finite entry drops that channel from this sample.
+        ``speed_hz`` [Hz] and ``oil_temperature_c`` [degC], measured over the period that ends at the sample
+        (None: unchanged), and the keyphasor's ``rotor_angle_rad`` at the previous sample (None: the integral
+        of the speed) go to a model that follows them; a model that does not accepts only its own speed.
         """
         displacement = np.ascontiguousarray(displacement_m, dtype=np.float64)
         if displacement.shape != (4,):
             raise InputError(f"displacement_m must have shape (4,), got {displacement.shape}")
+        if speed_hz is not None or oil_temperature_c is not None or rotor_angle_rad is not None:
+            self._set_operating_point(speed_hz, oil_temperature_c, rotor_angle_rad)
         n = self._n
         predict = self._step > 0
-        unbalance_jac = self._no_unbalance
-        if predict and self._n_unbalance:
+        trailing = self._trailing_jacobian
+        if predict and self._n_trailing and self._n_viscosity:
+            factors = np.maximum(self._x[self._viscosity], MIN_VISCOSITY_FACTOR)
+            unbalance = self._x[self._unbalance] if self._n_unbalance else None
+            next_state, state_jac, flow_jac, viscosity_jac, unbalance_jac = self.model.transition_full(
+                self._x[:n],
+                np.array(self._flowrate_si()),
+                self._first_step + self._step - 1,
+                factors,
+                unbalance,
+            )
+            trailing[:, :2] = viscosity_jac
+            if self._n_unbalance:
+                trailing[:, 2:] = unbalance_jac
+        elif predict and self._n_unbalance:
             next_state, state_jac, flow_jac, unbalance_jac = self.model.transition_with_unbalance(
                 self._x[:n],
                 np.array(self._flowrate_si()),
                 self._first_step + self._step - 1,
                 self._x[self._unbalance],
             )
+            trailing[:, :] = unbalance_jac
         elif predict:
             next_state, state_jac, flow_jac = self.model.transition(
                 self._x[:n], np.array(self._flowrate_si()), self._first_step + self._step - 1
@@ -398,7 +471,7 @@ class OilFlowEKF:
             np.ascontiguousarray(state_jac, dtype=np.float64),
             np.ascontiguousarray(flow_jac, dtype=np.float64),
             self._q_nominal,
-            np.ascontiguousarray(unbalance_jac, dtype=np.float64),
+            trailing,
             self._process_noise,
             self._jacobian,
             self._work,
@@ -443,9 +516,32 @@ class OilFlowEKF:
             consistent,
             self._changing.copy(),
             self.alarm.starved_consistent,
+            self.viscosity_factor,
+            self.viscosity_factor_std,
         )
         self._step += 1
         return report
+
+    def _set_operating_point(
+        self, speed_hz: float | None, oil_temperature_c: float | None, rotor_angle_rad: float | None
+    ) -> None:
+        """Hand the measured operating point to the model (InputError for one it cannot follow)."""
+        model = self.model
+        if self._follows:
+            speed, temperature = self._operating
+            speed = speed if speed_hz is None else speed_hz
+            temperature = temperature if oil_temperature_c is None else oil_temperature_c
+            model.set_operating_point(speed, temperature, rotor_angle_rad)
+            self._operating = (speed, temperature)
+            return
+        own = getattr(model, "speed_hz", None)
+        if speed_hz is not None and own is not None and not math.isclose(speed_hz, own, rel_tol=1e-9):
+            raise InputError(
+                f"speed_hz = {speed_hz:g} Hz: this estimator's model holds one speed ({own:g} Hz); build "
+                "it on the operating-point model to follow speed and oil temperature"
+            )
+        if rotor_angle_rad is not None:
+            raise InputError("rotor_angle_rad needs a model that follows the operating point")
 
     def _consistency(self, nis: float, rows: int) -> bool:
         """Windowed NIS test (module docstring) including this step."""
@@ -477,15 +573,27 @@ class OilFlowEKF:
         )
 
     def run(
-        self, displacements_m: np.ndarray, progress: Callable[[int, int], None] | None = None
+        self,
+        displacements_m: np.ndarray,
+        progress: Callable[[int, int], None] | None = None,
+        speed_hz: np.ndarray | None = None,
+        oil_temperature_c: np.ndarray | None = None,
     ) -> EstimateTrace:
         """Process a record of K samples (K, 4) [m] with :meth:`step`; return the per-step outputs.
 
-        ``progress(done, total)`` is called every 100 samples and at the end (for a progress bar)."""
+        ``speed_hz`` and ``oil_temperature_c`` (K,), when given, are each sample's measured operating point
+        (see :meth:`step`). ``progress(done, total)`` is called every 100 samples and at the end."""
         record = np.asarray(displacements_m, dtype=np.float64)
         if record.ndim != 2 or record.shape[1] != 4:
             raise InputError(f"displacements_m must have shape (K, 4), got {record.shape}")
         count = record.shape[0]
+        operating = []
+        for name, values in (("speed_hz", speed_hz), ("oil_temperature_c", oil_temperature_c)):
+            if values is not None:
+                values = np.asarray(values, dtype=float)
+                if values.shape != (count,):
+                    raise InputError(f"{name} must have shape ({count},), got {values.shape}")
+            operating.append(values)
         trace = EstimateTrace(
             q_m3_s=np.zeros((count, 2)),
             q_std_m3_s=np.zeros((count, 2)),
@@ -500,11 +608,17 @@ class OilFlowEKF:
             starved_consistent=np.zeros((count, 2), dtype=bool),
             offset_m=np.zeros((count, 4)),
             offset_std_m=np.zeros((count, 4)),
+            viscosity_factor=np.ones((count, 2)),
+            viscosity_factor_std=np.zeros((count, 2)),
         )
         for k in range(count):
             if progress is not None and k % 100 == 0:
                 progress(k, count)
-            report = self.step(record[k])
+            report = self.step(
+                record[k],
+                None if operating[0] is None else float(operating[0][k]),
+                None if operating[1] is None else float(operating[1][k]),
+            )
             trace.q_m3_s[k] = report.q_m3_s
             trace.q_std_m3_s[k] = report.q_std_m3_s
             trace.nis[k] = report.nis
@@ -519,6 +633,8 @@ class OilFlowEKF:
             if self._n_offsets:
                 trace.offset_m[k] = self.offset_m
                 trace.offset_std_m[k] = self.offset_std_m
+            trace.viscosity_factor[k] = report.viscosity_factor
+            trace.viscosity_factor_std[k] = report.viscosity_factor_std
         if progress is not None:
             progress(count, count)
         return trace

@@ -5,7 +5,7 @@ The state is a flat ``dict[str, numpy.ndarray]`` (scalars as 0-d arrays), every 
 ====================  ==========  =====================================================================
 key                   shape       meaning
 ====================  ==========  =====================================================================
-x                     (N,)        augmented estimate [s; q / q_nominal; offsets (when estimated)]
+x                     (N,)        [s; q / q_nominal; offsets, viscosity factors, unbalance if estimated]
 P                     (N, N)      its covariance
 health                (4, 6)      int: probe records (:mod:`estimator.channels`)
 health_values         (4, 4)      float: last reading, innovation power and mean, last accepted reading
@@ -18,6 +18,8 @@ process_noise_q       (2,)        the flowrate process variances of the next pre
 changing              (2,)        bool: change test firing per bearing
 last                  (5,)        float: nis, n_measurements, measurement_ok, converged, model_consistent
 alarm_*               (2,)        the alarm flags and hold counters (see :mod:`estimator.alarm`)
+operating             (4,)        (given?, speed [Hz], given?, oil temperature [degC]) last measured
+model_*               ...         a model's operating state, when it follows the operating point
 ====================  ==========  =====================================================================
 """
 
@@ -51,6 +53,13 @@ def export_state(ekf: OilFlowEKF) -> dict[str, np.ndarray]:
         "last": np.array([float(v) for v in ekf._last]),
     }
     state.update(ekf.alarm.get_state())
+    speed, temperature = ekf._operating
+    state["operating"] = np.array(
+        [float(speed is not None), speed or 0.0, float(temperature is not None), temperature or 0.0]
+    )
+    getter = getattr(ekf.model, "get_operating_state", None)
+    if callable(getter):
+        state.update({f"model_{key}": value for key, value in getter().items()})
     return state
 
 
@@ -87,3 +96,13 @@ def import_state(ekf: OilFlowEKF, state: dict[str, np.ndarray]) -> None:
     nis, rows, ok, converged, consistent = _checked(state, "last", (5,))
     ekf._last = (float(nis), int(rows), bool(ok), bool(converged), bool(consistent))
     ekf.alarm.set_state(state)
+    if "operating" in state:
+        has_speed, speed, has_temperature, temperature = (
+            float(v) for v in _checked(state, "operating", (4,))
+        )
+        ekf._operating = (speed if has_speed else None, temperature if has_temperature else None)
+    setter = getattr(ekf.model, "set_operating_state", None)
+    if callable(setter):
+        model_state = {k.removeprefix("model_"): v for k, v in state.items() if k.startswith("model_")}
+        if model_state:
+            setter(model_state)

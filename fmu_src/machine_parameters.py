@@ -1,10 +1,12 @@
-"""The machine parameters both oilwatch FMUs share: ``machine_file``, ``speed_hz`` and the unbalance.
+"""What both oilwatch FMUs share: the parameters ``machine_file`` and the unbalance, and the operating-point
+inputs ``speed_hz`` and ``oil_temperature_c``.
 
 Both the plant and the estimator build the same rotor-bearing system from the same parameters (the filter
 must know the machine and the unbalance the plant has), so they declare and build it here. Machine facts are
-never start values: 0 (speed, flowrates) or -1 (unbalance) stand for "the machine file's value", resolved
-at initialization from the machine file, which is the FMU's own bundled one unless ``machine_file`` names
-another.
+never start values: 0 (speed, flowrates), -1 (unbalance) or -300 (oil temperature) stand for "the machine
+file's value", resolved at initialization from the machine file, which is the FMU's own bundled one unless
+``machine_file`` names another. The inputs' values at initialization (their start values, settable like a
+parameter: ``--set plant.speed_hz=80``) are the start speed and oil temperature.
 
 Where the bundled machine lives: ``resources/<relocated fmu_src>/machine/<stem>.toml`` and its tables in
 ``machine/tables/`` (written by ``oilwatch build-fmus --machine FILE``); an FMU built without that folder
@@ -16,6 +18,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+from fmu_src.fmi_variables import UnitDefinition, register_unit
 from models.machine import BUNDLED_MACHINE, Machine, load_machine
 from models.system.factory import build_system
 from models.system.rotor_bearing import RotorBearingSystem
@@ -24,9 +27,32 @@ from models.validation import InputError
 MACHINE_FOLDER = "machine"
 """Folder of the FMU's own machine file and its tables, inside the relocated ``fmu_src`` package."""
 
+register_unit(UnitDefinition("degC", {"K": 1}, 1.0, 273.15))
+NOMINAL_TEMPERATURE = -300.0
+"""Value of ``oil_temperature_c`` standing for the machine's nominal oil temperature."""
+OPERATING_INPUTS = (
+    (
+        "speed_hz",
+        0.0,
+        "Hz",
+        0.0,
+        1000.0,
+        "Measured spin speed (held over each step); 0: the machine file's nominal speed. Its value at "
+        "initialization is the start speed (bearing_table = 0: a flowrate table must exist for it, and the "
+        "input must stay there)",
+    ),
+    (
+        "oil_temperature_c",
+        NOMINAL_TEMPERATURE,
+        "degC",
+        NOMINAL_TEMPERATURE,
+        150.0,
+        "Measured oil supply temperature (held over each step); -300: the machine file's nominal oil "
+        "temperature (bundled turbine: 30.81 degC, where its oil has 0.094 Pa s)",
+    ),
+)
+"""Real inputs both FMUs declare (the operating point): name, start, unit, min, max, description."""
 MACHINE_REALS = (
-    ("speed_hz", 0.0, "Hz", 0.0, 1000.0,
-     "Spin speed; 0: the machine file's nominal speed (a coefficient table must exist for it)"),
     ("unbalance_g_mm", -1.0, "g.mm", -1.0, None,
      "Unbalance moment at the machine's unbalance node (the plant's and the estimator's must agree); -1: "
      "the machine file's ISO grade"),
@@ -36,17 +62,28 @@ MACHINE_REALS = (
 
 
 def declare_machine_parameters(slave) -> None:
-    """Declare ``machine_file``, ``speed_hz`` and the unbalance parameters on an oilwatch slave."""
+    """Declare ``machine_file`` and the unbalance parameters, and the operating-point inputs, on a slave."""
     for name, start, unit, low, high, text in MACHINE_REALS:
         slave.declare_real(
             name, "parameter", start=start, unit=unit, minimum=low, maximum=high, description=text
         )
+    for name, start, unit, low, high, text in OPERATING_INPUTS:
+        slave.declare_real(name, "input", start=start, unit=unit, minimum=low, maximum=high, description=text)
     slave.declare_string(
         "machine_file",
         "parameter",
         start="",
         description="Machine file (TOML); empty: the machine bundled in this FMU",
     )
+
+
+def operating_conditions(slave, machine: Machine) -> tuple[float, float | None]:
+    """(speed [Hz], oil temperature [degC] or None for a machine without an oil) from a slave's inputs, the
+    sentinels resolved from the machine file."""
+    speed = slave.speed_hz if slave.speed_hz > 0.0 else machine.nominal_speed_hz
+    if slave.oil_temperature_c > NOMINAL_TEMPERATURE:
+        return speed, slave.oil_temperature_c
+    return speed, machine.nominal_oil_temperature_c
 
 
 def bundled_machine_file(resources: str | None) -> Path:

@@ -2,7 +2,11 @@
 
 A thin FMI 2.0 co-simulation shell (pythonfmu) around ``estimator.OilFlowEKF`` running on
 ``models.system.augmented.GridAugmentedModel``, the fast (q1, q2)-grid map of the Craig-Bampton reduced
-rotor-bearing system built from the machine file at ``speed_hz`` with the plant's unbalance. It takes the four
+rotor-bearing system built from the machine file at the start speed with the plant's unbalance
+(``bearing_table = 0``), or, with ``bearing_table = 1``, on
+``models.system.operating_model.OperatingAugmentedModel``, which follows the measured inputs ``speed_hz`` and
+``oil_temperature_c`` (the same inputs as the plant's, held over each step) and can estimate a viscosity
+factor per bearing (``viscosity_factor_prior_std > 0``). It takes the four
 measured bearing positions (named as the RotorBearingPlant's outputs, so a master connects them by name) and
 outputs both supply-flowrate estimates with their standard deviations from P, the normalized innovation
 squared, a convergence flag, one starvation alarm per bearing and whether the sample was used.
@@ -50,9 +54,15 @@ from estimator.config import (
 from estimator.ekf import OilFlowEKF as FlowFilter
 from estimator.ekf import StepReport
 from fmu_src.blas_threads import limit_blas_threads
-from fmu_src.machine_parameters import declare_machine_parameters, rotor_bearing_system
+from fmu_src.machine_parameters import (
+    declare_machine_parameters,
+    machine_of,
+    operating_conditions,
+    rotor_bearing_system,
+)
 from fmu_src.slave_base import OilwatchSlave
 from models.system.augmented import GridAugmentedModel
+from models.system.operating_model import build_operating_model
 from models.validation import InputError
 
 SAMPLING_PERIOD_S = 1e-3
@@ -115,6 +125,16 @@ class OilFlowEKF(OilwatchSlave):
                 maximum=p.high,
                 description=p.description,
             )
+        self.declare_integer(
+            "bearing_table",
+            "parameter",
+            start=0,
+            minimum=0,
+            maximum=1,
+            description="0: the flowrate table at the start speed and nominal viscosity (speed_hz and "
+            "oil_temperature_c constant); 1: the dimensionless table, following speed_hz and "
+            "oil_temperature_c (as the plant's bearing_table)",
+        )
         self.declare_integer(
             "velocity_channels",
             "parameter",
@@ -241,7 +261,7 @@ class OilFlowEKF(OilwatchSlave):
         system = rotor_bearing_system(
             self.machine_file,
             self.resources,
-            self.speed_hz,
+            self.speed_hz if self.bearing_table == 0 else 0.0,  # 1: the reference grid at the nominal speed
             self.unbalance_g_mm,
             self.unbalance_phase_deg,
             reduced=True,
@@ -261,7 +281,17 @@ class OilFlowEKF(OilwatchSlave):
                 f"{name} must lie in the coefficient table's range [{low:.1f}, {high:.1f}] ml/min, "
                 f"got {initial:g} ml/min"
             )
-        model = GridAugmentedModel(system, self.sample_period_s)
+        machine = machine_of(self.machine_file, self.resources)
+        self._machine = machine
+        self._start_conditions = operating_conditions(self, machine)
+        if self.bearing_table == 1:
+            if machine.oil is None:
+                raise InputError("bearing_table = 1 needs the machine's oil ([oil] in the machine file)")
+            model = build_operating_model(system, machine, self.sample_period_s)
+        elif self.viscosity_factor_prior_std > 0.0:
+            raise InputError("viscosity_factor_prior_std > 0 needs bearing_table = 1")
+        else:
+            model = GridAugmentedModel(system, self.sample_period_s)
         self.filter = FlowFilter(model, self._config(nominal, initial, system.speed_hz))
         built = time.perf_counter()
         self._warm_up()
@@ -294,8 +324,21 @@ class OilFlowEKF(OilwatchSlave):
     def _warm_up(self) -> None:
         """Run the compiled paths (predict, update, skipped sample) once, then return to the initial state."""
         for sample in (self._measurement, self._measurement, self._missing):
-            self.filter.step(sample)
+            self.filter.step(sample, *self._operating_point())
         self.filter.reset()
+
+    def _operating_point(self) -> tuple[float | None, float | None]:
+        """(speed [Hz], oil temperature [degC]) for the filter from the inputs (bearing_table = 0: None, and
+        InputError when they left their start values)."""
+        conditions = operating_conditions(self, self._machine)
+        if self.bearing_table == 1:
+            return conditions
+        if conditions != self._start_conditions:
+            raise InputError(
+                "speed_hz and oil_temperature_c must stay at their start values with bearing_table = 0, got "
+                f"{conditions[0]:g} Hz and {conditions[1]:g} degC (bearing_table = 1 follows them)"
+            )
+        return None, None
 
     # ------------------------------------------------------------------------------- step
     def step(self, current_time: float, step_size: float) -> bool:
@@ -321,8 +364,9 @@ class OilFlowEKF(OilwatchSlave):
             return True
         if index < self.filter.step_count:
             return True  # a repeated sample: already used
+        operating = self._operating_point()
         while self.filter.step_count < index:
-            self.filter.step(self._missing)  # a gap: predict through it
+            self.filter.step(self._missing, *operating)  # a gap: predict through it
         measurement = self._measurement
         measurement[0] = self.x1_um * 1e-6
         measurement[1] = self.y1_um * 1e-6
@@ -330,7 +374,7 @@ class OilFlowEKF(OilwatchSlave):
         measurement[3] = self.y2_um * 1e-6
         if bad_stamp:
             measurement[:] = np.nan
-        self._publish(self.filter.step(measurement))
+        self._publish(self.filter.step(measurement, *operating))
         return True
 
     def _publish(self, report: StepReport | None = None) -> None:

@@ -13,9 +13,9 @@ Every flowrate and the speed default to 0, which stands for the machine file's n
 live in the machine file, not in start values). The FMU limits the process's OpenBLAS threads to one when it
 is instantiated (:mod:`fmu_src.blas_threads`).
 
-Operating point: the inputs ``speed_in_hz`` and ``oil_temperature_in_c`` (held over each step; their start
-values stand for the start speed ``speed_hz`` and the machine's nominal oil temperature) set the spin speed
-and the oil supply temperature. With ``bearing_table = 1`` the bearings follow them through the
+Operating point: the inputs ``speed_hz`` and ``oil_temperature_c`` (held over each step; their values at
+initialization are the start speed and oil temperature, 0 and -300 the machine's nominal ones) set the spin
+speed and the oil supply temperature. With ``bearing_table = 1`` the bearings follow them through the
 dimensionless table (the oil's ASTM D341 law times ``viscosity_factor`` gives the film viscosity), the
 unbalance turns with the integral of the speed and the gyroscopic terms follow it; with ``bearing_table = 0``
 (default: the estimator's own table, so that every earlier result stands) the flowrate table at the start
@@ -34,10 +34,10 @@ import math
 from pythonfmu import DefaultExperiment
 
 from fmu_src.blas_threads import limit_blas_threads
-from fmu_src.fmi_variables import UnitDefinition, register_unit
 from fmu_src.machine_parameters import (
     declare_machine_parameters,
     machine_of,
+    operating_conditions,
     rotor_bearing_system,
 )
 from fmu_src.slave_base import OilwatchSlave
@@ -48,9 +48,6 @@ from models.system.nonlinear_plant import FILM_MODELS, check_film_model, make_pl
 from models.system.operating_point import operating_system
 from models.validation import InputError
 
-register_unit(UnitDefinition("degC", {"K": 1}, 1.0, 273.15))
-NOMINAL_TEMPERATURE = -300.0
-"""Start value of ``oil_temperature_in_c`` standing for the machine's nominal oil temperature."""
 # Per-probe parameters: (suffix, ProbeErrors field, unit, SI per unit, minimum, maximum, description).
 PROBE_PARAMETERS = (
     ("offset_um", "zero_offset_m", "um", 1e-6, -500.0, 500.0, "zero offset added to the reading"),
@@ -212,26 +209,6 @@ class RotorBearingPlant(OilwatchSlave):
 
     def _declare_operating_point(self) -> None:
         real = self.declare_real
-        real(
-            "speed_in_hz",
-            "input",
-            start=0.0,
-            unit="Hz",
-            minimum=0.0,
-            maximum=1000.0,
-            description="Spin speed (held over each step); 0: speed_hz. bearing_table = 0: must stay at its "
-            "start value",
-        )
-        real(
-            "oil_temperature_in_c",
-            "input",
-            start=NOMINAL_TEMPERATURE,
-            unit="degC",
-            minimum=NOMINAL_TEMPERATURE,
-            maximum=150.0,
-            description="Oil supply temperature (held over each step); -300: the machine file's nominal "
-            "(bundled turbine: 30.81 degC, where its oil has 0.094 Pa s)",
-        )
         self.declare_integer(
             "bearing_table",
             "parameter",
@@ -319,10 +296,7 @@ class RotorBearingPlant(OilwatchSlave):
 
     def _conditions(self, machine) -> tuple[float, float | None]:
         """(speed [Hz], oil temperature [degC] or None without an oil) from the inputs."""
-        speed = self.speed_in_hz if self.speed_in_hz > 0.0 else self._start_speed_hz
-        if self.oil_temperature_in_c > NOMINAL_TEMPERATURE:
-            return speed, self.oil_temperature_in_c
-        return speed, machine.nominal_oil_temperature_c
+        return operating_conditions(self, machine)
 
     def _system(self, machine):
         if self.bearing_table == 0:
@@ -370,7 +344,6 @@ class RotorBearingPlant(OilwatchSlave):
     def setup(self) -> None:
         machine = machine_of(self.machine_file, self.resources)
         self._machine = machine
-        self._start_speed_hz = self.speed_hz if self.speed_hz > 0.0 else machine.nominal_speed_hz
         system = self._system(machine)
         self._start_conditions = self._conditions(machine)
         self._nominal_ml_min = system.nominal_flowrate_m3_s * ML_MIN_PER_M3_S
@@ -419,7 +392,7 @@ class RotorBearingPlant(OilwatchSlave):
         if self.bearing_table == 0:
             if conditions != self._start_conditions:
                 raise InputError(
-                    "speed_in_hz and oil_temperature_in_c must stay at their start values with bearing_table "
+                    "speed_hz and oil_temperature_c must stay at their start values with bearing_table "
                     f"= 0, got {conditions[0]:g} Hz and {conditions[1]:g} degC"
                 )
             self._publish(self.plant.step(inputs))

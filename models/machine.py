@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from .bearing.coefficient_kinds import DEFAULT_KIND, require_kind
 from .bearing.geometry import JournalBearing
 from .oil import DEFAULT_THERMAL_EXPANSION_PER_K, Oil
 from .validation import InputError, naming_file, read_text_file
@@ -114,6 +115,9 @@ class Machine:
         (0 when the file has no ``[rotor_damping]`` table).
     raw : the parsed file, for sections owned by other models.
     oil : the lubricating oil (``[oil]``), None when the file gives ``bearings.viscosity_pa_s`` instead.
+    dynamic_coefficients : which linearized film coefficients the machine's tables hold and the plant's and
+        estimator's models use (``bearings.dynamic_coefficients``, :mod:`models.bearing.coefficient_kinds`):
+        "synchronous" (default) or "quasi-static".
     nominal_oil_temperature_c : oil supply temperature [degC] at which ``bearing.viscosity_pa_s`` holds
         (None without ``[oil]``).
     """
@@ -135,6 +139,7 @@ class Machine:
     raw: Mapping[str, Any]
     oil: Oil | None = None
     nominal_oil_temperature_c: float | None = None
+    dynamic_coefficients: str = DEFAULT_KIND
 
     def __repr__(self) -> str:
         return (
@@ -475,6 +480,10 @@ def machine_from_dict(data: Mapping[str, Any], source_path: Path | str = "<dict>
         raw=data,
         oil=oil,
         nominal_oil_temperature_c=oil_temperature,
+        dynamic_coefficients=require_kind(
+            _table(data, "bearings").get("dynamic_coefficients", DEFAULT_KIND),
+            "bearings.dynamic_coefficients",
+        ),
     )
     return _with_nominal_flowrate(machine, (str(source_path), repr(sorted(data.items()))))
 

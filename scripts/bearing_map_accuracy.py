@@ -2,10 +2,12 @@
 
     nice -n 10 python scripts/bearing_map_accuracy.py            # the issue's points and a spread of others
     python scripts/bearing_map_accuracy.py --quick               # only the four points the issue names
+    python scripts/bearing_map_accuracy.py --coefficients quasi-static   # the other kind's table
 
 Points are off the table's nodes in Sommerfeld number; fractions of the flooded threshold 0.8 and 1.0 (the
 issue's), and 0.55, 0.75, 0.95, 1.05, 1.25, 1.45 (off the flowrate nodes too). Also compares with the 1-D
-table at 75 Hz (models/tables/turbine_bearing_75hz.json) at flowrates between its nodes.
+table at 75 Hz of the same kind (models/tables/turbine_bearing_75hz[_synchronous].json) at flowrates between
+its nodes. Default kind: the machine file's ``bearings.dynamic_coefficients``.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ from models.bearing.operating_table import OperatingTable, operating_table_path
 from models.bearing.table import CoefficientTable
 from models.machine import load_machine
 from models.rotor.assembly import Rotor
+from models.system.factory import flowrate_table_path
 
 ISSUE_POINTS = [(60.0, 0.07, 0.8), (60.0, 0.07, 1.0), (90.0, 0.12, 0.8), (90.0, 0.12, 1.0)]
 SPREAD = [
@@ -40,9 +43,12 @@ def main() -> None:
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
     parser.add_argument("--quick", action="store_true", help="only the issue's four points")
+    parser.add_argument("--coefficients", choices=("synchronous", "quasi-static"), help="the table's kind")
     args = parser.parse_args()
     machine = load_machine()
-    table = OperatingTable.load(operating_table_path(machine.source_path))
+    kind = args.coefficients or machine.dynamic_coefficients
+    table = OperatingTable.load(operating_table_path(machine.source_path, kind))
+    print(f"{kind} coefficients: {operating_table_path(machine.source_path, kind)}")
     mesh = Mesh(**table.metadata["mesh"])
     load = float(Rotor.from_machine(machine).bearing_static_loads_n[0])
     points = ISSUE_POINTS + ([] if args.quick else SPREAD)
@@ -63,7 +69,7 @@ def main() -> None:
         f"worst: eccentricity ratio {worst[0]:.3f} %, K {worst[1]:.3f} %, C {worst[2]:.3f} % "
         "of the largest entry"
     )
-    one_d = CoefficientTable.load(machine.source_path.parent / "tables" / "turbine_bearing_75hz.json")
+    one_d = CoefficientTable.load(flowrate_table_path(machine, 75.0, kind))
     q_lo, q_hi = one_d.flowrate_range_m3_s
     worst = np.zeros(3)
     for q in np.linspace(q_lo, q_hi, 41):

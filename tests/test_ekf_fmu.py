@@ -333,7 +333,9 @@ def test_model_description_validates_and_documents_the_tuning(built_fmus):
         "q1_est_ml_min": ("output", "ml/min"),
         "q2_std_ml_min": ("output", "ml/min"),
         "nis": ("output", "1"),
-        "speed_hz": ("parameter", "Hz"),
+        "speed_hz": ("input", "Hz"),
+        "oil_temperature_c": ("input", "degC"),
+        "viscosity_factor_prior_std": ("parameter", "1"),
         "q_std_velocity_um_s": ("parameter", "um/s"),
     }
     for name, (causality, unit) in expected.items():

@@ -5,7 +5,8 @@ grid model with the recommended tuning. Each fault starts at 3 s on probe y1 (th
 bearing 1's information). Measured when written (8 s records): every estimate within 2 of its stds of the
 truth at every sample after the fault, the same final means as the clean run within 0.03 % of nominal; dead
 and stuck probes flagged 49 and 99 ms after the fault, out-of-range readings at once; no alarm, no other probe
-flagged.
+flagged. With the synchronous 1x model (issue 16) 99.9 % of the samples are within 2 stds, all within 2.5,
+and each bearing's final mean is within its std of the clean run's.
 """
 
 from __future__ import annotations
@@ -59,9 +60,13 @@ def test_the_faulty_probe_is_flagged_and_the_estimate_stays_within_its_std(runs,
     assert not trace.starved.any() and not clean.starved.any()
     assert trace.measurement_ok[START:].all()  # the other probes update the filter at every sample
     error = np.abs(trace.q_m3_s[START:] - QN)
-    assert (error <= 2.0 * trace.q_std_m3_s[START:]).all()
+    # The clean run itself touches 2.05 std on bearing 2 for a few samples with the synchronous 1x model
+    # (1.97 with the quasi-static one): "every sample within 2 std" measured the noise realization.
+    assert (error <= 2.0 * trace.q_std_m3_s[START:]).mean() >= 0.999
+    assert (error <= 2.5 * trace.q_std_m3_s[START:]).all()
     final = trace.q_m3_s[5000:].mean(axis=0)
-    assert np.abs(final - clean.q_m3_s[5000:].mean(axis=0)).max() < trace.q_std_m3_s[-1].min()
+    # Each bearing against its own std (with y1 dead, bearing 1's std is 1.5 times bearing 2's).
+    assert (np.abs(final - clean.q_m3_s[5000:].mean(axis=0)) < trace.q_std_m3_s[-1]).all()
     assert trace.converged[-1]
 
 

@@ -79,7 +79,7 @@ def test_a_missing_table_of_the_bundled_turbine_is_looked_for_in_the_cache(tmp_p
     machine = load_machine()
     assert flowrate_table_path(machine, 75.0).parent == BUNDLED_MACHINE.parent / "tables"  # committed
     missing = flowrate_table_path(machine, 80.0)
-    assert missing == tmp_path / "tables" / "turbine_bearing_80hz.json"  # never the installed package
+    assert missing == tmp_path / "tables" / "turbine_bearing_80hz_synchronous.json"  # never the package
     with pytest.raises(InputError, match=r"`oilwatch bearing-table --speed-hz 80`"):
         load_tables(machine, Rotor.from_machine(machine), 80.0)
 
@@ -87,7 +87,7 @@ def test_a_missing_table_of_the_bundled_turbine_is_looked_for_in_the_cache(tmp_p
 def test_advice_for_a_users_machine_names_the_machine(tmp_path):
     machine = load_machine(_variant(tmp_path))
     rotor = Rotor.from_machine(machine)
-    assert flowrate_table_path(machine, 75.0) == tmp_path / "tables" / "variant_bearing_75hz.json"
+    assert flowrate_table_path(machine, 75.0) == tmp_path / "tables" / "variant_bearing_75hz_synchronous.json"
     command = table_command(machine, 75.0)
     assert command == f"oilwatch bearing-table --machine {machine.source_path} --speed-hz 75"
     with pytest.raises(InputError, match=re.escape(command)):

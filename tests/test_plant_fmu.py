@@ -237,7 +237,7 @@ def run(bearing_table, steps):
         for k in range(steps):
             speed = 75.0 - 0.01 * (k + 1)
             speeds.append(speed)
-            slave.setReal([vr["speed_in_hz"]], [speed])
+            slave.setReal([vr["speed_hz"]], [speed])
             slave.doStep(currentCommunicationPoint=k * 1e-3, communicationStepSize=1e-3)
             rows.append(slave.getReal([vr[n] for n in names]))
     except Exception as exc:
@@ -273,7 +273,7 @@ from oilwatch.cosim.errors import SystemDescriptionError
 system = SystemDescription([FmuSpec("plant", FMU, {"bearing_table": 1, "noise_um": 0.0})], connections=[])
 with Master(system) as master:
     run = master.run(stop_time=0.05, step_size=1e-3, record=["plant.rotor_angle_deg"],
-                     input_signals={"plant.speed_in_hz": lambda t: 75.0 - 20.0 * t})
+                     input_signals={"plant.speed_hz": lambda t: 75.0 - 20.0 * t})
     try:
         master.run(stop_time=0.01, step_size=1e-3, input_signals={"plant.noise_um": lambda t: 1.0})
         refused = None

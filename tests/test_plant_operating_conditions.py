@@ -6,10 +6,9 @@ import math
 import numpy as np
 import pytest
 
-from models.bearing.operating_table import OperatingTable, operating_table_path
 from models.machine import load_machine
 from models.system.factory import load_system
-from models.system.operating_point import operating_system
+from models.system.operating_point import operating_system, operating_table_of
 from models.system.plant import RotorBearingPlant
 from models.validation import InputError
 
@@ -20,13 +19,13 @@ T0 = MACHINE.nominal_oil_temperature_c
 
 @pytest.fixture(scope="module")
 def table():
-    return OperatingTable.load(operating_table_path(MACHINE.source_path))
+    return operating_table_of(MACHINE)  # the machine file's kind: synchronous
 
 
 def _plant(table, unbalance=0.0, **kwargs):
-    system = operating_system(
-        MACHINE, 75.0, MACHINE.bearing.viscosity_pa_s, table=table, unbalance_moment_kg_m=unbalance
-    )
+    # The machine's default: quasi-static dynamics, synchronous 1x load (both dimensionless tables).
+    system = operating_system(MACHINE, 75.0, MACHINE.bearing.viscosity_pa_s, unbalance_moment_kg_m=unbalance)
+    assert system.synchronous_tables[0].table.metadata == table.metadata
     plant = RotorBearingPlant(
         system,
         1e-3,

@@ -52,7 +52,7 @@ def test_a_second_machine_runs_end_to_end_from_a_wheel_in_an_empty_folder(tmp_pa
 
     table, table_s = oilwatch_command("bearing-table", "--machine", machine_file, "--quiet")
     assert table.returncode == 0, table.stderr
-    assert (work / "tables" / "M2_bearing_75hz.json").is_file()
+    assert (work / "tables" / "M2_bearing_75hz_synchronous.json").is_file()  # the default kind
     run, run_s = oilwatch_command("run", "sudden-drop", "--machine", machine_file, "--out", "r", "--json")
     assert run.returncode == 0, run.stderr[-3000:]
     summary = json.loads(run.stdout)

@@ -35,7 +35,7 @@ def test_flowrate_jacobian_matches_central_differences(reduced):
     _, state_jacobian, flow_jacobian = model.transition(state, q, 17)
     for i in range(2):
         dq = np.zeros(2)
-        dq[i] = 1e-3 * q[i]
+        dq[i] = 1e-4 * q[i]  # the synchronous 1x load is curved in q: 1e-3 leaves O(dq^2) above 1e-4
         fd = (model.transition(state, q + dq, 17)[0] - model.transition(state, q - dq, 17)[0]) / (2 * dq[i])
         assert np.allclose(flow_jacobian[:, i], fd, rtol=1e-4, atol=1e-6 * np.abs(fd).max())
     ds = 1e-9 * np.eye(model.n_states)[:, 3]
@@ -108,7 +108,9 @@ def test_grid_model_matches_exact_model(reduced):
         q = rng.uniform(0.75, 1.25, size=2) * NOMINAL
         nxt_e, ad_e, jq_e = exact.transition(state, q, 11)
         nxt_g, ad_g, jq_g = grid.transition(state, q, 11)
-        assert np.abs(nxt_g - nxt_e).max() < 2e-4 * np.abs(nxt_e).max()
+        # 6e-5 with the quasi-static 1x load, 4.4e-4 with the synchronous one (curved in q); the steady
+        # output bias below is what identification needs.
+        assert np.abs(nxt_g - nxt_e).max() < 1e-3 * np.abs(nxt_e).max()
         assert np.abs(ad_g - ad_e).max() < 2e-4 * np.abs(ad_e).max()
         assert np.abs(jq_g - jq_e).max() < 5e-2 * np.abs(jq_e).max()
     q = np.array([0.83 * NOMINAL, 0.91 * NOMINAL])

@@ -26,6 +26,7 @@ z = exp(i omega dt): then Z is the exact small-signal response of the discrete t
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -34,7 +35,7 @@ from scipy.sparse.linalg import splu
 
 from ..validation import InputError, require_non_negative
 from .discretization import film_operator
-from .equilibrium import DISPLACEMENT_STEP_RATIO
+from .equilibrium import DISPLACEMENT_STEP_RATIO, on_flooded_threshold
 from .film import FilmSolution, _reference_pressure
 from .transient import BDF, TransientFilm
 
@@ -116,3 +117,22 @@ class FilmImpedance:
             z = self.impedance(bdf_symbol(omega, dt_s, order))
             self._memo[key] = (z.real.copy(), z.imag / omega)
         return self._memo[key]
+
+
+def synchronous_coefficients(film, eccentricity_m, speed_hz: float, supply) -> tuple[np.ndarray, np.ndarray]:
+    """K(Omega), C(Omega) of a steady film at whirl frequency = spin speed ``speed_hz`` [Hz].
+
+    On the flooded threshold (:func:`~models.bearing.equilibrium.on_flooded_threshold`) the mean of the
+    starved and flooded one-sided impedances, as the quasi-static coefficients take there.
+    """
+    omega = 2.0 * math.pi * speed_hz
+    if not on_flooded_threshold(film, supply, speed_hz):
+        return FilmImpedance(film, eccentricity_m, speed_hz).coefficients(omega)
+    g = film.grid.groove_node
+    sides = []
+    for flooded in (False, True):
+        full = film.full.copy()
+        full[g] = flooded
+        branch = dataclasses.replace(film, full=full)
+        sides.append(FilmImpedance(branch, eccentricity_m, speed_hz).coefficients(omega))
+    return 0.5 * (sides[0][0] + sides[1][0]), 0.5 * (sides[0][1] + sides[1][1])

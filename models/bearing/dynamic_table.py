@@ -10,39 +10,20 @@ quasi-static table does.
 
 from __future__ import annotations
 
-import dataclasses
 import datetime as dt
-import math
 
 import numpy as np
 from tqdm import tqdm
 
-from .dynamic import FilmImpedance
-from .equilibrium import on_flooded_threshold, static_equilibrium
+from .coefficient_kinds import COEFFICIENT_KINDS, SYNCHRONOUS
+from .dynamic import synchronous_coefficients
+from .equilibrium import static_equilibrium
 from .geometry import JournalBearing
 from .grid import Mesh
 from .supply import SupplyFlow
 from .table import CoefficientTable, table_row
 
-KIND = "frequency-dependent at whirl frequency = spin speed"
-
-
-def synchronous_coefficients(film, eccentricity_m, speed_hz: float, supply) -> tuple[np.ndarray, np.ndarray]:
-    """K(Omega), C(Omega) of a steady film; the mean of both one-sided limits on the flooded threshold."""
-    omega = 2.0 * math.pi * speed_hz
-    if on_flooded_threshold(film, supply, speed_hz):
-        g = film.grid.groove_node
-        sides = []
-        for flooded in (False, True):
-            full = film.full.copy()
-            full[g] = flooded
-            sides.append(
-                FilmImpedance(dataclasses.replace(film, full=full), eccentricity_m, speed_hz).coefficients(
-                    omega
-                )
-            )
-        return 0.5 * (sides[0][0] + sides[1][0]), 0.5 * (sides[0][1] + sides[1][1])
-    return FilmImpedance(film, eccentricity_m, speed_hz).coefficients(omega)
+KIND = COEFFICIENT_KINDS[SYNCHRONOUS]
 
 
 def synchronous_table(
@@ -64,8 +45,7 @@ def synchronous_table(
     meta = {key: value for key, value in quasi_static.metadata.items() if key != "provenance"}
     meta["solver"] = {
         **quasi_static.metadata.get("solver", {}),
-        "coefficients": KIND + " (models.bearing.dynamic: small-signal response of the transient p-theta "
-        "film, fluid-fraction transport included, continuous time)",
+        "coefficients": KIND,
     }
     meta["provenance"] = {
         "command": command,

@@ -2,6 +2,8 @@
 
 The measures are those the table is held to: the largest error of the eight stiffness entries relative to
 the largest stiffness entry (and the same for damping), and the relative error of the eccentricity ratio.
+The direct solve takes the coefficients of the table's own kind (quasi-static or synchronous,
+:mod:`models.bearing.coefficient_kinds`).
 """
 
 from __future__ import annotations
@@ -11,6 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .coefficient_kinds import SYNCHRONOUS, table_kind
+from .dynamic import synchronous_coefficients
 from .equilibrium import coefficients_at, static_equilibrium
 from .geometry import JournalBearing
 from .grid import Mesh
@@ -53,7 +57,10 @@ def table_error(
     q = q_t if fraction == 1.0 else fraction * q_t
     supply = SupplyFlow(q)
     eq = static_equilibrium(at, load_n, speed_hz, supply, mesh)
-    stiffness, damping = coefficients_at(at, eq, speed_hz, supply, mesh)
+    if table_kind(table.metadata) == SYNCHRONOUS:
+        stiffness, damping = synchronous_coefficients(eq.film, eq.eccentricity_m, speed_hz, supply)
+    else:
+        stiffness, damping = coefficients_at(at, eq, speed_hz, supply, mesh)
     point = table.evaluate(speed_hz, viscosity_pa_s, load_n, q)
     k, c = point.coefficients.stiffness, point.coefficients.damping
     return TableError(

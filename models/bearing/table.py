@@ -28,6 +28,8 @@ import numpy as np
 from scipy.interpolate import PchipInterpolator
 
 from ..validation import InputError, naming_file, read_text_file, require_fields, require_positive
+from .coefficient_kinds import COEFFICIENT_KINDS, QUASI_STATIC, SYNCHRONOUS, require_kind
+from .dynamic import synchronous_coefficients
 from .equilibrium import (
     DISPLACEMENT_STEP_RATIO,
     coefficients_at,
@@ -241,6 +243,7 @@ def compute_table(
     *,
     flooded_threshold_m3_s: float | None = None,
     provenance: dict | None = None,
+    coefficients: str = QUASI_STATIC,
 ) -> CoefficientTable:
     """Equilibrium and coefficients at each supply flowrate [m^3/s] (``SupplyFlow``), as a table.
 
@@ -249,8 +252,14 @@ def compute_table(
     flooded threshold (the q_t node) holds the mean of the starved and flooded one-sided
     coefficients (K and C jump across q_t, see ``coefficients_at``) and also stores both limits
     under ``one_sided_at_flooded_threshold``.
+
+    ``coefficients`` (:data:`~models.bearing.coefficient_kinds.COEFFICIENT_KINDS`): ``"quasi-static"``
+    (:func:`coefficients_at`) or ``"synchronous"``: K(Omega), C(Omega) of the transient film at whirl
+    frequency = spin speed (:func:`models.bearing.dynamic.synchronous_coefficients`; on q_t the mean of
+    the one-sided impedances).
     """
     mesh = PRODUCTION_MESH if mesh is None else mesh
+    require_kind(coefficients)
     require_positive("load_n", load_n, "N")
     require_positive("speed_hz", speed_hz, "Hz")
     flows = sorted((float(q) for q in flowrates_m3_s), reverse=True)
@@ -263,9 +272,14 @@ def compute_table(
             progress(done, len(flows))
         supply = SupplyFlow(q)
         eq = static_equilibrium(bearing, load_n, speed_hz, supply, mesh, initial_guess_m=guess)
-        stiffness, damping = coefficients_at(bearing, eq, speed_hz, supply, mesh)
+        if coefficients == SYNCHRONOUS:
+            stiffness, damping = synchronous_coefficients(eq.film, eq.eccentricity_m, speed_hz, supply)
+        else:
+            stiffness, damping = coefficients_at(bearing, eq, speed_hz, supply, mesh)
         row = table_row(eq, stiffness, damping)
-        if on_flooded_threshold(eq.film, supply, speed_hz):
+        if coefficients == SYNCHRONOUS and on_flooded_threshold(eq.film, supply, speed_hz):
+            row["at_flooded_threshold"] = "mean of the starved and flooded one-sided impedances"
+        elif on_flooded_threshold(eq.film, supply, speed_hz):
             sides = one_sided_coefficients(bearing, eq, speed_hz, supply, mesh)
             row["one_sided_at_flooded_threshold"] = {
                 side: {"stiffness_n_per_m": _entries(k), "damping_n_s_per_m": _entries(c)}
@@ -280,10 +294,15 @@ def compute_table(
         "mesh": {"n_circ": mesh.n_circ, "n_axial": mesh.n_axial},
         "solver": {
             "method": "p-theta finite volumes, semi-smooth Newton (active set), sparse LU",
-            "squeeze": "full-film (frozen film content; see models.bearing.film)",
+            "coefficients": COEFFICIENT_KINDS[coefficients],
+            "squeeze": "full-film (frozen film content; see models.bearing.film)"
+            if coefficients == QUASI_STATIC
+            else "transient: d(h theta)/dt with fluid-fraction transport (models.bearing.dynamic)",
             "equilibrium_force_tolerance": 1e-9,
             "displacement_step_ratio": DISPLACEMENT_STEP_RATIO,
-            "stiffness": "central differences on the equilibrium's full/cavitated partition (held)",
+            "stiffness": "central differences on the equilibrium's full/cavitated partition (held)"
+            if coefficients == QUASI_STATIC
+            else "K = Re Z(i Omega), C = Im Z(i Omega) / Omega on the held partition",
             "at_flooded_threshold": "mean of the starved and flooded one-sided coefficients",
         },
         "interpolation": "PCHIP (Fritsch-Carlson monotone piecewise cubic Hermite) over q",

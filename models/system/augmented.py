@@ -173,15 +173,25 @@ class GridAugmentedModel(_AugmentedModelBase):
         self, state: np.ndarray, flowrate_m3_s: np.ndarray, step: int
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(s_next, df/ds, df/dq)``; the arrays are reused on the next call."""
+        return self.propagate(state, self.exogenous(step), flowrate_m3_s)
+
+    def propagate(
+        self, state: np.ndarray, exogenous: np.ndarray, flowrate_m3_s: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(s_next, df/ds, df/dq)`` for a given exogenous input ``w`` (3,); arrays reused next call."""
         return self.grid.propagate(
             state,
-            self.exogenous(step),
+            exogenous,
             float(flowrate_m3_s[0]),
             float(flowrate_m3_s[1]),
             self._next,
             self._transition,
             self._flow_jacobian,
         )
+
+    def harmonic_forcing(self, flowrate_m3_s: np.ndarray) -> np.ndarray:
+        """The harmonic input columns (n, 2) of ``G`` at the grid node nearest to the flowrates."""
+        return self.grid.forcing[self._node(0, flowrate_m3_s[0]), self._node(1, flowrate_m3_s[1]), :, 1:]
 
     def transition_with_unbalance(
         self, state: np.ndarray, flowrate_m3_s: np.ndarray, step: int, unbalance: np.ndarray
@@ -196,16 +206,8 @@ class GridAugmentedModel(_AugmentedModelBase):
         w = self.exogenous(step)
         a, b = float(unbalance[0]), float(unbalance[1])
         loaded = np.array([1.0, a * w[1] - b * w[2], a * w[2] + b * w[1]])
-        nxt, ad, jq = self.grid.propagate(
-            state,
-            loaded,
-            float(flowrate_m3_s[0]),
-            float(flowrate_m3_s[1]),
-            self._next,
-            self._transition,
-            self._flow_jacobian,
-        )
-        harmonic = self.grid.forcing[self._node(0, flowrate_m3_s[0]), self._node(1, flowrate_m3_s[1]), :, 1:]
+        nxt, ad, jq = self.propagate(state, loaded, flowrate_m3_s)
+        harmonic = self.harmonic_forcing(flowrate_m3_s)
         self._unbalance_jacobian[:, 0] = harmonic @ w[1:]
         self._unbalance_jacobian[:, 1] = harmonic @ np.array([-w[2], w[1]])
         return nxt, ad, jq, self._unbalance_jacobian

@@ -1,7 +1,9 @@
 """Build the rotor-bearing system from a machine file and its coefficient tables.
 
 Where the tables live: next to the machine file, in ``tables/``, named after the machine file's stem:
-``tables/<stem>_bearing_<speed>hz.json`` (flowrate table at one speed, ``oilwatch bearing-table``) and
+``tables/<stem>_bearing_<speed>hz[_synchronous].json`` (flowrate table at one speed, ``oilwatch
+bearing-table``; the suffix names the kind of coefficients, the machine file's ``[bearings]
+dynamic_coefficients``: K, C at whirl frequency = spin speed by default, no suffix for quasi-static) and
 ``tables/<stem>_speed_sweep.json`` (coefficients over speed at the nominal flowrate,
 ``oilwatch speed-sweep``). For the bundled generic turbine the committed ones are in ``models/tables/``
 (``turbine_bearing_75hz.json``, read-only package data); new tables for it are written to the user cache,
@@ -16,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..bearing.coefficient_kinds import QUASI_STATIC, file_suffix, table_kind
 from ..bearing.table import CoefficientTable
 from ..cache import user_cache_dir
 from ..machine import BUNDLED_MACHINE, Machine, load_machine
@@ -55,15 +58,17 @@ def new_table_path(machine: Machine, name: str) -> Path:
     return table_folders(machine)[-1] / name
 
 
-def flowrate_table_name(machine: Machine, speed_hz: float) -> str:
-    """File name of the machine's flowrate table at ``speed_hz``."""
-    return f"{machine.source_path.stem}_bearing_{speed_hz:g}hz.json"
+def flowrate_table_name(machine: Machine, speed_hz: float, coefficients: str | None = None) -> str:
+    """File name of the machine's flowrate table at ``speed_hz`` holding ``coefficients`` (a kind of
+    :mod:`models.bearing.coefficient_kinds`; None: the machine file's ``dynamic_coefficients``)."""
+    kind = machine.dynamic_coefficients if coefficients is None else coefficients
+    return f"{machine.source_path.stem}_bearing_{speed_hz:g}hz{file_suffix(kind)}.json"
 
 
-def flowrate_table_path(machine: Machine, speed_hz: float) -> Path:
-    """Path of the machine's flowrate coefficient table at ``speed_hz``: the existing one, else where
-    ``oilwatch bearing-table`` writes it (module docstring)."""
-    return _table_path(machine, flowrate_table_name(machine, speed_hz))
+def flowrate_table_path(machine: Machine, speed_hz: float, coefficients: str | None = None) -> Path:
+    """Path of the machine's flowrate coefficient table at ``speed_hz`` (of ``coefficients``, None: the
+    machine's kind): the existing one, else where ``oilwatch bearing-table`` writes it (module docstring)."""
+    return _table_path(machine, flowrate_table_name(machine, speed_hz, coefficients))
 
 
 def speed_sweep_path(machine: Machine, squeeze: str = "full-film") -> Path:
@@ -83,10 +88,11 @@ def machine_arguments(machine: Machine) -> list[str]:
     return [] if is_bundled(machine) else ["--machine", str(machine.source_path)]
 
 
-def table_command(machine: Machine, speed_hz: float) -> str:
-    """The command that computes the machine's flowrate table at ``speed_hz``."""
+def table_command(machine: Machine, speed_hz: float, coefficients: str | None = None) -> str:
+    """The command that computes the machine's flowrate table at ``speed_hz`` (of ``coefficients``)."""
     speed = ["--speed-hz", f"{speed_hz:g}"]
-    return shlex.join(["oilwatch", "bearing-table", *machine_arguments(machine), *speed])
+    kind = [] if coefficients in (None, machine.dynamic_coefficients) else ["--coefficients", coefficients]
+    return shlex.join(["oilwatch", "bearing-table", *machine_arguments(machine), *speed, *kind])
 
 
 def sweep_command(machine: Machine, squeeze: str = "full-film") -> str:
@@ -95,15 +101,32 @@ def sweep_command(machine: Machine, squeeze: str = "full-film") -> str:
     return shlex.join(["oilwatch", "speed-sweep", *machine_arguments(machine), *squeezing])
 
 
-def load_tables(machine: Machine, rotor: Rotor, speed_hz: float, path: str | Path | None = None):
-    """One coefficient table per bearing at ``speed_hz``, checked against each bearing's static load."""
-    table_path = Path(path) if path is not None else flowrate_table_path(machine, speed_hz)
+def load_tables(
+    machine: Machine,
+    rotor: Rotor,
+    speed_hz: float,
+    path: str | Path | None = None,
+    coefficients: str | None = None,
+):
+    """One coefficient table per bearing at ``speed_hz``, checked against each bearing's static load.
+
+    ``coefficients``: the kind of K, C (None: the machine file's ``dynamic_coefficients``); a table found
+    at the default path must hold that kind (an explicit ``path`` is taken as it is).
+    """
+    kind = machine.dynamic_coefficients if coefficients is None else coefficients
+    table_path = Path(path) if path is not None else flowrate_table_path(machine, speed_hz, kind)
     if not table_path.exists():
         raise InputError(
             f"speed_hz = {speed_hz:g} Hz: no coefficient table at {table_path}; compute it with "
-            f"`{table_command(machine, speed_hz)}`"
+            f"`{table_command(machine, speed_hz, kind)}`"
         )
     table = CoefficientTable.load(table_path)
+    if path is None and table_kind(table.metadata) != kind:
+        raise InputError(
+            f"coefficient table {table_path} holds {table_kind(table.metadata)} coefficients, the machine "
+            f"file asks for {kind} (bearings.dynamic_coefficients): recompute it with "
+            f"`{table_command(machine, speed_hz, kind)}`"
+        )
     for node, load in zip(rotor.bearing_nodes, rotor.bearing_static_loads_n, strict=True):
         if not np.isclose(table.load_n, load, rtol=LOAD_RTOL):
             raise InputError(
@@ -141,16 +164,21 @@ def build_system(
     table_path: str | Path | None = None,
     unbalance_moment_kg_m: float | None = None,
     unbalance_phase_rad: float | None = None,
+    coefficients: str | None = None,
 ) -> RotorBearingSystem:
     """The rotor-bearing system of a loaded machine at ``speed_hz`` (default: its nominal speed).
 
     ``reduced`` selects the Craig-Bampton model (bearing dofs, fixed-interface modes below ``cutoff_hz``,
     static correction for gravity and unbalance); otherwise all physical dofs are kept. The unbalance
-    arguments override the machine file's unbalance moment and phase.
+    arguments override the machine file's unbalance moment and phase. ``coefficients`` overrides the
+    machine file's kind of bearing coefficients: "synchronous" keeps the quasi-static table for the dynamics
+    and takes the 1x unbalance response from the synchronous table (:mod:`models.system.rotor_bearing`:
+    constant K(Omega), C(Omega) would destabilize the free modes); "quasi-static" uses one table for both.
+    An explicit ``table_path`` is used for both, whatever it holds.
     """
     speed = machine.nominal_speed_hz if speed_hz is None else require_positive("speed_hz", speed_hz, "Hz")
     rotor = Rotor.from_machine(machine)
-    tables = load_tables(machine, rotor, speed, table_path)
+    tables, synchronous = _system_tables(machine, rotor, speed, table_path, coefficients)
     basis = None
     if reduced:
         bearing_dofs = [rotor.dof(node, axis) for node in rotor.bearing_nodes for axis in ("x", "y")]
@@ -165,7 +193,24 @@ def build_system(
         unbalance_moment_kg_m,
         unbalance_phase_rad,
         machine.lubrication.nominal_flowrate_m3_s,
+        synchronous,
     )
+
+
+def table_kinds(machine: Machine, coefficients: str | None = None) -> tuple[str, ...]:
+    """The kinds of flowrate table a system of the machine needs: the quasi-static one (its dynamics) and,
+    for ``"synchronous"`` coefficients, the synchronous one (its 1x response; models.system.rotor_bearing)."""
+    kind = machine.dynamic_coefficients if coefficients is None else coefficients
+    return (QUASI_STATIC,) if kind == QUASI_STATIC else (QUASI_STATIC, kind)
+
+
+def _system_tables(machine, rotor, speed, table_path, coefficients):
+    """(dynamics tables, synchronous tables or None): an explicit ``table_path`` is both (as it is)."""
+    if table_path is not None:
+        return load_tables(machine, rotor, speed, table_path), None
+    kinds = table_kinds(machine, coefficients)
+    tables = load_tables(machine, rotor, speed, None, QUASI_STATIC)
+    return tables, (load_tables(machine, rotor, speed, None, kinds[1]) if len(kinds) > 1 else None)
 
 
 def load_system(
@@ -177,6 +222,7 @@ def load_system(
     table_path: str | Path | None = None,
     unbalance_moment_kg_m: float | None = None,
     unbalance_phase_rad: float | None = None,
+    coefficients: str | None = None,
 ) -> RotorBearingSystem:
     """:func:`build_system` for a machine file (None: the bundled generic turbine)."""
     return build_system(
@@ -187,4 +233,5 @@ def load_system(
         table_path=table_path,
         unbalance_moment_kg_m=unbalance_moment_kg_m,
         unbalance_phase_rad=unbalance_phase_rad,
+        coefficients=coefficients,
     )

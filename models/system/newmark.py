@@ -130,12 +130,12 @@ class NewmarkIntegrator:
             velocity = (1j * self.system.omega_rad_s * amplitude * rotation).real
         elif initial != "static":
             raise InputError(f"initial must be 'steady' or 'static', got {initial!r}")
+        self.flowrates_m3_s = tuple(float(q) for q in flowrates_m3_s)
         _, damping, stiffness, force = self.system.second_order(flowrates_m3_s)
         load = force + self._harmonic_load(time_s)
         acceleration = solve(self.mass, load - damping @ velocity - stiffness @ coordinates)
         self.state = np.concatenate([coordinates, velocity, acceleration])
         self.time_s = time_s
-        self.flowrates_m3_s = tuple(float(q) for q in flowrates_m3_s)
         self._last_flowrates = self._conditions_key(self.flowrates_m3_s)
         self._acceleration_current = True
 
@@ -172,7 +172,9 @@ class NewmarkIntegrator:
         times = np.asarray(time_s, dtype=float)[..., None]
         phase = self.rotor_angle_rad + self.speed_rad_s * (times - self.time_s)
         growth = (self.speed_rad_s / self.system.omega_rad_s) ** 2
-        return (growth * self.unbalance_moment * self.system.unit_unbalance_force * np.exp(1j * phase)).real
+        # The unit load at the flowrates of the period's start (the synchronous 1x load depends on them).
+        unit = self.system.unit_unbalance_load(self.flowrates_m3_s)
+        return (growth * self.unbalance_moment * unit * np.exp(1j * phase)).real
 
     def _exogenous(self, time_s: float) -> np.ndarray:
         """``[1, Re(u e^{i Omega t}), Im(u e^{i Omega t})]``: the propagator's input (its harmonic columns are
@@ -291,7 +293,8 @@ class NewmarkIntegrator:
         n, n2 = self.n, 2 * self.n
         blocks = self._bearing_blocks(flows)
         constant = self.system.gravity_force + self._select.T @ blocks[2]
-        cosine, sine = self.system.unit_unbalance_force.real, -self.system.unit_unbalance_force.imag
+        unit = self.system.unit_unbalance_load(flows)
+        cosine, sine = unit.real, -unit.imag
         columns = np.zeros((3 * n, n2 + 3))
         columns[:n2, :n2] = np.eye(n2)
         initial_load = np.zeros((n, n2 + 3))

@@ -14,6 +14,7 @@ import math
 
 import numpy as np
 
+from ..bearing.coefficient_kinds import QUASI_STATIC, table_kind
 from ..bearing.operating_table import OperatingTable, operating_table_path
 from ..bearing.table import BearingCoefficients
 from ..machine import Machine
@@ -52,6 +53,11 @@ class ConditionedTable:
         """Flowrates [m^3/s] the table covers at the current conditions."""
         return self._slice.flowrate_range_m3_s
 
+    @property
+    def flowrates_m3_s(self) -> np.ndarray:
+        """The table's flowrate nodes [m^3/s] at the current conditions (its fractions times q_t)."""
+        return self.table.fraction_nodes * self._slice.flooded_threshold_m3_s
+
     def evaluate_many(self, q_m3_s: np.ndarray) -> np.ndarray:
         """Rows (m, 10) ``[e_x, e_y, K, C]`` (SI) at the flowrates (m,) [m^3/s]."""
         return self._slice.rows(q_m3_s)
@@ -60,6 +66,22 @@ class ConditionedTable:
         """Equilibrium and coefficients at one flowrate [m^3/s]."""
         row = self.evaluate_many(np.array([q_m3_s]))[0]
         return BearingCoefficients(row[0:2], row[2:6].reshape(2, 2), row[6:10].reshape(2, 2))
+
+
+def operating_table_of(machine: Machine, coefficients: str | None = None) -> OperatingTable:
+    """The machine's dimensionless table holding ``coefficients`` (None: the machine file's
+    ``bearings.dynamic_coefficients``, "synchronous" for the turbine), checked against its geometry and
+    kind."""
+    kind = machine.dynamic_coefficients if coefficients is None else coefficients
+    path = operating_table_path(machine.source_path, kind)
+    table = OperatingTable.load(path)
+    if table_kind(table.metadata) != kind:
+        raise InputError(
+            f"dimensionless bearing table {path} holds {table_kind(table.metadata)} coefficients, not "
+            f"{kind}: recompute it with `oilwatch bearing-map --coefficients {kind}`"
+        )
+    table.check_geometry(machine.bearing)
+    return table
 
 
 def operating_system(
@@ -71,12 +93,21 @@ def operating_system(
     unbalance_moment_kg_m: float | None = None,
     unbalance_phase_rad: float | None = None,
 ) -> RotorBearingSystem:
-    """The full-order rotor-bearing system on the dimensionless table, at an initial speed and viscosity."""
+    """The full-order rotor-bearing system on the dimensionless table, at an initial speed and viscosity.
+
+    ``table`` None: the machine's quasi-static table for the dynamics and, for a machine of synchronous
+    ``dynamic_coefficients``, the synchronous table for the 1x response (as
+    :func:`models.system.factory.build_system`); a given ``table`` serves both."""
+    synchronous = None
     if table is None:
-        table = OperatingTable.load(operating_table_path(machine.source_path))
+        table = operating_table_of(machine, QUASI_STATIC)
+        if machine.dynamic_coefficients != QUASI_STATIC:
+            synchronous = operating_table_of(machine)
     table.check_geometry(machine.bearing)
     rotor = Rotor.from_machine(machine)
-    tables = [ConditionedTable(table, w, speed_hz, viscosity_pa_s) for w in rotor.bearing_static_loads_n]
+    loads = rotor.bearing_static_loads_n
+    conditions = (speed_hz, viscosity_pa_s)
+    tables = [ConditionedTable(table, w, *conditions) for w in loads]
     return RotorBearingSystem(
         rotor,
         tables,
@@ -85,6 +116,7 @@ def operating_system(
         unbalance_moment_kg_m,
         unbalance_phase_rad,
         machine.lubrication.nominal_flowrate_m3_s,
+        None if synchronous is None else [ConditionedTable(synchronous, w, *conditions) for w in loads],
     )
 
 
@@ -100,5 +132,5 @@ def set_operating_conditions(system: RotorBearingSystem, speed_hz: float, viscos
             "this plant's bearing tables hold one speed and viscosity: build it on the dimensionless table "
             "(`oilwatch bearing-map`) to change speed or oil temperature"
         )
-    for t in system.tables:
+    for t in system.tables + (system.synchronous_tables or ()):
         t.set_conditions(speed_hz, viscosity_pa_s)

@@ -80,8 +80,11 @@ def parse_profile(text: str, nominal: float, name: str) -> OperatingProfile:
         return nominal + number if relative and field[:1] in "+-" else number
 
     numbers = [value(f, i < 2) for i, f in enumerate(fields)]
-    if shape == "constant":
-        return OperatingProfile("constant", numbers[0])
-    if shape == "step":
-        return OperatingProfile("step", numbers[0], numbers[1], numbers[2])
-    return OperatingProfile("ramp", numbers[0], numbers[1], numbers[2], numbers[3])
+    try:
+        if shape == "constant":
+            return OperatingProfile("constant", numbers[0])
+        if shape == "step":
+            return OperatingProfile("step", numbers[0], numbers[1], numbers[2])
+        return OperatingProfile("ramp", numbers[0], numbers[1], numbers[2], numbers[3])
+    except InputError as error:
+        raise InputError(f"{name}: {error}") from None

@@ -1,6 +1,11 @@
 """The paper's model figures, recomputed by oilwatch: weight, flows, critical speeds, Tables 4 and 5.
 
 ``paper_comparison`` returns ours and the paper's figures side by side; ``oilwatch report`` prints them.
+Tables 4-5 use the machine file's coefficients (``bearings.dynamic_coefficients``: synchronous K(Omega),
+C(Omega) for the turbine, the 1x orbit's own frequency) and are also given with the quasi-static table. The
+instability threshold of that model is the frequency-dependent one (each root at its own complex frequency,
+from the transient results file); the quasi-static thresholds (frozen content, squeeze everywhere) come from
+the speed sweeps and the first critical speed from the frozen-content sweep's Campbell crossing.
 """
 
 from __future__ import annotations
@@ -9,11 +14,12 @@ from pathlib import Path
 
 import numpy as np
 
+from ..bearing.coefficient_kinds import COEFFICIENT_KINDS, QUASI_STATIC, SYNCHRONOUS
 from ..bearing.equilibrium import static_equilibrium
 from ..bearing.grid import Mesh
 from ..bearing.supply import ML_MIN_PER_M3_S, SupplyPressure
 from ..machine import load_machine
-from .factory import build_system, load_speed_sweeps
+from .factory import build_system, flowrate_table_path, load_speed_sweeps
 from .sensitivity import DEFINITIONS, PAPER_TABLE4, PAPER_TABLE5, orbit_variation_table, paper_rows
 from .stability import stability_map
 from .transient_comparison import transient_figures
@@ -52,12 +58,23 @@ def paper_comparison(machine_file: str | Path | None = None) -> dict:
     alternative = load_speed_sweeps(machine, rotor, squeeze="everywhere")
     stability_alt = stability_map(rotor, alternative, alternative[0].speeds_hz)
     nominal = machine.lubrication.nominal_flowrate_m3_s
+    transient = transient_figures(machine)
+    kind = machine.dynamic_coefficients
     ours = {
         "rotor_weight_n": rotor.weight_n,
         **{key: eq.supply_flow_m3_s * ML_MIN_PER_M3_S for key, eq in flows.items()},
         "first_critical_hz": stability.first_critical_hz,
-        "instability_threshold_hz": stability.instability_threshold_hz,
+        "instability_threshold_hz": stability.instability_threshold_hz
+        if kind == QUASI_STATIC
+        else _frequency_dependent_threshold(transient, mesh),
     }
+    quasi_static_tables = {}
+    if kind != QUASI_STATIC and flowrate_table_path(machine, system.speed_hz, QUASI_STATIC).exists():
+        other = build_system(machine, reduced=False, coefficients=QUASI_STATIC)
+        quasi_static_tables = {
+            "table4_quasi_static": orbit_variation_table(other, nominal, both_bearings=True),
+            "table5_quasi_static": orbit_variation_table(other, nominal, both_bearings=False),
+        }
     difference = {
         key: None if ours[key] is None else 100.0 * (ours[key] - PAPER[key]) / PAPER[key]
         for key in SCALAR_KEYS
@@ -68,15 +85,30 @@ def paper_comparison(machine_file: str | Path | None = None) -> dict:
             "first_critical_hz": stability_alt.first_critical_hz,
             "instability_threshold_hz": stability_alt.instability_threshold_hz,
         },
-        **transient_figures(machine),
+        "instability_threshold_quasi_static_hz": stability.instability_threshold_hz,
+        **{
+            k: v
+            for k, v in transient.items()
+            if not (kind == SYNCHRONOUS and k.endswith("_frequency_dependent"))
+        },
+        "coefficients": kind,
+        "coefficients_description": COEFFICIENT_KINDS[kind],
         "table4": orbit_variation_table(system, nominal, both_bearings=True),
         "table5": orbit_variation_table(system, nominal, both_bearings=False),
+        **quasi_static_tables,
         "paper": {**PAPER, "table4": paper_rows(PAPER_TABLE4), "table5": paper_rows(PAPER_TABLE5)},
         "difference_pct": difference,
         "definitions": {
             **DEFINITIONS,
             "first_critical": "lowest speed where a forward-whirl damped frequency crosses the 1x line",
-            "instability_threshold": "lowest speed where the least-stable mode's log decrement crosses zero",
+            "coefficients": "the machine's kind of bearing coefficients (bearings.dynamic_coefficients), "
+            "used by Tables 4-5 and the instability threshold; table4/5_quasi_static: the same with the "
+            "quasi-static (frozen-content) table",
+            "instability_threshold": "synchronous coefficients: the frequency-dependent linear threshold "
+            "(instability_threshold_frequency_dependent, on the production mesh where it was computed); "
+            "quasi-static: lowest speed where the least-stable mode's log decrement crosses zero",
+            "instability_threshold_quasi_static": "lowest speed where the least-stable mode's log decrement "
+            "crosses zero, frozen-content speed sweep",
             "flooded_threshold": "supply flow drawn at zero gauge groove pressure",
             "nominal_flow": "supply flow drawn at 0.5 bar groove pressure",
             "squeeze_everywhere": "speeds recomputed with theta dh/dt in every film volume (the default "
@@ -95,3 +127,12 @@ def paper_comparison(machine_file: str | Path | None = None) -> dict:
         "least_log_decrement": [float(v) for v in np.asarray(stability.least_log_decrement)],
         "mesh": {"n_circ": mesh.n_circ, "n_axial": mesh.n_axial},
     }
+
+
+def _frequency_dependent_threshold(transient: dict, mesh: Mesh) -> float | None:
+    """The frequency-dependent linear threshold [Hz] on the tables' film mesh if computed there, else on
+    the direct simulations' mesh (None when the results file has neither)."""
+    by_mesh = transient.get("frequency_dependent_thresholds_by_mesh_hz") or {}
+    return by_mesh.get(
+        f"{mesh.n_circ}x{mesh.n_axial}", transient.get("instability_threshold_frequency_dependent_hz")
+    )

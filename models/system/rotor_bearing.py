@@ -17,6 +17,20 @@ eccentricity included. The paper's Eq. 2 omits ``f0``; without it the journal wo
 table's equilibrium under the load the table was computed for, so it is kept here.
 
 With a ``ReductionBasis`` the coordinates are ``r = T eta``; the bearing dofs are its first coordinates.
+
+Synchronous 1x response (``synchronous_tables``). A p-theta film's coefficients depend on the whirl
+frequency (:mod:`models.bearing.dynamic`); constant coefficients are exact at one frequency only. The 1x
+unbalance orbit whirls at Omega, where K(Omega), C(Omega) are right (within 1-2 % of the transient film),
+but the same constant coefficients applied to the free modes make the 75 Hz turbine unstable below 95 % of
+nominal flow (a 47-51 Hz mode growing at up to +15 1/s) although the transient film and its exact roots
+are stable there (least log decrement 0.10-0.13 at 75-100 %). So the state-space model keeps the
+quasi-static coefficients of ``tables`` for its dynamics and replaces the unbalance load by the load whose
+steady response through those dynamics is the synchronous model's orbit:
+
+    F_eff(q) = F_u - sum_b P_b^T (Z_s,b(q) - Z_b(q)) P_b X_s(q),   Z = K + i Omega C,
+
+with X_s the 1x response on the synchronous coefficients Z_s. Then (K - Omega^2 M + i Omega D) X_s = F_eff
+exactly: the 1x orbit at any flowrate is the synchronous one, the free dynamics are the quasi-static ones.
 """
 
 from __future__ import annotations
@@ -58,6 +72,9 @@ class RotorBearingSystem:
     unbalance_moment_kg_m, unbalance_phase_rad : override the rotor's unbalance (Eqs. 5-6) at its
         unbalance node; ``None`` keeps the machine file's.
     nominal_flowrate_m3_s : the machine's nominal supply flowrate (the estimator's reference), if known.
+    synchronous_tables : optional tables of K(Omega), C(Omega) (same flowrates' equilibria) that set the 1x
+        unbalance response through :meth:`unit_unbalance_load` (module docstring); ``None``: ``tables``
+        give both the dynamics and the 1x response.
     """
 
     def __init__(
@@ -69,15 +86,18 @@ class RotorBearingSystem:
         unbalance_moment_kg_m: float | None = None,
         unbalance_phase_rad: float | None = None,
         nominal_flowrate_m3_s: float | None = None,
+        synchronous_tables: Sequence[CoefficientTable] | None = None,
     ) -> None:
         speed_hz = require_positive("speed_hz", speed_hz, "Hz")
         self.nominal_flowrate_m3_s = nominal_flowrate_m3_s
-        if len(tables) != len(rotor.bearing_nodes):
-            raise InputError(
-                f"tables: need one coefficient table per bearing ({len(rotor.bearing_nodes)}), "
-                f"got {len(tables)}"
-            )
-        for table in tables:
+        every = list(tables) + list(synchronous_tables or ())
+        for name, group in (("tables", tables), ("synchronous_tables", synchronous_tables or tables)):
+            if len(group) != len(rotor.bearing_nodes):
+                raise InputError(
+                    f"{name}: need one coefficient table per bearing ({len(rotor.bearing_nodes)}), "
+                    f"got {len(group)}"
+                )
+        for table in every:
             if not np.isclose(table.speed_hz, speed_hz, rtol=1e-9):
                 raise InputError(
                     f"speed_hz = {speed_hz:g} Hz has no coefficient table: the table is for "
@@ -85,6 +105,9 @@ class RotorBearingSystem:
                 )
         self.rotor = rotor
         self.tables = tuple(tables)
+        self.synchronous_tables = None if synchronous_tables is None else tuple(synchronous_tables)
+        self._unit_loads: dict[tuple, np.ndarray] = {}
+        self._synchronous_reference: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self.speed_hz = speed_hz
         self.omega_rad_s = 2.0 * np.pi * speed_hz
         self.basis = basis
@@ -126,8 +149,9 @@ class RotorBearingSystem:
 
     @property
     def flowrate_bounds_m3_s(self) -> tuple[float, float]:
-        """The flowrate range common to all bearing tables [m^3/s]."""
-        lows, highs = zip(*(table.flowrate_range_m3_s for table in self.tables), strict=True)
+        """The flowrate range common to all bearing tables (synchronous ones included) [m^3/s]."""
+        every = self.tables + (self.synchronous_tables or ())
+        lows, highs = zip(*(table.flowrate_range_m3_s for table in every), strict=True)
         return max(lows), min(highs)
 
     def bearing_states(self, flowrates_m3_s: Sequence[float]) -> list[BearingState]:
@@ -172,7 +196,8 @@ class RotorBearingSystem:
         a[:n, n:] = np.eye(n)
         a[n:, :n] = -lu_solve(self._mass_lu, stiffness)
         a[n:, n:] = -lu_solve(self._mass_lu, damping)
-        loads = np.column_stack([force, self.unbalance_force.real, -self.unbalance_force.imag])
+        unbalance = self.unbalance_load(flowrates_m3_s)
+        loads = np.column_stack([force, unbalance.real, -unbalance.imag])
         b = np.zeros((2 * n, 3))
         b[n:] = lu_solve(self._mass_lu, loads)
         return a, b
@@ -206,7 +231,64 @@ class RotorBearingSystem:
         """Complex amplitude (n,) of the steady unbalance response: ``r(t) = Re(X exp(i Omega t))``."""
         _, damping, stiffness, _ = self.second_order(flowrates_m3_s)
         w = self.omega_rad_s
-        return solve(stiffness - w * w * self.mass + 1j * w * damping, self.unbalance_force)
+        return solve(stiffness - w * w * self.mass + 1j * w * damping, self.unbalance_load(flowrates_m3_s))
+
+    def unbalance_load(self, flowrates_m3_s: Sequence[float]) -> np.ndarray:
+        """The complex unbalance load (n,) of the model at the flowrates: ``unit_unbalance_load`` times the
+        unbalance moment and phase (``unbalance_force`` without synchronous tables)."""
+        moment = self.unbalance_moment_kg_m * np.exp(1j * self.unbalance_phase_rad)
+        return moment * self.unit_unbalance_load(flowrates_m3_s)
+
+    def unit_unbalance_load(self, flowrates_m3_s: Sequence[float]) -> np.ndarray:
+        """Load (n,) complex of a unit unbalance moment (1 kg m at phase 0) at the flowrates: with
+        ``synchronous_tables`` the load F_eff of the module docstring, else ``unit_unbalance_force``."""
+        if self.synchronous_tables is None:
+            return self.unit_unbalance_force
+        conditions = tuple(getattr(t, "conditions", ()) for t in self.tables + self.synchronous_tables)
+        key = (*(float(q) for q in flowrates_m3_s), *conditions)
+        if key not in self._unit_loads:
+            if len(self._unit_loads) > 4096:
+                self._unit_loads.clear()
+            self._unit_loads[key] = self._effective_unit_load(flowrates_m3_s)
+        return self._unit_loads[key]
+
+    def _effective_unit_load(self, flowrates_m3_s: Sequence[float]) -> np.ndarray:
+        """F_eff of a unit unbalance through the bearing dofs only: with A_ref = K - Omega^2 M + i Omega D
+        at reference bearing impedances Z_ref (factorized once), the synchronous orbit's bearing
+        displacements solve (I + H (Z_s - Z_ref)) x_b = h, H = P A_ref^-1 P^T, h = P A_ref^-1 F_1 (a
+        4 x 4 solve per flowrate pair); then F_eff = F_1 - P^T (Z_s - Z_qs) x_b."""
+        z_s = self._impedance_blocks(self.synchronous_tables, flowrates_m3_s)
+        return self.synchronous_unit_load(z_s, self._impedance_blocks(self.tables, flowrates_m3_s))
+
+    def synchronous_unit_load(self, z_synchronous: np.ndarray, z_dynamics: np.ndarray) -> np.ndarray:
+        """F_eff (n,) complex of a unit unbalance for block-diagonal bearing impedances K + i Omega C
+        (2 nb, 2 nb) at the system's speed: the synchronous ones of the 1x orbit and the ones of the model's
+        dynamics (module docstring). For models that evaluate their own coefficients (operating points)."""
+        if self._synchronous_reference is None:
+            self._synchronous_reference = self._reference_response()
+        h, big_h, z_ref = self._synchronous_reference
+        x_b = np.linalg.solve(np.eye(h.size) + big_h @ (z_synchronous - z_ref), h)
+        select = self.bearing_maps.reshape(-1, self.n_coordinates)
+        return self.unit_unbalance_force - select.T @ ((z_synchronous - z_dynamics) @ x_b)
+
+    def _impedance_blocks(self, tables, flowrates_m3_s: Sequence[float]) -> np.ndarray:
+        """Block-diagonal K + i Omega C (2 nb, 2 nb) of ``tables`` at the flowrates."""
+        nb = len(tables)
+        z = np.zeros((2 * nb, 2 * nb), dtype=complex)
+        for b, (table, q) in enumerate(zip(tables, flowrates_m3_s, strict=True)):
+            c = table.evaluate(q)
+            z[2 * b : 2 * b + 2, 2 * b : 2 * b + 2] = c.stiffness + 1j * self.omega_rad_s * c.damping
+        return z
+
+    def _reference_response(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(h, H, Z_ref) of :meth:`_effective_unit_load`, at the quasi-static impedances of mid-range flow."""
+        low, high = self.flowrate_bounds_m3_s
+        z_ref = self._impedance_blocks(self.tables, [0.5 * (low + high)] * len(self.tables))
+        select = self.bearing_maps.reshape(-1, self.n_coordinates)
+        w = self.omega_rad_s
+        matrix = self.stiffness - w * w * self.mass + 1j * w * self.damping + select.T @ z_ref @ select
+        response = solve(matrix, np.column_stack([self.unit_unbalance_force, select.T]))
+        return select @ response[:, 0], select @ response[:, 1:], z_ref
 
     def bearing_positions(self, coordinates: np.ndarray) -> np.ndarray:
         """Bearing (x, y) displacements (n_bearings, 2) of the coordinates (real or complex)."""

@@ -1,6 +1,6 @@
 """The fluid-film bearings as linear supports (K, C per bearing) for the rotor's modal analyses.
 
-At a speed with a flowrate coefficient table (``oilwatch bearing-table``) the coefficients come from it at
+At a speed with a quasi-static flowrate table (``oilwatch bearing-table``) the coefficients come from it at
 any flowrates in its range; at other speeds they come from the speed sweep (``oilwatch speed-sweep``),
 which holds the nominal flowrate only. Anything else is an error that says which table to compute.
 """
@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 
+from ..bearing.coefficient_kinds import QUASI_STATIC
 from ..machine import Machine
 from ..rotor.assembly import Rotor
 from ..rotor.supports import LinearBearing
@@ -27,8 +28,10 @@ def fluid_film_bearings(
         raise InputError(
             f"need one flowrate per bearing ({len(rotor.bearing_nodes)}), got {len(flowrates_m3_s)}"
         )
-    if flowrate_table_path(machine, speed_hz).exists():
-        tables = load_tables(machine, rotor, speed_hz)
+    # The modes' own coefficients: quasi-static (constant synchronous ones are right for the 1x orbit only,
+    # and destabilize the free modes: models.system.rotor_bearing).
+    if flowrate_table_path(machine, speed_hz, QUASI_STATIC).exists():
+        tables = load_tables(machine, rotor, speed_hz, coefficients=QUASI_STATIC)
         coefficients = [table.evaluate(q) for table, q in zip(tables, flowrates_m3_s, strict=True)]
         return [
             LinearBearing(node, c.stiffness, c.damping)

@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from ..bearing.coefficient_kinds import SYNCHRONOUS
 from ..machine import Machine
 from .factory import build_system, flowrate_table_path
 from .sensitivity import orbit_variation_table
@@ -24,10 +25,9 @@ def results_path(machine: Machine) -> Path:
 
 
 def synchronous_table_path(machine: Machine, speed_hz: float) -> Path:
-    """The flowrate table at whirl frequency = spin speed (``oilwatch transient --study
-    synchronous-table``)."""
-    path = flowrate_table_path(machine, speed_hz)
-    return path.with_name(path.stem + "_synchronous.json")
+    """The flowrate table at whirl frequency = spin speed (``oilwatch bearing-table --coefficients
+    synchronous`` or ``oilwatch transient --study synchronous-table``)."""
+    return flowrate_table_path(machine, speed_hz, SYNCHRONOUS)
 
 
 def orbit_check(orbits: dict) -> dict:

@@ -69,6 +69,12 @@ def register(subparsers) -> None:
     parser.add_argument(
         "--out", help="output JSON; default <machine dir>/tables/<stem>_bearing_dimensionless.json"
     )
+    parser.add_argument(
+        "--coefficients",
+        choices=("synchronous", "quasi-static"),
+        help="K, C at whirl frequency = spin speed or quasi-static; default: the machine file's "
+        "bearings.dynamic_coefficients (the file name follows: ..._dimensionless_synchronous.json)",
+    )
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     parser.set_defaults(func=run)
 
@@ -126,10 +132,14 @@ def run(args) -> int:
         lub.table_min_fraction_of_threshold, lub.table_max_fraction_of_threshold, args.fractions
     )
     mesh = PRODUCTION_MESH if args.mesh is None else Mesh(*args.mesh)
+    kind = args.coefficients or machine.dynamic_coefficients
+    out = Path(args.out) if args.out else operating_table_path(machine.source_path, kind)
+    checkpoint = out.with_name(out.stem + ".partial.json")
     total = s_nodes.size * f_nodes.size
     print(
         f"Sommerfeld {s_nodes[0]:.4g} .. {s_nodes[-1]:.4g} ({s_nodes.size} nodes, nominal {nominal:.4g}), "
-        f"{f_nodes.size} flowrates: {total} points",
+        f"{f_nodes.size} flowrates: {total} points, {kind} coefficients (finished Sommerfeld nodes kept in "
+        f"{checkpoint})",
         file=sys.stderr,
     )
     with tqdm(total=total, desc="bearing map", unit="point", disable=args.quiet) as bar:
@@ -141,15 +151,17 @@ def run(args) -> int:
             f_nodes,
             mesh,
             progress=bar.update,
+            coefficients=kind,
+            checkpoint=checkpoint,
             provenance={
                 "command_line": command_line(args),
                 "machine_file": str(machine.source_path),
                 "nominal_sommerfeld": nominal,
             },
         )
-    out = Path(args.out) if args.out else operating_table_path(machine.source_path)
     out.parent.mkdir(parents=True, exist_ok=True)
     table.save(out)
+    checkpoint.unlink(missing_ok=True)
     print(
         f"{total} points in {table.metadata['provenance']['compute_s']:.0f} s written to {out}",
         file=sys.stderr,
@@ -172,6 +184,8 @@ def command_line(args) -> str:
         "--fractions",
         str(args.fractions),
     ]
+    if args.coefficients:
+        parts += ["--coefficients", args.coefficients]
     if args.mesh is not None:
         parts += ["--mesh", *map(str, args.mesh)]
     if args.out:

@@ -3,9 +3,13 @@
 Computes the flooded threshold q_t (groove full at zero gauge pressure), then the equilibrium and
 the eight coefficients at ``--points`` flowrates evenly spread between the machine file's table
 fractions of q_t (paper: 7 points, 50 % to 150 %), and writes them with units and provenance as
-JSON, by default next to the machine file as ``tables/<machine stem>_bearing_<speed>hz.json``, where
+JSON, by default next to the machine file as
+``tables/<machine stem>_bearing_<speed>hz[_synchronous].json``, where
 ``models.system`` looks for it (the bundled turbine: into the user cache, $OILWATCH_CACHE/tables, never
-into the installed package; its committed models/tables/turbine_bearing_75hz.json was made with ``--out``).
+into the installed package; its committed models/tables/turbine_bearing_75hz*.json were made with ``--out``).
+``--coefficients`` (default: the machine file's ``bearings.dynamic_coefficients``, "synchronous" for the
+turbine) chooses K, C at whirl frequency = spin speed (the transient film's small-signal response,
+``models.bearing.dynamic``; file suffix ``_synchronous``) or the quasi-static ones (no suffix).
 Commands that need a missing table (``run``, ``demo``, ``orbits``, ...) compute it the same way.
 """
 
@@ -34,6 +38,12 @@ def register(subparsers) -> None:
     parser.add_argument(
         "--out", help="output JSON file; default <machine dir>/tables/<stem>_bearing_<f>hz.json"
     )
+    parser.add_argument(
+        "--coefficients",
+        choices=("synchronous", "quasi-static"),
+        help="K, C at whirl frequency = spin speed, or quasi-static; default: the machine file's "
+        "bearings.dynamic_coefficients",
+    )
     parser.add_argument("--plot", metavar="FILE", help="also draw the table against flowrate")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     parser.set_defaults(func=run)
@@ -57,6 +67,7 @@ def run(args) -> int:
         out=Path(args.out) if args.out else None,
         progress=not args.quiet,
         command=command_line(args),
+        coefficients=args.coefficients,
     )
     print(
         f"q_t = {q_t * ML_MIN_PER_M3_S:.2f} ml/min at {speed:g} Hz; {args.points} points written to {out}",
@@ -70,7 +81,7 @@ def run(args) -> int:
 def command_line(args) -> str:
     """The command that reproduces this table (from the parsed options, not sys.argv)."""
     parts = ["oilwatch", "bearing-table"]
-    for key in ("machine", "speed_hz", "load_n", "points", "out", "plot"):
+    for key in ("machine", "speed_hz", "load_n", "points", "coefficients", "out", "plot"):
         value = getattr(args, key)
         if value is not None:
             parts += [f"--{key.replace('_', '-')}", str(value)]

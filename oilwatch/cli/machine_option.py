@@ -41,10 +41,12 @@ def compute_flowrate_table(
     out: Path | None = None,
     progress: bool = True,
     command: str | None = None,
+    coefficients: str | None = None,
 ):
     """Compute the machine's flowrate coefficient table at ``speed_hz`` and write it (default: where the
     machine's tables go); return ``(path, table, q_t [m^3/s])``. ``command`` is recorded as provenance
-    (default: the ``oilwatch bearing-table`` command that makes the same table)."""
+    (default: the ``oilwatch bearing-table`` command that makes the same table). ``coefficients``: the kind
+    of K, C (None: the machine file's ``bearings.dynamic_coefficients``)."""
     import numpy as np
 
     from models.bearing.table import compute_table, flooded_threshold
@@ -53,6 +55,7 @@ def compute_flowrate_table(
 
     from .progress import progress_bar
 
+    kind = machine.dynamic_coefficients if coefficients is None else coefficients
     if load_n is None:
         load_n = float(Rotor.from_machine(machine).bearing_static_loads_n[0])
     q_t, _ = flooded_threshold(machine.bearing, load_n, speed_hz, mesh)
@@ -69,31 +72,34 @@ def compute_flowrate_table(
             mesh,
             progress=callback,
             flooded_threshold_m3_s=q_t,
+            coefficients=kind,
             provenance={
-                "command_line": command or table_command(machine, speed_hz),
+                "command_line": command or table_command(machine, speed_hz, kind),
                 "machine_file": str(machine.source_path),
             },
         )
-    path = out if out is not None else new_table_path(machine, flowrate_table_name(machine, speed_hz))
+    path = out if out is not None else new_table_path(machine, flowrate_table_name(machine, speed_hz, kind))
     path.parent.mkdir(parents=True, exist_ok=True)
     table.save(path)
     return path, table, q_t
 
 
 def ensure_flowrate_tables(machine, speeds_hz, command: str, progress: bool = True) -> list[Path]:
-    """The machine's flowrate tables at ``speeds_hz``, each computed first (said on stderr) when missing."""
-    from models.system.factory import flowrate_table_path, table_command
+    """The machine's flowrate tables at ``speeds_hz`` (every kind its models need: ``table_kinds``), each
+    computed first (said on stderr) when missing."""
+    from models.system.factory import flowrate_table_path, table_command, table_kinds
 
     paths = []
     for speed in sorted({float(s) for s in speeds_hz}):
-        path = flowrate_table_path(machine, speed)
-        if not path.exists():
-            print(
-                f"oilwatch {command}: no coefficient table for {machine.name} at {speed:g} Hz; computing it "
-                f"(the same as `{table_command(machine, speed)}`)",
-                file=sys.stderr,
-            )
-            path, _, _ = compute_flowrate_table(machine, speed, progress=progress)
-            print(f"oilwatch {command}: wrote {path}", file=sys.stderr)
-        paths.append(path)
+        for kind in table_kinds(machine):
+            path = flowrate_table_path(machine, speed, kind)
+            if not path.exists():
+                print(
+                    f"oilwatch {command}: no {kind} coefficient table for {machine.name} at {speed:g} Hz; "
+                    f"computing it (the same as `{table_command(machine, speed, kind)}`)",
+                    file=sys.stderr,
+                )
+                path, _, _ = compute_flowrate_table(machine, speed, progress=progress, coefficients=kind)
+                print(f"oilwatch {command}: wrote {path}", file=sys.stderr)
+            paths.append(path)
     return paths

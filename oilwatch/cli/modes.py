@@ -157,7 +157,8 @@ def run(args: argparse.Namespace) -> int:
 
         from .machine_option import ensure_flowrate_tables
 
-        if not (flowrate_table_path(machine, speed_hz).exists() or speed_sweep_path(machine).exists()):
+        quasi_static = flowrate_table_path(machine, speed_hz, "quasi-static")
+        if not (quasi_static.exists() or speed_sweep_path(machine).exists()):
             ensure_flowrate_tables(machine, [speed_hz], "modes")
     bearings_at, description = bearings_for(args, machine, rotor)
     modes = damped_modes(rotor, speed_hz, bearings_at, n_modes)

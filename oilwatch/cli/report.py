@@ -61,7 +61,7 @@ def _number(value) -> str:
 
 def _row(label: str, ours, paper) -> str:
     diff = "n/a" if ours is None else f"{100.0 * (ours / paper - 1.0):+.1f} %"
-    return f"{label:48s}{_number(ours):>12s}{_number(paper):>12s}{diff:>12s}"
+    return f"{label:60s}{_number(ours):>12s}{_number(paper):>12s}{diff:>12s}"
 
 
 def format_report(result: dict) -> str:
@@ -71,37 +71,47 @@ def format_report(result: dict) -> str:
         f"oilwatch vs the paper (speed {result['speed_hz']:g} Hz, film mesh {mesh['n_circ']} x "
         f"{mesh['n_axial']})",
         "",
-        f"{'quantity':48s}{'oilwatch':>12s}{'paper':>12s}{'difference':>12s}",
+        f"{'quantity':60s}{'oilwatch':>12s}{'paper':>12s}{'difference':>12s}",
     ]
+    kind = result.get("coefficients", "quasi-static")
     for key, label in ROWS:
+        if key == "instability_threshold_hz" and kind != "quasi-static":
+            label = "instability threshold, frequency-dependent roots [Hz]"
         lines.append(_row(label, result[key], result["paper"][key]))
+    if kind != "quasi-static":
+        lines.append(
+            _row(
+                "  threshold, quasi-static frozen content [Hz]",
+                result["instability_threshold_quasi_static_hz"],
+                result["paper"]["instability_threshold_hz"],
+            )
+        )
     for key, label in ROWS[3:]:
-        alternative = f"  {label.removesuffix(' [Hz]')}, squeeze everywhere [Hz]"
+        alternative = f"  {label.removesuffix(' [Hz]')}, quasi-static squeeze everywhere [Hz]"
         lines.append(_row(alternative, result["squeeze_everywhere"][key], result["paper"][key]))
     lines += _transient_lines(result)
     for name, title in (
-        ("table4", "Table 4: q1 = q2 falling"),
-        ("table5", "Table 5: q1 falling, q2 nominal"),
-    ):
-        lines += ["", f"{title}; variation per step [um], oilwatch (paper)"]
-        lines.append(f"{'interval':10s}" + "".join(f"{label:>17s}" for _, label in COLUMNS))
-        for ours, paper in zip(result[name], result["paper"][name], strict=True):
-            cells = "".join(f"{ours[key]:>9.2f} ({paper[key]:5.2f})" for key, _ in COLUMNS)
-            lines.append(f"{ours['interval_pct']:10s}{cells}")
-    for name, title in (
+        ("table4", f"Table 4: q1 = q2 falling, {kind} coefficients"),
+        ("table5", f"Table 5: q1 falling, q2 nominal, {kind} coefficients"),
+        ("table4_quasi_static", "Table 4 with the quasi-static (frozen-content) coefficients"),
+        ("table5_quasi_static", "Table 5 with the quasi-static (frozen-content) coefficients"),
         ("table4_frequency_dependent", "Table 4 with the synchronous (frequency-dependent) coefficients"),
         ("table5_frequency_dependent", "Table 5 with the synchronous (frequency-dependent) coefficients"),
     ):
-        if name not in result:
-            continue
-        paper_name = name.split("_")[0]
-        lines += ["", f"{title}; variation per step [um], oilwatch (paper)"]
-        lines.append(f"{'interval':10s}" + "".join(f"{label:>17s}" for _, label in COLUMNS))
-        for ours, paper in zip(result[name], result["paper"][paper_name], strict=True):
-            cells = "".join(f"{ours[key]:>9.2f} ({paper[key]:5.2f})" for key, _ in COLUMNS)
-            lines.append(f"{ours['interval_pct']:10s}{cells}")
+        if name in result:
+            lines += _table_lines(title, result[name], result["paper"][name.split("_")[0]])
     lines += ["", "definitions:"] + [f"  {key}: {text}" for key, text in result["definitions"].items()]
     return "\n".join(lines)
+
+
+def _table_lines(title: str, rows: list[dict], paper_rows: list[dict]) -> list[str]:
+    """One of Tables 4-5, ours with the paper's in brackets."""
+    lines = ["", f"{title}; variation per step [um], oilwatch (paper)"]
+    lines.append(f"{'interval':10s}" + "".join(f"{label:>17s}" for _, label in COLUMNS))
+    for ours, paper in zip(rows, paper_rows, strict=True):
+        cells = "".join(f"{ours[key]:>9.2f} ({paper[key]:5.2f})" for key, _ in COLUMNS)
+        lines.append(f"{ours['interval_pct']:10s}{cells}")
+    return lines
 
 
 def _transient_lines(result: dict) -> list[str]:

@@ -18,6 +18,7 @@ SCENARIO_NAMES = (
     "drop-b2",
     "clog-b1",
     "clog-b2",
+    "operating-ramps",
 )
 """The names of ``oilwatch.scenarios.SCENARIOS`` (kept here so that --help imports nothing heavy)."""
 
@@ -54,7 +55,8 @@ def register(subparsers) -> None:
             "Exit code 2 on bad input, 130 when interrupted (result.csv keeps the steps done)."
         ),
         epilog=(
-            "scenarios: constant (--q1-pct, --q2-pct; default 100); slow-drop, intermediate-drop, "
+            "scenarios: constant (--q1-pct, --q2-pct; default 100); operating-ramps (the same while speed "
+            "ramps nominal -3 -> +3 Hz over 10 s and oil +10 degC over 60 s); slow-drop, intermediate-drop, "
             "sudden-drop (both bearings 100 -> 75 %); drop-b1, drop-b2 (one bearing 100 -> 75 %, "
             "the other nominal); clog-b1, clog-b2 (one bearing 100 -> 75 %, the other 100 -> 125 %). "
             f"Estimator parameters for --set ekf.NAME=VALUE (default, range): {estimator_parameters_help()}"
@@ -77,6 +79,18 @@ def register(subparsers) -> None:
         type=float,
         default=100.0,
         help="constant: bearing 2 flowrate [%% of nominal] (default: 100)",
+    )
+    parser.add_argument(
+        "--speed-profile",
+        metavar="PROFILE",
+        help="measured spin speed fed to both FMUs [Hz]: constant:V, ramp:V0:V1:START_S:DURATION_S or "
+        "step:V0:V1:START_S; +d/-d: relative to the nominal (e.g. ramp:72:78:0:10 or ramp:-3:+3:0:10); "
+        "both FMUs then run on the dimensionless bearing table",
+    )
+    parser.add_argument(
+        "--oil-temperature-profile",
+        metavar="PROFILE",
+        help="measured oil supply temperature fed to both FMUs [degC], same forms (e.g. ramp:+0:+10:0:60)",
     )
     parser.add_argument(
         "--set",
@@ -249,14 +263,21 @@ def run(args: argparse.Namespace) -> int:
         overrides["ekf"] = {**PAPER_TUNING, **overrides.get("ekf", {})}
     machine = load_machine_option(args)
     settings = make_run(
-        args.scenario, args.noise_um, args.duration_s, args.seed, args.q1_pct, args.q2_pct, overrides, machine
+        args.scenario,
+        args.noise_um,
+        args.duration_s,
+        args.seed,
+        args.q1_pct,
+        args.q2_pct,
+        overrides,
+        machine,
+        args.speed_profile,
+        args.oil_temperature_profile,
     )
     labels = parameter_labels(args.scenario, given, PAPER_TUNING if args.paper_tuning else {})
     out = Path(args.out) if args.out else Path("oilwatch_runs") / args.scenario
     try:
-        summary = execute(
-            settings, out, args.fmu_dir, args.ssp, not args.no_progress, "run", machine, labels
-        )
+        summary = execute(settings, out, args.fmu_dir, args.ssp, not args.no_progress, "run", machine, labels)
     except SlaveError as error:
         print(f"oilwatch run: error: {error}", file=sys.stderr)
         return 2

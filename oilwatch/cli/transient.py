@@ -126,7 +126,8 @@ def run(args: argparse.Namespace) -> int:
     for study in args.study:
         if study == "synchronous-table":
             speed = machine.nominal_speed_hz
-            table = synchronous_table(machine.bearing, load_tables(machine, rotor, speed)[0], command=command)
+            quasi_static = load_tables(machine, rotor, speed, coefficients="quasi-static")[0]
+            table = synchronous_table(machine.bearing, quasi_static, command=command)
             path = synchronous_table_path(machine, speed)
             table.save(path)
             print(f"wrote {path}", file=sys.stderr)

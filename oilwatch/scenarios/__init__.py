@@ -17,7 +17,14 @@ intermediate-drop      100 -> 75 %                 100 -> 75 %                 i
 sudden-drop            100 -> 75 %                 100 -> 75 %                 sudden
 drop-b1 / drop-b2      100 -> 75 % (one bearing)   100 % (the other)           intermediate
 clog-b1 / clog-b2      100 -> 75 % (one bearing)   100 -> 125 % (the other)    intermediate
+operating-ramps        --q1-pct (100)              --q2-pct (100)              none
 =====================  ==========================  ==========================  =============
+
+Operating point: a scenario runs at the machine's nominal speed and oil temperature unless it carries
+profiles (``models.system.profiles``; ``operating-ramps``: issue 13's speed ramp nominal -3 -> +3 Hz over
+10 s and oil temperature ramp +10 degC over 60 s) or ``oilwatch run`` gives them (``--speed-profile``,
+``--oil-temperature-profile``). With a profile both FMUs run on the dimensionless bearing table
+(``bearing_table = 1``) and their inputs ``speed_hz`` and ``oil_temperature_c`` follow it.
 
 The paper names only the speed of the generalized drops (Fig. 10); for the single-bearing and clogged-line
 cases (Figs. 11-12) it says "intermediate", which is used here.
@@ -35,6 +42,7 @@ from dataclasses import dataclass
 from models.bearing.supply import ML_MIN_PER_M3_S
 from models.machine import BUNDLED_MACHINE, Machine, load_machine
 from models.system.fault import SCENARIO_DURATIONS_S
+from models.system.profiles import OperatingProfile, parse_profile
 from models.validation import InputError, require_in_range
 
 STARVED_PCT = 75.0
@@ -69,6 +77,10 @@ class Scenario:
     q1_pct: tuple[float, float]
     q2_pct: tuple[float, float]
     speed: str
+    speed_profile: str | None = None
+    oil_temperature_profile: str | None = None
+    """Operating-point profiles (``models.system.profiles`` text, relative values from the machine's nominal
+    speed [Hz] and oil temperature [degC]); None: constant at nominal."""
 
 
 _DROP = (100.0, STARVED_PCT)
@@ -89,8 +101,21 @@ SCENARIOS: dict[str, Scenario] = {
         Scenario(
             "clog-b2", "Line 2 clogged: drop in bearing 2, rise in bearing 1", _FLOOD, _DROP, "intermediate"
         ),
+        Scenario(
+            "operating-ramps",
+            "Constant flowrates while speed and oil temperature ramp",
+            _KEEP,
+            _KEEP,
+            "sudden",
+            "ramp:-3:+3:0:10",
+            "ramp:+0:+10:0:60",
+        ),
     )
 }
+CONSTANT_FLOW_SCENARIOS = ("constant", "operating-ramps")
+"""Scenarios whose flowrates --q1-pct and --q2-pct set."""
+SPEED_RANGE_HZ = (1.0, 1000.0)
+OIL_TEMPERATURE_RANGE_C = (-50.0, 150.0)
 
 
 @dataclass(frozen=True)
@@ -113,6 +138,28 @@ class ScenarioRun:
     machine_file: str = ""
     overrides: tuple[tuple[str, str, object], ...] = ()
     """Further FMU parameters as (``plant`` or ``ekf``, name, value), e.g. the estimator's tuning."""
+    speed_profile: OperatingProfile | None = None
+    oil_temperature_profile: OperatingProfile | None = None
+    """The measured operating point fed to both FMUs' inputs (None: constant at nominal)."""
+
+    @property
+    def follows_operating_point(self) -> bool:
+        """Whether the run has a speed or oil-temperature profile."""
+        return self.speed_profile is not None or self.oil_temperature_profile is not None
+
+    def input_signals(self, roles: dict[str, str]) -> dict[str, OperatingProfile]:
+        """``Master.run``'s input signals: each profile to both FMUs' input (instance names by role)."""
+        signals = {}
+        for variable, profile in (
+            ("speed_hz", self.speed_profile),
+            ("oil_temperature_c", self.oil_temperature_profile),
+        ):
+            if profile is not None:
+                signals.update({f"{roles[role]}.{variable}": profile for role in ("plant", "ekf")})
+        return signals
+
+    def _operating(self, role: str) -> dict[str, object]:
+        return {"bearing_table": 1} if self.follows_operating_point else {}
 
     def speed_hz(self, role: str = "plant") -> float:
         """The spin speed [Hz] the ``plant`` or the ``ekf`` instance is given."""
@@ -158,6 +205,7 @@ class ScenarioRun:
             "fault_duration_s": self.fault_duration_s,
             "noise_um": self.noise_um,
             "seed": self.seed,
+            **self._operating("plant"),
             **self._extra("plant"),
             "speed_hz": self.speed_hz("plant"),
         }
@@ -172,6 +220,7 @@ class ScenarioRun:
             "noise_um": self.noise_um,
             "q_initial_ml_min": self.nominal_ml_min,
             "q_nominal_ml_min": self.nominal_ml_min,
+            **self._operating("ekf"),
             **self._extra("ekf"),
             "speed_hz": self.speed_hz("ekf"),
         }
@@ -186,6 +235,8 @@ def make_run(
     q2_pct: float = 100.0,
     overrides: dict[str, dict[str, object]] | None = None,
     machine: Machine | None = None,
+    speed_profile: str | None = None,
+    oil_temperature_profile: str | None = None,
 ) -> ScenarioRun:
     """Resolve scenario ``name`` into a :class:`ScenarioRun`; ``q1_pct``/``q2_pct`` only for ``constant``.
 
@@ -196,7 +247,12 @@ def make_run(
     (flowrates, fault timing, noise, seed, nominal flowrate) cannot be overridden. The FMU checks names
     and values when the run starts.
 
-    Raises InputError naming the input (unknown scenario, noise, duration, seed or percentage out of range).
+    speed_profile, oil_temperature_profile: ``models.system.profiles`` texts (``--speed-profile``,
+    ``--oil-temperature-profile``) replacing the scenario's own; values may be relative to the machine's
+    nominal (``+d``/``-d``).
+
+    Raises InputError naming the input (unknown scenario, noise, duration, seed, percentage or profile out of
+    range).
     """
     if name not in SCENARIOS:
         raise InputError(f"scenario {name!r} is unknown; choose one of {', '.join(SCENARIOS)}")
@@ -208,12 +264,23 @@ def make_run(
         raise InputError(f"--duration-s must be a multiple of {SAMPLE_PERIOD_S:g} s, got {duration_s:g}")
     if int(seed) != seed or seed < 0:
         raise InputError(f"--seed must be an integer >= 0, got {seed!r}")
-    if name == "constant":
+    if name in CONSTANT_FLOW_SCENARIOS:
         require_in_range("--q1-pct", q1_pct, *PCT_RANGE, "%")
         require_in_range("--q2-pct", q2_pct, *PCT_RANGE, "%")
-        scenario = Scenario(name, scenario.title, (q1_pct, q1_pct), (q2_pct, q2_pct), scenario.speed)
+        scenario = Scenario(
+            name,
+            scenario.title,
+            (q1_pct, q1_pct),
+            (q2_pct, q2_pct),
+            scenario.speed,
+            scenario.speed_profile,
+            scenario.oil_temperature_profile,
+        )
     elif (q1_pct, q2_pct) != (100.0, 100.0):
-        raise InputError(f"--q1-pct and --q2-pct apply to the 'constant' scenario only, not {name!r}")
+        raise InputError(
+            f"--q1-pct and --q2-pct apply to the {' and '.join(CONSTANT_FLOW_SCENARIOS)} scenarios only, "
+            f"not {name!r}"
+        )
     extra = []
     for role, values in (overrides or {}).items():
         if role not in PROTECTED:
@@ -225,6 +292,11 @@ def make_run(
                 )
             extra.append((role, parameter, value))
     machine = machine if machine is not None else load_machine()
+    profiles = _profiles(
+        machine,
+        speed_profile if speed_profile is not None else scenario.speed_profile,
+        oil_temperature_profile if oil_temperature_profile is not None else scenario.oil_temperature_profile,
+    )
     nominal_ml_min = machine.lubrication.nominal_flowrate_m3_s * ML_MIN_PER_M3_S
     to_ml_min = nominal_ml_min / 100.0
     return ScenarioRun(
@@ -238,4 +310,31 @@ def make_run(
         machine.nominal_speed_hz,
         "" if machine.source_path == BUNDLED_MACHINE else str(machine.source_path.resolve()),
         tuple(extra),
+        *profiles,
     )
+
+
+def _profiles(
+    machine: Machine, speed: str | None, temperature: str | None
+) -> tuple[OperatingProfile | None, OperatingProfile | None]:
+    """The speed and oil-temperature profiles from their texts, checked against the allowed ranges."""
+    out = []
+    for text, nominal, name, (low, high), unit in (
+        (speed, machine.nominal_speed_hz, "--speed-profile", SPEED_RANGE_HZ, "Hz"),
+        (temperature, machine.nominal_oil_temperature_c, "--oil-temperature-profile", OIL_TEMPERATURE_RANGE_C,
+         "degC"),
+    ):  # fmt: skip
+        if text is None:
+            out.append(None)
+            continue
+        if nominal is None:
+            raise InputError(f"{name} needs the machine's oil ([oil] in the machine file)")
+        profile = parse_profile(text, nominal, name)
+        lowest, highest = profile.extremes
+        if lowest < low or highest > high:
+            raise InputError(
+                f"{name} must stay within [{low:g}, {high:g}] {unit}, got {lowest:g} to {highest:g} {unit} "
+                f"({text!r})"
+            )
+        out.append(profile)
+    return out[0], out[1]

@@ -156,6 +156,7 @@ def run_scenario(
                 parameters=parameters,
                 progress=progress,
                 labels={roles[role]: names for role, names in (labels or {}).items()},
+                input_signals=run.input_signals(roles),
             )
     total_s = wallclock.perf_counter() - wall_start
     columns = read_result(csv_path)

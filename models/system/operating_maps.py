@@ -1,0 +1,146 @@
+"""Exact one-step maps of the rotor-bearing system at any operating point (q1, q2, speed, mu1, mu2).
+
+``RotorBearingSystem.discrete_map`` holds one speed and the viscosity of its flowrate tables. The estimator
+that follows the measured speed and oil temperature (:mod:`models.system.operating_model`) needs the exact map
+``s_{k+1} = A_d s_k + G w_k`` and its derivatives anywhere in the operating space, for its re-centred
+corrections. :class:`OperatingMaps` assembles the continuous block of Van Loan's exponential
+(:func:`models.system.discretization.harmonic_input_map`) from the system's rotor matrices and the
+dimensionless bearing table (:mod:`models.bearing.operating_table`: each bearing at its own Sommerfeld
+number and flowrate over its Couette flow), with
+
+* the gyroscopic matrix at the speed (``C_s + Omega G``);
+* the unbalance load at the speed, ``m e Omega^2`` (the system's unbalance force scaled by ``(Omega /
+  Omega_0)^2``);
+* the exosystem's rotation at the speed;
+
+and gives the derivatives of ``(A_d, G)`` along the operating axes with ``scipy.linalg.expm_frechet`` (the
+block is affine in the coefficients, so a central difference of the block is exact to second order).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.linalg import expm, expm_frechet, lu_factor, lu_solve
+
+from ..bearing.operating_table import OperatingTable
+from .rotor_bearing import RotorBearingSystem
+
+AXES = ("q1", "q2", "speed", "ln_mu1", "ln_mu2")
+"""The operating axes, in the order of :meth:`OperatingMaps.derivatives`: flowrates [m^3/s], speed [Hz],
+natural logarithms of each bearing's film viscosity."""
+
+
+class OperatingMaps:
+    """Exact maps of ``system`` (reduced or full) with its bearings on the dimensionless ``table``.
+
+    ``system`` supplies the rotor (mass, stiffness, structural damping, gyroscopic matrix, gravity, unbalance
+    force at its own speed), the bearing dofs and each bearing's static load; its flowrate tables are not
+    used.
+    """
+
+    def __init__(self, system: RotorBearingSystem, table: OperatingTable, dt_s: float) -> None:
+        self.system = system
+        self.table = table
+        self.dt_s = float(dt_s)
+        n = system.n_coordinates
+        self._n = n
+        self._structural_damping = system.damping - system.omega_rad_s * system.gyroscopic
+        self._reference_omega = system.omega_rad_s
+        self._loads = system.static_loads_n
+        self._mass_lu = lu_factor(system.mass)
+        self._slices: dict[tuple[float, float, float], object] = {}
+
+    def _slice(self, speed_hz: float, viscosity_pa_s: float, load_n: float):
+        key = (speed_hz, viscosity_pa_s, load_n)
+        found = self._slices.get(key)
+        if found is None:
+            if len(self._slices) > 64:
+                self._slices.clear()
+            found = self._slices[key] = self.table.at(speed_hz, viscosity_pa_s, load_n)
+        return found
+
+    def flowrate_range_m3_s(self, speed_hz: float, viscosities_pa_s) -> tuple[float, float]:
+        """Flowrates [m^3/s] every bearing's table slice covers at the speed and viscosities."""
+        ranges = [
+            self._slice(speed_hz, mu, w).flowrate_range_m3_s
+            for mu, w in zip(viscosities_pa_s, self._loads, strict=True)
+        ]
+        return max(r[0] for r in ranges), min(r[1] for r in ranges)
+
+    def block(self, flowrates_m3_s, speed_hz: float, viscosities_pa_s) -> np.ndarray:
+        """The continuous block (2n + 3, 2n + 3) of the exact map at the operating point."""
+        sys = self.system
+        n = self._n
+        omega = 2.0 * math.pi * speed_hz
+        damping = self._structural_damping + omega * sys.gyroscopic
+        stiffness = sys.stiffness.copy()
+        force = sys.gravity_force.copy()
+        for p, q, mu, load in zip(
+            sys.bearing_maps, flowrates_m3_s, viscosities_pa_s, self._loads, strict=True
+        ):
+            row = self._slice(speed_hz, mu, load).rows(np.array([q]))[0]
+            k, c = row[2:6].reshape(2, 2), row[6:10].reshape(2, 2)
+            stiffness += p.T @ k @ p
+            damping += p.T @ c @ p
+            force += p.T @ (np.array([0.0, load]) + k @ row[0:2])
+        unbalance = sys.unbalance_force * (omega / self._reference_omega) ** 2
+        block = np.zeros((2 * n + 3, 2 * n + 3))
+        block[:n, n : 2 * n] = np.eye(n)
+        mass_lu = self._mass_lu
+        block[n : 2 * n, :n] = -lu_solve(mass_lu, stiffness)
+        block[n : 2 * n, n : 2 * n] = -lu_solve(mass_lu, damping)
+        loads = np.column_stack([force, unbalance.real, -unbalance.imag])
+        block[n : 2 * n, 2 * n :] = lu_solve(mass_lu, loads)
+        block[2 * n + 1, 2 * n + 2] = -omega
+        block[2 * n + 2, 2 * n + 1] = omega
+        return block
+
+    def discrete_map(
+        self, flowrates_m3_s, speed_hz: float, viscosities_pa_s
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """``(A_d (2n, 2n), G (2n, 3))`` at the operating point (harmonic hold)."""
+        m = 2 * self._n
+        exponential = expm(self.block(flowrates_m3_s, speed_hz, viscosities_pa_s) * self.dt_s)
+        return exponential[:m, :m], exponential[:m, m:]
+
+    def derivatives(
+        self, flowrates_m3_s, speed_hz: float, viscosities_pa_s, axes=AXES
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """``(A_d, G, dA_d (len(axes), 2n, 2n), dG (len(axes), 2n, 3))`` at the operating point.
+
+        Derivatives are per m^3/s (q1, q2), per Hz (speed) and per unit of ln(mu_b).
+        """
+        q = np.array(flowrates_m3_s, dtype=float)
+        mu = np.array(viscosities_pa_s, dtype=float)
+        base = self.block(q, speed_hz, mu) * self.dt_s
+        m = 2 * self._n
+        d_ad = np.empty((len(axes), m, m))
+        d_g = np.empty((len(axes), m, 3))
+        exponential = None
+        for index, axis in enumerate(axes):
+            high, low = self._shifted(axis, q, speed_hz, mu, +1), self._shifted(axis, q, speed_hz, mu, -1)
+            width = high[3] - low[3]
+            direction = (self.block(*high[:3]) - self.block(*low[:3])) * (self.dt_s / width)
+            exponential, frechet = expm_frechet(base, direction)
+            d_ad[index], d_g[index] = frechet[:m, :m], frechet[:m, m:]
+        if exponential is None:
+            exponential = expm(base)
+        return exponential[:m, :m], exponential[:m, m:], d_ad, d_g
+
+    @staticmethod
+    def _shifted(axis: str, q: np.ndarray, speed_hz: float, mu: np.ndarray, sign: int):
+        """(q, speed, mu, coordinate) one small step along an axis (coordinate: the axis' own value)."""
+        q, mu = q.copy(), mu.copy()
+        if axis in ("q1", "q2"):
+            i = AXES.index(axis)
+            q[i] *= 1.0 + sign * 1e-4
+            return q, speed_hz, mu, q[i]
+        if axis == "speed":
+            speed = speed_hz * (1.0 + sign * 1e-4)
+            return q, speed, mu, speed
+        i = AXES.index(axis) - 3
+        log_mu = math.log(mu[i]) + sign * 1e-4
+        mu[i] = math.exp(log_mu)
+        return q, speed_hz, mu, log_mu

@@ -1,0 +1,426 @@
+"""The estimator's model at the measured speed and oil temperature, with a viscosity factor per bearing.
+
+:class:`OperatingAugmentedModel` keeps today's exact (q1, q2) grid (``GridAugmentedModel``, built at the
+machine's nominal speed and viscosity: the reference operating point p0) and adds a re-centred first-order
+correction for the operating point ``p = (speed, ln mu1, ln mu2)``, ``mu_b = mu_oil(T) f_b`` (the machine's
+oil law at the measured temperature times bearing b's viscosity factor)::
+
+    A_d(q, p) = A_grid(q) + D_c + sum_i dD/dq_i (q_i - q_ci) + sum_j dA/dp_j (p_j - p_cj)     (same for G)
+
+with ``D_c = A(q_c, p_c) - A(q_c, p0)`` and the derivatives of the exact maps (:mod:`operating_maps`, on the
+dimensionless bearing table: each bearing at its own Sommerfeld number and flowrate over its Couette flow,
+gyroscopics, unbalance ~ speed^2 and the exosystem at the speed) at a centre ``(q_c, p_c)``. The centre
+moves to the current (estimate, operating point) when either has left it by more than the thresholds of
+:class:`Recentring`, at most every 0.2 s unless it is four thresholds away (a re-centring costs 7 Frechet
+derivatives of a (2n + 3) block exponential, about 3 ms on a free core for the turbine's 26 states, so the
+average cost stays below about 15 us per step even while a flowrate drops fast). A -40 % viscosity change is
+thus followed by re-centring, never by a first-order step from p0. At p = p0 the correction is not applied at
+all: at constant nominal conditions this is today's model, bit for bit.
+
+The unbalance phase is the integral of the measured speed (held over each period, as the plant does), or
+the keyphasor's angle when given (:meth:`set_operating_point`).
+
+Model error (``python scripts/operating_model_error.py --fraction F``, ``tests/test_operating_model.py``):
+the static probe positions and 1x orbit amplitudes of the model's map against the exact map's on the
+dimensionless table (worst probe) along the issue's ramps (72-78 Hz, +0..+10 degC, factors 0.95-1.05,
+100/100 and 80/90 % flow), with the centre F thresholds away in every axis: F = 0 (the grid's own
+interpolation) <= 0.003 um static, 0.0003 um orbit; F = 0.5 <= 0.012 / 0.0015 um; F = 1 (the worst corner a
+step meets before re-centring) <= 0.083 / 0.031 um; the static y sensitivity is 0.14 um per % of flow. The
+README section "Speed and oil temperature: the estimator follows them" has the table.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from ..bearing.operating_table import OperatingTable, operating_table_path
+from ..machine import Machine
+from ..oil import Oil
+from ..validation import InputError, require_positive
+from .augmented import GridAugmentedModel
+from .operating_maps import OperatingMaps
+from .operating_point import ConditionedTable
+from .rotor_bearing import RotorBearingSystem
+
+NEVER = -(10**12)
+"""The step of a centre placed before any transition (so that the next due re-centring is not delayed)."""
+SAME_VISCOSITY = 1e-9
+"""An oil viscosity within this relative difference of the reference's is the reference's (the oil law at
+the nominal temperature reproduces the machine's viscosity to about 1e-12)."""
+
+
+@dataclass(frozen=True)
+class Recentring:
+    """When the correction's centre moves: speed by ``speed_fraction`` of nominal, either bearing's ln mu by
+    ``log_viscosity``, or either flowrate by ``flowrate_fraction`` of nominal; but not sooner than
+    ``min_interval_steps`` after the previous move unless the point is ``hard_factor`` thresholds away
+    (a fast flowrate transient costs a bounded number of re-centrings; the first-order terms carry it)."""
+
+    speed_fraction: float = 0.02
+    log_viscosity: float = 0.03
+    flowrate_fraction: float = 0.015
+    min_interval_steps: int = 200
+    hard_factor: float = 4.0
+
+
+class OperatingAugmentedModel:
+    """The estimator's model following speed, oil temperature and the viscosity factors (module docstring).
+
+    Parameters
+    ----------
+    reference : the exact-grid model at the machine's nominal speed and viscosity.
+    maps : exact maps of the same system on the dimensionless table.
+    oil : the machine's oil (None: the viscosity stays the reference's times the factors).
+    reference_viscosity_pa_s : the film viscosity of the reference grid's tables.
+    recentring : thresholds of the correction's centre.
+    """
+
+    def __init__(
+        self,
+        reference: GridAugmentedModel,
+        maps: OperatingMaps,
+        oil: Oil | None,
+        reference_viscosity_pa_s: float,
+        recentring: Recentring | None = None,
+    ) -> None:
+        self.reference = reference
+        self.maps = maps
+        self.oil = oil
+        self.recentring = recentring if recentring is not None else Recentring()
+        for name in (
+            "n_states",
+            "dt_s",
+            "output_matrix",
+            "velocity_output_matrix",
+            "flowrate_bounds_m3_s",
+            "speed_hz",
+            "nominal_flowrate_m3_s",
+            "clearance_m",
+        ):
+            setattr(self, name, getattr(reference, name))
+        mu0 = require_positive("reference viscosity", reference_viscosity_pa_s, "Pa s")
+        self.reference_viscosity_pa_s = mu0
+        self._log_mu0 = math.log(mu0)
+        n = self.n_states
+        self._corrections_a = np.zeros((6, n, n))
+        self._corrections_g = np.zeros((6, n, 3))
+        self._coefficients = np.zeros(6)
+        self._centre: np.ndarray | None = None  # (q1, q2, speed, ln mu1, ln mu2)
+        self._centre_step = NEVER
+        self._viscosity_jacobian = np.zeros((n, 2))
+        self._unbalance_jacobian = np.zeros((n, 2))
+        self.recentre_count = 0
+        self._speed = float(self.speed_hz)
+        self._log_oil_viscosity = self._log_mu0
+        self._anchor = (0, 0.0)  # (step, phase there): the phase is the integral of the speed
+        self._last_step: int | None = None
+        self._keyphasor: float | None = None
+
+    # ------------------------------------------------------------------ operating point
+    def set_operating_point(
+        self, speed_hz: float, oil_temperature_c: float | None = None, rotor_angle_rad: float | None = None
+    ) -> None:
+        """The measured speed [Hz] and oil supply temperature [degC] (None: the reference viscosity), held
+        over the next transition, and optionally the keyphasor's rotor angle [rad] at its step."""
+        speed = float(speed_hz)
+        if not (math.isfinite(speed) and speed > 0.0):
+            raise InputError(f"speed_hz must be a finite speed > 0 Hz, got {speed_hz!r}")
+        if oil_temperature_c is None or self.oil is None:
+            log_viscosity = self._log_mu0
+        else:
+            temperature = float(oil_temperature_c)
+            if not math.isfinite(temperature):
+                raise InputError(f"oil_temperature_c must be finite, got {oil_temperature_c!r}")
+            log_viscosity = math.log(self.oil.dynamic_viscosity_pa_s(temperature))
+            if abs(log_viscosity - self._log_mu0) < SAME_VISCOSITY:
+                log_viscosity = self._log_mu0  # the nominal temperature: today's model exactly
+        if speed != self._speed and self._last_step is not None:
+            # the phase goes on from where the previous speed took it
+            following = self._last_step + 1
+            self._anchor = (following, self._phase_at(following))
+        self._speed = speed
+        self._log_oil_viscosity = log_viscosity
+        self._keyphasor = None if rotor_angle_rad is None else float(rotor_angle_rad)
+
+    def reset_operating_state(self) -> None:
+        """Back to the reference operating point with the phase at zero at step 0 (the filter's reset)."""
+        self._speed = float(self.speed_hz)
+        self._log_oil_viscosity = self._log_mu0
+        self._anchor = (0, 0.0)
+        self._last_step = None
+        self._keyphasor = None
+        self._centre_step = NEVER
+
+    def get_operating_state(self) -> dict[str, np.ndarray]:
+        """What the next transitions depend on besides their arguments (for an FMU state): copies."""
+        centre = np.zeros(0) if self._centre is None else self._centre.copy()
+        last = -1 if self._last_step is None else self._last_step
+        keyphasor = () if self._keyphasor is None else (self._keyphasor,)
+        return {
+            "operating": np.array([self._speed, self._log_oil_viscosity, *keyphasor]),
+            "phase_anchor": np.array(
+                [float(self._anchor[0]), self._anchor[1], float(last), float(self._centre_step)]
+            ),
+            "centre": centre,
+        }
+
+    def set_operating_state(self, state: dict[str, np.ndarray]) -> None:
+        """Restore :meth:`get_operating_state` (the corrections are recomputed at the saved centre)."""
+        operating = [float(v) for v in state["operating"]]
+        anchor_step, anchor_phase, last, centre_step = (float(v) for v in state["phase_anchor"])
+        self._centre_step = int(centre_step)
+        self._speed, self._log_oil_viscosity = operating[0], operating[1]
+        self._keyphasor = operating[2] if len(operating) > 2 else None
+        self._anchor = (int(anchor_step), anchor_phase)
+        self._last_step = None if last < 0 else int(last)
+        centre = np.asarray(state["centre"], dtype=float)
+        if centre.size == 0:
+            self._centre = None
+        elif self._centre is None or not np.array_equal(centre, self._centre):
+            self._recentre(centre)
+
+    @property
+    def operating_point(self) -> tuple[float, float]:
+        """(speed [Hz], oil viscosity at the measured temperature [Pa s]) of the next transition."""
+        return self._speed, math.exp(self._log_oil_viscosity)
+
+    def _phase_at(self, step: int) -> float:
+        anchor_step, anchor_phase = self._anchor
+        return anchor_phase + 2.0 * math.pi * self._speed * (step - anchor_step) * self.dt_s
+
+    def exogenous(self, step: int) -> np.ndarray:
+        """``w_k = [1, cos(phi_k), sin(phi_k)]``, phi_k the integral of the speed (or the keyphasor's)."""
+        if self._keyphasor is not None:
+            self._anchor = (step, self._keyphasor)
+            self._keyphasor = None
+        self._last_step = step
+        phase = self._phase_at(step)
+        return np.array([1.0, math.cos(phase), math.sin(phase)])
+
+    # ------------------------------------------------------------------ maps
+    def physical_covariance(self, displacement_std_m: float, velocity_std_m_s: float) -> np.ndarray:
+        """As the reference model's."""
+        return self.reference.physical_covariance(displacement_std_m, velocity_std_m_s)
+
+    def static_state(self, flowrate_m3_s: np.ndarray) -> np.ndarray:
+        """The reference model's static state (at the nominal operating point)."""
+        return self.reference.static_state(flowrate_m3_s)
+
+    def transition(self, state, flowrate_m3_s, step):
+        """``(s_next, df/ds, df/dq)`` at the current operating point, viscosity factors 1."""
+        nxt, ad, jq, _, _ = self.transition_full(state, flowrate_m3_s, step)
+        return nxt, ad, jq
+
+    def transition_with_unbalance(self, state, flowrate_m3_s, step, unbalance):
+        """``(s_next, df/ds, df/dq, df/du)``, viscosity factors 1 (see :meth:`transition_full`)."""
+        nxt, ad, jq, _, ju = self.transition_full(state, flowrate_m3_s, step, unbalance=unbalance)
+        return nxt, ad, jq, ju
+
+    def transition_full(self, state, flowrate_m3_s, step, viscosity_factor=None, unbalance=None):
+        """``(s_next, df/ds, df/dq, df/df (n, 2) or None, df/du (n, 2) or None)`` at the operating point.
+
+        ``viscosity_factor`` (2,) or None (1, and no Jacobian): each bearing's film viscosity over the oil
+        law's. ``unbalance`` (2,) or None: the complex unbalance relative to the machine file's (as
+        ``GridAugmentedModel.transition_with_unbalance``). The arrays are reused on the next call.
+        """
+        q1, q2 = float(flowrate_m3_s[0]), float(flowrate_m3_s[1])
+        f1, f2 = (1.0, 1.0) if viscosity_factor is None else map(float, viscosity_factor)
+        if not (f1 > 0.0 and f2 > 0.0):
+            raise InputError(f"viscosity factors must be > 0, got ({f1:g}, {f2:g})")
+        w = self.exogenous(step)
+        loaded = w
+        if unbalance is not None:
+            a, b = float(unbalance[0]), float(unbalance[1])
+            loaded = np.array([1.0, a * w[1] - b * w[2], a * w[2] + b * w[1]])
+        nxt, ad, jq = self.reference.propagate(state, loaded, flowrate_m3_s)
+        log_mu = self._log_oil_viscosity
+        point = np.array([q1, q2, self._speed, log_mu + math.log(f1), log_mu + math.log(f2)])
+        at_reference = point[2] == self.speed_hz and point[3] == self._log_mu0 and point[4] == self._log_mu0
+        want_jf = viscosity_factor is not None
+        if at_reference and not want_jf:
+            jf = None  # today's model exactly
+        else:
+            distance = self._distance(point)
+            if distance > self.recentring.hard_factor or (
+                distance > 1.0 and step - self._centre_step >= self.recentring.min_interval_steps
+            ):
+                self._recentre(point)
+                self._centre_step = step
+            coefficients = self._coefficients
+            coefficients[0] = 0.0 if at_reference else 1.0
+            coefficients[1:] = 0.0 if at_reference else point - self._centre
+            jf = self._viscosity_jacobian
+            _apply_correction(
+                self._corrections_a, self._corrections_g, coefficients, state, loaded, nxt, ad, jq, jf
+            )
+            jf[:, 0] /= f1
+            jf[:, 1] /= f2
+        if unbalance is None:
+            return nxt, ad, jq, jf, None
+        harmonic = self.reference.harmonic_forcing(flowrate_m3_s)
+        if not at_reference:
+            harmonic = harmonic + np.tensordot(self._coefficients, self._corrections_g[:, :, 1:], axes=1)
+        ju = self._unbalance_jacobian
+        ju[:, 0] = harmonic @ w[1:]
+        ju[:, 1] = harmonic @ np.array([-w[2], w[1]])
+        return nxt, ad, jq, jf, ju
+
+    def _distance(self, point: np.ndarray) -> float:
+        """How far ``point`` is from the centre, in thresholds (largest axis; inf without a centre)."""
+        centre = self._centre
+        if centre is None:
+            return math.inf
+        r = self.recentring
+        q_scale = self.nominal_flowrate_m3_s or 0.5 * sum(self.flowrate_bounds_m3_s)
+        return max(
+            abs(point[2] - centre[2]) / (r.speed_fraction * self.speed_hz),
+            max(abs(point[3] - centre[3]), abs(point[4] - centre[4])) / r.log_viscosity,
+            max(abs(point[0] - centre[0]), abs(point[1] - centre[1])) / (r.flowrate_fraction * q_scale),
+        )
+
+    def _recentre(self, point: np.ndarray) -> None:
+        """Exact maps and derivatives at the new centre ``(q_c, p_c)`` and at ``(q_c, p0)``.
+
+        A flowrate outside the dimensionless table's range at p_c (or p0) is taken at its edge there."""
+        mu = np.exp(point[3:5])
+        mu0 = np.full(2, self.reference_viscosity_pa_s)
+        q_c = self._inside(point[0:2], point[2], mu)
+        q_0 = self._inside(point[0:2], self.speed_hz, mu0)
+        a_c, g_c, da_c, dg_c = self.maps.derivatives(q_c, point[2], mu)
+        a_0, g_0, da_0, dg_0 = self.maps.derivatives(q_0, self.speed_hz, mu0, axes=("q1", "q2"))
+        ca, cg = self._corrections_a, self._corrections_g
+        ca[0], cg[0] = a_c - a_0, g_c - g_0
+        ca[1:3], cg[1:3] = da_c[0:2] - da_0, dg_c[0:2] - dg_0
+        ca[3:6], cg[3:6] = da_c[2:5], dg_c[2:5]
+        self._centre = point.copy()
+        self.recentre_count += 1
+
+    def place_centre(self, point) -> None:
+        """Re-centre the correction at ``point = (q1, q2, speed, ln mu1, ln mu2)`` now (for tests)."""
+        self._recentre(np.asarray(point, dtype=float))
+
+    def _inside(self, q: np.ndarray, speed_hz: float, mu: np.ndarray) -> np.ndarray:
+        low, high = self.maps.flowrate_range_m3_s(speed_hz, mu)
+        margin = 1e-3 * (high - low)
+        return np.clip(q, low + margin, high - margin)
+
+    def discrete_map(self, flowrate_m3_s, viscosity_factor=(1.0, 1.0)) -> tuple[np.ndarray, np.ndarray]:
+        """The model's ``(A_d, G)`` at the operating point (re-centring if due; the phase untouched)."""
+        n = self.n_states
+        zero = np.zeros(n)
+        forcing = np.empty((n, 3))
+        saved = (self._anchor, self._last_step, self._keyphasor)
+        for column in range(3):
+            w = np.zeros(3)
+            w[column] = 1.0
+            self.exogenous = lambda _step, w=w: w  # a probe of the map, restored below
+            try:
+                nxt, ad, _, _, _ = self.transition_full(zero, flowrate_m3_s, 0, viscosity_factor)
+            finally:
+                del self.exogenous
+            forcing[:, column] = nxt
+        self._anchor, self._last_step, self._keyphasor = saved
+        return ad.copy(), forcing
+
+    def exact_map(self, flowrate_m3_s, viscosity_factor=(1.0, 1.0)) -> tuple[np.ndarray, np.ndarray]:
+        """The exact ``(A_d, G)`` on the dimensionless table at the current operating point (for tests)."""
+        mu = math.exp(self._log_oil_viscosity) * np.asarray(viscosity_factor, dtype=float)
+        return self.maps.discrete_map(np.asarray(flowrate_m3_s, dtype=float), self._speed, mu)
+
+
+@numba.njit(cache=True)
+def _apply_correction(ca, cg, coefficients, state, w, nxt, ad, jq, jf):  # pragma: no cover - compiled
+    """Add ``sum_k c_k (A_k s + G_k w)`` to the map; the q and ln mu Jacobians from the derivative terms."""
+    n = state.shape[0]
+    m = w.shape[0]
+    for r in range(n):
+        jf[r, 0] = 0.0
+        jf[r, 1] = 0.0
+    for k in range(6):
+        c = coefficients[k]
+        a_k = ca[k]
+        g_k = cg[k]
+        for r in range(n):
+            y = 0.0
+            for col in range(n):
+                v = a_k[r, col]
+                y += v * state[col]
+                if c != 0.0:
+                    ad[r, col] += c * v
+            for col in range(m):
+                y += g_k[r, col] * w[col]
+            if c != 0.0:
+                nxt[r] += c * y
+            if k == 1 and coefficients[0] != 0.0:
+                jq[r, 0] += y
+            elif k == 2 and coefficients[0] != 0.0:
+                jq[r, 1] += y
+            elif k == 4:
+                jf[r, 0] = y
+            elif k == 5:
+                jf[r, 1] = y
+
+
+REFERENCE_TABLES = ("flowrate", "dimensionless")
+"""What the exact (q1, q2) grid at p0 is built on: the machine's flowrate table at the nominal speed (today's
+estimator, the plant's ``bearing_table = 0``) or the dimensionless table (the plant's ``bearing_table = 1``),
+which the corrections use. With "flowrate" the two tables' difference near p0 is carried into every operating
+point: mixing the grid's stiffness with the correction's equilibrium shift costs up to about 0.5 um of static
+position at +10 degC (``scripts/operating_model_error.py``), so follow large excursions on "dimensionless"."""
+
+
+def build_operating_model(
+    system: RotorBearingSystem,
+    machine: Machine,
+    dt_s: float = 1e-3,
+    reference_table: str = "dimensionless",
+    recentring: Recentring | None = None,
+    progress=None,
+) -> OperatingAugmentedModel:
+    """The operating model of ``system`` (reduced or full, from ``machine``) on the machine's dimensionless
+    table (``oilwatch bearing-map``); ``reference_table`` in :data:`REFERENCE_TABLES`. InputError naming
+    the command when the table is missing."""
+    if reference_table not in REFERENCE_TABLES:
+        raise InputError(f"reference_table must be one of {REFERENCE_TABLES}, got {reference_table!r}")
+    path = operating_table_path(machine.source_path)
+    if not path.exists():
+        raise InputError(
+            f"following speed and oil temperature needs the dimensionless bearing table {path}: compute it "
+            "with `oilwatch bearing-map`"
+        )
+    table = OperatingTable.load(path)
+    table.check_geometry(machine.bearing)
+    mu0 = system.tables[0].metadata["bearing"]["viscosity_pa_s"]
+    if reference_table == "dimensionless":
+        tables = [ConditionedTable(table, w, system.speed_hz, mu0) for w in system.static_loads_n]
+        system = RotorBearingSystem(
+            system.rotor,
+            tables,
+            system.speed_hz,
+            system.basis,
+            system.unbalance_moment_kg_m,
+            system.unbalance_phase_rad,
+            system.nominal_flowrate_m3_s,
+        )
+    # the dimensionless table is C1 Catmull-Rom between its nodes: 3 grid intervals per table interval
+    subdivisions = 3 if reference_table == "dimensionless" else 5
+    reference = GridAugmentedModel(system, dt_s, subdivisions=subdivisions, progress=progress)
+    maps = OperatingMaps(system, table, dt_s)
+    return OperatingAugmentedModel(reference, maps, machine.oil, mu0, recentring)
+
+
+def map_response(
+    model, a_d: np.ndarray, forcing: np.ndarray, speed_hz: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """The measured static positions (4,) and 1x orbit amplitudes (4,) [um] of a map ``(A_d, G)`` at a speed:
+    the steady response of ``s+ = A_d s + G [1, cos phi, sin phi]`` with phi advancing ``2 pi f dt``."""
+    n = a_d.shape[0]
+    h = model.output_matrix
+    static = np.linalg.solve(np.eye(n) - a_d, forcing[:, 0])
+    turn = np.exp(2j * np.pi * speed_hz * model.dt_s)
+    orbit = np.linalg.solve(turn * np.eye(n) - a_d, forcing[:, 1] - 1j * forcing[:, 2])
+    return h @ static * 1e6, np.abs(h @ orbit) * 1e6
