@@ -4,10 +4,10 @@ The journals follow a 3 um circular whirl at the machine's nominal speed (64 ste
 the equilibrium at its nominal flowrate; after a warm-up (one revolution unless ``--warmup-steps``) the
 wall time of each step of both bearings is recorded (warm: partitions, LU preconditioners and numba
 caches in place), for the default stepper (projected SOR sweeps, active set as fallback or finisher)
-and for the active set alone. Beside them the warm-started steady solve (``solve_film`` from the neighbouring solution) at
-the same positions. Prints wall-time medians, their ratios, the process CPU time (what one core
-spends, less inflated than the wall time on a shared machine), the sweeps per step and the residual
-they reached. Run by hand:
+and for the active set alone. Beside them the warm-started steady solve (``solve_film`` from the
+neighbouring solution) at the same positions. Prints wall-time medians, their ratios, the process CPU
+time (what one core spends, less inflated than the wall time on a shared machine), the sweeps per step
+and the residual they reached. Run by hand:
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/transient_film.py [--mesh 240 72] [--revolutions 2]
         [--warmup-steps 64]
