@@ -33,21 +33,9 @@ from .fmi_variables import UNITS, DescribedBoolean, DescribedString, RangedInteg
 from .slave_base import OilwatchSlave
 
 
-def _add_range(element, variable) -> None:
-    """Write ``min``/``max`` (FMI 3.0 order: before ``start``) on a variable's XML element."""
-    extra = {}
-    for key, value in (("min", variable.minimum), ("max", variable.maximum)):
-        if value is not None:
-            extra[key] = f"{value:.16g}" if isinstance(value, float) else str(int(value))
-    if extra:
-        attrib = dict(element.attrib)
-        start = attrib.pop("start", None)
-        element.attrib.clear()
-        element.attrib.update(attrib | extra | ({"start": start} if start is not None else {}))
-
-
-class RangedFloat64(Float64):
-    """A pythonfmu3 ``Float64`` that also writes ``min`` and ``max``."""
+class RangeMixin:
+    """Gives a pythonfmu3 variable class ``minimum``/``maximum`` (None: unbounded), written as ``min`` and
+    ``max`` before ``start`` (the FMI 3.0 attribute order)."""
 
     def __init__(self, name: str, *, minimum=None, maximum=None, **kwargs):
         super().__init__(name, **kwargs)
@@ -55,21 +43,24 @@ class RangedFloat64(Float64):
 
     def to_xml(self):
         element = super().to_xml()
-        _add_range(element, self)
+        extra = {}
+        for key, value in (("min", self.minimum), ("max", self.maximum)):
+            if value is not None:
+                extra[key] = f"{value:.16g}" if isinstance(value, float) else str(int(value))
+        if extra:
+            attrib = dict(element.attrib)
+            start = attrib.pop("start", None)
+            element.attrib.clear()
+            element.attrib.update(attrib | extra | ({"start": start} if start is not None else {}))
         return element
 
 
-class RangedInt32(Int32):
-    """A pythonfmu3 ``Int32`` that also writes ``min`` and ``max``."""
+class RangedFloat64(RangeMixin, Float64):
+    """A pythonfmu3 ``Float64`` with ``min`` and ``max``."""
 
-    def __init__(self, name: str, *, minimum=None, maximum=None, **kwargs):
-        super().__init__(name, **kwargs)
-        self.minimum, self.maximum = minimum, maximum
 
-    def to_xml(self):
-        element = super().to_xml()
-        _add_range(element, self)
-        return element
+class RangedInt32(RangeMixin, Int32):
+    """A pythonfmu3 ``Int32`` with ``min`` and ``max``."""
 
 
 def _fmi3_variable(variable, owner: OilwatchSlave):

@@ -15,8 +15,11 @@ What pythonfmu 0.7.0 does, and what this class does about it (verified with fmpy
   and the model would silently ignore it. This class refuses it: the value is not stored, a message
   naming the parameter is logged at status error, and the call fails. pythonfmu 0.7's C++ wrapper maps
   every Python exception to ``fmi2Fatal`` (``handle_py_exception`` throws its ``fatal_error``) and
-  ignores the return value of the set methods, so ``fmi2Error`` itself cannot be returned from Python;
-  the host sees ``fmi2Fatal`` with the logged reason.
+  ignores the return value of the set methods, so ``fmi2Error`` cannot be returned from Python. Before
+  raising, the slave therefore flags the refusal to oilwatch's FMI 2.0 loader, the FMU's own binary
+  (``oilwatch/cosim/native/fmi2_loader.c``, entry point ``oilwatch_loader_refused_set``): the loader
+  returns ``fmi2Error`` for that call, and the instance keeps stepping. Without the loader (the FMI 3.0
+  shells, a plain pythonfmu build) the host still sees ``fmi2Fatal`` with the logged reason.
 - ``fmi2GetFMUstate`` returns whatever ``_get_fmu_state`` returns (a Python object held by
   reference; the default saves registered variables only). Here the state also holds deep copies of
   the attributes named in :attr:`OilwatchSlave.state_attributes` (numpy arrays, a
@@ -31,9 +34,11 @@ parameters in :meth:`validate_parameters` (raise ``InputError``) and build their
 from __future__ import annotations
 
 import copy
+import ctypes
 import math
 import pickle
 import traceback
+from pathlib import Path
 from typing import Any, ClassVar
 from xml.etree.ElementTree import Element
 
@@ -54,6 +59,33 @@ from .fmi_variables import (
 
 class SlaveInitializationError(RuntimeError):
     """Raised out of ``exit_initialization_mode`` (or a refused set) after the reasons were logged."""
+
+
+REFUSED_SET_ENTRY = "oilwatch_loader_refused_set"
+"""The loader's entry point that turns the current Set* call's fmi2Fatal into fmi2Error."""
+
+
+def flag_refused_set_to_loader(resources: str | None) -> bool:
+    """Tell the FMU's loader (module docstring) that the current Set* call is a refused set; return
+    whether a loader took the flag. The loader is the binary beside ``resources/`` that exports
+    :data:`REFUSED_SET_ENTRY` and is already mapped into this process (it is what the host loaded, so
+    ``ctypes`` opens the same copy; nothing new is loaded)."""
+    if not resources:
+        return False
+    folder = Path(resources).parent / "binaries" / "linux64"
+    try:
+        mapped = Path("/proc/self/maps").read_text(encoding="utf-8", errors="replace")
+    except OSError:
+        return False
+    for binary in sorted(folder.glob("*.so")):
+        if str(binary.resolve()) not in mapped:
+            continue
+        entry = getattr(ctypes.CDLL(str(binary)), REFUSED_SET_ENTRY, None)
+        if entry is not None:
+            entry.restype = None
+            entry()
+            return True
+    return False
 
 
 class OilwatchSlave(Fmi2Slave):
@@ -232,6 +264,7 @@ class OilwatchSlave(Fmi2Slave):
             and self.vars[vr].variability in (Fmi2Variability.fixed, Fmi2Variability.constant)
         ]
         if problems:
+            flag_refused_set_to_loader(self.resources)
             self.fail(problems, call)
 
     def set_real(self, vrs, values):

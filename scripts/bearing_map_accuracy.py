@@ -69,7 +69,7 @@ def main() -> None:
         f"worst: eccentricity ratio {worst[0]:.3f} %, K {worst[1]:.3f} %, C {worst[2]:.3f} % "
         "of the largest entry"
     )
-    one_d = CoefficientTable.load(flowrate_table_path(machine, 75.0, kind))
+    one_d = CoefficientTable.load(flowrate_table_path(machine, machine.nominal_speed_hz, kind))
     q_lo, q_hi = one_d.flowrate_range_m3_s
     worst = np.zeros(3)
     for q in np.linspace(q_lo, q_hi, 41):

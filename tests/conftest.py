@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import pytest
 from fixtures.fmu_subprocess import run_python
+from fixtures.toy_fmus import toy_fmu_dir
 
 
 def pytest_collection_modifyitems(config, items):
@@ -39,3 +40,10 @@ def built_fmi3_fmus(built_fmus, tmp_path_factory):
     process = run_python(code, timeout=400.0)
     assert process.returncode == 0, process.stderr
     return out
+
+
+@pytest.fixture(scope="session")
+def toys(tmp_path_factory):
+    """The toy FMUs (ToyPlant.fmu, ToyFilter.fmu, ToySystem.ssp of tests/fixtures), built once per session in
+    a fresh process (a few seconds: the fast tier uses them); their folder, which tests only read."""
+    return toy_fmu_dir(tmp_path_factory)

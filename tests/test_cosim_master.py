@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import pytest
 from fixtures.fmu_subprocess import run_json
-from fixtures.toy_fmus import toy_fmu_dir
 
 SYSTEM = """
 import numpy as np
@@ -16,11 +15,6 @@ def system(plant=None, filt=None, connections=None):
         [FmuSpec("plant", PLANT, plant or {{}}), FmuSpec("filt", FILT, filt or {{}})],
         connections=connections)
 """
-
-
-@pytest.fixture(scope="module")
-def toys(tmp_path_factory):
-    return toy_fmu_dir(tmp_path_factory)
 
 
 def _run(toys, body: str):

@@ -6,7 +6,6 @@ import zipfile
 
 import pytest
 from fixtures.fmu_subprocess import run_json
-from fixtures.toy_fmus import toy_fmu_dir
 
 WRITE = """
 import numpy as np
@@ -18,11 +17,6 @@ system = SystemDescription(
     start_time=0.0, stop_time=0.3, step_size=1e-3, name="toy_system")
 write_ssp({ssp!r}, system)
 """
-
-
-@pytest.fixture(scope="module")
-def toys(tmp_path_factory):
-    return toy_fmu_dir(tmp_path_factory)
 
 
 @pytest.fixture(scope="module")

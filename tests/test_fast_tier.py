@@ -1,5 +1,6 @@
 """Fast checks of the modules whose full tests need the built FMUs or long runs (those are marked slow): the
-two FMU slaves' Python classes driven as pythonfmu would drive them, without building an FMU; the run plot;
+two FMU slaves' Python classes driven as pythonfmu would drive them, and their FMI 3.0 shells, without
+building an FMU; the FMI 3.0 registry; the run plot; a short ``oilwatch estimate`` with its views and report;
 ``python -m oilwatch``. Together with the fast tests of each module they make the fast tier
 (``python -m pytest -q -m "not slow"``) touch every module."""
 
@@ -75,3 +76,74 @@ def test_python_m_oilwatch_lists_the_commands():
     command = [sys.executable, "-m", "oilwatch", "--help"]
     process = subprocess.run(command, cwd=REPO_ROOT, capture_output=True, text=True, timeout=60)
     assert process.returncode == 0 and "run" in process.stdout and "study" in process.stdout
+
+
+def test_the_fmi3_shells_mirror_the_fmi2_slaves_and_step():
+    """In a fresh process, without building: each FMI 3.0 shell registers the FMI 2.0 slave's variables in
+    the same order (value references), with the same units and ranges, plus ``time`` last; it initializes
+    with the defaults and steps with finite outputs."""
+    result = run_json(
+        """
+import math
+from fmu_src.oilwatch_ekf_fmi3_slave import OilFlowEKF
+from fmu_src.oilwatch_plant_fmi3_slave import RotorBearingPlant
+result = {}
+for cls, output in ((RotorBearingPlant, "x1_um"), (OilFlowEKF, "q1_est_ml_min")):
+    shell = cls(instance_name="shell")
+    shell.to_xml()
+    fmi2 = [(v.name, getattr(v, "unit", None), v.minimum if hasattr(v, "minimum") else None,
+             v.maximum if hasattr(v, "maximum") else None) for v in shell.slave._declared]
+    fmi3 = [(v.name, getattr(v, "unit", None), getattr(v, "minimum", None), getattr(v, "maximum", None))
+            for v in shell.vars.values()]
+    shell.setup_experiment(0.0)
+    shell.enter_initialization_mode()
+    shell.exit_initialization_mode()
+    for k in range(10):
+        shell.do_step(k * 1e-3, 1e-3)
+    result[cls.__name__] = {"same": fmi3[:-1] == fmi2, "last": fmi3[-1][0],
+                            "references": [v.value_reference for v in shell.vars.values()],
+                            "finite": math.isfinite(getattr(shell.slave, output))}
+"""
+    )
+    for name, outcome in result.items():
+        assert outcome["same"] and outcome["last"] == "time", name
+        assert outcome["references"] == sorted(outcome["references"]), name
+        assert outcome["finite"], name
+
+
+def test_the_fmi3_registry_is_the_fmi2_registry_with_its_shell_scripts():
+    from oilwatch.cosim.fmi3_build import FMI3_REGISTRY
+    from oilwatch.cosim.fmu_build import REGISTRY, package_root
+
+    assert [e.name for e in FMI3_REGISTRY] == [e.name for e in REGISTRY]
+    for fmi3, fmi2 in zip(FMI3_REGISTRY, REGISTRY, strict=True):
+        assert (fmi3.fmi2_script, fmi3.packages, fmi3.data_globs) == (
+            fmi2.script,
+            fmi2.packages,
+            fmi2.data_globs,
+        )
+        assert fmi3.prefix == fmi2.prefix + "3" and (package_root() / fmi3.script).is_file()
+
+
+def test_an_estimate_of_a_short_record_writes_the_views_and_a_self_contained_report(tmp_path):
+    """``oilwatch estimate`` on 1 s of the in-process plant at nominal flow (CSV, um): four view PNGs and
+    report.html with them embedded, both bearings healthy (the full checks are slow: test_estimate_cli)."""
+    import json
+
+    from fixtures.plant_records import plant_run
+
+    from oilwatch.cli import main
+    from oilwatch.records.writers import write_record
+
+    t, _, measured, _ = plant_run(1.0, 1e-3, 1.0)
+    columns = {
+        "time_s": t,
+        **{f"{n}_um": measured[:, i] * 1e6 for i, n in enumerate(("x1", "y1", "x2", "y2"))},
+    }
+    record = write_record(tmp_path / "nominal.csv", columns)
+    assert main(["estimate", str(record), "--out", str(tmp_path / "out"), "--no-progress"]) == 0
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert set(summary["views"]) == {"trend", "centerline", "orbits", "probe_health"}
+    page = (tmp_path / "out" / "report.html").read_text()
+    assert page.count("data:image/png;base64,") == 4 and "<script" not in page
+    assert all(summary["verdict"][f"bearing{b}"].startswith("healthy") for b in (1, 2)), summary["verdict"]

@@ -4,14 +4,7 @@ from __future__ import annotations
 
 import zipfile
 
-import pytest
 from fixtures.fmu_subprocess import run_python
-from fixtures.toy_fmus import toy_fmu_dir
-
-
-@pytest.fixture(scope="module")
-def toys(tmp_path_factory):
-    return toy_fmu_dir(tmp_path_factory)
 
 
 def test_build_writes_the_fmus_and_the_ssp_system(toys):

@@ -7,13 +7,7 @@ import xml.etree.ElementTree as ET
 import zipfile
 
 import pytest
-from fixtures.toy_fmus import toy_fmu_dir
 from fmpy.validation import validate_fmu
-
-
-@pytest.fixture(scope="module")
-def toys(tmp_path_factory):
-    return toy_fmu_dir(tmp_path_factory)
 
 
 def _model_description(path):

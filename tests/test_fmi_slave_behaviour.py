@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import pytest
 from fixtures.fmu_subprocess import run_json
-from fixtures.toy_fmus import toy_fmu_dir
 
 PRELUDE = """
 from ctypes import byref
@@ -43,11 +42,6 @@ def init(slave, vr, reals=None, integers=None):
         slave.setInteger([vr[name]], [value])
     slave.exitInitializationMode()
 """
-
-
-@pytest.fixture(scope="module")
-def toys(tmp_path_factory):
-    return toy_fmu_dir(tmp_path_factory)
 
 
 def test_state_restore_is_bit_identical_including_rng_and_arrays(toys):

@@ -15,7 +15,6 @@ from types import SimpleNamespace
 
 import pytest
 from fixtures.fmu_subprocess import REPO_ROOT, run_json
-from fixtures.toy_fmus import toy_fmu_dir
 
 from models.bearing.table import CoefficientTable
 from models.machine import BUNDLED_MACHINE, load_machine
@@ -271,11 +270,6 @@ def test_concurrent_atomic_writes_never_lose_their_temporary_file(tmp_path):
 
 
 # ------------------------------------------------------------------ FMUs: values, labels, set after init
-@pytest.fixture(scope="module")
-def toys(tmp_path_factory):
-    return toy_fmu_dir(tmp_path_factory)
-
-
 def test_master_names_the_input_as_the_user_gave_it(toys):
     result = run_json(
         f"""
@@ -307,29 +301,7 @@ for name, params, labels in [
     assert "--noise-um (noise_um) must" in result["fmu_log"], result["fmu_log"]
 
 
-def test_a_fixed_parameter_set_after_initialization_fails_naming_it(toys):
-    from test_fmi_slave_behaviour import PRELUDE
-
-    result = run_json(
-        PRELUDE
-        + f"""
-plant, vr = load({str(toys / "ToyPlant.fmu")!r})
-plant.setReal([vr["noise_um"]], [0.5])  # before initialization: allowed
-init(plant, vr, {{"noise_um": 0.0}})  # in initialization mode: allowed
-plant.doStep(0.0, 1e-3)
-try:
-    plant.setReal([vr["noise_um"]], [3.0])
-    status = "ok"
-except FMICallException as error:
-    status = error.status
-result = {{"status": status, "log": LOG}}
-"""
-    )
-    assert result["status"] >= 3  # fmi2Error or worse: pythonfmu 0.7 can only return fmi2Fatal
-    errors = [message for status, message in result["log"] if status == 3]
-    assert any(
-        "noise_um is a fixed parameter" in message and "3.0 was not applied" in message for message in errors
-    )
+# A fixed parameter set after initialization (fmi2Error, the instance steps on): tests/test_fmi_set_status.py
 
 
 @pytest.mark.slow

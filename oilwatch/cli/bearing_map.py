@@ -16,6 +16,8 @@ import shlex
 import sys
 from pathlib import Path
 
+from .machine_option import add_machine_option, load_machine_option
+
 DEFAULT_SPEED_RANGE = (0.6, 1.4)
 DEFAULT_VISCOSITY_RANGE = (0.5, 2.0)
 DEFAULT_SOMMERFELD_RATIO = 1.25
@@ -30,7 +32,7 @@ def register(subparsers) -> None:
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument("--machine", help="machine file (TOML); default: the bundled turbine")
+    add_machine_option(parser)
     parser.add_argument(
         "--speed-range",
         type=float,
@@ -109,7 +111,6 @@ def run(args) -> int:
         sommerfeld_grid,
         sommerfeld_number,
     )
-    from models.machine import load_machine
     from models.rotor.assembly import Rotor
     from models.validation import InputError
 
@@ -119,7 +120,7 @@ def run(args) -> int:
     ):
         if not 0 < low <= 1.0 <= high:
             raise InputError(f"{name} must satisfy 0 < LOW <= 1 <= HIGH, got {low:g} {high:g}")
-    machine = load_machine(args.machine)
+    machine = load_machine_option(args)
     loads = [float(w) for w in Rotor.from_machine(machine).bearing_static_loads_n]
     bearing, speed = machine.bearing, machine.nominal_speed_hz
     nominal = sommerfeld_number(bearing, bearing.viscosity_pa_s, speed, loads[0])

@@ -73,7 +73,7 @@ def run(args: argparse.Namespace) -> int:
     from .run import execute
 
     machine = load_machine_option(args)
-    settings = make_run("sudden-drop", noise_um=1.0, duration_s=20.0, machine=machine)
+    settings = make_run("sudden-drop", machine=machine)
     out = Path(args.out)
     try:
         summary = execute(settings, out, args.fmu_dir, None, not args.no_progress, "demo", machine)
@@ -84,7 +84,8 @@ def run(args: argparse.Namespace) -> int:
     (initial, final) = settings.q1_ml_min
     print(
         f"oilwatch demo: {machine.name}: sudden drop of both oil supply flowrates, {initial:.1f} -> "
-        f"{final:.1f} ml/min (100 -> 75 %) centred at t = {settings.fault_time_s:g} s, measurement noise 1 um"
+        f"{final:.1f} ml/min (100 -> 75 %) centred at t = {settings.fault_time_s:g} s, measurement noise "
+        f"{settings.noise_um:g} um"
     )
     print("\n".join(format_table(rows)))
     print(

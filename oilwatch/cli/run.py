@@ -7,6 +7,9 @@ import json
 import sys
 from pathlib import Path
 
+from oilwatch.experiment_config import ScenarioConfig
+
+from .config_options import add_config_options
 from .machine_option import add_machine_option, load_machine_option
 
 SCENARIO_NAMES = (
@@ -55,31 +58,16 @@ def register(subparsers) -> None:
             "Exit code 2 on bad input, 130 when interrupted (result.csv keeps the steps done)."
         ),
         epilog=(
-            "scenarios: constant (--q1-pct, --q2-pct; default 100); operating-ramps (the same while speed "
-            "ramps nominal -3 -> +3 Hz over 10 s and oil +10 degC over 60 s); slow-drop, intermediate-drop, "
+            f"scenarios: constant (--q1-pct, --q2-pct; default {ScenarioConfig.q1_pct:g}); operating-ramps "
+            "(the same while speed ramps nominal -3 -> +3 Hz over 10 s and oil +10 degC over 60 s); "
+            "slow-drop, intermediate-drop, "
             "sudden-drop (both bearings 100 -> 75 %); drop-b1, drop-b2 (one bearing 100 -> 75 %, "
             "the other nominal); clog-b1, clog-b2 (one bearing 100 -> 75 %, the other 100 -> 125 %). "
             f"Estimator parameters for --set ekf.NAME=VALUE (default, range): {estimator_parameters_help()}"
         ),
     )
     parser.add_argument("scenario", metavar="SCENARIO", help=f"one of: {', '.join(SCENARIO_NAMES)}")
-    parser.add_argument(
-        "--noise-um", type=float, default=1.0, help="measurement noise std of each probe [um] (default: 1)"
-    )
-    parser.add_argument("--duration-s", type=float, default=20.0, help="record length [s] (default: 20)")
-    parser.add_argument("--seed", type=int, default=1, help="seed of the measurement noise (default: 1)")
-    parser.add_argument(
-        "--q1-pct",
-        type=float,
-        default=100.0,
-        help="constant: bearing 1 flowrate [%% of nominal] (default: 100)",
-    )
-    parser.add_argument(
-        "--q2-pct",
-        type=float,
-        default=100.0,
-        help="constant: bearing 2 flowrate [%% of nominal] (default: 100)",
-    )
+    add_config_options(parser, ScenarioConfig)
     parser.add_argument(
         "--speed-profile",
         metavar="PROFILE",

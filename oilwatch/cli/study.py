@@ -6,6 +6,9 @@ import argparse
 import json
 import sys
 
+from oilwatch.experiment_config import StudyConfig
+
+from .config_options import add_config_options
 from .machine_option import add_machine_option
 
 
@@ -24,31 +27,7 @@ def register(subparsers) -> None:
             "summary), 2 on bad input."
         ),
     )
-    parser.add_argument(
-        "--noise-um",
-        type=float,
-        nargs="+",
-        default=[1.0, 2.0],
-        metavar="UM",
-        help="measurement noise std per displacement channel [um] (default: 1 2)",
-    )
-    parser.add_argument(
-        "--grid-step-pct",
-        type=float,
-        default=1.0,
-        metavar="PCT",
-        help="grid step [%% of nominal], must divide 25 (default: 1, i.e. 26 x 26 cases)",
-    )
-    parser.add_argument(
-        "--seeds", type=int, default=1, metavar="N", help="noise realizations per case (default: 1)"
-    )
-    parser.add_argument("--duration-s", type=float, default=10.0, help="record length [s] (default: 10)")
-    parser.add_argument(
-        "--discard-s",
-        type=float,
-        default=5.0,
-        help="initial part of the record left out of the average [s] (default: 5)",
-    )
+    add_config_options(parser, StudyConfig, ("noise_um", "grid_step_pct", "seeds", "duration_s", "discard_s"))
     parser.add_argument(
         "--out", default="study_out", metavar="DIR", help="output folder (default: study_out)"
     )
@@ -76,9 +55,7 @@ def register(subparsers) -> None:
         help="with --case cosim: folder of RotorBearingPlant.fmu and OilFlowEKF.fmu ('python build.py --out "
         "DIR'); it must be at the same path on every worker (default: built automatically)",
     )
-    parser.add_argument(
-        "--retries", type=int, default=2, help="extra attempts of a failing case (default: 2)"
-    )
+    add_config_options(parser, StudyConfig, ("retries",))
     parser.add_argument("--max-cases", type=int, metavar="N", help="stop after N new cases (run in slices)")
     parser.add_argument("--json", action="store_true", help="print summary.json on stdout")
     add_machine_option(parser)

@@ -24,6 +24,7 @@ from pathlib import Path
 
 from models.validation import InputError
 
+from .fmu_build import REGISTRY, FmuEntry
 from .packaging import relocated_name, rewrite_imports, stage_sources
 
 FMI3_OPTIONS = {"canGetAndSetFMUState": True, "canSerializeFMUState": True}
@@ -43,35 +44,30 @@ class Fmi3Entry:
     data_globs: tuple[str, ...] = ("*.toml", "*.json")
 
 
-FMI3_REGISTRY: tuple[Fmi3Entry, ...] = (
-    Fmi3Entry(
-        name="RotorBearingPlant",
-        script="fmu_src/oilwatch_plant_fmi3_slave.py",
-        fmi2_script="fmu_src/oilwatch_plant_slave.py",
-        packages=("models", "fmu_src"),
-        prefix="oilwatch_plant3",
-    ),
-    Fmi3Entry(
-        name="OilFlowEKF",
-        script="fmu_src/oilwatch_ekf_fmi3_slave.py",
-        fmi2_script="fmu_src/oilwatch_ekf_slave.py",
-        packages=("models", "estimator", "fmu_src"),
-        prefix="oilwatch_ekf3",
-    ),
-)
+def fmi3_entry(entry: FmuEntry, script: str) -> Fmi3Entry:
+    """The FMI 3.0 twin of the FMI 2.0 ``entry``: its shell ``script`` wrapping ``entry.script``, the same
+    packages and data, and the relocation prefix ``<entry.prefix>3`` (both FMIs load in one process)."""
+    return Fmi3Entry(entry.name, script, entry.script, entry.packages, f"{entry.prefix}3", entry.data_globs)
+
+
+FMI3_SCRIPTS = {
+    "RotorBearingPlant": "fmu_src/oilwatch_plant_fmi3_slave.py",
+    "OilFlowEKF": "fmu_src/oilwatch_ekf_fmi3_slave.py",
+}
+"""The FMI 3.0 shell script of each FMU of :data:`~oilwatch.cosim.fmu_build.REGISTRY`."""
+
+FMI3_REGISTRY: tuple[Fmi3Entry, ...] = tuple(fmi3_entry(e, FMI3_SCRIPTS[e.name]) for e in REGISTRY)
 
 
 def build_fmi3_fmu(entry: Fmi3Entry, out_dir: Path, machine=None) -> Path:
     """Build one FMI 3.0 FMU into ``out_dir`` for ``machine`` (default: the bundled turbine); return its path
     (see the module docstring)."""
     import pythonfmu
-    from fmpy.validation import validate_fmu
     from pythonfmu3.builder import FmuBuilder
 
     from models.machine import load_machine
 
-    from .fmu_build import _forget_modules, bundle_machine, package_dir, package_root
-    from .fmu_docs import documentation_html
+    from .fmu_build import _forget_modules, bundle_machine, document_and_validate, package_dir, package_root
 
     machine = machine if machine is not None else load_machine()
     script, fmi2_script = package_root() / entry.script, package_root() / entry.fmi2_script
@@ -107,12 +103,7 @@ def build_fmi3_fmu(entry: Fmi3Entry, out_dir: Path, machine=None) -> Path:
         if BINARY.format(name=entry.name) not in archive.namelist():
             built.unlink()
             raise InputError(f"{entry.name}: the class in {script.name} must be named {entry.name}")
-    with zipfile.ZipFile(built, "a") as archive:
-        archive.writestr("documentation/index.html", documentation_html(built))
-    problems = validate_fmu(str(built))
-    if problems:
-        raise InputError(f"{entry.name} (FMI 3.0): fmpy validate found problems: " + "; ".join(problems))
-    return built
+    return document_and_validate(built, f"{entry.name} (FMI 3.0)")
 
 
 def fmi3_system(fmi2_ssp: Path, fmus: dict[str, Path], out_dir: Path) -> Path:

@@ -188,11 +188,9 @@ def _forget_modules(names: set[str]) -> None:
 
 def build_fmu(entry: FmuEntry, out_dir: Path, machine=None, root: Path | None = None) -> Path:
     """Build one FMU into ``out_dir`` for ``machine`` (default: the bundled turbine) and return its path."""
-    from fmpy.validation import validate_fmu
     from pythonfmu.builder import FmuBuilder
 
     from models.machine import load_machine
-    from oilwatch.cosim.fmu_docs import documentation_html
     from oilwatch.cosim.native_loader import install_loader
     from oilwatch.cosim.packaging import relocated_name, stage_sources
 
@@ -226,11 +224,21 @@ def build_fmu(entry: FmuEntry, out_dir: Path, machine=None, root: Path | None = 
             f"(pythonfmu names the model after the class; module {identifier})"
         )
     install_loader(built, entry.name)  # self-sufficient binary: oilwatch/cosim/native_loader.py
+    return document_and_validate(built, entry.name)
+
+
+def document_and_validate(built: Path, label: str) -> Path:
+    """Add ``documentation/index.html`` (the FMU's variable tables) to the built FMU and run ``fmpy
+    validate`` on it (InputError naming ``label`` and the problems); return ``built``."""
+    from fmpy.validation import validate_fmu
+
+    from .fmu_docs import documentation_html
+
     with zipfile.ZipFile(built, "a") as archive:
         archive.writestr("documentation/index.html", documentation_html(built))
     problems = validate_fmu(str(built))
     if problems:
-        raise InputError(f"{entry.name}: fmpy validate found problems: " + "; ".join(problems))
+        raise InputError(f"{label}: fmpy validate found problems: " + "; ".join(problems))
     return built
 
 

@@ -43,7 +43,8 @@ from models.bearing.supply import ML_MIN_PER_M3_S
 from models.machine import BUNDLED_MACHINE, Machine, load_machine
 from models.system.fault import SCENARIO_DURATIONS_S
 from models.system.profiles import OperatingProfile, parse_profile
-from models.validation import InputError, require_in_range
+from models.validation import InputError
+from oilwatch.experiment_config import SCENARIO_DEFAULTS, ScenarioConfig
 
 STARVED_PCT = 75.0
 FLOODED_PCT = 125.0
@@ -51,9 +52,6 @@ WINDOW_S = 2.0
 """Length [s] of the before and after error windows."""
 SAMPLE_PERIOD_S = 1e-3
 """Macro step = sampling period of the probes [s] (1 kHz, as in the paper)."""
-NOISE_RANGE_UM = (1e-3, 50.0)
-DURATION_RANGE_S = (1.0, 3600.0)
-PCT_RANGE = (1.0, 200.0)
 PROTECTED = {
     "plant": {
         "machine_file", "q1_initial_ml_min", "q1_final_ml_min", "q2_initial_ml_min", "q2_final_ml_min",
@@ -228,11 +226,11 @@ class ScenarioRun:
 
 def make_run(
     name: str,
-    noise_um: float = 1.0,
-    duration_s: float = 20.0,
-    seed: int = 1,
-    q1_pct: float = 100.0,
-    q2_pct: float = 100.0,
+    noise_um: float = SCENARIO_DEFAULTS.noise_um,
+    duration_s: float = SCENARIO_DEFAULTS.duration_s,
+    seed: int = SCENARIO_DEFAULTS.seed,
+    q1_pct: float = SCENARIO_DEFAULTS.q1_pct,
+    q2_pct: float = SCENARIO_DEFAULTS.q2_pct,
     overrides: dict[str, dict[str, object]] | None = None,
     machine: Machine | None = None,
     speed_profile: str | None = None,
@@ -251,22 +249,17 @@ def make_run(
     ``--oil-temperature-profile``) replacing the scenario's own; values may be relative to the machine's
     nominal (``+d``/``-d``).
 
-    Raises InputError naming the input (unknown scenario, noise, duration, seed, percentage or profile out of
-    range).
+    Raises InputError naming the input (unknown scenario; noise, duration, seed or percentage outside the
+    ranges of :class:`~oilwatch.experiment_config.ScenarioConfig`; a bad profile).
     """
     if name not in SCENARIOS:
         raise InputError(f"scenario {name!r} is unknown; choose one of {', '.join(SCENARIOS)}")
     scenario = SCENARIOS[name]
-    require_in_range("--noise-um", noise_um, *NOISE_RANGE_UM, "um")
-    require_in_range("--duration-s", duration_s, *DURATION_RANGE_S, "s")
+    ScenarioConfig(noise_um, duration_s, seed, q1_pct, q2_pct)  # checks each against its range
     steps = round(duration_s / SAMPLE_PERIOD_S)
     if abs(steps * SAMPLE_PERIOD_S - duration_s) > 1e-9:
         raise InputError(f"--duration-s must be a multiple of {SAMPLE_PERIOD_S:g} s, got {duration_s:g}")
-    if int(seed) != seed or seed < 0:
-        raise InputError(f"--seed must be an integer >= 0, got {seed!r}")
     if name in CONSTANT_FLOW_SCENARIOS:
-        require_in_range("--q1-pct", q1_pct, *PCT_RANGE, "%")
-        require_in_range("--q2-pct", q2_pct, *PCT_RANGE, "%")
         scenario = Scenario(
             name,
             scenario.title,
@@ -276,7 +269,7 @@ def make_run(
             scenario.speed_profile,
             scenario.oil_temperature_profile,
         )
-    elif (q1_pct, q2_pct) != (100.0, 100.0):
+    elif (q1_pct, q2_pct) != (SCENARIO_DEFAULTS.q1_pct, SCENARIO_DEFAULTS.q2_pct):
         raise InputError(
             f"--q1-pct and --q2-pct apply to the {' and '.join(CONSTANT_FLOW_SCENARIOS)} scenarios only, "
             f"not {name!r}"

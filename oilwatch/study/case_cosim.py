@@ -108,6 +108,22 @@ def case_parameters(case: Case) -> dict[str, dict[str, object]]:
     return {"plant": plant, "ekf": ekf}
 
 
+def case_labels(case: Case) -> dict[str, dict[str, str]]:
+    """How the user gave each FMU parameter of :func:`case_parameters` (``oilwatch study``'s flags, the
+    grid point), so that an FMU error names what the user can change (``--seeds``, not ``plant.seed``)."""
+    common = {"noise_um": "--noise-um", "machine_file": "--machine"}
+    flows = {
+        f"q{b}_{end}_ml_min": f"the study grid's q{b} = {pct:g} % of nominal"
+        for b, pct in ((1, case.q1_pct), (2, case.q2_pct))
+        for end in ("initial", "final")
+    }
+    nominal = "the nominal flowrate of --machine"
+    return {
+        "plant": {**common, **flows, "seed": "--seeds"},
+        "ekf": {**common, "q_initial_ml_min": nominal, "q_nominal_ml_min": nominal},
+    }
+
+
 @dataclass(frozen=True)
 class CosimCase:
     """The co-simulated case as a picklable callable: ``CosimCase(fmu_dir)(case) -> CaseResult``.
@@ -140,12 +156,13 @@ class CosimCase:
                 record=_RECORD,
                 recorder=recorder,
                 parameters=case_parameters(case),
+                labels=case_labels(case),
             )
         except SlaveError as error:
             # The instances are dead after an FMI error: the next case of this worker loads them anew.
             _MASTERS.pop(self.fmu_dir, None)
             master.close()
-            raise CaseFailure(f"case {case.case_id}: {error}") from None
+            raise CaseFailure(f"case {case.case_id} ({case.settings_text}): {error}") from None
         columns = recorder.arrays()
         estimates = np.column_stack([columns[name] for name in _RECORD[:2]])[1:]
         stds = np.column_stack([columns[name] for name in _RECORD[2:]])[1:]

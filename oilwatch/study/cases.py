@@ -92,7 +92,7 @@ def reduce_record(
     # Half a sample of tolerance: recorded times carry rounding from summing steps.
     window = times >= case.discard_s - 0.5 * SAMPLE_DT_S
     if not window.any():
-        raise CaseFailure(f"case {case.case_id}: no sample after discard_s = {case.discard_s:g} s")
+        raise CaseFailure(f"case {case.case_id}: no sample after --discard-s = {case.discard_s:g} s")
     kept = estimates[window]
     if not (np.all(np.isfinite(kept)) and np.all(np.isfinite(stds[-1]))):
         raise CaseFailure(f"case {case.case_id}: the estimate is not finite (estimator diverged)")

@@ -19,6 +19,7 @@ from models.bearing.supply import ML_MIN_PER_M3_S
 from models.machine import Machine, load_machine
 from models.system.factory import is_bundled
 from models.validation import InputError, require_positive
+from oilwatch.experiment_config import STUDY_DEFAULTS
 
 
 @cache
@@ -47,8 +48,8 @@ class Case:
     q2_pct: float
     noise_um: float
     seed: int = 0
-    duration_s: float = 10.0
-    discard_s: float = 5.0
+    duration_s: float = STUDY_DEFAULTS.duration_s
+    discard_s: float = STUDY_DEFAULTS.discard_s
     machine_file: str = ""
     nominal_ml_min: float = field(default_factory=bundled_nominal_ml_min)
 
@@ -56,6 +57,14 @@ class Case:
     def case_id(self) -> str:
         """Stable identifier, e.g. ``n1_q1-98_q2-85_s0``; the record length is a study setting, not in it."""
         return f"n{self.noise_um:g}_q1-{self.q1_pct:g}_q2-{self.q2_pct:g}_s{self.seed}"
+
+    @property
+    def settings_text(self) -> str:
+        """The case in the user's terms: noise, grid point and seed index, as the study's flags name them."""
+        return (
+            f"--noise-um {self.noise_um:g}, q1 = {self.q1_pct:g} %, q2 = {self.q2_pct:g} % of nominal, "
+            f"--seeds index {self.seed}"
+        )
 
     @property
     def q1_ml_min(self) -> float:
@@ -91,10 +100,10 @@ def grid_percents(grid_step_pct: float) -> np.ndarray:
 
 def make_cases(
     noise_um: Sequence[float],
-    grid_step_pct: float = 1.0,
-    n_seeds: int = 1,
-    duration_s: float = 10.0,
-    discard_s: float = 5.0,
+    grid_step_pct: float = STUDY_DEFAULTS.grid_step_pct,
+    n_seeds: int = STUDY_DEFAULTS.seeds,
+    duration_s: float = STUDY_DEFAULTS.duration_s,
+    discard_s: float = STUDY_DEFAULTS.discard_s,
     machine: Machine | None = None,
 ) -> list[Case]:
     """All cases of a study, ordered by noise, seed, q1 (falling), q2 (falling), on ``machine`` (default:

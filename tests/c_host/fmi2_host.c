@@ -8,6 +8,9 @@
  *   fmu NAME FOLDER MODEL_IDENTIFIER GUID    an FMU extracted to FOLDER, instance NAME
  *   real NAME VR VALUE                       set a Real before initialization
  *   integer NAME VR VALUE                    set an Integer before initialization
+ *   late NAME VR VALUE                       set a Real after initialization, before the first step:
+ *                                            its status goes to stderr, and the run goes on after
+ *                                            fmi2OK, fmi2Warning or fmi2Error (only Fatal stops it)
  *   connect SRC VR DST VR                    before DST steps, its Real input VR takes SRC's output VR
  *   output NAME VR LABEL                     record a Real output after every step
  *   run STOP STEP                            stop time and communication step [s]
@@ -61,6 +64,8 @@ static Fmu fmus[8];
 static int n_fmus;
 static Parameter parameters[MAX];
 static int n_parameters;
+static Parameter late[MAX];
+static int n_late;
 static Connection connections[MAX];
 static int n_connections;
 static Output outputs[MAX];
@@ -109,6 +114,12 @@ static int read_spec(const char *path, double *stop, double *step)
             p->fmu = find_fmu(a);
             p->kind = kind[0];
             n_parameters++;
+        } else if (!strcmp(kind, "late")) {
+            Parameter *p = &late[n_late];
+            if (sscanf(line, "late %63s %u %lf", a, &p->vr, &p->value) != 3) break;
+            p->fmu = find_fmu(a);
+            p->kind = 'r';
+            n_late++;
         } else if (!strcmp(kind, "connect")) {
             Connection *k = &connections[n_connections];
             if (sscanf(line, "connect %63s %u %63s %u", a, &k->src_vr, b, &k->dst_vr) != 4) break;
@@ -230,6 +241,13 @@ int main(int argc, char **argv)
         }
         ok = ok && check(fmu->enter_init(fmu->instance), fmu, "fmi2EnterInitializationMode", 0.0);
         ok = ok && check(fmu->exit_init(fmu->instance), fmu, "fmi2ExitInitializationMode", 0.0);
+    }
+    for (int p = 0; ok && p < n_late; ++p) {
+        Fmu *fmu = &fmus[late[p].fmu];
+        fmi2Status status = fmu->set_real(fmu->instance, &late[p].vr, 1, &late[p].value);
+        fprintf(stderr, "%s: fmi2SetReal of %u after initialization returned %s\n", fmu->name, late[p].vr,
+                STATUS[status <= fmi2Pending ? status : fmi2Fatal]);
+        ok = status != fmi2Fatal && status != fmi2Pending;
     }
     FILE *out = ok ? fopen(argv[2], "w") : NULL;
     if (ok && !out) {

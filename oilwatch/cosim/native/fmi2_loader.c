@@ -18,7 +18,25 @@
  *    Either way numpy, scipy and numba must import; if not, or if a file is missing, the host's
  *    logger gets one message naming what is missing and the variable that points elsewhere, and
  *    fmi2Instantiate returns NULL.
- * 3. It dlopens pythonfmu_export.so (RTLD_LOCAL) and forwards every fmi2* call to it unchanged.
+ * 3. It dlopens pythonfmu_export.so (RTLD_LOCAL) and forwards every fmi2* call to it, with two
+ *    changes (below): the status of a refused set, and errors that reach the host's logger always.
+ *
+ * A refused set. FMI 2.0 (section 4.2.4) lets a fixed parameter be set only before
+ * fmi2ExitInitializationMode; the slave (fmu_src/slave_base.py) refuses a later set, leaves the value
+ * and the instance untouched and raises. pythonfmu's wrapper turns every Python exception into
+ * fmi2Fatal, which would tell the host the instance is lost. Before raising, the slave calls this
+ * loader's exported oilwatch_loader_refused_set() (found through its resources folder, with ctypes),
+ * which flags the current call; a Set* call that comes back fmi2Fatal with that flag returns
+ * fmi2Error, and pythonfmu's own "Fatal py exception encountered ... unknown error" line for it is
+ * dropped (the slave's message, logged first at status error, names the parameter). Any other fatal
+ * stays fatal. The next fmi2DoStep works (tests/test_fmi_set_status.py).
+ *
+ * Logging. pythonfmu drops every message, errors included, when the instance was made with
+ * loggingOn = fmi2False, so a host that keeps debug logging off would see an error status and no
+ * reason. The loader therefore instantiates pythonfmu with logging on, relays each message through its
+ * own logger, and passes on messages of status fmi2Error or worse always and the others only while the
+ * host has logging on (fmi2Instantiate's loggingOn, then fmi2SetDebugLogging), as the Modelica
+ * Association's reference FMUs do.
  *
  * Teardown. pythonfmu 0.7 keeps its interpreter guard in a static std::shared_ptr and also resets it
  * from an __attribute__((destructor)) function. Its library has STB_GNU_UNIQUE symbols, so dlclose
@@ -458,6 +476,41 @@ static int ensure_loaded(fmi2String resource_location, char *error, size_t size)
     return inner.handle || load_inner(error, size);
 }
 
+/* ---- one instance: pythonfmu's component, the host's callbacks and the relay given to pythonfmu ---- */
+typedef struct {
+    fmi2Component component;         /* pythonfmu's */
+    fmi2CallbackFunctions host;      /* as the host passed them */
+    fmi2CallbackFunctions relay;     /* what pythonfmu gets: relay_log, componentEnvironment = this */
+    int host_logging;                /* the host's loggingOn / fmi2SetDebugLogging */
+} Instance;
+
+/* Set by the slave (oilwatch_loader_refused_set) during the Set* call it refuses; the call runs on the
+ * host's thread, and the slave's Python code on the same thread. */
+static __thread int refused_in_call;
+
+EXPORT void oilwatch_loader_refused_set(void) { refused_in_call = 1; }
+
+static void relay_log(fmi2ComponentEnvironment environment, fmi2String name, fmi2Status status,
+                      fmi2String category, fmi2String message, ...)
+{
+    const Instance *self = environment;
+    if (!self || !self->host.logger) return;
+    if (refused_in_call && status == fmi2Fatal) return; /* pythonfmu's line for the refused set */
+    if (status < fmi2Error && !self->host_logging) return;
+    char text[8192], escaped[2 * sizeof text];
+    va_list args;
+    va_start(args, message);
+    vsnprintf(text, sizeof text, message ? message : "", args);
+    va_end(args);
+    size_t n = 0; /* the host's logger takes a printf format again */
+    for (const char *p = text; *p && n + 2 < sizeof escaped; ++p) {
+        if (*p == '%') escaped[n++] = '%';
+        escaped[n++] = *p;
+    }
+    escaped[n] = 0;
+    self->host.logger(self->host.componentEnvironment, name, status, category, escaped);
+}
+
 EXPORT const char *fmi2GetTypesPlatform(void) { return "default"; }
 EXPORT const char *fmi2GetVersion(void) { return "2.0"; }
 
@@ -473,22 +526,63 @@ EXPORT fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, 
         report(functions, instanceName, "oilwatch FMU loader: %s", error);
         return NULL;
     }
-    return inner.Instantiate(instanceName, fmuType, fmuGUID, fmuResourceLocation, functions, visible, loggingOn);
+    Instance *self = calloc(1, sizeof *self);
+    if (!self) {
+        report(functions, instanceName, "oilwatch FMU loader: out of memory");
+        return NULL;
+    }
+    if (functions) self->host = *functions;
+    self->relay = self->host;
+    self->relay.logger = relay_log;
+    self->relay.componentEnvironment = self;
+    self->relay.stepFinished = NULL; /* pythonfmu steps synchronously: it never calls stepFinished */
+    self->host_logging = loggingOn;
+    self->component = inner.Instantiate(instanceName, fmuType, fmuGUID, fmuResourceLocation, &self->relay,
+                                        visible, 1);
+    if (!self->component) {
+        free(self);
+        return NULL;
+    }
+    return self;
 }
 
 EXPORT void fmi2FreeInstance(fmi2Component c)
 {
-    if (c && inner.FreeInstance) inner.FreeInstance(c);
+    Instance *self = c;
+    if (!self) return;
+    if (inner.FreeInstance) inner.FreeInstance(self->component);
+    free(self);
 }
 
-/* Every other function takes the component pythonfmu returned and is forwarded as it is. */
+EXPORT fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean on, size_t n, const fmi2String categories[])
+{
+    Instance *self = c;
+    if (!self || !inner.SetDebugLogging) return fmi2Error;
+    self->host_logging = on;
+    /* pythonfmu keeps logging (relay_log filters); the host's categories apply while it has logging on */
+    return on ? inner.SetDebugLogging(self->component, 1, n, categories)
+              : inner.SetDebugLogging(self->component, 1, 0, NULL);
+}
+
+/* Every other function takes the loader's instance and is forwarded with pythonfmu's component. */
 #define FORWARD(name, params, args)                                                                           \
     EXPORT fmi2Status fmi2##name params                                                                        \
     {                                                                                                          \
-        return (c && inner.name) ? inner.name args : fmi2Error;                                                \
+        if (!c || !inner.name) return fmi2Error;                                                               \
+        c = ((Instance *)c)->component;                                                                        \
+        return inner.name args;                                                                                \
     }
-FORWARD(SetDebugLogging, (fmi2Component c, fmi2Boolean on, size_t n, const fmi2String categories[]),
-        (c, on, n, categories))
+/* The Set* calls: a fatal status after the slave flagged a refused set is fmi2Error (top of the file). */
+#define FORWARD_SET(name, type)                                                                               \
+    EXPORT fmi2Status fmi2##name(fmi2Component c, const fmi2ValueReference vr[], size_t n, const type v[])    \
+    {                                                                                                          \
+        if (!c || !inner.name) return fmi2Error;                                                               \
+        refused_in_call = 0;                                                                                   \
+        fmi2Status status = inner.name(((Instance *)c)->component, vr, n, v);                                  \
+        if (status == fmi2Fatal && refused_in_call) status = fmi2Error;                                        \
+        refused_in_call = 0;                                                                                   \
+        return status;                                                                                         \
+    }
 FORWARD(SetupExperiment, (fmi2Component c, fmi2Boolean tol_defined, fmi2Real tol, fmi2Real start,
                           fmi2Boolean stop_defined, fmi2Real stop),
         (c, tol_defined, tol, start, stop_defined, stop))
@@ -500,13 +594,10 @@ FORWARD(GetReal, (fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2
 FORWARD(GetInteger, (fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Integer v[]), (c, vr, n, v))
 FORWARD(GetBoolean, (fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Boolean v[]), (c, vr, n, v))
 FORWARD(GetString, (fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2String v[]), (c, vr, n, v))
-FORWARD(SetReal, (fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Real v[]), (c, vr, n, v))
-FORWARD(SetInteger, (fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Integer v[]),
-        (c, vr, n, v))
-FORWARD(SetBoolean, (fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Boolean v[]),
-        (c, vr, n, v))
-FORWARD(SetString, (fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2String v[]),
-        (c, vr, n, v))
+FORWARD_SET(SetReal, fmi2Real)
+FORWARD_SET(SetInteger, fmi2Integer)
+FORWARD_SET(SetBoolean, fmi2Boolean)
+FORWARD_SET(SetString, fmi2String)
 FORWARD(GetFMUstate, (fmi2Component c, fmi2FMUstate *s), (c, s))
 FORWARD(SetFMUstate, (fmi2Component c, fmi2FMUstate s), (c, s))
 FORWARD(FreeFMUstate, (fmi2Component c, fmi2FMUstate *s), (c, s))
