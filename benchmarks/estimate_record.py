@@ -5,8 +5,10 @@
    with fresh 1 um white noise on every sample; written in chunks.
 2. ``oilwatch estimate RECORD`` in a subprocess: wall time (whole command, and the summary's estimation time
    after set-up), real-time factor, the child's peak resident memory (``ru_maxrss``).
-3. Baseline in the same run: the bare estimator loop (``OilFlowEKF.run``) on the first 60 s of the same data
-   in this process, per sample, and the ratio of the command's cost per sample to it.
+3. Baseline in the same run: the bare estimator loop (``OilFlowEKF.run``, the command's configuration: the
+   machine file's probe offsets prior) on the first 60 s of the same data in this process, per sample, and the
+   ratio of the command's cost per sample to it; the summary's ``estimator_s`` (the steps alone, measured in
+   the command) against its whole estimation time.
 4. Live: ``oilwatch estimate -`` fed ``--live-s`` seconds of the record line by line at 1 kHz (real-time
    pacing) through a pipe; per-sample latency from writing a line to reading its estimate line back.
 
@@ -54,11 +56,15 @@ def write_long_record(path: Path, hours: float, noise_um: float = 1.0) -> int:
 
 
 def bare_estimator_us_per_sample(path: Path, samples: int = 60000) -> float:
+    """The bare estimator's loop with the command's configuration (the machine file's offsets prior)."""
     from estimator.ekf import OilFlowEKF
+    from models.machine import load_machine
+    from models.probes import read_probes
     from oilwatch.monitoring.estimate import estimator_config, estimator_model
 
     data = np.loadtxt(path, delimiter=",", skiprows=1, max_rows=samples)
-    ekf = OilFlowEKF(estimator_model(None), estimator_config(75.0, 1.0, 0.0))
+    probes = read_probes(load_machine(None))
+    ekf = OilFlowEKF(estimator_model(None), estimator_config(75.0, 1.0, 0.0, probes))
     ekf.run(data[:100, 1:] * 1e-6)  # compile
     ekf.reset()
     started = time.perf_counter()

@@ -15,6 +15,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, fields, replace
 
+import numpy as np
+
 from models.validation import (
     InputError,
     require_finite,
@@ -386,6 +388,106 @@ class BoundaryParameter:
         return value * self.scale
 
 
+# ---------------------------------------------------------------- nuisance states at the user's boundary
+# One row per nuisance: its prior (parameters: name, EKFConfig field, unit, SI per user unit, min, max,
+# description) and its estimate (outputs, see NuisanceOutput). The estimator FMU and `oilwatch estimate`
+# generate their variables and columns from these rows; a new nuisance is one row in each.
+NUISANCE_PRIORS = (
+    ("probe_angle_deg", "probe_angle_deg", "deg", 1.0, -360.0, 360.0,
+     "Mounting angle of each bearing's probe pair from the model's axes, counter-clockwise from +x (45: the "
+     "API 670 pair either side of the top); the x_um / y_um inputs are then along the probes' axes"),
+    ("offset_prior_std_um", "offset_prior_std_m", "um", 1e-6, 0.0, 1000.0,
+     "Prior std of each probe's zero offset; 0: the offsets are known to be zero (the paper's calibrated "
+     "probes); > 0 estimates four offset states (a real machine: the machine file's [probes] "
+     "offset_prior_std_um, 25 um). A baseline_file sets the offsets' prior instead"),
+    ("unbalance_prior_std", "unbalance_prior_std", "1", 1.0, 0.0, 10.0,
+     "Prior std of each part of the unbalance relative to the machine file's (estimate starts at 1 + 0i); "
+     "0: the machine file's unbalance is exact; > 0 estimates it as a complex random walk"),
+)  # fmt: skip
+
+
+@dataclass(frozen=True)
+class NuisanceOutput:
+    """One estimated nuisance as outputs: per label, the estimate ``<stem>_<label>[_<unit>]`` and its std
+    ``<stem>_<label>_std[_<unit>]`` (no unit suffix for unit "1").
+
+    estimate, std : names of the :class:`estimator.ekf.OilFlowEKF` properties giving the (n,) SI values;
+    scale : user value = scale x SI value; description : with ``{label}`` for the component; known : the
+    estimates' values (user unit) while the nuisance is known (not estimated; None: zeros).
+    """
+
+    stem: str
+    labels: tuple[str, ...]
+    unit: str
+    scale: float
+    estimate: str
+    std: str
+    description: str
+    known: tuple[float, ...] | None = None
+
+    def names(self, label: str) -> tuple[str, str]:
+        """(estimate name, std name) of one component."""
+        suffix = "" if self.unit == "1" else f"_{self.unit}"
+        return f"{self.stem}_{label}{suffix}", f"{self.stem}_{label}_std{suffix}"
+
+
+NUISANCE_OUTPUTS = (
+    NuisanceOutput("offset", ("x1", "y1", "x2", "y2"), "um", 1e6, "offset_m", "offset_std_m",
+                   "Estimated zero offset of probe {label} along its axis (0 while the offsets are known)"),
+    NuisanceOutput("unbalance", ("re", "im"), "1", 1.0, "unbalance", "unbalance_std",
+                   "Estimated unbalance relative to the machine file's, {label} part (re: real, im: "
+                   "imaginary; 1 and 0 while it is known)", (1.0, 0.0)),
+    NuisanceOutput("viscosity_factor", ("b1", "b2"), "1", 1.0, "viscosity_factor", "viscosity_factor_std",
+                   "Estimated effective viscosity factor of bearing {label} (film viscosity over the oil "
+                   "law's at the measured temperature; 1 while known: viscosity_factor_prior_std 0)",
+                   (1.0, 1.0)),
+)  # fmt: skip
+
+
+def nuisance_values(ekf) -> list[float]:
+    """The current nuisance estimates and stds of a filter in user units, in :func:`nuisance_names` order."""
+    values = []
+    for row in NUISANCE_OUTPUTS:
+        estimate, std = getattr(ekf, row.estimate), getattr(ekf, row.std)
+        for i in range(len(row.labels)):
+            values += (float(estimate[i]) * row.scale, float(std[i]) * row.scale)
+    return values
+
+
+def nuisance_snapshot(ekf) -> tuple:
+    """The SI arrays behind the nuisance outputs of a filter now: (estimate, std) of each row, for
+    :func:`nuisance_table` (cheap per sample: no conversion)."""
+    return tuple(getattr(ekf, name) for row in NUISANCE_OUTPUTS for name in (row.estimate, row.std))
+
+
+def nuisance_table(snapshots: list) -> np.ndarray:
+    """(n, m) user-unit values of n :func:`nuisance_snapshot` results, in :func:`nuisance_names` order (the
+    rows of :func:`nuisance_values`)."""
+    columns = []
+    for j, row in enumerate(NUISANCE_OUTPUTS):
+        estimate = np.array([s[2 * j] for s in snapshots], dtype=np.float64).reshape(len(snapshots), -1)
+        std = np.array([s[2 * j + 1] for s in snapshots], dtype=np.float64).reshape(len(snapshots), -1)
+        for i in range(len(row.labels)):
+            columns += [estimate[:, i] * row.scale, std[:, i] * row.scale]
+    return np.column_stack(columns)
+
+
+def nuisance_names() -> list[tuple[str, str, str, float]]:
+    """(name, unit, description, value while known) of every nuisance output, estimates and stds
+    interleaved."""
+    out = []
+    for row in NUISANCE_OUTPUTS:
+        known = row.known or (0.0,) * len(row.labels)
+        for label, start in zip(row.labels, known, strict=True):
+            text = row.description.format(label=label)
+            estimate, std = row.names(label)
+            out += [
+                (estimate, row.unit, text, start),
+                (std, row.unit, f"Std of {estimate} (from the covariance P)", 0.0),
+            ]
+    return out
+
+
 def _estimator_parameters() -> tuple[BoundaryParameter, ...]:
     recommended = EKFConfig.recommended()
     own = (
@@ -407,6 +509,10 @@ def _estimator_parameters() -> tuple[BoundaryParameter, ...]:
     table = [
         BoundaryParameter(name, key, unit, scale, getattr(recommended, key) / scale, low, high, text)
         for name, key, unit, scale, low, high, text in own
+    ]
+    table += [
+        BoundaryParameter(name, key, unit, scale, getattr(recommended, key) / scale, low, high, text)
+        for name, key, unit, scale, low, high, text in NUISANCE_PRIORS
     ]
     for spec in fields(AlarmConfig):
         meta = spec.metadata

@@ -39,10 +39,13 @@ from __future__ import annotations
 
 import math
 import time
+from pathlib import Path
 
 import numpy as np
 from pythonfmu import DefaultExperiment
 
+from estimator.baseline import load_baseline
+from estimator.channels import STATUS_NAMES
 from estimator.config import (
     ESTIMATOR_PARAMETERS,
     INITIAL_FLOWRATE_STD_FRACTION,
@@ -50,6 +53,8 @@ from estimator.config import (
     RECOMMENDED_DISPLACEMENT_PROCESS_STD_M,
     EKFConfig,
     config_from_parameters,
+    nuisance_names,
+    nuisance_values,
 )
 from estimator.ekf import OilFlowEKF as FlowFilter
 from estimator.ekf import StepReport
@@ -106,6 +111,7 @@ class OilFlowEKF(OilwatchSlave):
         self._measurement = np.zeros(4)
         self._missing = np.full(4, np.nan)
         self._warned_off_grid = False
+        self._nuisance_names = [row[0] for row in nuisance_names()]
         self._declare_parameters()
         self._declare_inputs_outputs()
 
@@ -125,6 +131,13 @@ class OilFlowEKF(OilwatchSlave):
                 maximum=p.high,
                 description=p.description,
             )
+        self.declare_string(
+            "baseline_file",
+            "parameter",
+            start="",
+            description="Commissioning baseline (JSON written by 'oilwatch baseline'): the probe offsets' "
+            "prior; an absolute path or one relative to this FMU's resources folder; empty: none",
+        )
         self.declare_integer(
             "bearing_table",
             "parameter",
@@ -153,8 +166,9 @@ class OilFlowEKF(OilwatchSlave):
                 "input",
                 start=0.0,
                 unit="um",
-                description=f"Measured {name[0]} position of the shaft in bearing {name[1]}, from the "
-                "bearing centre; NaN or infinite: no measurement this step",
+                description=f"Measured signal of probe {name}: the shaft's displacement in bearing {name[1]} "
+                f"from the bearing centre along the probe's axis ({name[0]} turned by probe_angle_deg), plus "
+                "the probe's zero offset; NaN or infinite: no measurement this step",
             )
         real(
             "t_sample_s",
@@ -225,6 +239,24 @@ class OilFlowEKF(OilwatchSlave):
             start=False,
             description="The last sample updated the filter (at least one probe channel was used)",
         )
+        self.declare_boolean(
+            "model_consistent",
+            "output",
+            start=True,
+            description="The windowed NIS test passes: the machine still matches the estimator's model",
+        )
+        codes = ", ".join(f"{code} {name}" for code, name in enumerate(STATUS_NAMES))
+        for name in POSITIONS:
+            self.declare_integer(
+                f"probe_status_{name}",
+                "output",
+                start=0,
+                minimum=0,
+                maximum=len(STATUS_NAMES) - 1,
+                description=f"Health of probe {name}: {codes} (a faulty probe is excluded until it recovers)",
+            )
+        for name, unit, text, start in nuisance_names():
+            real(name, "output", start=start, unit=unit, description=text)
 
     # --------------------------------------------------------------------- initialization
     @property
@@ -292,7 +324,7 @@ class OilFlowEKF(OilwatchSlave):
             raise InputError("viscosity_factor_prior_std > 0 needs bearing_table = 1")
         else:
             model = GridAugmentedModel(system, self.sample_period_s)
-        self.filter = FlowFilter(model, self._config(nominal, initial, system.speed_hz))
+        self.filter = FlowFilter(model, self._config(nominal, initial, system.speed_hz, self._baseline()))
         built = time.perf_counter()
         self._warm_up()
         self.log(
@@ -303,7 +335,20 @@ class OilFlowEKF(OilwatchSlave):
         )
         self._publish()
 
-    def _config(self, nominal_ml_min: float, initial_ml_min: float, speed_hz: float) -> EKFConfig:
+    def _baseline(self):
+        """The ``baseline_file`` parameter's offsets prior (None when empty); relative to the resources."""
+        if not self.baseline_file:
+            return None
+        path = Path(self.baseline_file)
+        if not path.is_absolute() and self.resources:
+            path = Path(self.resources) / path
+        try:
+            return load_baseline(path)
+        except (InputError, OSError, UnicodeDecodeError) as error:
+            reason = error if isinstance(error, InputError) else f"cannot read {path}: {error}"
+            raise InputError(f"baseline_file {self.baseline_file!r}: {reason}") from None
+
+    def _config(self, nominal_ml_min: float, initial_ml_min: float, speed_hz: float, baseline) -> EKFConfig:
         """The estimator's configuration from the parameters (field units -> SI)."""
         omega = 2.0 * math.pi * speed_hz
         velocity_std = (
@@ -319,6 +364,7 @@ class OilFlowEKF(OilwatchSlave):
             q_nominal_m3_s=nominal_ml_min * ML_MIN,
             first_sample_time_s=round(self.start_time / self.sample_period_s) * self.sample_period_s,
             initial_flowrate_std_m3_s=INITIAL_FLOWRATE_STD_FRACTION * nominal_ml_min * ML_MIN,
+            offset_baseline=baseline,
         )
 
     def _warm_up(self) -> None:
@@ -392,6 +438,12 @@ class OilFlowEKF(OilwatchSlave):
         self.starved1 = bool(starved[0])
         self.starved2 = bool(starved[1])
         self.measurement_ok = bool(report.measurement_ok)
+        self.model_consistent = bool(report.model_consistent)
+        status = report.probe_status
+        self.probe_status_x1, self.probe_status_y1 = int(status[0]), int(status[1])
+        self.probe_status_x2, self.probe_status_y2 = int(status[2]), int(status[3])
+        for name, value in zip(self._nuisance_names, nuisance_values(self.filter), strict=True):
+            setattr(self, name, value)
         steps = self.filter.step_count
         self.t_estimate_s = (
             -1.0

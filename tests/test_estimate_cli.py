@@ -79,7 +79,8 @@ result = {{name: arrays[name][1:].tolist() for name in record}}  # the rows afte
     assert fmu_alarm.size == 1 and not any(cosim["ekf.starved2"])  # the case is worth comparing
     for suffix in ("csv", "parquet"):
         out = tmp_path / suffix
-        summary = _estimate(write_record(tmp_path / f"run.{suffix}", columns), out, "--no-views")
+        record = write_record(tmp_path / f"run.{suffix}", columns)
+        summary = _estimate(record, out, "--no-views", "--offset-prior-um", "0")  # the FMU's default
         ours = _estimates(out)
         np.testing.assert_allclose(ours["time_s"], t, atol=1e-9)
         for b in (1, 2):
@@ -103,9 +104,10 @@ result = {{name: arrays[name][1:].tolist() for name in record}}  # the rows afte
 @pytest.mark.slow
 def test_tdms_gap_voltages_api670_offsets_keyphasor_at_5khz_give_the_estimator_s_flowrates(tmp_path):
     """The TDMS record: API 670 probes (45 deg either side of top dead centre), gap voltages at 7.87 V/mm,
-    each probe its own rest gap (the offsets, corrected by rest_gap_v: today's estimator cannot estimate
-    unknown offsets, issue 14), a notch keyphasor at rotor angle 40 deg, a DAQ clock 0.3712 s off the
-    rotor's angle zero, 5 kHz. Reference: the estimator fed the same run's samples at 1 kHz, offset-corrected.
+    each probe its own rest gap (the offsets, corrected by rest_gap_v and declared known with
+    --offset-prior-um 0; unknown offsets against the FMU: tests/test_estimate_cosim_nuisances.py), a notch
+    keyphasor at rotor angle 40 deg, a DAQ clock 0.3712 s off the rotor's angle zero, 5 kHz. Reference: the
+    estimator fed the same run's samples at 1 kHz, offset-corrected.
     """
     t, _, measured, _ = plant_run(2.0, 2e-4, 0.3, drop_at_s=-10.0)  # bearing 1 at 75 % throughout
     shift = 0.3712
@@ -114,7 +116,8 @@ def test_tdms_gap_voltages_api670_offsets_keyphasor_at_5khz_give_the_estimator_s
     probe = ["layout=api670", "keyphasor_column=kp", "keyphasor_angle_deg=40", "noise_um=0.3"]
     for n in PROBES:
         probe += [f"{n}.column={n}_gap", f"{n}.unit=V", f"{n}.rest_gap_v={REST_GAP_V[n]}"]
-    summary = _estimate(record, tmp_path / "out", "--no-views", *[f"--probe={p}" for p in probe])
+    probe_options = [f"--probe={p}" for p in probe]
+    summary = _estimate(record, tmp_path / "out", "--no-views", "--offset-prior-um", "0", *probe_options)
     ours = _estimates(tmp_path / "out")
     assert summary["record"]["anti_alias_taps"] > 1 and summary["record"]["keyphasor_pulses"] == 150
     np.testing.assert_allclose(ours["speed_hz"][-100:], 75.0, rtol=2e-4)

@@ -256,25 +256,31 @@ def test_parquet_and_tdms_readers_give_the_csv_reader_s_samples(tmp_path):
 
 
 def test_further_fields_of_the_estimator_s_step_report_become_estimate_columns_in_field_units():
-    from dataclasses import dataclass
+    from dataclasses import dataclass, fields
 
+    from estimator.config import nuisance_names
     from estimator.ekf import StepReport
     from oilwatch.monitoring.estimate import estimate_columns
 
     @dataclass(slots=True)
-    class NuisanceReport(StepReport):  # nuisance estimates issue 14's estimator is still to report
+    class FurtherReport(StepReport):  # a field a later estimator may report, and a nuisance the filter gives
         offset_m: np.ndarray = None
-        viscosity_factor: np.ndarray = None
+        film_gap_m: np.ndarray = None
 
-    report = NuisanceReport(0, np.zeros(2), np.zeros(2), 0.0, 4, False, True, np.zeros(2, bool),
-                            np.zeros(4, int), True, np.zeros(2, bool), np.zeros(2, bool),
-                            offset_m=np.zeros(4), viscosity_factor=np.ones(2))  # fmt: skip
+    base = {"q_m3_s": np.zeros(2), "q_std_m3_s": np.zeros(2), "starved": np.zeros(2, bool),
+            "probe_status": np.zeros(4, int), "changing": np.zeros(2, bool),
+            "starved_consistent": np.zeros(2, bool), "viscosity_factor": np.ones(2),
+            "viscosity_factor_std": np.zeros(2)}  # fmt: skip
+    values = {f.name: base.get(f.name, 0) for f in fields(StepReport)}
+    report = FurtherReport(**values, offset_m=np.zeros(4), film_gap_m=np.zeros(2))
     columns, extras = estimate_columns(report)
     assert columns[:5] == ["time_s", "q1_est_ml_min", "q2_est_ml_min", "q1_std_ml_min", "q2_std_ml_min"]
     assert columns[17:] == [
         "probe_status_x1", "probe_status_y1", "probe_status_x2", "probe_status_y2", "model_consistent",
         "changing_b1", "changing_b2", "starved_consistent_b1", "starved_consistent_b2",
-        "offset_x1_um", "offset_y1_um", "offset_x2_um", "offset_y2_um",
-        "viscosity_factor_b1", "viscosity_factor_b2",
-    ]  # fmt: skip
-    assert ("offset_m", 1e6, 4) in extras
+        "film_gap_b1_um", "film_gap_b2_um",
+    ] + [row[0] for row in nuisance_names()]  # fmt: skip
+    assert ("film_gap_m", 1e6, 2) in extras
+    # nuisances (offsets, viscosity factors): estimate and std from the filter, once
+    assert all(name not in dict((e[0], e) for e in extras) for name in ("offset_m", "viscosity_factor"))
+    assert columns.count("viscosity_factor_b1") == 1 and "viscosity_factor_b1_std" in columns

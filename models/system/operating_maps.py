@@ -10,7 +10,10 @@ number and flowrate over its Couette flow), with
 
 * the gyroscopic matrix at the speed (``C_s + Omega G``);
 * the unbalance load at the speed, ``m e Omega^2`` (the system's unbalance force scaled by ``(Omega /
-  Omega_0)^2``);
+  Omega_0)^2``); for a system with synchronous tables (``RotorBearingSystem.synchronous_tables``: the
+  turbine's default) the 1x load is the effective load ``F_eff`` whose response through the quasi-static
+  dynamics is the synchronous orbit, from both dimensionless tables at the operating point
+  (``RotorBearingSystem.synchronous_unit_load``, impedances at the system's speed as the plant takes them);
 * the exosystem's rotation at the speed;
 
 and gives the derivatives of ``(A_d, G)`` along the operating axes with ``scipy.linalg.expm_frechet`` (the
@@ -37,12 +40,20 @@ class OperatingMaps:
 
     ``system`` supplies the rotor (mass, stiffness, structural damping, gyroscopic matrix, gravity, unbalance
     force at its own speed), the bearing dofs and each bearing's static load; its flowrate tables are not
-    used.
+    used. ``synchronous_table``: the dimensionless table of the synchronous coefficients, for the 1x load
+    of a system with synchronous tables (None: the unbalance force itself).
     """
 
-    def __init__(self, system: RotorBearingSystem, table: OperatingTable, dt_s: float) -> None:
+    def __init__(
+        self,
+        system: RotorBearingSystem,
+        table: OperatingTable,
+        dt_s: float,
+        synchronous_table: OperatingTable | None = None,
+    ) -> None:
         self.system = system
         self.table = table
+        self.synchronous_table = synchronous_table
         self.dt_s = float(dt_s)
         n = system.n_coordinates
         self._n = n
@@ -52,20 +63,23 @@ class OperatingMaps:
         self._mass_lu = lu_factor(system.mass)
         self._slices: dict[tuple[float, float, float], object] = {}
 
-    def _slice(self, speed_hz: float, viscosity_pa_s: float, load_n: float):
-        key = (speed_hz, viscosity_pa_s, load_n)
+    def _slice(self, speed_hz: float, viscosity_pa_s: float, load_n: float, synchronous: bool = False):
+        key = (speed_hz, viscosity_pa_s, load_n, synchronous)
         found = self._slices.get(key)
         if found is None:
             if len(self._slices) > 64:
                 self._slices.clear()
-            found = self._slices[key] = self.table.at(speed_hz, viscosity_pa_s, load_n)
+            table = self.synchronous_table if synchronous else self.table
+            found = self._slices[key] = table.at(speed_hz, viscosity_pa_s, load_n)
         return found
 
     def flowrate_range_m3_s(self, speed_hz: float, viscosities_pa_s) -> tuple[float, float]:
         """Flowrates [m^3/s] every bearing's table slice covers at the speed and viscosities."""
+        kinds = (False,) if self.synchronous_table is None else (False, True)
         ranges = [
-            self._slice(speed_hz, mu, w).flowrate_range_m3_s
+            self._slice(speed_hz, mu, w, kind).flowrate_range_m3_s
             for mu, w in zip(viscosities_pa_s, self._loads, strict=True)
+            for kind in kinds
         ]
         return max(r[0] for r in ranges), min(r[1] for r in ranges)
 
@@ -77,15 +91,30 @@ class OperatingMaps:
         damping = self._structural_damping + omega * sys.gyroscopic
         stiffness = sys.stiffness.copy()
         force = sys.gravity_force.copy()
-        for p, q, mu, load in zip(
-            sys.bearing_maps, flowrates_m3_s, viscosities_pa_s, self._loads, strict=True
+        nb = len(self._loads)
+        z_dynamics = np.zeros((2 * nb, 2 * nb), dtype=complex)
+        z_synchronous = np.zeros((2 * nb, 2 * nb), dtype=complex)
+        for b, (p, q, mu, load) in enumerate(
+            zip(sys.bearing_maps, flowrates_m3_s, viscosities_pa_s, self._loads, strict=True)
         ):
             row = self._slice(speed_hz, mu, load).rows(np.array([q]))[0]
             k, c = row[2:6].reshape(2, 2), row[6:10].reshape(2, 2)
             stiffness += p.T @ k @ p
             damping += p.T @ c @ p
             force += p.T @ (np.array([0.0, load]) + k @ row[0:2])
-        unbalance = sys.unbalance_force * (omega / self._reference_omega) ** 2
+            if self.synchronous_table is not None:
+                pair = slice(2 * b, 2 * b + 2)
+                z_dynamics[pair, pair] = k + 1j * self._reference_omega * c
+                s_row = self._slice(speed_hz, mu, load, True).rows(np.array([q]))[0]
+                z_synchronous[pair, pair] = s_row[2:6].reshape(2, 2) + 1j * self._reference_omega * s_row[
+                    6:10
+                ].reshape(2, 2)
+        if self.synchronous_table is None:
+            unbalance = sys.unbalance_force
+        else:
+            moment = sys.unbalance_moment_kg_m * np.exp(1j * sys.unbalance_phase_rad)
+            unbalance = moment * sys.synchronous_unit_load(z_synchronous, z_dynamics)
+        unbalance = unbalance * (omega / self._reference_omega) ** 2
         block = np.zeros((2 * n + 3, 2 * n + 3))
         block[:n, n : 2 * n] = np.eye(n)
         mass_lu = self._mass_lu

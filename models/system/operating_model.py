@@ -23,9 +23,10 @@ the keyphasor's angle when given (:meth:`set_operating_point`).
 Model error (``python scripts/operating_model_error.py --fraction F``, ``tests/test_operating_model.py``):
 the static probe positions and 1x orbit amplitudes of the model's map against the exact map's on the
 dimensionless table (worst probe) along the issue's ramps (72-78 Hz, +0..+10 degC, factors 0.95-1.05,
-100/100 and 80/90 % flow), with the centre F thresholds away in every axis: F = 0 (the grid's own
-interpolation) <= 0.003 um static, 0.0003 um orbit; F = 0.5 <= 0.012 / 0.0015 um; F = 1 (the worst corner a
-step meets before re-centring) <= 0.083 / 0.031 um; the static y sensitivity is 0.14 um per % of flow. The
+100/100 and 80/90 % flow; synchronous 1x load), with the centre F thresholds away in every axis: F = 0
+(the grid's own interpolation) <= 0.003 um static, 0.002 um orbit; F = 0.5 <= 0.012 / 0.009 um; F = 1 (the
+worst corner a step meets before re-centring) <= 0.083 / 0.034 um; the static y sensitivity is 0.14 um per %
+of flow, the orbits 2.5-7.4 um. The
 README section "Speed and oil temperature: the estimator follows them" has the table.
 """
 
@@ -37,13 +38,14 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from ..bearing.operating_table import OperatingTable, operating_table_path
+from ..bearing.coefficient_kinds import QUASI_STATIC
+from ..bearing.operating_table import operating_table_path
 from ..machine import Machine
 from ..oil import Oil
 from ..validation import InputError, require_positive
 from .augmented import GridAugmentedModel
 from .operating_maps import OperatingMaps
-from .operating_point import ConditionedTable
+from .operating_point import ConditionedTable, operating_table_of
 from .rotor_bearing import RotorBearingSystem
 
 NEVER = -(10**12)
@@ -220,18 +222,21 @@ class OperatingAugmentedModel:
         nxt, ad, jq, _, ju = self.transition_full(state, flowrate_m3_s, step, unbalance=unbalance)
         return nxt, ad, jq, ju
 
-    def transition_full(self, state, flowrate_m3_s, step, viscosity_factor=None, unbalance=None):
+    def transition_full(
+        self, state, flowrate_m3_s, step, viscosity_factor=None, unbalance=None, exogenous=None
+    ):
         """``(s_next, df/ds, df/dq, df/df (n, 2) or None, df/du (n, 2) or None)`` at the operating point.
 
         ``viscosity_factor`` (2,) or None (1, and no Jacobian): each bearing's film viscosity over the oil
         law's. ``unbalance`` (2,) or None: the complex unbalance relative to the machine file's (as
-        ``GridAugmentedModel.transition_with_unbalance``). The arrays are reused on the next call.
+        ``GridAugmentedModel.transition_with_unbalance``). ``exogenous`` (3,): this ``w`` instead of the
+        phase's (the phase is then left alone). The arrays are reused on the next call.
         """
         q1, q2 = float(flowrate_m3_s[0]), float(flowrate_m3_s[1])
         f1, f2 = (1.0, 1.0) if viscosity_factor is None else map(float, viscosity_factor)
         if not (f1 > 0.0 and f2 > 0.0):
             raise InputError(f"viscosity factors must be > 0, got ({f1:g}, {f2:g})")
-        w = self.exogenous(step)
+        w = self.exogenous(step) if exogenous is None else exogenous
         loaded = w
         if unbalance is not None:
             a, b = float(unbalance[0]), float(unbalance[1])
@@ -313,17 +318,11 @@ class OperatingAugmentedModel:
         n = self.n_states
         zero = np.zeros(n)
         forcing = np.empty((n, 3))
-        saved = (self._anchor, self._last_step, self._keyphasor)
         for column in range(3):
             w = np.zeros(3)
             w[column] = 1.0
-            self.exogenous = lambda _step, w=w: w  # a probe of the map, restored below
-            try:
-                nxt, ad, _, _, _ = self.transition_full(zero, flowrate_m3_s, 0, viscosity_factor)
-            finally:
-                del self.exogenous
+            nxt, ad, _, _, _ = self.transition_full(zero, flowrate_m3_s, 0, viscosity_factor, exogenous=w)
             forcing[:, column] = nxt
-        self._anchor, self._last_step, self._keyphasor = saved
         return ad.copy(), forcing
 
     def exact_map(self, flowrate_m3_s, viscosity_factor=(1.0, 1.0)) -> tuple[np.ndarray, np.ndarray]:
@@ -386,30 +385,33 @@ def build_operating_model(
     the command when the table is missing."""
     if reference_table not in REFERENCE_TABLES:
         raise InputError(f"reference_table must be one of {REFERENCE_TABLES}, got {reference_table!r}")
-    path = operating_table_path(machine.source_path)
-    if not path.exists():
-        raise InputError(
-            f"following speed and oil temperature needs the dimensionless bearing table {path}: compute it "
-            "with `oilwatch bearing-map`"
-        )
-    table = OperatingTable.load(path)
-    table.check_geometry(machine.bearing)
+    synchronous_kind = machine.dynamic_coefficients != QUASI_STATIC
+    for kind in (QUASI_STATIC, machine.dynamic_coefficients) if synchronous_kind else (QUASI_STATIC,):
+        path = operating_table_path(machine.source_path, kind)
+        if not path.exists():
+            raise InputError(
+                f"following speed and oil temperature needs the dimensionless bearing table {path}: compute "
+                f"it with `oilwatch bearing-map --coefficients {kind}`"
+            )
+    table = operating_table_of(machine, QUASI_STATIC)
+    synchronous = operating_table_of(machine) if synchronous_kind else None
     mu0 = system.tables[0].metadata["bearing"]["viscosity_pa_s"]
     if reference_table == "dimensionless":
-        tables = [ConditionedTable(table, w, system.speed_hz, mu0) for w in system.static_loads_n]
+        speed, loads = system.speed_hz, system.static_loads_n
         system = RotorBearingSystem(
             system.rotor,
-            tables,
-            system.speed_hz,
+            [ConditionedTable(table, w, speed, mu0) for w in loads],
+            speed,
             system.basis,
             system.unbalance_moment_kg_m,
             system.unbalance_phase_rad,
             system.nominal_flowrate_m3_s,
+            None if synchronous is None else [ConditionedTable(synchronous, w, speed, mu0) for w in loads],
         )
     # the dimensionless table is C1 Catmull-Rom between its nodes: 3 grid intervals per table interval
     subdivisions = 3 if reference_table == "dimensionless" else 5
     reference = GridAugmentedModel(system, dt_s, subdivisions=subdivisions, progress=progress)
-    maps = OperatingMaps(system, table, dt_s)
+    maps = OperatingMaps(system, table, dt_s, synchronous)
     return OperatingAugmentedModel(reference, maps, machine.oil, mu0, recentring)
 
 

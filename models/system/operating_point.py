@@ -92,17 +92,20 @@ def operating_system(
     table: OperatingTable | None = None,
     unbalance_moment_kg_m: float | None = None,
     unbalance_phase_rad: float | None = None,
+    coefficients: str | None = None,
 ) -> RotorBearingSystem:
     """The full-order rotor-bearing system on the dimensionless table, at an initial speed and viscosity.
 
     ``table`` None: the machine's quasi-static table for the dynamics and, for a machine of synchronous
     ``dynamic_coefficients``, the synchronous table for the 1x response (as
-    :func:`models.system.factory.build_system`); a given ``table`` serves both."""
+    :func:`models.system.factory.build_system`); a given ``table`` serves both. ``coefficients``
+    overrides the machine file's kind."""
     synchronous = None
     if table is None:
         table = operating_table_of(machine, QUASI_STATIC)
-        if machine.dynamic_coefficients != QUASI_STATIC:
-            synchronous = operating_table_of(machine)
+        kind = machine.dynamic_coefficients if coefficients is None else coefficients
+        if kind != QUASI_STATIC:
+            synchronous = operating_table_of(machine, kind)
     table.check_geometry(machine.bearing)
     rotor = Rotor.from_machine(machine)
     loads = rotor.bearing_static_loads_n

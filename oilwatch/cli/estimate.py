@@ -36,6 +36,19 @@ def register(subparsers) -> None:
     )
     add_machine_option(parser)
     parser.add_argument(
+        "--baseline",
+        metavar="FILE",
+        help="commissioning baseline (JSON of 'oilwatch baseline'): the probe offsets' prior (default: the "
+        "machine file's [probes] offset_prior_std_um, 25 um for the turbine)",
+    )
+    parser.add_argument(
+        "--offset-prior-um",
+        type=float,
+        metavar="STD",
+        help="prior std of each probe's zero offset [um] (default: the machine file's [probes] "
+        "offset_prior_std_um; 0: the offsets are known to be zero, the estimator FMU's default)",
+    )
+    parser.add_argument(
         "--probe",
         action="append",
         default=[],
@@ -79,8 +92,21 @@ def run(args: argparse.Namespace) -> int:
     if STDIN in args.records and len(args.records) > 1:
         raise InputError("- (standard input) must be the only record")
     live = args.records == [STDIN]
+    if args.baseline is not None:
+        from estimator.baseline import load_baseline
+
+        try:
+            load_baseline(args.baseline)  # a bad file fails here, before any record is read
+        except InputError as error:
+            raise InputError(f"--baseline: {error}") from None
+    if args.offset_prior_um is not None:
+        from models.validation import require_in_range
+
+        require_in_range("--offset-prior-um", args.offset_prior_um, 0.0, 1000.0, "um")
     options = EstimateOptions(
         machine_file=args.machine,
+        baseline_file=args.baseline,
+        offset_prior_std_um=args.offset_prior_um,
         probe_overrides=tuple(args.probe),
         output_every=args.output_every,
         views=not args.no_views,

@@ -2,8 +2,11 @@
 
 The estimator is the one the OilFlowEKF FMU wraps, in-process and configured as that FMU's defaults
 (``EKFConfig.recommended`` at the model's speed, the probes' ``noise_um``, initial flowrates at nominal, zero
-initial states, the first sample at the record's first grid time): fed the same samples, it gives the same
-estimates as the co-simulated FMU. The model is the machine file's reduced rotor-bearing system at its
+initial states, the first sample at the record's first grid time), except that a record's probes have unknown
+zero offsets: their prior is the machine file's ``[probes] offset_prior_std_um`` (the FMU's
+``offset_prior_std_um``, default 0 there) or a commissioning baseline (``--baseline``, the FMU's
+``baseline_file``). Fed the same samples with the same settings, it gives the co-simulated FMU's estimates.
+The model is the machine file's reduced rotor-bearing system at its
 nominal speed with the machine file's unbalance, sampled at 1 kHz (:data:`ESTIMATOR_DT_S`).
 
 Outputs, in ``out_dir``:
@@ -28,9 +31,19 @@ from typing import TextIO
 
 import numpy as np
 
-from estimator.config import ML_MIN, EKFConfig
+from estimator.config import (
+    ML_MIN,
+    NUISANCE_OUTPUTS,
+    EKFConfig,
+    OffsetBaseline,
+    nuisance_names,
+    nuisance_snapshot,
+    nuisance_table,
+    nuisance_values,
+)
 from estimator.ekf import OilFlowEKF, StepReport
 from models.machine import Machine, load_machine
+from models.probes import Probes, read_probes
 from models.validation import InputError
 from oilwatch.records import RecordStream, probe_setup
 from oilwatch.records.readers import STDIN
@@ -61,6 +74,8 @@ class EstimateOptions:
     """What ``oilwatch estimate`` takes besides the record (see the CLI's help)."""
 
     machine_file: str | None = None
+    baseline_file: str | None = None
+    offset_prior_std_um: float | None = None
     probe_overrides: tuple[str, ...] = ()
     output_every: int = 1
     chunk_rows: int = 8192
@@ -79,10 +94,29 @@ def estimator_model(machine_file: str | None, dt_s: float = ESTIMATOR_DT_S):
     return _MODELS[key]
 
 
-def estimator_config(speed_hz: float, noise_um: float, first_sample_time_s: float) -> EKFConfig:
-    """The OilFlowEKF FMU's default configuration (see the module docstring)."""
+def estimator_config(
+    speed_hz: float,
+    noise_um: float,
+    first_sample_time_s: float,
+    probes: Probes | None = None,
+    baseline: OffsetBaseline | None = None,
+) -> EKFConfig:
+    """The OilFlowEKF FMU's default configuration with the machine's probe nuisances (module docstring).
+
+    ``probes``: the machine file's ``[probes]`` offsets prior and drift (None: offsets known, the FMU's
+    default); ``baseline``: a commissioning baseline's offsets prior (the FMU's ``baseline_file``)."""
+    nuisance = {}
+    if probes is not None:
+        nuisance = {
+            "offset_prior_std_m": probes.offset_prior_std_m,
+            "offset_random_walk_m_sqrt_s": probes.offset_random_walk_m_sqrt_s,
+        }
     return EKFConfig.recommended(
-        speed_hz=speed_hz, noise_std_m=noise_um * 1e-6, first_sample_time_s=first_sample_time_s
+        speed_hz=speed_hz,
+        noise_std_m=noise_um * 1e-6,
+        first_sample_time_s=first_sample_time_s,
+        offset_baseline=baseline,
+        **nuisance,
     )
 
 
@@ -133,13 +167,15 @@ def estimate_columns(report: StepReport) -> tuple[list[str], list[tuple[str, flo
         "oil_temperature_c",
     ]
     extras = []
+    covered = {name for row in NUISANCE_OUTPUTS for name in (row.estimate, row.std)}
     for item in dataclasses.fields(report):
-        if item.name in BASE_FIELDS:
+        if item.name in BASE_FIELDS or item.name in covered:  # nuisances: the columns of nuisance_names()
             continue
         value = getattr(report, item.name)
         names, scale = _field_columns(item.name, value)
         columns += names
         extras.append((item.name, scale, len(names)))
+    columns += [row[0] for row in nuisance_names()]
     return columns, extras
 
 
@@ -161,6 +197,16 @@ class EstimateRun:
         self.machine: Machine = load_machine(options.machine_file)
         self.setup = probe_setup(self.machine.raw.get("probes"), options.probe_overrides)
         self.speed_hz = self.machine.nominal_speed_hz  # the estimator's model runs at the nominal speed
+        self.probes = read_probes(self.machine)
+        if options.offset_prior_std_um is not None:
+            self.probes = dataclasses.replace(
+                self.probes, offset_prior_std_m=options.offset_prior_std_um * 1e-6
+            )
+        self.baseline = None
+        if options.baseline_file is not None:
+            from estimator.baseline import load_baseline
+
+            self.baseline = load_baseline(options.baseline_file)
         chunk_rows = 1 if source == STDIN and options.live else options.chunk_rows
         self.stream = RecordStream(
             source,
@@ -221,7 +267,9 @@ class EstimateRun:
         what the OilFlowEKF FMU does in a co-simulation started at the record's start time (the plant's
         first output is its state after one step), so that both give the same estimates."""
         lead = 1 if first_k >= 1 else 0
-        config = estimator_config(self.speed_hz, self.setup.noise_um, (first_k - lead) * ESTIMATOR_DT_S)
+        config = estimator_config(
+            self.speed_hz, self.setup.noise_um, (first_k - lead) * ESTIMATOR_DT_S, self.probes, self.baseline
+        )
         self.filter = OilFlowEKF(self.model, config)
         missing = np.full(4, np.nan)
         for sample in (np.zeros(4), np.zeros(4), missing):  # compile the kernels (as the FMU does)
@@ -238,21 +286,26 @@ class EstimateRun:
         expected = self._first_k + ekf.step_count
         if int(block.k[0]) != expected:
             raise InputError(f"internal: grid index {int(block.k[0])} after {expected - 1}")  # bridged, never
-        scale = 1.0 / ML_MIN
-        extras = self._extras
-        values = []
+        step, snapshot = ekf.step, nuisance_snapshot
+        reports, nuisances = [], []
         started = time.perf_counter()
-        for position in block.position_m:
-            report = ekf.step(position)
-            q, std, starved = report.q_m3_s, report.q_std_m3_s, report.starved
-            row = [q[0], q[1], std[0], std[1], starved[0], starved[1], report.nis, report.n_measurements,
-                   report.converged, report.measurement_ok]  # fmt: skip
-            for name, factor, _ in extras:
-                row.extend(np.ravel(np.asarray(getattr(report, name), dtype=np.float64)) * factor)
-            values.append(row)
+        for position in block.position_m:  # only the steps here: the rows are built per block below
+            reports.append(step(position))
+            nuisances.append(snapshot(ekf))
         self.estimator_s += time.perf_counter() - started
-        table = np.array(values, dtype=np.float64)
-        table[:, :4] *= scale
+        scale = 1.0 / ML_MIN
+        columns = [
+            np.array([r.q_m3_s for r in reports]) * scale,
+            np.array([r.q_std_m3_s for r in reports]) * scale,
+            np.array([r.starved for r in reports]),
+            np.array([(r.nis, r.n_measurements, r.converged, r.measurement_ok) for r in reports]),
+        ]
+        for name, factor, size in self._extras:
+            values = np.array([getattr(r, name) for r in reports], dtype=np.float64)
+            values = values.reshape(len(reports), size)
+            columns.append(values * factor)
+        columns.append(nuisance_table(nuisances))
+        table = np.column_stack(columns)
         rows = np.empty((table.shape[0], len(self._columns)))
         rows[:, 0] = block.time_s
         rows[:, 1:11] = table[:, :10]
@@ -319,7 +372,10 @@ def summarize(run: EstimateRun, wall_s: float, csv_path: Path) -> dict:
             "dt_s": ESTIMATOR_DT_S,
             "noise_um": run.setup.noise_um,
             "first_sample_time_s": run.filter.config.first_sample_time_s,
-            "configuration": "EKFConfig.recommended: the OilFlowEKF FMU's defaults",
+            "configuration": "EKFConfig.recommended: the OilFlowEKF FMU's defaults, with the machine "
+            "file's probe offsets prior (FMU: offset_prior_std_um) or the baseline (FMU: baseline_file)",
+            "offset_prior_std_um": round(run.filter.config.offset_prior_std_m * 1e6, 9),
+            "baseline_file": run.options.baseline_file,
         },
         "q_nominal_ml_min": nominal,
         "samples": history.samples,
@@ -334,6 +390,7 @@ def summarize(run: EstimateRun, wall_s: float, csv_path: Path) -> dict:
         "realtime_factor": round(duration / wall_s, 2) if wall_s > 0 else None,
         "estimates_csv": str(csv_path),
     }
+    summary["probes"] = _probe_summary(run)
     if run.latency_s:
         latency = np.asarray(run.latency_s)
         summary["live_latency_ms"] = {
@@ -362,3 +419,22 @@ def summarize(run: EstimateRun, wall_s: float, csv_path: Path) -> dict:
             file=sys.stderr,
         )
     return summary
+
+
+def _probe_summary(run: EstimateRun) -> dict:
+    """Per probe at the end of the record: the estimator's offset estimate and std [um] (model frame), its
+    status, and the time it was flagged faulty."""
+    from estimator.channels import STATUS_NAMES
+
+    values = dict(zip((row[0] for row in nuisance_names()), nuisance_values(run.filter), strict=True))
+    history = run.history
+    out = {}
+    for i, name in enumerate(("x1", "y1", "x2", "y2")):
+        status = None if history.last_status is None else int(history.last_status[i])
+        out[name] = {
+            "offset_um": values[f"offset_{name}_um"],
+            "offset_std_um": values[f"offset_{name}_std_um"],
+            "status_final": None if status is None else STATUS_NAMES[status],
+            "flagged_s": round(float(history.flagged_samples[i]) * history.dt, 6),
+        }
+    return out

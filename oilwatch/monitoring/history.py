@@ -91,6 +91,11 @@ class History:
         self.slow = _Bins(max(1, round(SLOW_BIN_S / dt_s)), 4 + 4 + 2)  # positions, valid, ok, nis
         self.extra_bins: _Bins | None = None
         self.extra_names: list[str] = []
+        self.flagged_samples = np.zeros(4, dtype=np.int64)
+        """Per probe, the samples it was flagged faulty (probe_status != 0)."""
+        self.last_status: np.ndarray | None = None
+        self.last_offsets_um = np.zeros(4)
+        """The estimator's last probe offset estimates (model frame; zeros when it does not estimate them)."""
         self._final = _Ring(max(1, round(FINAL_RING_S / dt_s)), 4)
         self._orbit_n = max(2, round(ORBIT_S / dt_s))
         self._start_k: list[np.ndarray] = []
@@ -137,17 +142,33 @@ class History:
             if self.extra_names:
                 self.extra_bins = _Bins(self.slow.size, len(self.extra_names))
             self._extra_index = [columns.index(name) for name in self.extra_names]
+            self._flag_columns = [name.startswith(STATUS_PREFIX) for name in self.extra_names]
+            status = [f"{STATUS_PREFIX}{name}" for name in ("x1", "y1", "x2", "y2")]
+            self._status_index = [columns.index(n) for n in status] if set(status) <= set(columns) else None
+            offsets = [f"offset_{name}_um" for name in ("x1", "y1", "x2", "y2")]
+            self._offset_index = [columns.index(n) for n in offsets] if set(offsets) <= set(columns) else None
             self._consistent = columns.index("model_consistent") if "model_consistent" in columns else None
         index = k - self.first_k
         times = rows[:, TIME]
         self.last_time_s = float(times[-1])
         self.trend.add(index, times, np.column_stack([rows[:, Q], rows[:, STD], rows[:, STARVED]]))
-        positions = rows[:, POSITION]
+        measured = rows[:, POSITION]
+        positions = measured  # for the centreline and the orbits: without the samples of faulty probes
+        if self._status_index is not None:
+            flagged = rows[:, self._status_index] != 0.0
+            positions = np.where(flagged, np.nan, measured)
+            self.flagged_samples += flagged.sum(axis=0)
+            self.last_status = rows[-1, self._status_index].astype(np.int64)
         ok = rows[:, OK]
         nis = np.where(ok > 0, rows[:, NIS], np.nan)
-        self.slow.add(index, times, np.column_stack([positions, np.isfinite(positions), ok, nis]))
+        self.slow.add(index, times, np.column_stack([positions, np.isfinite(measured), ok, nis]))
         if self.extra_bins is not None:
-            self.extra_bins.add(index, times, rows[:, self._extra_index])
+            health = rows[:, self._extra_index]
+            # a probe status is binned as "flagged faulty" (code != 0), a flag as itself
+            health = np.where(self._flag_columns, health != 0.0, health > 0.5).astype(np.float64)
+            self.extra_bins.add(index, times, health)
+        if self._offset_index is not None:
+            self.last_offsets_um = rows[-1, self._offset_index].copy()
         self._alarm_events(rows)
         self._final_ring(rows)
         self._orbits(k, positions)
@@ -219,8 +240,13 @@ class History:
         return {"start": start, "end": (end[:, 0].astype(np.int64), end[:, 1:])}
 
 
+STATUS_PREFIX = "probe_status_"
+
+
 def _is_health(name: str) -> bool:
-    return any(word in name for word in ("ok", "fault", "health", "consistent"))
+    """The estimator's health outputs drawn in the probe-health view: each probe's status and the model's
+    consistency (an alarm's consistency is in the alarm list)."""
+    return name.startswith(STATUS_PREFIX) or name == "model_consistent"
 
 
 def _finite(value: float) -> float | None:

@@ -53,6 +53,15 @@ def write_report(summary: dict, out_dir: Path) -> Path:
         )
         or "<tr><td colspan='4'>no alarm</td></tr>"
     )
+    estimated = summary["estimator"].get("offset_prior_std_um", 0.0) or summary["estimator"].get(
+        "baseline_file"
+    )
+    probes = "".join(
+        f"<tr><th>{name}</th><td>"
+        + (f"{p['offset_um']:+.2f} &plusmn; {p['offset_std_um']:.2f}" if estimated else "known (0)")
+        + f"</td><td>{html.escape(str(p['status_final'] or '-'))}</td><td>{p['flagged_s']:.3f}</td></tr>"
+        for name, p in summary.get("probes", {}).items()
+    )
     facts = [
         ("record", record["source"]),
         ("format", record["format"]),
@@ -68,6 +77,11 @@ def write_report(summary: dict, out_dir: Path) -> Path:
         ("gaps bridged", f"{record['gap_count']} ({record['missing_samples']} missing samples)"),
         ("machine file", summary["machine_file"]),
         ("estimator", summary["estimator"]["model"]),
+        (
+            "probe offsets' prior",
+            summary["estimator"].get("baseline_file")
+            or f"{summary['estimator'].get('offset_prior_std_um', 0.0):g} um std",
+        ),
         ("real-time factor", _number(summary["realtime_factor"], 1)),
     ]
     fact_rows = "".join(f"<tr><th>{html.escape(k)}</th><td>{html.escape(str(v))}</td></tr>" for k, v in facts)
@@ -91,6 +105,8 @@ def write_report(summary: dict, out_dir: Path) -> Path:
         "ml/min.</p>"
         "<h2>Alarms</h2><table><tr><th>bearing</th><th>set [s]</th><th>cleared [s]</th>"
         f"<th>model consistent</th></tr>{alarms}</table>"
+        "<h2>Probes</h2><table><tr><th>probe</th><th>zero offset [um] (estimate &plusmn; std)</th>"
+        f"<th>status at the end</th><th>flagged faulty [s]</th></tr>{probes}</table>"
         f"<h2>Record and estimator</h2><table>{fact_rows}</table>"
         f"<h2>Views</h2>{''.join(figures)}"
         f"<h2>Summary</h2><pre>{html.escape(json.dumps(_without_views(summary), indent=1))}</pre>"

@@ -3,12 +3,15 @@
 * ``trend.png``: each bearing's flowrate estimate with its +-2 std band, the nominal flowrate, the alarm's
   set threshold and the alarms (shaded while set);
 * ``centerline.png``: the shaft centreline plot, the average journal position (0.5 s means) inside the
-  clearance circle over time, from the bearing centre, with the cold-rest position at the bottom;
+  clearance circle over time, from the bearing centre, with the cold-rest position at the bottom; less the
+  estimator's final probe offset estimates when it estimates them (the offsets are what separates the probes'
+  zero from the bearing centre);
 * ``orbits.png``: the 1x-filtered orbits (the synchronous component over whole revolutions, phase-referenced
   to the estimator's rotor angle, i.e. to the keyphasor when there is one) of the first and the last second,
   about their mean position, with the keyphasor dot (rotor angle 0);
 * ``probe_health.png``: per probe the fraction of valid samples, the fraction of samples the estimator
-  accepted, the mean NIS against its expectation, and every health output the estimator provides.
+  accepted, the mean NIS against its expectation, and the share of samples each probe was flagged faulty
+  (``probe_status`` != 0) and the model inconsistent.
 """
 
 from __future__ import annotations
@@ -87,7 +90,7 @@ def _trend(history: History, summary: dict):
         high = np.nanmax((q + 2 * std)[settled]) if settled.any() else 1.5 * nominal
         ax.set_ylim(max(0.0, min(low, 0.85 * nominal)), max(high, 1.05 * nominal))
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=7, loc="lower left", ncol=5)
+        ax.legend(fontsize=7, loc="best", ncol=5)
     axes[-1].set_xlabel("record time [s]")
     return figure
 
@@ -99,8 +102,10 @@ def _centerline(history: History, summary: dict):
     clearance_um = history.clearance_m * 1e6
     figure, axes = plt.subplots(1, 2, figsize=(9, 4.6), constrained_layout=True)
     circle = np.linspace(0.0, 2.0 * math.pi, 361)
+    offsets = history.last_offsets_um
+    corrected = bool(np.any(offsets != 0.0))
     for b, ax in enumerate(axes):
-        x, y = values[:, 2 * b], values[:, 2 * b + 1]
+        x, y = values[:, 2 * b] - offsets[2 * b], values[:, 2 * b + 1] - offsets[2 * b + 1]
         ax.plot(clearance_um * np.cos(circle), clearance_um * np.sin(circle), color="0.3", lw=1.0)
         ax.plot([0], [0], "+", color="0.3", ms=10)
         ax.plot([0], [-clearance_um], "v", color="0.3", ms=6, label="cold rest")
@@ -109,11 +114,20 @@ def _centerline(history: History, summary: dict):
         ax.set_aspect("equal")
         ax.set_xlim(-1.1 * clearance_um, 1.1 * clearance_um)
         ax.set_ylim(-1.1 * clearance_um, 1.1 * clearance_um)
-        if x.size:
-            eccentricity = math.hypot(x[-1], y[-1]) / clearance_um
-            ax.annotate(f"last: ({x[-1]:.1f}, {y[-1]:.1f}) um, e/c = {eccentricity:.3f}", (0.02, 0.02),
-                        xycoords="axes fraction", fontsize=8)  # fmt: skip
-        ax.set_title(f"bearing {b + 1}: average position (0.5 s means)", fontsize=10)
+        seen = np.flatnonzero(np.isfinite(x) & np.isfinite(y))
+        if seen.size:
+            last = seen[-1]
+            eccentricity = math.hypot(x[last], y[last]) / clearance_um
+            ax.annotate(f"last: ({x[last]:.1f}, {y[last]:.1f}) um, e/c = {eccentricity:.3f}", (0.02, 0.97),
+                        xycoords="axes fraction", fontsize=8, va="top")  # fmt: skip
+        title = f"bearing {b + 1}: average position (0.5 s means)"
+        if corrected:
+            title += (
+                "\nless the estimated probe offsets ("
+                + ", ".join(f"{v:+.1f}" for v in offsets[2 * b : 2 * b + 2])
+                + " um)"
+            )
+        ax.set_title(title, fontsize=10)
         ax.set_xlabel("x [um] (horizontal)")
         ax.set_ylabel("y [um] (vertical)")
         ax.legend(fontsize=7, loc="upper right")
@@ -130,13 +144,16 @@ def synchronous_orbit(k: np.ndarray, positions_um: np.ndarray, dt_s: float, spee
         return None
     n = round(revolutions / (speed_hz * dt_s))
     k, p = k[:n], positions_um[:n]
-    good = np.all(np.isfinite(p), axis=1)
-    if good.sum() < 0.5 * n:
+    good = np.isfinite(p)  # per probe: a faulty probe loses its own channel, not the others'
+    count = good.sum(axis=0)
+    if count.max() < 0.5 * n:
         return None
-    k, p = k[good], p[good]
     phase = np.exp(-1j * 2.0 * math.pi * speed_hz * dt_s * k)
-    mean = p.mean(axis=0)
-    amplitude = 2.0 * ((p - mean) * phase[:, None]).mean(axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = np.where(good, p, 0.0).sum(axis=0) / count
+        amplitude = 2.0 * (np.where(good, p - mean, 0.0) * phase[:, None]).sum(axis=0) / count
+    short = count < 0.5 * n
+    mean[short], amplitude[short] = np.nan, np.nan
     return {"mean": mean, "amplitude": amplitude, "revolutions": revolutions}
 
 
@@ -155,6 +172,8 @@ def _orbits(history: History, summary: dict):
             continue
         for b, ax in enumerate(axes):
             ax_x, ax_y = fit["amplitude"][2 * b], fit["amplitude"][2 * b + 1]
+            if not (np.isfinite(ax_x) and np.isfinite(ax_y)):
+                continue  # a probe of this bearing was faulty for most of the second
             x = np.real(ax_x * np.exp(1j * theta))
             y = np.real(ax_y * np.exp(1j * theta))
             line = ax.plot(x, y, style, lw=1.4, label=f"{label} ({fit['revolutions']} rev)")[0]
@@ -178,8 +197,10 @@ def _probe_health(history: History, summary: dict):
     figure, axes = plt.subplots(rows, 1, figsize=(9, 2.4 * rows + 0.6), sharex=True, constrained_layout=True)
     ax = axes[0]
     for i, name in enumerate(PROBES):
-        ax.plot(times, 100.0 * values[:, 4 + i], lw=1.2, label=f"{name} valid")
-    ax.plot(times, 100.0 * values[:, 8], "k--", lw=1.0, label="accepted by the estimator")
+        ax.step(times, 100.0 * values[:, 4 + i], where="post", lw=1.2, label=f"{name} finite")
+    ax.step(
+        times, 100.0 * values[:, 8], "k--", where="post", lw=1.0, label="samples that updated the estimator"
+    )
     ax.set_ylabel("samples [%]")
     ax.set_ylim(-5, 105)
     ax.legend(fontsize=7, ncol=5, loc="lower left")
@@ -193,10 +214,19 @@ def _probe_health(history: History, summary: dict):
     ax.grid(alpha=0.3)
     if history.extra_bins is not None:
         extra_t, extra = history.extra_bins.arrays()
+        ax = axes[2]
         for i, name in enumerate(history.extra_names):
-            axes[2].plot(extra_t, extra[:, i], lw=1.0, label=name)
-        axes[2].set_ylabel("estimator health")
-        axes[2].legend(fontsize=7, ncol=4)
-        axes[2].grid(alpha=0.3)
+            label = (
+                f"{name.removeprefix('probe_status_')} flagged faulty"
+                if name.startswith("probe_status_")
+                else "model inconsistent (NIS test)"
+            )
+            share = extra[:, i] if name.startswith("probe_status_") else 1.0 - extra[:, i]
+            ax.step(extra_t, 100.0 * share, where="post", lw=1.2, label=label)
+        ax.set_ylabel("samples [%]")
+        ax.set_ylim(-5, 105)
+        ax.set_title("estimator: probes excluded as faulty, model consistency", fontsize=10)
+        ax.legend(fontsize=7, ncol=5, loc="upper left")
+        ax.grid(alpha=0.3)
     axes[-1].set_xlabel("record time [s]")
     return figure

@@ -3,7 +3,8 @@
 Writes, in ``out_dir``:
 
 * ``result.csv``: one row per 1 ms sample (time, true and estimated flowrates, their stds, alarms, NIS,
-  convergence), flushed after every row, so a run stopped part-way keeps what it had;
+  convergence, the probe signals and operating point in the record format), flushed after every row, so a
+  run stopped part-way keeps what it had;
 * ``summary.json``: the scenario, its parameters and the figures of :mod:`oilwatch.scenarios.summary`;
 * ``estimates.png``: the plot of :mod:`oilwatch.scenarios.plot`.
 
@@ -41,8 +42,13 @@ COLUMNS = {
     "ekf.nis": "nis",
     "ekf.converged": "converged",
     "ekf.measurement_ok": "measurement_ok",
+    **{f"plant.{probe}_um": f"{probe}_um" for probe in ("x1", "y1", "x2", "y2")},
 }
-"""Recorded variables (``plant``/``ekf`` instance names) -> result.csv column names."""
+"""Recorded variables (``plant``/``ekf`` instance names) -> result.csv column names. The probe columns are the
+plant's measured signals in um along each probe's axis, under the record format's names, so that a
+result.csv is a record for ``oilwatch estimate`` and ``oilwatch baseline --record``."""
+OPERATING_INPUTS = {"speed_hz": "speed_hz", "oil_temperature_c": "oil_temperature_c"}
+"""The plant's operating-point inputs recorded under the record format's names, when the plant has them."""
 OUTPUT_FILES = ("result.csv", "summary.json", "estimates.png")
 """The files a run writes in its folder (module docstring)."""
 ROLES = {"plant": "x1_true_um", "ekf": "q1_est_ml_min"}
@@ -102,6 +108,56 @@ def scenario_system(fmu_dir: Path | None = None, ssp: Path | None = None):
     yield plant_and_estimator(fmu_dir), {"plant": "plant", "ekf": "ekf"}
 
 
+def _operating_columns(
+    system: SystemDescription, plant: str, machine_file: str
+) -> dict[str, tuple[str, float]]:
+    """``{"plant.<input>": (<column>, nominal value)}`` for the :data:`OPERATING_INPUTS` the plant FMU has as
+    inputs (the oil temperature only for a machine with an oil); the nominal value replaces the input's
+    "the machine's nominal" sentinel (speed 0, temperature -300) in result.csv."""
+    from fmpy import read_model_description
+
+    from models.machine import load_machine
+
+    machine = load_machine(machine_file or None)
+    nominal = {"speed_hz": machine.nominal_speed_hz, "oil_temperature_c": machine.nominal_oil_temperature_c}
+
+    spec = next(s for s in system.fmus if s.name == plant)
+    inputs = {
+        v.name
+        for v in read_model_description(str(spec.path), validate=False).modelVariables
+        if v.causality == "input"
+    }
+    return {
+        f"plant.{name}": (column, nominal[name])
+        for name, column in OPERATING_INPUTS.items()
+        if name in inputs and nominal[name] is not None
+    }
+
+
+class _Sentinels:
+    """A recorder that writes the last ``len(nominal)`` columns (the operating inputs) with their sentinel
+    (speed <= 0, temperature below absolute zero: "the machine's nominal") replaced by the nominal value."""
+
+    def __init__(self, inner, nominal: list[tuple[bool, float]]) -> None:
+        self.inner, self.nominal = inner, nominal
+
+    def start(self, columns):
+        self.inner.start(columns)
+
+    def record(self, time_s, values):
+        if self.nominal:
+            values = list(values)
+            first = len(values) - len(self.nominal)
+            for i, (speed, nominal) in enumerate(self.nominal):
+                value = values[first + i]
+                if (value <= 0.0) if speed else (value < -273.15):
+                    values[first + i] = nominal
+        self.inner.record(time_s, values)
+
+    def close(self):
+        self.inner.close()
+
+
 def _roles(system: SystemDescription, origin: str) -> dict[str, str]:
     from fmpy import read_model_description
 
@@ -138,11 +194,14 @@ def run_scenario(
     csv_path = out / "result.csv"
     wall_start = wallclock.perf_counter()
     with scenario_system(fmu_dir, ssp) as (system, roles):
-        record = [f"{roles[c.split('.')[0]]}.{c.split('.')[1]}" for c in COLUMNS]
-        rename = dict(zip(record, COLUMNS.values(), strict=True))
+        operating = _operating_columns(system, roles["plant"], run.machine_file)
+        columns = {**COLUMNS, **{name: column for name, (column, _) in operating.items()}}
+        record = [f"{roles[c.split('.')[0]]}.{c.split('.')[1]}" for c in columns]
+        rename = dict(zip(record, columns.values(), strict=True))
         parameters = {roles["plant"]: run.plant_parameters(), roles["ekf"]: run.ekf_parameters()}
         stale = tuple(out / name for name in OUTPUT_FILES)
-        recorder = _StopBetweenSteps(CsvRecorder(csv_path, rename=rename), stale)
+        nominal = [(name.endswith("speed_hz"), value) for name, (_, value) in operating.items()]
+        recorder = _StopBetweenSteps(_Sentinels(CsvRecorder(csv_path, rename=rename), nominal), stale)
         # SIGINT deferred from before loading: an interrupt inside an FMU call would surface as an FMU error.
         with _deferred_sigint(recorder), Master(system) as master:
             result = master.run(
