@@ -14,6 +14,7 @@ from models.bearing.geometry import JournalBearing
 from models.bearing.grid import Mesh
 from models.bearing.supply import ML_MIN_PER_M3_S, SupplyFlow
 from models.bearing.transient import TransientFilm, mass_balance_error
+from models.validation import InputError
 
 BEARING = JournalBearing(0.045, 0.070, 120e-6, 0.094, 0.0, 16.2e-3, 35e-3)
 SPEED_HZ = 75.0
@@ -45,6 +46,38 @@ def test_mass_balance_of_every_step(equilibrium, order):
         assert np.all(new.pressure_pa >= -1e-6 * film.p_ref)
         state = new
     assert worst < 1e-9
+    assert film.sweep_count > 0 and film.fallbacks < 40  # the sweeps solved steps
+
+
+@pytest.mark.parametrize("whirl_um", [3.0, 10.0])
+def test_sweeps_reach_the_active_set_solution(equilibrium, whirl_um):
+    """The projected SOR step and the active-set step of the same problem give the same film."""
+    supply, eq = equilibrium
+    sweeping = TransientFilm(BEARING, SPEED_HZ, MESH)
+    direct = TransientFilm(BEARING, SPEED_HZ, MESH, sweep_limit=0)
+    a = sweeping.from_steady(eq.film, eq.eccentricity_m)
+    b = direct.from_steady(eq.film, eq.eccentricity_m)
+    omega = 2.0 * math.pi * 75.0
+    dt = 1.0 / 75.0 / 64
+    for k in range(1, 25):
+        e = eq.eccentricity_m + whirl_um * 1e-6 * np.array(
+            [math.cos(omega * k * dt) - 1, math.sin(omega * k * dt)]
+        )
+        a = sweeping.step(a, e, supply.q_m3_s, dt)
+        b = direct.step(b, e, supply.q_m3_s, dt)
+        assert a.sweeps > 0 and a.iterations == 0  # solved by the sweeps, no fallback
+        assert a.sweep_residual <= sweeping.residual_tolerance
+        np.testing.assert_allclose(a.force_n, b.force_n, rtol=0, atol=1e-7 * LOAD_N)
+        assert abs(a.side_leakage_m3_s - b.side_leakage_m3_s) < 1e-8 * supply.q_m3_s
+        assert np.abs(a.fill_fraction - b.fill_fraction).max() < 1e-7
+    assert sweeping.fallbacks == 0 and direct.sweep_count == 0
+
+
+def test_sweep_options_are_checked():
+    with pytest.raises(InputError, match="sweep_limit"):
+        TransientFilm(BEARING, SPEED_HZ, MESH, sweep_limit=-1)
+    with pytest.raises(InputError, match="residual_tolerance"):
+        TransientFilm(BEARING, SPEED_HZ, MESH, residual_tolerance=0.0)
 
 
 def test_journal_held_still_converges_to_the_steady_film():

@@ -21,6 +21,7 @@ def test_plant_steps_follow_the_schedule_and_restore_bit_identically():
     plant = TransientFilmPlant(MACHINE, Mesh(60, 16), 1e-3, schedules, 1e-6, seed=3)
     first = plant.step()
     assert first.true_position_m.shape == (4,)
+    assert plant.rotor_angle_rad == pytest.approx(2.0 * np.pi * MACHINE.nominal_speed_hz * 1e-3)  # keyphasor
     snapshot = plant.snapshot()
     a = [plant.step()]
     plant.restore(snapshot)
@@ -51,3 +52,22 @@ def test_make_plant_picks_the_film_model():
     other_speed = build_system(MACHINE, reduced=True, unbalance_moment_kg_m=1e-3)
     with pytest.raises(InputError, match="unbalance"):
         make_plant("transient-film", other_speed, MACHINE, 1e-3, None, 0.0, 1, initial_flowrates_m3_s=(Q, Q))
+
+
+def test_transient_film_plant_takes_the_fmu_default_probes_and_refuses_probe_errors():
+    """The FMU's probes without a fault (fault time 1e9 s) are ideal; an offset is refused in one line."""
+    from models.system.factory import build_system
+    from models.system.measurement import MeasurementChain, ProbeErrors, UnbalanceChange
+    from models.system.nonlinear_plant import _refuse_chain_options, make_plant
+
+    _refuse_chain_options(
+        {
+            "chain": MeasurementChain((ProbeErrors(fault_time_s=1e9),) * 4),
+            "unbalance_change": UnbalanceChange(1e9),
+        }
+    )
+    with pytest.raises(InputError, match="unbalance change"):
+        _refuse_chain_options({"unbalance_change": UnbalanceChange(5.0, 1e-3)})
+    offset = MeasurementChain((ProbeErrors(zero_offset_m=1e-6),) + (ProbeErrors(),) * 3)
+    with pytest.raises(InputError, match="ideal probes"):
+        make_plant("transient-film", build_system(MACHINE), MACHINE, 1e-3, None, 0.0, 1, (Q, Q), chain=offset)

@@ -115,7 +115,9 @@ class NonlinearRotorBearing:
 
     Parameters: ``machine``; ``speed_hz`` [Hz]; ``mesh`` of both films; ``dt_s`` the step [s];
     ``unbalance`` False drops the unbalance load (free whirl about the equilibrium);
-    ``reference_flowrate_m3_s`` where the iteration matrix's film coefficients are taken.
+    ``reference_flowrate_m3_s`` where the iteration matrix's film coefficients are taken;
+    ``position_tolerance_m`` the coupling's acceptance of a step; ``film_options`` keyword arguments of
+    both :class:`TransientFilm` (e.g. the sweeps' ``residual_tolerance`` and ``mass_tolerance``).
     """
 
     def __init__(
@@ -129,6 +131,7 @@ class NonlinearRotorBearing:
         reference_flowrate_m3_s: float | None = None,
         position_tolerance_m: float = 1e-10,
         max_corrections: int = 20,
+        film_options: dict | None = None,
     ):
         self.machine = machine
         self.rotor = reduced_rotor(machine, speed_hz)
@@ -137,7 +140,10 @@ class NonlinearRotorBearing:
         self.mesh = mesh
         self.h = require_positive("dt_s", dt_s, "s")
         self.unbalance = bool(unbalance)
-        self.films = [TransientFilm(machine.bearing, self.speed_hz, mesh) for _ in self.rotor.bearing_maps]
+        self.films = [
+            TransientFilm(machine.bearing, self.speed_hz, mesh, **(film_options or {}))
+            for _ in self.rotor.bearing_maps
+        ]
         self.tolerance = position_tolerance_m
         self.max_corrections = max_corrections
         self.loose_steps = 0

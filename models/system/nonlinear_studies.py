@@ -84,12 +84,14 @@ def orbit_setup(
     flowrate_m3_s: float,
     steps_per_revolution: int = 64,
     dt_s: float | None = None,
+    **options,
 ):
     """(simulation, static state, start on the frequency-dependent linear orbit, film models) of a run
-    with ``steps_per_revolution`` steps per revolution (or the step ``dt_s`` [s])."""
+    with ``steps_per_revolution`` steps per revolution (or the step ``dt_s`` [s]); ``options`` go to
+    :class:`NonlinearRotorBearing`."""
     speed = machine.nominal_speed_hz
     h = 1.0 / speed / steps_per_revolution if dt_s is None else dt_s
-    sim = NonlinearRotorBearing(machine, speed, mesh, h, reference_flowrate_m3_s=flowrate_m3_s)
+    sim = NonlinearRotorBearing(machine, speed, mesh, h, reference_flowrate_m3_s=flowrate_m3_s, **options)
     flows = (flowrate_m3_s, flowrate_m3_s)
     static = sim.static_state(flows)
     models = _film_models(machine, sim, (sim.selector @ static.r).reshape(-1, 2), flowrate_m3_s)
@@ -105,13 +107,15 @@ def unbalance_orbits(
     duration_s: float = 0.6,
     fit_periods: int = 10,
     progress: Callable[[int], None] | None = None,
+    **options,
 ) -> dict:
     """Nonlinear 1x orbit at the nominal speed against the linear models (see the module docstring).
 
     The run starts on the frequency-dependent linear orbit (so that little start transient is left);
     ``settling`` is the largest change of any amplitude [%] between the last two fit windows.
+    ``options`` go to :class:`NonlinearRotorBearing` (e.g. the coupling and film tolerances).
     """
-    sim, static, start, models = orbit_setup(machine, mesh, flowrate_m3_s, steps_per_revolution)
+    sim, static, start, models = orbit_setup(machine, mesh, flowrate_m3_s, steps_per_revolution, **options)
     speed = sim.speed_hz
     flows = (flowrate_m3_s, flowrate_m3_s)
     linear = {name: linear_orbit(sim, kc) for name, kc in models.items()}
@@ -133,6 +137,9 @@ def unbalance_orbits(
         "settling_pct": float(100.0 * np.max(np.abs(np.abs(orbit) / np.abs(previous) - 1.0))),
         "steps_per_revolution": steps_per_revolution,
         "duration_s": duration_s,
+        "position_tolerance_m": sim.tolerance,
+        "film_residual_tolerance": sim.films[0].residual_tolerance,
+        "sweeps_per_film_step": sim.films[0].sweep_count / n,
         # Bearing positions after SAMPLE_STEPS steps: a short rerun reproduces them (tests).
         "sample_positions_um": (record["bearing_positions_m"][SAMPLE_STEPS - 1].ravel() * 1e6).tolist(),
         "linear": {},
@@ -145,6 +152,45 @@ def unbalance_orbits(
             "phase_error_deg": np.angle(amplitude / orbit, deg=True).tolist(),
         }
     return result
+
+
+def linear_orbits(machine: Machine, mesh: Mesh, flowrate_m3_s: float) -> dict:
+    """The linear models' 1x bearing orbits about the nonlinear static equilibrium on ``mesh`` (no time
+    stepping: cheap on any mesh, for the mesh convergence of the orbits)."""
+    sim, static, _, models = orbit_setup(machine, mesh, flowrate_m3_s)
+    out = {
+        "flowrate_ml_min": flowrate_m3_s * 6e7,
+        "static_position_um": (sim.selector @ static.r * 1e6).tolist(),
+    }
+    for name, kc in models.items():
+        amplitude = linear_orbit(sim, kc)
+        out[name] = {
+            "amplitude_um": (np.abs(amplitude) * 1e6).tolist(),
+            "phase_deg": np.angle(amplitude, deg=True).tolist(),
+        }
+    return out
+
+
+def mesh_changes(by_mesh: dict, reference: str) -> dict:
+    """Per mesh and model: the largest |amplitude change| [%] and |phase change| [deg] of the orbit against
+    the ``reference`` mesh's, and the largest static position change [um]."""
+    ref = by_mesh[reference]
+    out = {}
+    for key, run in by_mesh.items():
+        row = {
+            "static_position_change_um": float(
+                np.abs(np.subtract(run["static_position_um"], ref["static_position_um"])).max()
+            )
+        }
+        for name in COEFFICIENT_MODELS:
+            a, b = np.array(run[name]["amplitude_um"]), np.array(ref[name]["amplitude_um"])
+            phase = (np.array(run[name]["phase_deg"]) - ref[name]["phase_deg"] + 180.0) % 360.0 - 180.0
+            row[name] = {
+                "max_amplitude_change_pct": float(100.0 * np.abs(a / b - 1.0).max()),
+                "max_phase_change_deg": float(np.abs(phase).max()),
+            }
+        out[key] = row
+    return out
 
 
 def whirl_growth_rate(

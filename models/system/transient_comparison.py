@@ -46,6 +46,16 @@ def orbit_check(orbits: dict) -> dict:
     return out
 
 
+def _orbit_checks_by_mesh(results: dict) -> dict:
+    """``orbit_check`` of every orbit study in the results file, keyed by its mesh (``60x16``)."""
+    out = {}
+    for key, value in results.items():
+        if key == "orbits" or key.startswith("orbits_"):
+            mesh = value["provenance"]["mesh"]
+            out[f"{mesh['n_circ']}x{mesh['n_axial']}"] = orbit_check(value["by_flowrate_pct"])
+    return out
+
+
 def transient_figures(machine: Machine) -> dict:
     """The report's transient-film entries (None where the results file lacks them)."""
     path = results_path(machine)
@@ -70,6 +80,11 @@ def transient_figures(machine: Machine) -> dict:
         ],
         "orbit_check": orbit_check(results["orbits"]["by_flowrate_pct"]) if "orbits" in results else None,
         "orbit_check_model": CHOSEN_MODEL,
+        "orbit_check_by_mesh": _orbit_checks_by_mesh(results),
+        "orbit_mesh_convergence": {
+            pct: run["changes"]
+            for pct, run in results.get("orbit_mesh", {}).get("by_flowrate_pct", {}).items()
+        },
         "starvation": {k: v for k, v in results["starvation"].items() if k != "record"}
         if "starvation" in results
         else None,

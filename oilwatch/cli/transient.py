@@ -8,7 +8,10 @@ so a stopped run loses only the study under way):
 * ``linear-threshold``: the instability threshold of the linear model with frequency-dependent
   coefficients, each mode at its own whirl frequency;
 * ``threshold``: whirl growth rates by direct simulation at ``--speeds-hz`` (bracketing the threshold);
-* ``orbits``: 1x orbits at 100 % and 75 % of the nominal flowrate, nonlinear against the linear models;
+* ``orbits``: 1x orbits at 100 % and 75 % of the nominal flowrate, nonlinear against the linear models
+  (saved as ``orbits``, or ``orbits_<mesh>`` with ``--orbit-key-by-mesh``);
+* ``orbit-mesh``: the linear models' orbits about the nonlinear static equilibrium on each mesh of
+  ``--meshes`` (no time stepping) and their changes against the last (finest) one;
 * ``starvation``: the sudden drop 100 % -> 75 % and how long the film takes to settle.
 
 Results go to ``tables/<machine>_transient_results.json`` (read by ``oilwatch report``).
@@ -25,7 +28,7 @@ from pathlib import Path
 
 from .modes import add_machine_option
 
-STUDIES = ("synchronous-table", "linear-threshold", "threshold", "orbits", "starvation")
+STUDIES = ("synchronous-table", "linear-threshold", "threshold", "orbits", "orbit-mesh", "starvation")
 
 
 def register(subparsers) -> None:
@@ -46,6 +49,18 @@ def register(subparsers) -> None:
     )
     parser.add_argument(
         "--tolerance-hz", type=float, default=0.05, help="bisection width of the linear threshold [Hz] (0.05)"
+    )
+    parser.add_argument(
+        "--meshes", default="60x16,120x36,240x72", help="comma-separated meshes of the orbit-mesh study"
+    )
+    parser.add_argument(
+        "--plant-tolerances",
+        action="store_true",
+        help="orbits: the high-fidelity plant's coupling and film tolerances (1e-9 m, 1e-8) instead of "
+        "the studies' (1e-10 m, 1e-11): about half the film sweeps",
+    )
+    parser.add_argument(
+        "--orbit-key-by-mesh", action="store_true", help="orbits: save as orbits_<mesh> (keeps 'orbits')"
     )
     parser.add_argument("--out", default=None, help="results file (default: next to the machine file)")
     parser.set_defaults(func=run)
@@ -148,15 +163,39 @@ def run(args: argparse.Namespace) -> int:
                 runs[f"{speed:g}"] = growth
                 save("threshold", {"runs": runs, **_bracket(runs)}, mesh)
         elif study == "orbits":
-            orbits = dict(results.get("orbits", {}).get("by_flowrate_pct", {}))
+            key = f"orbits_{mesh.n_circ}x{mesh.n_axial}" if args.orbit_key_by_mesh else "orbits"
+            orbits = dict(results.get(key, {}).get("by_flowrate_pct", {}))
             duration = args.duration_s or 0.6
+            options = {}
+            if args.plant_tolerances:
+                from models.system.nonlinear_plant import PLANT_FILM_OPTIONS, PLANT_POSITION_TOLERANCE_M
+
+                options = {
+                    "position_tolerance_m": PLANT_POSITION_TOLERANCE_M,
+                    "film_options": PLANT_FILM_OPTIONS,
+                }
             for pct in (100, 75):
                 progress, tick = bar(round(duration * machine.nominal_speed_hz * 64), f"orbit {pct} %")
                 orbits[str(pct)] = studies.unbalance_orbits(
-                    machine, mesh, pct / 100 * q_nominal, duration_s=duration, progress=tick
+                    machine, mesh, pct / 100 * q_nominal, duration_s=duration, progress=tick, **options
                 )
                 progress.close()
-                save("orbits", {"by_flowrate_pct": orbits}, mesh)
+                save(key, {"by_flowrate_pct": orbits}, mesh)
+        elif study == "orbit-mesh":
+            meshes = [_mesh(m) for m in args.meshes.split(",")]
+            by_pct = {}
+            for pct in (100, 75):
+                runs = {}
+                for m in meshes:
+                    print(f"  linear orbits, {pct} %, mesh {m.n_circ}x{m.n_axial}", file=sys.stderr)
+                    runs[f"{m.n_circ}x{m.n_axial}"] = studies.linear_orbits(machine, m, pct / 100 * q_nominal)
+                reference = f"{meshes[-1].n_circ}x{meshes[-1].n_axial}"
+                by_pct[str(pct)] = {
+                    "runs": runs,
+                    "reference_mesh": reference,
+                    "changes": studies.mesh_changes(runs, reference),
+                }
+                save("orbit_mesh", {"by_flowrate_pct": by_pct}, meshes[-1])
         elif study == "starvation":
             duration = args.duration_s or 0.5
             progress, tick = bar(round((duration + 0.05) * machine.nominal_speed_hz * 64), "sudden drop")
