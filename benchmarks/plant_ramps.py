@@ -29,7 +29,7 @@ from models.system.factory import load_system
 from models.system.operating_point import operating_system
 from models.system.plant import RotorBearingPlant
 
-Q = 596.3e-6 / 60.0
+Q = load_machine().lubrication.nominal_flowrate_m3_s  # the machine file's nominal supply flowrate
 
 
 def run(kind: str, steps: int) -> float:

@@ -29,16 +29,18 @@ from numba import njit
 from scipy.linalg import expm
 
 from models.machine import load_machine
+from models.rotor.assembly import Rotor
 from models.validation import InputError
 
 from .config import ML_MIN
 
-MASS_KG = 3272.8 / 9.81
 STIFFNESS_N_M = 4.0e7
 SHAFT_STIFFNESS_N_M = 3.0e7
 DAMPING_N_S_M = 8.0e4
 ECCENTRICITY_M = 15.0e-6
 _TURBINE = load_machine()
+# The journal carries the bundled turbine's static bearing load (its machine file), as a mass under gravity.
+MASS_KG = float(Rotor.from_machine(_TURBINE).bearing_static_loads_n[0]) / 9.81
 SPEED_HZ = _TURBINE.nominal_speed_hz
 """The toy's speed and nominal flowrate are the bundled turbine's (its machine file)."""
 NOMINAL_FLOWRATE_M3_S = _TURBINE.lubrication.nominal_flowrate_m3_s

@@ -21,12 +21,13 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np
 
+from models.bearing.supply import ML_MIN_PER_M3_S
 from models.machine import load_machine
 from models.system.profiles import OperatingProfile
 from oilwatch.cosim import Master
 from oilwatch.scenarios.fmus import ensure_fmus, plant_and_estimator
 
-NOMINAL_ML_MIN = 596.3
+NOMINAL_ML_MIN = load_machine().lubrication.nominal_flowrate_m3_s * ML_MIN_PER_M3_S
 RECORD = [
     "plant.q1_ml_min",
     "plant.q2_ml_min",
