@@ -18,11 +18,11 @@ import numpy as np
 import pytest
 from fixtures.fmu_subprocess import REPO_ROOT
 
-from oilwatch.scenarios.runner import COLUMNS
+from oilwatch.scenarios.runner import COLUMNS, OPERATING_INPUTS
 
 pytestmark = pytest.mark.slow  # each test runs the oilwatch command on the FMUs in a fresh process
 
-HEADER = ["time_s", *COLUMNS.values()]
+HEADER = ["time_s", *COLUMNS.values(), *OPERATING_INPUTS.values()]  # the turbine has an oil: both inputs
 
 
 @pytest.fixture(scope="module")

@@ -18,6 +18,7 @@ import json
 import signal
 import threading
 import time as wallclock
+import zipfile
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -122,6 +123,8 @@ def _operating_columns(
     nominal = {"speed_hz": machine.nominal_speed_hz, "oil_temperature_c": machine.nominal_oil_temperature_c}
 
     spec = next(s for s in system.fmus if s.name == plant)
+    if not zipfile.is_zipfile(spec.path):
+        return {}  # the master refuses the FMU in its own one-line words when it loads it, right after
     inputs = {
         v.name
         for v in read_model_description(str(spec.path), validate=False).modelVariables
