@@ -57,6 +57,7 @@ def simulate_record(case: Case, system=None) -> np.ndarray:
         case.rng_seed % FMI_SEED_MODULUS,  # the plant FMU's seed: the cosim case sees the same noise
         initial_flowrates_m3_s=flowrates,
     )
+    plant.current_sample()  # the plant FMU publishes its t = 0 sample at initialization: the same noise draw
     return np.array([plant.step(flowrates).measured_position_m for _ in range(case.n_samples)])
 
 
