@@ -29,8 +29,8 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from estimator.baseline import estimate_baseline
-from estimator.config import EKFConfig, OffsetBaseline
+from estimator.baseline import baseline_prior, estimate_baseline
+from estimator.config import EKFConfig
 from estimator.ekf import OilFlowEKF
 from models.machine import load_machine
 from models.probes import read_probes
@@ -188,11 +188,7 @@ class RobustnessRun:
                 else self.model
             )
             document = estimate_baseline(model, record, q, config)
-            baseline = OffsetBaseline(
-                tuple(v * 1e-6 for v in document["offsets_um"]),
-                tuple(v * 1e-6 for v in document["offset_std_um"]),
-            )
-            config = dataclasses.replace(config, offset_baseline=baseline)
+            config = dataclasses.replace(config, offset_baseline=baseline_prior(document))
         return config
 
     def bound_pct(self, point_pct) -> np.ndarray:
