@@ -26,6 +26,18 @@ def test_a_short_run_writes_one_row_per_case_and_point(tmp_path, capsys):
     assert "| huge | 100/100 |" in capsys.readouterr().out
     assert (out / "robustness.md").read_text().startswith("| case |")
 
+    # --resume keeps the rows of the same settings and runs only the missing one
+    path = out / "robustness.json"
+    document = json.loads(path.read_text())
+    document["rows"][0]["error_pct"] = [123.0, 456.0]  # a marker: a kept row is not recomputed
+    dropped = document["rows"].pop()
+    path.write_text(json.dumps(document))
+    arguments = ["robustness", "--duration-s", "2", "--cases", "huge", "none", "--out", str(out), "--resume"]
+    assert main(arguments) == 0
+    assert "3 of 4 rows kept" in capsys.readouterr().err
+    rows = json.loads(path.read_text())["rows"]
+    assert rows[0]["error_pct"] == [123.0, 456.0] and rows[-1] == dropped
+
 
 def test_an_unknown_case_is_named(tmp_path, capsys):
     assert main(["robustness", "--cases", "earthquake", "--out", str(tmp_path)]) == 2

@@ -296,9 +296,12 @@ def run_robustness(
     out_dir: str | Path | None = None,
     workers: int = 1,
     progress: Callable[[str], None] | None = None,
+    resume: bool = False,
 ) -> list[dict]:
     """Every case at both truth points, in ``workers`` processes (1: in this process); each finished row is
-    written to ``out_dir/robustness.json`` at once. Rows come back in the cases' order."""
+    written to ``out_dir/robustness.json`` at once. Rows come back in the cases' order. ``resume``: the rows
+    an earlier run with the same settings wrote there are kept and not run again (rows that could not run
+    are run again)."""
     settings = {
         "machine_file": machine_file,
         "duration_s": duration_s,
@@ -312,6 +315,13 @@ def run_robustness(
     order = {job: k for k, job in enumerate(jobs)}
     rows: dict[int, dict] = {}
     path = Path(out_dir) / "robustness.json" if out_dir is not None else None
+    if resume and path is not None:
+        for row in _earlier_rows(path, settings):
+            job = (row["case"], (row["q1_pct"], row["q2_pct"]))
+            if job in order and "error" not in row:
+                rows[order[job]] = row
+        if progress is not None:
+            progress(f"{len(rows)} of {len(jobs)} rows kept from {path}")
 
     def finished(job, row) -> None:
         rows[order[job]] = row
@@ -323,15 +333,27 @@ def run_robustness(
             temporary.write_text(json.dumps(document, indent=1) + "\n")
             temporary.replace(path)
 
+    todo = [job for job in jobs if order[job] not in rows]
     if workers <= 1:
-        for job in jobs:
+        for job in todo:
             finished(job, _worker_row(settings, *job))
-    else:
+    elif todo:
         with ProcessPoolExecutor(max_workers=workers) as pool:
-            futures = {pool.submit(_worker_row, settings, *job): job for job in jobs}
+            futures = {pool.submit(_worker_row, settings, *job): job for job in todo}
             for future in as_completed(futures):
                 finished(futures[future], future.result())
     return [rows[k] for k in sorted(rows)]
+
+
+def _earlier_rows(path: Path, settings: dict) -> list[dict]:
+    """The rows of an earlier ``robustness.json`` made with the same settings (none otherwise)."""
+    try:
+        document = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return []
+    if not isinstance(document, dict) or document.get("settings") != settings:
+        return []
+    return [row for row in document.get("rows", []) if isinstance(row, dict) and "case" in row]
 
 
 def format_table(rows: Sequence[dict]) -> list[str]:
