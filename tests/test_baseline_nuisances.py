@@ -6,10 +6,12 @@ the baseline carried the factor). At known flow the baseline separates them. The
 model, film viscosity x0.9, probe offsets, unbalance x1.5) is not the estimator's discrete map.
 """
 
+import json
+
 import numpy as np
 import pytest
 
-from estimator.baseline import baseline_prior, estimate_baseline
+from estimator.baseline import baseline_prior
 from estimator.config import EKFConfig, OffsetBaseline
 from estimator.ekf import OilFlowEKF
 from models.machine import load_machine
@@ -19,6 +21,7 @@ from models.system.measurement import MeasurementChain, ProbeErrors
 from models.system.operating_model import build_operating_model
 from models.system.operating_point import operating_system
 from models.system.plant import RotorBearingPlant
+from oilwatch.cli import main
 
 MACHINE = load_machine()
 QN = MACHINE.lubrication.nominal_flowrate_m3_s
@@ -61,11 +64,25 @@ def config():
 
 
 @pytest.fixture(scope="module")
-def document(model, config):
-    return estimate_baseline(model, _record((QN, QN), 3, 6000), (QN, QN), config)
+def document(tmp_path_factory):
+    """``oilwatch baseline`` on a 6 s record at nominal flow, the factors and the unbalance freed."""
+    data = _record((QN, QN), 3, 6000)
+    folder = tmp_path_factory.mktemp("baseline")
+    times = DT * np.arange(1, len(data) + 1)
+    table = np.column_stack(
+        [times, data * 1e6, np.full(len(data), MACHINE.nominal_speed_hz), np.full(len(data), T0)]
+    )
+    header = "time_s,x1_um,y1_um,x2_um,y2_um,speed_hz,oil_temperature_c"
+    np.savetxt(folder / "record.csv", table, delimiter=",", header=header, comments="", fmt="%.12g")
+    out = folder / "baseline.json"
+    arguments = ["baseline", "--record", str(folder / "record.csv"), "--out", str(out),
+                 "--offset-prior-um", "25", "--unbalance-prior", "2", "--viscosity-prior", "0.1"]  # fmt: skip
+    assert main(arguments) == 0
+    return json.loads(out.read_text())
 
 
 def test_the_baseline_estimates_the_viscosity_factors_and_the_unbalance(document):
+    assert len(document["nuisance_covariance"]) == 8  # offsets, factors, unbalance
     factor, factor_std = np.array(document["viscosity_factor"]), np.array(document["viscosity_factor_std"])
     assert (np.abs(factor - FACTOR) < 3.0 * factor_std + 0.005).all() and (factor_std < 0.01).all(), document
     unbalance, unbalance_std = np.array(document["unbalance"]), np.array(document["unbalance_std"])
