@@ -195,3 +195,10 @@ class RunoutCompensation:
             return displacement_m
         theta = self._omega * (self._t0 + step * self._dt) if rotor_angle_rad is None else rotor_angle_rad
         return displacement_m - self.vectors.runout_m(theta)
+
+
+def runout_of_probes(probes) -> SlowRollVectors | None:
+    """The runout vectors the machine file's ``[probes]`` gives (``models.probes.Probes.runout``), or None."""
+    if probes.runout is None:
+        return None
+    return SlowRollVectors.from_document(probes.runout, "machine file [probes]")

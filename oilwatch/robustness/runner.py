@@ -32,6 +32,7 @@ import numpy as np
 from estimator.baseline import baseline_prior, estimate_baseline
 from estimator.config import EKFConfig
 from estimator.ekf import OilFlowEKF
+from estimator.runout import runout_of_probes
 from models.machine import load_machine
 from models.probes import read_probes
 from models.rotor.assembly import Rotor
@@ -164,7 +165,7 @@ class RobustnessRun:
         )
         if case.operating_point and self.follows_operating_point:
             values["viscosity_factor_prior_std"] = self.settings["viscosity_prior"]
-        config = EKFConfig.recommended(**values, **case.ekf)
+        config = EKFConfig.recommended(**values, runout=runout_of_probes(self.probes), **case.ekf)
         if case.compensate_runout:
             runout = slow_roll_vectors(
                 self.chain(case, False),
@@ -188,7 +189,9 @@ class RobustnessRun:
                 else self.model
             )
             document = estimate_baseline(model, record, q, config)
-            config = dataclasses.replace(config, offset_baseline=baseline_prior(document))
+            # the baseline record ends where the run's begins: no time for drift beyond the run's own
+            prior = baseline_prior(document, 0.0, self.probes.offset_drift_m_per_day)
+            config = dataclasses.replace(config, offset_baseline=prior)
         return config
 
     def bound_pct(self, point_pct) -> np.ndarray:
