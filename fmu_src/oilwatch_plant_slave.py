@@ -49,6 +49,7 @@ from models.system.fault import SigmoidFlowrate
 from models.system.measurement import FAULT_KINDS, PROBE_NAMES, MeasurementChain, ProbeErrors, UnbalanceChange
 from models.system.nonlinear_plant import FILM_MODELS, check_film_model, make_plant
 from models.system.operating_point import operating_system
+from models.system.plant import publish_initial_sample
 from models.validation import InputError
 
 # Per-probe parameters: (suffix, ProbeErrors field, unit, SI per unit, minimum, maximum, description).
@@ -366,7 +367,7 @@ class RotorBearingPlant(OilwatchSlave):
             )
         except InputError as error:
             raise InputError(_fmu_names(str(error))) from None
-        self._publish(self.plant.current_sample())
+        self._publish(publish_initial_sample(self.plant))
 
     def step(self, current_time: float, step_size: float) -> bool:
         if abs(step_size - self.plant.dt_s) > 1e-12 * step_size:
