@@ -462,14 +462,15 @@ class BoundaryParameter:
 # One row per nuisance: its prior (parameters: name, EKFConfig field, unit, SI per user unit, min, max,
 # description) and its estimate (outputs, see NuisanceOutput). The estimator FMU and `oilwatch estimate`
 # generate their variables and columns from these rows; a new nuisance is one row in each.
+# The probes' mounting angle is a machine fact both FMUs share: fmu_src/machine_parameters.py declares it.
+OFFSET_PRIOR_FROM_MACHINE = -1.0
+"""Value of ``offset_prior_std_um`` standing for the machine file's ``[probes] offset_prior_std_um``."""
 NUISANCE_PRIORS = (
-    ("probe_angle_deg", "probe_angle_deg", "deg", 1.0, -360.0, 360.0,
-     "Mounting angle of each bearing's probe pair from the model's axes, counter-clockwise from +x (45: the "
-     "API 670 pair either side of the top); the x_um / y_um inputs are then along the probes' axes"),
-    ("offset_prior_std_um", "offset_prior_std_m", "um", 1e-6, 0.0, 1000.0,
+    ("offset_prior_std_um", "offset_prior_std_m", "um", 1e-6, OFFSET_PRIOR_FROM_MACHINE, 1000.0,
      "Prior std of each probe's zero offset; 0: the offsets are known to be zero (the paper's calibrated "
-     "probes); > 0 estimates four offset states (a real machine: the machine file's [probes] "
-     "offset_prior_std_um, 25 um). A baseline_file sets the offsets' prior instead"),
+     "probes); > 0 estimates four offset states drifting as the machine file's [probes] "
+     "offset_random_walk_um_sqrt_s; -1: the machine file's [probes] offset_prior_std_um (a real machine; "
+     "bundled turbine 25 um). A baseline_file sets the offsets' prior instead"),
     ("unbalance_prior_std", "unbalance_prior_std", "1", 1.0, 0.0, 10.0,
      "Prior std of each part of the unbalance relative to the machine file's (estimate starts at 1 + 0i); "
      "0: the machine file's unbalance is exact; > 0 estimates it as a complex random walk"),
