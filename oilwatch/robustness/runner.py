@@ -395,6 +395,22 @@ def _earlier_rows(path: Path, settings: dict) -> list[dict]:
     return [row for row in document.get("rows", []) if isinstance(row, dict) and "case" in row]
 
 
+def coverage_line(rows: Sequence[dict]) -> str:
+    """How many rows have the truth within +-2 std at the end (issue 14 asks 90 % of its listed cases)."""
+    from .cases import CASES
+
+    listed = {case.name for case in CASES if case.listed}
+    run = [r for r in rows if "error" not in r]
+    inside = [r for r in run if r["within_2_std"]]
+    in_list = [r for r in run if r["case"] in listed]
+    inside_list = [r for r in in_list if r["within_2_std"]]
+    share = 100.0 * len(inside_list) / len(in_list) if in_list else math.nan
+    return (
+        f"Truth within +-2 std at the end: {len(inside_list)} of {len(in_list)} rows of the issue's cases "
+        f"({share:.0f} %), {len(inside)} of {len(run)} with the extra cases."
+    )
+
+
 def format_table(rows: Sequence[dict]) -> list[str]:
     """The rows as a Markdown table (errors and stds in % of the true flowrate, q1 / q2)."""
     lines = [
@@ -429,6 +445,7 @@ def format_table(rows: Sequence[dict]) -> list[str]:
             f"{ratio[0]:.1f} / {ratio[1]:.1f}",
         ]
         lines.append("| " + " | ".join(cells) + " |")
+    lines += ["", coverage_line(rows)]
     if any(r.get("estimator_follows_operating_point") is False for r in rows):
         lines.append("")
         lines.append("\\* the estimator does not follow the measured speed, temperature or viscosity yet.")
