@@ -50,7 +50,9 @@ class Case:
         temperature ramp over the record; speed_ramp_hz : a measured speed ramp (start, end) over the
         record; ekf : EKFConfig fields a user would set; operating_point : the case needs the estimator to
         follow speed / temperature / viscosity (issue 13 / 14 estimator side); listed : the case is in the
-        issue's done-when list (False: an extra the report shows beside them).
+        issue's done-when list (False: an extra the report shows beside them); viscosity_states : in an
+        operating-point case, the estimator's viscosity factors are free (prior ``--viscosity-prior``);
+        False: taken as 1 (the film as modelled).
     """
 
     name: str
@@ -72,6 +74,7 @@ class Case:
     operating_point: bool = False
     all_at_once: bool = False
     listed: bool = True
+    viscosity_states: bool = True
 
     @property
     def probe_fault(self) -> int | None:
@@ -178,6 +181,22 @@ CASES: tuple[Case, ...] = (
         operating_point=True,
     ),
     Case(
+        "temperature-ramp-known-film",
+        "the same temperature ramp, the estimator's viscosity factors taken as 1",
+        temperature_rise_c=10.0,
+        operating_point=True,
+        viscosity_states=False,
+        listed=False,
+    ),
+    Case(
+        "speed-ramp-known-film",
+        "the same speed ramp, the estimator's viscosity factors taken as 1",
+        speed_ramp_hz=(72.0, 78.0),
+        operating_point=True,
+        viscosity_states=False,
+        listed=False,
+    ),
+    Case(
         "runout",
         "runout 2 um at 1x and 1 um at 2x on every probe, slow-roll compensation",
         runout=True,
@@ -204,7 +223,8 @@ CASES: tuple[Case, ...] = (
         **_GROUPS,
     ),
 )
-"""The issue's done-when list (and two more: runout uncompensated, sensitivity errors)."""
+"""The issue's done-when list (and four more: the ramps with the film known, runout uncompensated,
+sensitivity errors)."""
 
 
 def case_by_name(name: str) -> Case:

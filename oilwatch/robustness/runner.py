@@ -199,7 +199,7 @@ class RobustnessRun:
             unbalance_prior_std=self.settings["unbalance_prior"],
             probe_angle_deg=self.mounting_angle_deg(case),
         )
-        if case.operating_point and self.follows_operating_point:
+        if case.operating_point and self.follows_operating_point and case.viscosity_states:
             values["viscosity_factor_prior_std"] = self.settings["viscosity_prior"]
         config = EKFConfig.recommended(**values, runout=runout_of_probes(self.probes), **case.ekf)
         if case.compensate_runout:
