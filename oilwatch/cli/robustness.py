@@ -98,7 +98,10 @@ def _rows_from_json(paths) -> list[dict]:
             raise InputError(f"--from-json {path}: not a robustness.json ({error})") from None
         for row in found:
             rows[(row["case"], row["q1_pct"], row["q2_pct"])] = row
-    return list(rows.values())
+    from oilwatch.robustness import CASES
+
+    rank = {case.name: k for k, case in enumerate(CASES)}  # the cases' order, whichever file a row came from
+    return sorted(rows.values(), key=lambda r: (rank.get(r["case"], len(rank)), -r["q1_pct"]))
 
 
 def run(args: argparse.Namespace) -> int:
