@@ -6,8 +6,12 @@ initial states, the first sample at the record's first grid time), except that a
 zero offsets: their prior is the machine file's ``[probes] offset_prior_std_um`` (the FMU's
 ``offset_prior_std_um``, default 0 there) or a commissioning baseline (``--baseline``, the FMU's
 ``baseline_file``). Fed the same samples with the same settings, it gives the co-simulated FMU's estimates.
-The model is the machine file's reduced rotor-bearing system at its
-nominal speed with the machine file's unbalance, sampled at 1 kHz (:data:`ESTIMATOR_DT_S`).
+The model is the machine file's reduced rotor-bearing system with the machine file's unbalance, sampled at
+1 kHz (:data:`ESTIMATOR_DT_S`): at the nominal speed and viscosity (the FMU's ``bearing_table = 0``), or, when
+the record gives a speed (a ``speed_hz`` column or the keyphasor) or an oil temperature, its operating model,
+which each sample's speed and oil temperature (held over the period that ends at the sample, as the FMU holds
+its inputs over a step) move along the dimensionless bearing tables (``bearing_table = 1``; see
+:class:`EstimateOptions`, ``--operating-point``).
 
 Outputs, in ``out_dir``:
 
@@ -23,6 +27,7 @@ Outputs, in ``out_dir``:
 from __future__ import annotations
 
 import dataclasses
+import functools
 import sys
 import time
 from collections.abc import Callable
@@ -37,8 +42,6 @@ from estimator.config import (
     EKFConfig,
     OffsetBaseline,
     nuisance_names,
-    nuisance_snapshot,
-    nuisance_table,
     nuisance_values,
 )
 from estimator.ekf import OilFlowEKF, StepReport
@@ -49,6 +52,7 @@ from oilwatch.records import RecordStream, probe_setup
 from oilwatch.records.readers import STDIN
 from oilwatch.study.storage import write_json_atomic
 
+from .csv_rows import RowWriter
 from .history import History
 
 ESTIMATOR_DT_S = 1e-3
@@ -65,6 +69,11 @@ BASE_FIELDS = (
 )
 """StepReport fields every estimator has; any further field becomes extra columns."""
 SPEED_MISMATCH_FRACTION = 0.01
+OPERATING_POINTS = ("auto", "follow", "nominal")
+FLAG_COLUMNS = ("starved1", "starved2", "n_channels", "converged", "measurement_ok")
+DECIMALS, UNITLESS_DECIMALS = 6, 9
+"""estimates.csv decimals: 6 (1e-6 ml/min, 1 pm, 1 us), 9 for dimensionless nuisances (unbalance, viscosity
+factors); flags and counts are integers."""
 
 _MODELS: dict[tuple, object] = {}
 
@@ -81,17 +90,36 @@ class EstimateOptions:
     chunk_rows: int = 8192
     views: bool = True
     live: bool = False
+    operating_point: str = "auto"
+    """``follow``: the estimator's operating model follows the record's speed and oil temperature (the
+    estimator FMU's ``bearing_table = 1``); ``nominal``: the model at the machine's nominal speed and
+    viscosity (``bearing_table = 0``); ``auto``: follow when the record has a speed (a ``speed_hz`` column or
+    a keyphasor) or an oil-temperature column and the machine has an ``[oil]``."""
 
 
-def estimator_model(machine_file: str | None, dt_s: float = ESTIMATOR_DT_S):
-    """The estimator's model of a machine file, built once per process (a Dask worker keeps it)."""
+def estimator_model(machine_file: str | None, dt_s: float = ESTIMATOR_DT_S, follow: bool = False):
+    """The estimator's model of a machine file: the reduced system at the nominal point (the estimator FMU's
+    ``bearing_table = 0``), built once per process (a Dask worker keeps it), or, with ``follow``, its
+    operating model on the dimensionless tables (``bearing_table = 1``), built afresh on every call: its
+    correction centre is state the filter's reset does not clear (as in the FMU, which builds one per
+    instance), so a cached one would make a record's estimates depend on what ran before it."""
     from models.system.augmented import GridAugmentedModel
-    from models.system.factory import load_system
 
+    if follow:
+        from models.system.operating_model import build_operating_model
+
+        return build_operating_model(_reduced_system(machine_file), load_machine(machine_file), dt_s)
     key = (machine_file, dt_s)
     if key not in _MODELS:
-        _MODELS[key] = GridAugmentedModel(load_system(machine_file, reduced=True), dt_s)
+        _MODELS[key] = GridAugmentedModel(_reduced_system(machine_file), dt_s)
     return _MODELS[key]
+
+
+@functools.lru_cache(maxsize=4)
+def _reduced_system(machine_file: str | None):
+    from models.system.factory import load_system
+
+    return load_system(machine_file, reduced=True)
 
 
 def estimator_config(
@@ -191,12 +219,17 @@ class EstimateRun:
         total_callback: Callable[[int | None, str], None] | None = None,
         live_stream: TextIO | None = None,
     ) -> None:
+        if options.operating_point not in OPERATING_POINTS:
+            raise InputError(
+                f"--operating-point must be one of {', '.join(OPERATING_POINTS)}, got "
+                f"{options.operating_point!r}"
+            )
         self.source = source
         self.out = Path(out_dir)
         self.options = options
         self.machine: Machine = load_machine(options.machine_file)
         self.setup = probe_setup(self.machine.raw.get("probes"), options.probe_overrides)
-        self.speed_hz = self.machine.nominal_speed_hz  # the estimator's model runs at the nominal speed
+        self.speed_hz = self.machine.nominal_speed_hz  # the model's reference speed
         self.probes = read_probes(self.machine)
         if options.offset_prior_std_um is not None:
             self.probes = dataclasses.replace(
@@ -219,12 +252,42 @@ class EstimateRun:
         )
         if total_callback is not None:
             total_callback(self.stream.reader.total, self.stream.reader.progress_unit)
-        self.model = estimator_model(options.machine_file)  # after the record's checks: errors come first
+        self.follow, self.operating_reason = self._operating_choice()
+        # after the record's checks: errors come first
+        self.model = estimator_model(options.machine_file, follow=self.follow)
         self.live_stream = live_stream
         self.filter: OilFlowEKF | None = None
         self.history = History(ESTIMATOR_DT_S, self.speed_hz, self.machine.bearing.clearance_m)
         self.latency_s: list[float] = []
         self.estimator_s = 0.0  # time in the estimator's steps (the rest: reading, conditioning, writing)
+
+    def _operating_choice(self) -> tuple[bool, str]:
+        """(follow the record's speed and oil temperature?, why), from ``operating_point`` (see
+        :class:`EstimateOptions`)."""
+        choice = self.options.operating_point
+        stream = self.stream
+        measured = [
+            name
+            for name, present in (
+                ("speed", stream.speed_source != "none"),
+                ("oil temperature", stream.has_temperature),
+            )
+            if present
+        ]
+        if choice == "nominal":
+            return False, "nominal (--operating-point nominal)"
+        if choice == "follow":
+            if self.machine.oil is None:
+                raise InputError(
+                    "--operating-point follow needs the machine's oil ([oil] in the machine file) to turn "
+                    "the oil temperature into a viscosity"
+                )
+            return True, "follows the record's " + (" and ".join(measured) or "(constant) operating point")
+        if not measured:
+            return False, "nominal (the record has no speed and no oil temperature)"
+        if self.machine.oil is None:
+            return False, "nominal (the machine file has no [oil]: the model cannot follow)"
+        return True, "follows the record's " + " and ".join(measured)
 
     def run(self) -> dict:
         """Process the record; write estimates.csv (and, unless ``views`` is off, the views and report)."""
@@ -232,11 +295,11 @@ class EstimateRun:
         started = None
         csv_path = self.out / "estimates.csv"
         with open(csv_path, "w", encoding="utf-8", newline="") as csv_file:
-            writer = _RowWriter(csv_file, self.live_stream, self.options.output_every)
+            writer = RowWriter(csv_file, self.live_stream, self.options.output_every)
             for block in self.stream.blocks():
                 first = self.filter is None
                 if first:
-                    self._start(int(block.k[0]), writer)
+                    self._start(block, writer)
                     started = time.perf_counter()
                 rows = self._estimate(block)
                 writer.write(rows)
@@ -262,36 +325,60 @@ class EstimateRun:
     def _write_summary(self, summary: dict) -> None:
         write_json_atomic(self.out / "summary.json", summary)
 
-    def _start(self, first_k: int, writer: _RowWriter) -> None:
+    def _operating(self, speed_hz: float, oil_temperature_c: float) -> tuple[float | None, float | None]:
+        """A sample's (speed, oil temperature) for the filter's step: None where not recorded (NaN: the
+        model keeps the last value) or not followed."""
+        if not self.follow:
+            return None, None
+        return (
+            speed_hz if speed_hz == speed_hz else None,
+            oil_temperature_c if oil_temperature_c == oil_temperature_c else None,
+        )
+
+    def _start(self, block, writer: RowWriter) -> None:
         """The filter, started one period before the first sample when it can, with a missing sample there:
         what the OilFlowEKF FMU does in a co-simulation started at the record's start time (the plant's
-        first output is its state after one step), so that both give the same estimates."""
+        first output is its state after one step; that missing step holds the first sample's operating
+        point, as the FMU holds its inputs over the step), so that both give the same estimates."""
+        first_k = int(block.k[0])
         lead = 1 if first_k >= 1 else 0
         config = estimator_config(
             self.speed_hz, self.setup.noise_um, (first_k - lead) * ESTIMATOR_DT_S, self.probes, self.baseline
         )
         self.filter = OilFlowEKF(self.model, config)
         missing = np.full(4, np.nan)
-        for sample in (np.zeros(4), np.zeros(4), missing):  # compile the kernels (as the FMU does)
-            self.filter.step(sample)
+        operating = self._operating(float(block.speed_hz[0]), float(block.oil_temperature_c[0]))
+        # compile the kernels, as the FMU does, at the first sample's operating point (the FMU's start
+        # inputs): that places the operating model's first correction centre where the FMU's is
+        warm = (self.speed_hz if operating[0] is None else operating[0], operating[1]) if self.follow else ()
+        for sample in (np.zeros(4), np.zeros(4), missing):
+            self.filter.step(sample, *warm)
         self.filter.reset()
         for _ in range(lead):
-            self.filter.step(missing)
+            self.filter.step(missing, *operating)
         self._first_k = first_k - lead
-        self._columns, self._extras = estimate_columns(self.filter.current_report())
-        writer.header(self._columns)
+        report = self.filter.current_report()
+        self._columns, self._extras = estimate_columns(report)
+        self._nuisances = _NuisanceColumns(self.filter)
+        writer.header(self._columns, column_decimals(self._columns, report))
 
     def _estimate(self, block) -> np.ndarray:
         ekf = self.filter
         expected = self._first_k + ekf.step_count
         if int(block.k[0]) != expected:
             raise InputError(f"internal: grid index {int(block.k[0])} after {expected - 1}")  # bridged, never
-        step, snapshot = ekf.step, nuisance_snapshot
+        step, snapshot = ekf.step, self._nuisances.snapshot
         reports, nuisances = [], []
         started = time.perf_counter()
-        for position in block.position_m:  # only the steps here: the rows are built per block below
-            reports.append(step(position))
-            nuisances.append(snapshot(ekf))
+        if self.follow:
+            operating = map(self._operating, block.speed_hz.tolist(), block.oil_temperature_c.tolist())
+            for position, (speed, temperature) in zip(block.position_m, operating, strict=True):
+                reports.append(step(position, speed, temperature))
+                nuisances.append(snapshot())
+        else:
+            for position in block.position_m:  # only the steps here: the rows are built per block below
+                reports.append(step(position))
+                nuisances.append(snapshot())
         self.estimator_s += time.perf_counter() - started
         scale = 1.0 / ML_MIN
         columns = [
@@ -304,7 +391,7 @@ class EstimateRun:
             values = np.array([getattr(r, name) for r in reports], dtype=np.float64)
             values = values.reshape(len(reports), size)
             columns.append(values * factor)
-        columns.append(nuisance_table(nuisances))
+        columns.append(self._nuisances.table(nuisances))
         table = np.column_stack(columns)
         rows = np.empty((table.shape[0], len(self._columns)))
         rows[:, 0] = block.time_s
@@ -316,39 +403,47 @@ class EstimateRun:
         return rows
 
 
-class _RowWriter:
-    """estimates.csv (and the live stream), flushed after every block."""
+class _NuisanceColumns:
+    """The nuisance columns of estimates.csv (:func:`estimator.config.nuisance_names` order): the nuisances
+    the filter estimates are read after every step, the known ones (zero std at the start: a zero prior)
+    written as their constant values, so that a step costs only what changes."""
 
-    def __init__(self, file: TextIO, live: TextIO | None, every: int) -> None:
-        self.file, self.live, self.every = file, live, every
-        self._count = 0
-        self._format = ""
+    def __init__(self, ekf: OilFlowEKF) -> None:
+        self.ekf = ekf
+        self.template = np.array(nuisance_values(ekf))
+        self.varying: list[tuple[str, list[int], float]] = []  # property, its columns, unit factor
+        column = 0
+        for row in NUISANCE_OUTPUTS:
+            count = len(row.labels)
+            if np.any(np.asarray(getattr(ekf, row.std)) > 0.0):
+                estimates = [column + 2 * i for i in range(count)]
+                self.varying.append((row.estimate, estimates, row.scale))
+                self.varying.append((row.std, [c + 1 for c in estimates], row.scale))
+            column += 2 * count
+        self._names = tuple(name for name, _, _ in self.varying)
 
-    def header(self, columns: list[str]) -> None:
-        flags = {"starved1", "starved2", "n_channels", "converged", "measurement_ok"}
-        self._format = ",".join("%d" if name in flags else "%.9g" for name in columns) + "\n"
-        self._format = self._format.replace("%.9g", "%.6f", 1)  # time_s
-        line = ",".join(columns) + "\n"
-        for target in (self.file, self.live):
-            if target is not None:
-                target.write(line)
-                target.flush()
+    def snapshot(self) -> tuple:
+        ekf = self.ekf
+        return tuple(getattr(ekf, name) for name in self._names)
 
-    def write(self, rows: np.ndarray) -> None:
-        every = self.every
-        start = (-self._count) % every
-        self._count += rows.shape[0]
-        picked = rows[start::every]
-        if picked.shape[0] == 0:
-            return
-        fmt = self._format
-        text = "".join(fmt % tuple(row) for row in picked.tolist())
-        text = text.replace("nan", "")  # a missing value is an empty cell, as in the record format
-        self.file.write(text)
-        self.file.flush()
-        if self.live is not None:
-            self.live.write(text)
-            self.live.flush()
+    def table(self, snapshots: list[tuple]) -> np.ndarray:
+        out = np.tile(self.template, (len(snapshots), 1))
+        for j, (_, columns, scale) in enumerate(self.varying):
+            out[:, columns] = np.array([s[j] for s in snapshots], dtype=np.float64) * scale
+        return out
+
+
+def column_decimals(columns: list[str], report: StepReport) -> np.ndarray:
+    """Decimals of each estimates.csv column (:data:`DECIMALS`): 0 for flags, counts and status codes."""
+    integers = set(FLAG_COLUMNS)
+    for item in dataclasses.fields(report):
+        value = np.asarray(getattr(report, item.name))
+        if value.dtype.kind in "biu" and item.name not in BASE_FIELDS:
+            integers.update(_field_columns(item.name, value)[0])
+    unitless = {name for name, unit, _, _ in nuisance_names() if unit == "1"}
+    return np.array(
+        [0 if n in integers else UNITLESS_DECIMALS if n in unitless else DECIMALS for n in columns]
+    )
 
 
 def final_window(duration_s: float) -> float:
@@ -368,7 +463,13 @@ def summarize(run: EstimateRun, wall_s: float, csv_path: Path) -> dict:
         "record": run.stream.provenance(),
         "machine_file": str(run.machine.source_path),
         "estimator": {
-            "model": f"reduced rotor-bearing system of {run.machine.name!r} at {run.speed_hz:g} Hz",
+            "model": f"reduced rotor-bearing system of {run.machine.name!r}"
+            + (
+                " on the dimensionless bearing tables, following speed and oil temperature"
+                if run.follow
+                else f" at {run.speed_hz:g} Hz and the nominal viscosity"
+            ),
+            "operating_point": run.operating_reason,
             "dt_s": ESTIMATOR_DT_S,
             "noise_um": run.setup.noise_um,
             "first_sample_time_s": run.filter.config.first_sample_time_s,
@@ -411,11 +512,11 @@ def summarize(run: EstimateRun, wall_s: float, csv_path: Path) -> dict:
             else "healthy"
         ) + ("" if q is None else f": {q:.1f} ml/min, {100.0 * q / nominal:.1f} % of nominal")
     mismatch = summary["speed"].get("max_deviation_fraction")
-    if mismatch is not None and mismatch > SPEED_MISMATCH_FRACTION:
+    if not run.follow and mismatch is not None and mismatch > SPEED_MISMATCH_FRACTION:
         print(
             f"oilwatch estimate: warning: the recorded speed differs from the estimator's model "
-            f"({run.speed_hz:g} Hz) by up to {100 * mismatch:.1f} %: the estimator does not follow the "
-            "speed yet",
+            f"({run.speed_hz:g} Hz) by up to {100 * mismatch:.1f} % and the model does not follow it: "
+            f"{run.operating_reason}",
             file=sys.stderr,
         )
     return summary
