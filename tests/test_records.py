@@ -260,7 +260,7 @@ def test_further_fields_of_the_estimator_s_step_report_become_estimate_columns_i
 
     from estimator.config import nuisance_names
     from estimator.ekf import StepReport
-    from oilwatch.monitoring.estimate import estimate_columns
+    from oilwatch.monitoring.columns import estimate_columns
 
     @dataclass(slots=True)
     class FurtherReport(StepReport):  # a field a later estimator may report, and a nuisance the filter gives

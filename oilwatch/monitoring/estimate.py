@@ -17,18 +17,18 @@ Outputs, in ``out_dir``:
 
 * ``estimates.csv``: one row per estimator sample (or every ``output_every``-th), written and flushed block
   by block (line by line from standard input), so that nothing is lost when a run stops; columns from
-  :func:`estimate_columns`: time, both flowrate estimates and stds, alarms, NIS, convergence, the
-  conditioned shaft positions, speed, oil temperature, and every further field the estimator's step report
-  carries (nuisance estimates, probe health, model consistency: named after the field, SI suffixes ``_m``
-  and ``_m3_s`` converted to ``_um`` and ``_ml_min``);
-* ``summary.json`` (:func:`summarize`), the views (:mod:`oilwatch.monitoring.views`) and ``report.html``.
+  :func:`oilwatch.monitoring.columns.estimate_columns`: time, both flowrate estimates and stds, alarms,
+  NIS, convergence, the conditioned shaft positions, speed, oil temperature, and every further field the
+  estimator's step report carries (nuisance estimates, probe health, model consistency: named after the
+  field, SI suffixes ``_m`` and ``_m3_s`` converted to ``_um`` and ``_ml_min``);
+* ``summary.json`` (:func:`oilwatch.monitoring.summary.summarize`), the views
+  (:mod:`oilwatch.monitoring.views`) and ``report.html``.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import functools
-import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -38,13 +38,10 @@ import numpy as np
 
 from estimator.config import (
     ML_MIN,
-    NUISANCE_OUTPUTS,
     EKFConfig,
     OffsetBaseline,
-    nuisance_names,
-    nuisance_values,
 )
-from estimator.ekf import OilFlowEKF, StepReport
+from estimator.ekf import OilFlowEKF
 from models.machine import Machine, load_machine
 from models.probes import Probes, read_probes
 from models.validation import InputError
@@ -52,29 +49,13 @@ from oilwatch.records import RecordStream, probe_setup
 from oilwatch.records.readers import STDIN
 from oilwatch.study.storage import write_json_atomic
 
+from .columns import NuisanceColumns, column_decimals, estimate_columns
 from .csv_rows import RowWriter
 from .history import History
 
 ESTIMATOR_DT_S = 1e-3
 """The estimator's sampling period (its discrete model's step, as the FMU's default)."""
-BASE_FIELDS = (
-    "step",
-    "q_m3_s",
-    "q_std_m3_s",
-    "nis",
-    "n_measurements",
-    "converged",
-    "measurement_ok",
-    "starved",
-)
-"""StepReport fields every estimator has; any further field becomes extra columns."""
-SPEED_MISMATCH_FRACTION = 0.01
 OPERATING_POINTS = ("auto", "follow", "nominal")
-FLAG_COLUMNS = ("starved1", "starved2", "n_channels", "converged", "measurement_ok")
-DECIMALS, UNITLESS_DECIMALS = 6, 9
-"""estimates.csv decimals: 6 (1e-6 ml/min, 1 pm, 1 us), 9 for dimensionless nuisances (unbalance, viscosity
-factors); flags and counts are integers."""
-
 _MODELS: dict[tuple, object] = {}
 
 
@@ -148,65 +129,6 @@ def estimator_config(
     )
 
 
-def _field_columns(name: str, value) -> tuple[list[str], float]:
-    """Column names of an extra report field and the factor from its SI unit to the field unit."""
-    base, scale = name, 1.0
-    for suffix, unit, factor in (("_m3_s", "_ml_min", 1.0 / ML_MIN), ("_m", "_um", 1e6)):
-        if name.endswith(suffix):
-            base, scale = name[: -len(suffix)] + unit, factor
-            break
-    size = np.size(value)
-    if size == 1:
-        return [base], scale
-    head, unit = [*base.rsplit("_", 1), ""][:2] if scale != 1.0 else (base, "")
-    tail = f"_{unit}" if unit else ""
-    names = [f"{head}_{label}{tail}" for label in _labels(size)]
-    return names, scale
-
-
-def _labels(size: int) -> list[str]:
-    if size == 4:
-        return ["x1", "y1", "x2", "y2"]
-    if size == 2:
-        return ["b1", "b2"]
-    return [str(i + 1) for i in range(size)]
-
-
-def estimate_columns(report: StepReport) -> tuple[list[str], list[tuple[str, float, int]]]:
-    """The estimates.csv header for an estimator whose step report looks like ``report``, and the extra
-    fields to copy (name, unit factor, size)."""
-    columns = [
-        "time_s",
-        "q1_est_ml_min",
-        "q2_est_ml_min",
-        "q1_std_ml_min",
-        "q2_std_ml_min",
-        "starved1",
-        "starved2",
-        "nis",
-        "n_channels",
-        "converged",
-        "measurement_ok",
-        "x1_um",
-        "y1_um",
-        "x2_um",
-        "y2_um",
-        "speed_hz",
-        "oil_temperature_c",
-    ]
-    extras = []
-    covered = {name for row in NUISANCE_OUTPUTS for name in (row.estimate, row.std)}
-    for item in dataclasses.fields(report):
-        if item.name in BASE_FIELDS or item.name in covered:  # nuisances: the columns of nuisance_names()
-            continue
-        value = getattr(report, item.name)
-        names, scale = _field_columns(item.name, value)
-        columns += names
-        extras.append((item.name, scale, len(names)))
-    columns += [row[0] for row in nuisance_names()]
-    return columns, extras
-
-
 class EstimateRun:
     """One record through the estimator (module docstring); :meth:`run` returns the summary."""
 
@@ -260,6 +182,9 @@ class EstimateRun:
         self.history = History(ESTIMATOR_DT_S, self.speed_hz, self.machine.bearing.clearance_m)
         self.latency_s: list[float] = []
         self.estimator_s = 0.0  # time in the estimator's steps (the rest: reading, conditioning, writing)
+        self.stages_s = dict.fromkeys(("read_condition", "rows", "write", "history"), 0.0)
+        """Where the rest of the time goes, after the first block: reading and conditioning the record,
+        building the rows from the step reports, formatting and writing them, the views' history."""
 
     def _operating_choice(self) -> tuple[bool, str]:
         """(follow the record's speed and oil temperature?, why), from ``operating_point`` (see
@@ -296,19 +221,36 @@ class EstimateRun:
         csv_path = self.out / "estimates.csv"
         with open(csv_path, "w", encoding="utf-8", newline="") as csv_file:
             writer = RowWriter(csv_file, self.live_stream, self.options.output_every)
-            for block in self.stream.blocks():
+            clock, spent = time.perf_counter, self.stages_s
+            blocks = self.stream.blocks()
+            while True:
+                t0 = clock()
+                block = next(blocks, None)
+                t1 = clock()
+                if block is None:
+                    break
                 first = self.filter is None
                 if first:
                     self._start(block, writer)
-                    started = time.perf_counter()
+                    started = t1 = clock()
+                else:
+                    spent["read_condition"] += t1 - t0
+                steps = self.estimator_s
                 rows = self._estimate(block)
+                t2 = clock()
+                spent["rows"] += t2 - t1 - (self.estimator_s - steps)
                 writer.write(rows)
+                t3 = clock()
+                spent["write"] += t3 - t2
                 if self.options.live and not first:  # from the arrival of the line to its estimate written
-                    self.latency_s.append(time.perf_counter() - self.stream.reader.received_s)
+                    self.latency_s.append(t3 - self.stream.reader.received_s)
                 self.history.add(block, rows, self._columns)
+                spent["history"] += clock() - t3
         if self.filter is None:
             raise InputError(f"{self.stream.reader.name}: no sample to estimate from (record too short)")
         wall = time.perf_counter() - started
+        from .summary import summarize
+
         summary = summarize(self, wall, csv_path)
         self._write_summary(summary)
         if self.options.views:
@@ -359,7 +301,7 @@ class EstimateRun:
         self._first_k = first_k - lead
         report = self.filter.current_report()
         self._columns, self._extras = estimate_columns(report)
-        self._nuisances = _NuisanceColumns(self.filter)
+        self._nuisances = NuisanceColumns(self.filter)
         writer.header(self._columns, column_decimals(self._columns, report))
 
     def _estimate(self, block) -> np.ndarray:
@@ -401,141 +343,3 @@ class EstimateRun:
         rows[:, 16] = block.oil_temperature_c
         rows[:, 17:] = table[:, 10:]
         return rows
-
-
-class _NuisanceColumns:
-    """The nuisance columns of estimates.csv (:func:`estimator.config.nuisance_names` order): the nuisances
-    the filter estimates are read after every step, the known ones (zero std at the start: a zero prior)
-    written as their constant values, so that a step costs only what changes."""
-
-    def __init__(self, ekf: OilFlowEKF) -> None:
-        self.ekf = ekf
-        self.template = np.array(nuisance_values(ekf))
-        self.varying: list[tuple[str, list[int], float]] = []  # property, its columns, unit factor
-        column = 0
-        for row in NUISANCE_OUTPUTS:
-            count = len(row.labels)
-            if np.any(np.asarray(getattr(ekf, row.std)) > 0.0):
-                estimates = [column + 2 * i for i in range(count)]
-                self.varying.append((row.estimate, estimates, row.scale))
-                self.varying.append((row.std, [c + 1 for c in estimates], row.scale))
-            column += 2 * count
-        self._names = tuple(name for name, _, _ in self.varying)
-
-    def snapshot(self) -> tuple:
-        ekf = self.ekf
-        return tuple(getattr(ekf, name) for name in self._names)
-
-    def table(self, snapshots: list[tuple]) -> np.ndarray:
-        out = np.tile(self.template, (len(snapshots), 1))
-        for j, (_, columns, scale) in enumerate(self.varying):
-            out[:, columns] = np.array([s[j] for s in snapshots], dtype=np.float64) * scale
-        return out
-
-
-def column_decimals(columns: list[str], report: StepReport) -> np.ndarray:
-    """Decimals of each estimates.csv column (:data:`DECIMALS`): 0 for flags, counts and status codes."""
-    integers = set(FLAG_COLUMNS)
-    for item in dataclasses.fields(report):
-        value = np.asarray(getattr(report, item.name))
-        if value.dtype.kind in "biu" and item.name not in BASE_FIELDS:
-            integers.update(_field_columns(item.name, value)[0])
-    unitless = {name for name, unit, _, _ in nuisance_names() if unit == "1"}
-    return np.array(
-        [0 if n in integers else UNITLESS_DECIMALS if n in unitless else DECIMALS for n in columns]
-    )
-
-
-def final_window(duration_s: float) -> float:
-    """The summary's final window: the last 10 % of the record, at most 30 s."""
-    return min(0.1 * duration_s, 30.0)
-
-
-def summarize(run: EstimateRun, wall_s: float, csv_path: Path) -> dict:
-    """summary.json: final estimates, alarms, record provenance, speed and timing."""
-    history = run.history
-    history.flush()
-    nominal = run.filter.config.q_nominal_m3_s / ML_MIN
-    duration = history.duration_s
-    window = final_window(duration)
-    final = history.final_means(window)
-    summary = {
-        "record": run.stream.provenance(),
-        "machine_file": str(run.machine.source_path),
-        "estimator": {
-            "model": f"reduced rotor-bearing system of {run.machine.name!r}"
-            + (
-                " on the dimensionless bearing tables, following speed and oil temperature"
-                if run.follow
-                else f" at {run.speed_hz:g} Hz and the nominal viscosity"
-            ),
-            "operating_point": run.operating_reason,
-            "dt_s": ESTIMATOR_DT_S,
-            "noise_um": run.setup.noise_um,
-            "first_sample_time_s": run.filter.config.first_sample_time_s,
-            "configuration": "EKFConfig.recommended: the OilFlowEKF FMU's defaults, with the machine "
-            "file's probe offsets prior (FMU: offset_prior_std_um) or the baseline (FMU: baseline_file)",
-            "offset_prior_std_um": round(run.filter.config.offset_prior_std_m * 1e6, 9),
-            "baseline_file": run.options.baseline_file,
-        },
-        "q_nominal_ml_min": nominal,
-        "samples": history.samples,
-        "duration_s": duration,
-        "final_window_s": window,
-        **final,
-        "alarms": history.alarms,
-        "verdict": {},
-        "speed": history.speed_summary(run.speed_hz),
-        "wall_s": round(wall_s, 3),
-        "estimator_s": round(run.estimator_s, 3),
-        "realtime_factor": round(duration / wall_s, 2) if wall_s > 0 else None,
-        "estimates_csv": str(csv_path),
-    }
-    summary["probes"] = _probe_summary(run)
-    if run.latency_s:
-        latency = np.asarray(run.latency_s)
-        summary["live_latency_ms"] = {
-            "median": round(float(np.median(latency)) * 1e3, 4),
-            "p99": round(float(np.quantile(latency, 0.99)) * 1e3, 4),
-            "max": round(float(latency.max()) * 1e3, 4),
-            "blocks": int(latency.size),
-        }
-    for b in (1, 2):
-        q = summary[f"q{b}_final_ml_min"]
-        alarmed = any(a["bearing"] == b for a in history.alarms)
-        starved_now = bool(history.last_starved[b - 1])
-        summary["verdict"][f"bearing{b}"] = (
-            "STARVED (alarm at the end)"
-            if starved_now
-            else "alarm raised during the record, cleared"
-            if alarmed
-            else "healthy"
-        ) + ("" if q is None else f": {q:.1f} ml/min, {100.0 * q / nominal:.1f} % of nominal")
-    mismatch = summary["speed"].get("max_deviation_fraction")
-    if not run.follow and mismatch is not None and mismatch > SPEED_MISMATCH_FRACTION:
-        print(
-            f"oilwatch estimate: warning: the recorded speed differs from the estimator's model "
-            f"({run.speed_hz:g} Hz) by up to {100 * mismatch:.1f} % and the model does not follow it: "
-            f"{run.operating_reason}",
-            file=sys.stderr,
-        )
-    return summary
-
-
-def _probe_summary(run: EstimateRun) -> dict:
-    """Per probe at the end of the record: the estimator's offset estimate and std [um] (model frame), its
-    status, and the time it was flagged faulty."""
-    from estimator.channels import STATUS_NAMES
-
-    values = dict(zip((row[0] for row in nuisance_names()), nuisance_values(run.filter), strict=True))
-    history = run.history
-    out = {}
-    for i, name in enumerate(("x1", "y1", "x2", "y2")):
-        status = None if history.last_status is None else int(history.last_status[i])
-        out[name] = {
-            "offset_um": values[f"offset_{name}_um"],
-            "offset_std_um": values[f"offset_{name}_std_um"],
-            "status_final": None if status is None else STATUS_NAMES[status],
-            "flagged_s": round(float(history.flagged_samples[i]) * history.dt, 6),
-        }
-    return out

@@ -14,7 +14,7 @@ SLOW_BIN_S = 0.5
 ORBIT_S = 1.0
 FINAL_RING_S = 30.0
 BATCH_ROWS = 1024
-# estimates.csv column positions (oilwatch.monitoring.estimate.estimate_columns)
+# estimates.csv column positions (oilwatch.monitoring.columns.estimate_columns)
 TIME, Q, STD, STARVED, NIS, CONVERGED, OK, POSITION, SPEED, TEMPERATURE = (
     0, slice(1, 3), slice(3, 5), slice(5, 7), 7, 9, 10, slice(11, 15), 15, 16
 )  # fmt: skip
