@@ -61,7 +61,23 @@ from models.validation import InputError
 from . import channels
 from .alarm import StarvationAlarm
 from .config import EKFConfig
-from .kernels import UPDATE_ACCEPTED, filter_step
+from .kernels import (
+    N_SUMMARY_SETTINGS,
+    SUMMARY_CONSISTENCY_Z,
+    SUMMARY_CONVERGED_DRIFT,
+    SUMMARY_CONVERGED_STD,
+    SUMMARY_FLOWRATE,
+    SUMMARY_Q_HIGH,
+    SUMMARY_Q_LOW,
+    SUMMARY_Q_NOMINAL,
+    SUMMARY_SIZE,
+    SUMMARY_STD,
+    SUMMARY_VISCOSITY,
+    SUMMARY_VISCOSITY_STD,
+    UPDATE_ACCEPTED,
+    filter_step,
+    step_summary,
+)
 from .measurement import displacement_channels, velocity_channels
 from .model import AugmentedModel, has_static_state
 from .runout import RunoutCompensation
@@ -212,7 +228,13 @@ class OilFlowEKF:
             ]
         )
         self._consistency_steps = max(1, round(cfg.consistency_window_s / self._dt))
-        self._consistency_z = float(ndtri(1.0 - cfg.consistency_tail_probability))
+        self._summary_settings = np.zeros(N_SUMMARY_SETTINGS)
+        self._summary_settings[SUMMARY_Q_NOMINAL] = self._q_nominal
+        self._summary_settings[SUMMARY_Q_LOW], self._summary_settings[SUMMARY_Q_HIGH] = self._bounds
+        self._summary_settings[SUMMARY_CONSISTENCY_Z] = float(ndtri(1.0 - cfg.consistency_tail_probability))
+        self._summary_settings[SUMMARY_CONVERGED_STD] = cfg.converged_std_fraction
+        self._summary_settings[SUMMARY_CONVERGED_DRIFT] = cfg.converged_drift_fraction
+        self._summary = np.zeros(SUMMARY_SIZE)
 
         self._process_noise = np.zeros((self._size, self._size))
         self._process_noise[:n, :n] = self._physical(
@@ -306,17 +328,29 @@ class OilFlowEKF:
         self._P = np.zeros((self._size, self._size))
         self._P[:n, :n] = self._physical(cfg.initial_displacement_std_m, cfg.initial_velocity_std_m_s)
         self._P[n : n + 2, n : n + 2] = (cfg.initial_flowrate_std_m3_s / self._q_nominal) ** 2 * np.eye(2)
-        if cfg.offset_baseline is not None:
-            self._x[self._offsets] = cfg.offset_baseline.offsets_m
-            self._P[self._offsets, self._offsets] = np.diag(np.square(cfg.offset_baseline.std_m))
+        baseline = cfg.offset_baseline
+        if baseline is not None:
+            self._x[self._offsets] = baseline.offsets_m
+            self._P[self._offsets, self._offsets] = np.diag(np.square(baseline.offset_prior_std_m()))
         elif self._n_offsets:
             self._P[self._offsets, self._offsets] = cfg.offset_prior_std_m**2 * np.eye(self._n_offsets)
-        if self._n_unbalance:
-            self._x[self._unbalance] = (1.0, 0.0)
-            self._P[self._unbalance, self._unbalance] = cfg.unbalance_prior_std**2 * np.eye(2)
-        if self._n_viscosity:
-            self._x[self._viscosity] = 1.0
-            self._P[self._viscosity, self._viscosity] = cfg.viscosity_factor_prior_std**2 * np.eye(2)
+        # the nuisances a commissioning baseline estimated are its prior; the configured one otherwise
+        viscosity_std = cfg.viscosity_factor_prior_std
+        for count, part, name, mean, std in (
+            (self._n_unbalance, self._unbalance, "unbalance", (1.0, 0.0), cfg.unbalance_prior_std),
+            (self._n_viscosity, self._viscosity, "viscosity_factor", (1.0, 1.0), viscosity_std),
+        ):
+            if not count:
+                continue
+            known = None if baseline is None else getattr(baseline, name)
+            self._x[part] = mean if known is None else known
+            variance = std**2 * np.ones(2) if known is None else np.square(getattr(baseline, f"{name}_std"))
+            self._P[part, part] = np.diag(variance)
+        joint = None
+        if baseline is not None:
+            joint = baseline.prior_covariance(self._n_viscosity > 0, self._n_unbalance > 0)
+        if joint is not None:  # the baseline's correlations (offsets, factors, unbalance: contiguous states)
+            self._P[n + 2 :, n + 2 :] = joint
         if callable(getattr(self.model, "reset_operating_state", None)):
             self.model.reset_operating_state()
         self._health, self._health_values = channels.new_health()
@@ -330,6 +364,7 @@ class OilFlowEKF:
         self._process_noise[n : n + 2, n : n + 2] = self._q_var * np.eye(2)
         self._last = (0.0, 0, False, False, True)
         self.alarm = StarvationAlarm(cfg.alarm, self._dt, self._q_nominal)
+        self._refresh_summary()
 
     @property
     def flowrate_m3_s(self) -> np.ndarray:
@@ -435,38 +470,19 @@ class OilFlowEKF:
         displacement = np.ascontiguousarray(displacement_m, dtype=np.float64)
         if displacement.shape != (4,):
             raise InputError(f"displacement_m must have shape (4,), got {displacement.shape}")
-        displacement = self._runout.compensate(displacement, self._step)
         if speed_hz is not None or oil_temperature_c is not None or rotor_angle_rad is not None:
             self._set_operating_point(speed_hz, oil_temperature_c, rotor_angle_rad)
-        n = self._n
-        predict = self._step > 0
-        trailing = self._trailing_jacobian
-        if predict and self._n_trailing and self._n_viscosity:
-            factors = np.maximum(self._x[self._viscosity], MIN_VISCOSITY_FACTOR)
-            unbalance = self._x[self._unbalance] if self._n_unbalance else None
-            next_state, state_jac, flow_jac, viscosity_jac, unbalance_jac = self.model.transition_full(
-                self._x[:n],
-                np.array(self._flowrate_si()),
-                self._first_step + self._step - 1,
-                factors,
-                unbalance,
-            )
-            trailing[:, :2] = viscosity_jac
-            if self._n_unbalance:
-                trailing[:, 2:] = unbalance_jac
-        elif predict and self._n_unbalance:
-            next_state, state_jac, flow_jac, unbalance_jac = self.model.transition_with_unbalance(
-                self._x[:n],
-                np.array(self._flowrate_si()),
-                self._first_step + self._step - 1,
-                self._x[self._unbalance],
-            )
-            trailing[:, :] = unbalance_jac
-        elif predict:
-            next_state, state_jac, flow_jac = self.model.transition(
-                self._x[:n], np.array(self._flowrate_si()), self._first_step + self._step - 1
-            )
+        # the runout at this sample's rotor angle: the model's (integral of the measured speed, anchored at
+        # the keyphasor) when it follows the operating point, else the nominal speed's
+        angle_of = getattr(self.model, "rotor_angle_rad", None)
+        angle = angle_of(self._first_step + self._step) if callable(angle_of) else None
+        displacement = self._runout.compensate(displacement, self._step, angle)
+        step = self._step
+        predict = step > 0
+        if predict:
+            next_state, state_jac, flow_jac = self._predict_with_model(self._first_step + step - 1)
         else:
+            n = self._n
             next_state, state_jac, flow_jac = self._x[:n], self._work[:n, :n], self._work[:n, :2]
         status, nis, rows, _ = filter_step(
             self._x,
@@ -476,7 +492,7 @@ class OilFlowEKF:
             np.ascontiguousarray(state_jac, dtype=np.float64),
             np.ascontiguousarray(flow_jac, dtype=np.float64),
             self._q_nominal,
-            trailing,
+            self._trailing_jacobian,
             self._process_noise,
             self._jacobian,
             self._work,
@@ -497,19 +513,34 @@ class OilFlowEKF:
         if not (ok and math.isfinite(nis)):
             nis, rows = 0.0, 0
         self._since_update = 0 if ok else self._since_update + 1
-        consistent = self._consistency(nis, rows)
+        summary = self._summary
+        consistent, converged = step_summary(
+            self._x,
+            self._P,
+            self._n,
+            self._viscosity.start if self._n_viscosity else -1,
+            step,
+            self._since_update,
+            nis,
+            rows,
+            self._nis_window,
+            self._nis_sums,
+            self._history,
+            self._summary_settings,
+            summary,
+        )
         if self._n_unbalance:
             variance = self._unbalance_walk + (0.0 if consistent else self._unbalance_extra)
             first = self._unbalance.start
             self._process_noise[first, first] = self._process_noise[first + 1, first + 1] = variance
-        deviation = (math.sqrt(self._P[n, n]), math.sqrt(self._P[n + 1, n + 1]))
-        converged = self._converged((float(self._x[n]), float(self._x[n + 1])), deviation)
-        q = np.array(self._flowrate_si())
-        std = np.array(deviation) * self._q_nominal
+        values = summary.copy()  # the report's arrays are views of this copy, independent of the filter
+        q = values[SUMMARY_FLOWRATE : SUMMARY_FLOWRATE + 2]
+        std = values[SUMMARY_STD : SUMMARY_STD + 2]
         starved = self.alarm.update(q, std, consistent)
         self._last = (nis, rows, ok, converged, consistent)
-        report = StepReport(
-            self._step,
+        self._step = step + 1
+        return StepReport(
+            step,
             q,
             std,
             nis,
@@ -521,11 +552,40 @@ class OilFlowEKF:
             consistent,
             self._changing.copy(),
             self.alarm.starved_consistent,
-            self.viscosity_factor,
-            self.viscosity_factor_std,
+            values[SUMMARY_VISCOSITY : SUMMARY_VISCOSITY + 2],
+            values[SUMMARY_VISCOSITY_STD : SUMMARY_VISCOSITY_STD + 2],
         )
-        self._step += 1
-        return report
+
+    def _predict_with_model(self, model_step: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The model's transition from the current estimate to the next sample: ``(s_next, df/ds, df/dq)``,
+        with the nuisance columns of the Jacobian (viscosity factors, unbalance) put into place."""
+        n = self._n
+        flowrate = self._summary[SUMMARY_FLOWRATE : SUMMARY_FLOWRATE + 2]
+        trailing = self._trailing_jacobian
+        if self._n_viscosity:
+            factors = np.maximum(self._x[self._viscosity], MIN_VISCOSITY_FACTOR)
+            unbalance = self._x[self._unbalance] if self._n_unbalance else None
+            next_state, state_jac, flow_jac, viscosity_jac, unbalance_jac = self.model.transition_full(
+                self._x[:n], flowrate, model_step, factors, unbalance
+            )
+            trailing[:, :2] = viscosity_jac
+            if self._n_unbalance:
+                trailing[:, 2:] = unbalance_jac
+            return next_state, state_jac, flow_jac
+        if self._n_unbalance:
+            next_state, state_jac, flow_jac, unbalance_jac = self.model.transition_with_unbalance(
+                self._x[:n], flowrate, model_step, self._x[self._unbalance]
+            )
+            trailing[:, :] = unbalance_jac
+            return next_state, state_jac, flow_jac
+        return self.model.transition(self._x[:n], flowrate, model_step)
+
+    def _refresh_summary(self) -> None:
+        """The step summary from the state as it is (after a reset or a restored state): the flowrates the
+        next prediction starts from, and what :meth:`current_report` reads."""
+        n = self._n
+        self._summary[SUMMARY_FLOWRATE : SUMMARY_FLOWRATE + 2] = self._flowrate_si()
+        self._summary[SUMMARY_STD : SUMMARY_STD + 2] = np.sqrt(np.diag(self._P)[n : n + 2]) * self._q_nominal
 
     def _set_operating_point(
         self, speed_hz: float | None, oil_temperature_c: float | None, rotor_angle_rad: float | None
@@ -547,35 +607,6 @@ class OilFlowEKF:
             )
         if rotor_angle_rad is not None:
             raise InputError("rotor_angle_rad needs a model that follows the operating point")
-
-    def _consistency(self, nis: float, rows: int) -> bool:
-        """Windowed NIS test (module docstring) including this step."""
-        slot = self._step % self._consistency_steps
-        sums, window = self._nis_sums, self._nis_window
-        sums[0] += nis - window[slot, 0]
-        sums[1] += rows - window[slot, 1]
-        window[slot, 0], window[slot, 1] = nis, rows
-        dof = sums[1]
-        if self._step + 1 < self._consistency_steps or dof < 1.0:
-            return True
-        # Wilson-Hilferty: chi2 quantile ~ dof (1 - 2/(9 dof) + z sqrt(2/(9 dof)))^3
-        c = 2.0 / (9.0 * dof)
-        return bool(sums[0] <= dof * (1.0 - c + self._consistency_z * math.sqrt(c)) ** 3)
-
-    def _converged(self, scaled: tuple[float, float], deviation: tuple[float, float]) -> bool:
-        """Apply the convergence rule to q / q_nominal and its std; record q for the drift test."""
-        cfg = self.config
-        history = self._history
-        slot = self._step % self._window
-        drift = max(abs(scaled[0] - history[slot, 0]), abs(scaled[1] - history[slot, 1]))
-        history[slot, 0] = scaled[0]
-        history[slot, 1] = scaled[1]
-        return (
-            self._step >= self._window
-            and self._since_update < self._window
-            and max(deviation) < cfg.converged_std_fraction
-            and drift < cfg.converged_drift_fraction
-        )
 
     def run(
         self,

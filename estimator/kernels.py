@@ -369,3 +369,85 @@ def detect_change(
         fires = statistic / settings[3] > settings[4] and settings[1] < q < settings[2]
         changing[b] = fires
         process_noise[first + b, first + b] = settings[5] + (settings[6] if fires else 0.0)
+
+
+# the layout of the step summary (:func:`step_summary`)
+SUMMARY_FLOWRATE, SUMMARY_STD, SUMMARY_VISCOSITY, SUMMARY_VISCOSITY_STD = 0, 2, 4, 6
+SUMMARY_SIZE = 8
+# the settings array of :func:`step_summary`
+(
+    SUMMARY_Q_NOMINAL,
+    SUMMARY_Q_LOW,
+    SUMMARY_Q_HIGH,
+    SUMMARY_CONSISTENCY_Z,
+    SUMMARY_CONVERGED_STD,
+    SUMMARY_CONVERGED_DRIFT,
+) = range(6)
+N_SUMMARY_SETTINGS = 6
+
+
+@njit(cache=True)
+def step_summary(
+    state: np.ndarray,
+    covariance: np.ndarray,
+    first: int,
+    viscosity: int,
+    step: int,
+    since_update: int,
+    nis: float,
+    rows: int,
+    nis_window: np.ndarray,
+    nis_sums: np.ndarray,
+    history: np.ndarray,
+    settings: np.ndarray,
+    summary: np.ndarray,
+) -> tuple[bool, bool]:
+    """What the filter reports after the update of sample ``step``, in place: the windowed NIS test and the
+    convergence rule of :mod:`estimator.ekf`, and the SI estimates.
+
+    first : index of q1 / q_nominal in the state; viscosity : index of the first viscosity factor (-1: not
+    estimated). since_update : samples since the last accepted update, this one included. nis, rows : of
+    this sample (0 when it made no update). nis_window (C, 2), nis_sums (2,), history (W, 2) : the ring
+    buffers, advanced here. settings : the SUMMARY_* values. summary : (SUMMARY_SIZE,) out, the flowrates
+    clipped to the table [m^3/s], their stds, the viscosity factors and their stds (1 and 0 if not
+    estimated). Returns ``(model_consistent, converged)``.
+    """
+    slot = step % nis_window.shape[0]
+    nis_sums[0] += nis - nis_window[slot, 0]
+    nis_sums[1] += rows - nis_window[slot, 1]
+    nis_window[slot, 0] = nis
+    nis_window[slot, 1] = rows
+    dof = nis_sums[1]
+    consistent = True
+    if not (step + 1 < nis_window.shape[0] or dof < 1.0):
+        # Wilson-Hilferty: chi2 quantile ~ dof (1 - 2/(9 dof) + z sqrt(2/(9 dof)))^3
+        c = 2.0 / (9.0 * dof)
+        consistent = nis_sums[0] <= dof * (1.0 - c + settings[SUMMARY_CONSISTENCY_Z] * np.sqrt(c)) ** 3.0
+    scale = settings[SUMMARY_Q_NOMINAL]
+    low, high = settings[SUMMARY_Q_LOW], settings[SUMMARY_Q_HIGH]
+    window = history.shape[0]
+    slot = step % window
+    drift = 0.0
+    largest = 0.0
+    for b in range(2):
+        scaled = state[first + b]
+        deviation = np.sqrt(covariance[first + b, first + b])
+        drift = max(drift, abs(scaled - history[slot, b]))
+        history[slot, b] = scaled
+        largest = max(largest, deviation)
+        # clipped in SI as well: the round trip through the scaled unit may leave a bound by one ulp
+        summary[SUMMARY_FLOWRATE + b] = min(max(scaled * scale, low), high)
+        summary[SUMMARY_STD + b] = deviation * scale
+        if viscosity >= 0:
+            summary[SUMMARY_VISCOSITY + b] = state[viscosity + b]
+            summary[SUMMARY_VISCOSITY_STD + b] = np.sqrt(covariance[viscosity + b, viscosity + b])
+        else:
+            summary[SUMMARY_VISCOSITY + b] = 1.0
+            summary[SUMMARY_VISCOSITY_STD + b] = 0.0
+    converged = (
+        step >= window
+        and since_update < window
+        and largest < settings[SUMMARY_CONVERGED_STD]
+        and drift < settings[SUMMARY_CONVERGED_DRIFT]
+    )
+    return consistent, converged

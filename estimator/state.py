@@ -96,6 +96,7 @@ def import_state(ekf: OilFlowEKF, state: dict[str, np.ndarray]) -> None:
     nis, rows, ok, converged, consistent = _checked(state, "last", (5,))
     ekf._last = (float(nis), int(rows), bool(ok), bool(converged), bool(consistent))
     ekf.alarm.set_state(state)
+    ekf._refresh_summary()
     if "operating" in state:
         has_speed, speed, has_temperature, temperature = (
             float(v) for v in _checked(state, "operating", (4,))

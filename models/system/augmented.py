@@ -13,7 +13,9 @@ Flowrates are in m^3/s; ``step`` k gives ``t_k = k dt``.
 from __future__ import annotations
 
 from collections.abc import Callable
+from functools import cached_property
 
+import numba
 import numpy as np
 from scipy.linalg import expm_frechet, pinv
 
@@ -205,14 +207,29 @@ class GridAugmentedModel(_AugmentedModelBase):
         """
         w = self.exogenous(step)
         a, b = float(unbalance[0]), float(unbalance[1])
-        loaded = np.array([1.0, a * w[1] - b * w[2], a * w[2] + b * w[1]])
+        cosine, sine = float(w[1]), float(w[2])
+        loaded = np.array([1.0, a * cosine - b * sine, a * sine + b * cosine])
         nxt, ad, jq = self.propagate(state, loaded, flowrate_m3_s)
-        harmonic = self.harmonic_forcing(flowrate_m3_s)
-        self._unbalance_jacobian[:, 0] = harmonic @ w[1:]
-        self._unbalance_jacobian[:, 1] = harmonic @ np.array([-w[2], w[1]])
+        _rotated_columns(self.harmonic_forcing(flowrate_m3_s), cosine, sine, self._unbalance_jacobian)
         return nxt, ad, jq, self._unbalance_jacobian
 
     def _node(self, axis: int, q: float) -> int:
         """Index (ghost layer included) of the grid node nearest to q along one flowrate axis."""
-        nodes = self.grid.q1_nodes_m3_s if axis == 0 else self.grid.q2_nodes_m3_s
-        return 1 + min(max(round((float(q) - nodes[0]) / (nodes[1] - nodes[0])), 0), nodes.size - 1)
+        first, step, count = self._node_axes[axis]
+        return 1 + min(max(round((float(q) - first) / step), 0), count - 1)
+
+    @cached_property
+    def _node_axes(self) -> tuple[tuple[float, float, int], tuple[float, float, int]]:
+        """(first node, spacing, count) of each flowrate axis, as Python numbers."""
+        return tuple(
+            (float(nodes[0]), float(nodes[1] - nodes[0]), int(nodes.size))
+            for nodes in (self.grid.q1_nodes_m3_s, self.grid.q2_nodes_m3_s)
+        )
+
+
+@numba.njit(cache=True)
+def _rotated_columns(harmonic, cosine, sine, out):  # pragma: no cover - compiled
+    """``out[:, 0] = G_h [cos, sin]``, ``out[:, 1] = G_h [-sin, cos]`` for the harmonic columns G_h (n, 2)."""
+    for r in range(harmonic.shape[0]):
+        out[r, 0] = harmonic[r, 0] * cosine + harmonic[r, 1] * sine
+        out[r, 1] = harmonic[r, 1] * cosine - harmonic[r, 0] * sine
