@@ -208,7 +208,8 @@ def test_the_estimator_fmu_fed_the_same_samples_as_estimate_raises_the_same_alar
     assert summary["estimator"]["first_sample_time_s"] == 0.0  # the FMU starts at t = 0 as well
     positions = np.column_stack([ours[f"{n}_um"] for n in PROBES])
     plant_time = ours["time_s"] - 0.3712
-    np.testing.assert_allclose(plant_time, 1e-3 * np.arange(1, plant_time.size + 1), atol=1e-9)
+    # the keyphasor fixed the time origin to within its edge interpolation (4 us at 5 kHz): the same grid
+    np.testing.assert_allclose(plant_time, 1e-3 * np.arange(1, plant_time.size + 1), atol=1e-5)
     data = tmp_path / "conditioned.npy"
     np.save(data, positions)
     fmu = run_json(

@@ -29,8 +29,11 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import gc
+import itertools
 import time
 from collections.abc import Callable
+from contextlib import contextmanager
 from pathlib import Path
 from typing import TextIO
 
@@ -57,6 +60,24 @@ ESTIMATOR_DT_S = 1e-3
 """The estimator's sampling period (its discrete model's step, as the FMU's default)."""
 OPERATING_POINTS = ("auto", "follow", "nominal")
 _MODELS: dict[tuple, object] = {}
+GC_BLOCKS = 64
+"""Blocks between the collections of young objects while the automatic collector is off (below)."""
+
+
+@contextmanager
+def _young_collections_only():
+    """The automatic cyclic garbage collector off for the estimation loop: every step allocates a report
+    and a few arrays, which made it run full collections over the whole heap (numba, scipy, the model), 5-10 %
+    of the loop (measured in CPU time). The loop makes no reference cycles; :meth:`EstimateRun.run` still
+    collects the young generations every :data:`GC_BLOCKS` blocks, so a reader that did cannot grow memory
+    without bound."""
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if enabled:
+            gc.enable()
 
 
 @dataclasses.dataclass(frozen=True)
@@ -219,11 +240,13 @@ class EstimateRun:
         self.out.mkdir(parents=True, exist_ok=True)
         started = None
         csv_path = self.out / "estimates.csv"
-        with open(csv_path, "w", encoding="utf-8", newline="") as csv_file:
+        with open(csv_path, "w", encoding="utf-8", newline="") as csv_file, _young_collections_only():
             writer = RowWriter(csv_file, self.live_stream, self.options.output_every)
             clock, spent = time.perf_counter, self.stages_s
             blocks = self.stream.blocks()
-            while True:
+            for count in itertools.count(1):
+                if count % GC_BLOCKS == 0:
+                    gc.collect(1)
                 t0 = clock()
                 block = next(blocks, None)
                 t1 = clock()
