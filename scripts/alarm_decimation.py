@@ -3,15 +3,16 @@ estimator FMU takes in a co-simulation at 1 kHz) or the anti-alias filtered samp
 estimate`` takes)?
 
 One in-process plant run at 5 kHz (full-order Newmark plant, bearing 1 dropping to 75 % along a sigmoid
-centred at ``--drop-s``), noise-free, with the probe zero offsets ``--offsets-um`` added; then, for each seed,
-fresh white probe noise of ``--noise-um`` at 5 kHz. The estimator (``oilwatch estimate``'s configuration: the
-machine file's 25 um probe-offset prior) runs on (a) every 5th noisy sample, (b) the anti-aliased noisy
-samples (:class:`oilwatch.records.signal.GridResampler`, as the command) and (c) every 5th noise-free
-sample: the alarm that the data's noise did not move. Printed per noise level: each path's alarm-time error
-against (c) (mean, std, largest), the noise std at the estimator's input, and each path's RMS flowrate error
-against the truth after the start-up.
+centred at ``--drop-s``), noise-free, read along probes at ``--probe-angle-deg`` with the zero offsets
+``--offsets-um`` added; then, for each seed, fresh white probe noise of ``--noise-um`` at 5 kHz. The
+estimator (``oilwatch estimate``'s configuration: the machine file's 25 um probe-offset prior) runs on (a)
+every 5th noisy sample, (b) the anti-aliased noisy samples (:class:`oilwatch.records.signal.GridResampler`,
+as the command) and (c) every 5th noise-free sample: the alarm that the data's noise did not move. Printed
+per noise level: each path's alarm-time error against (c) (mean, std, largest), the noise std at the
+estimator's input, and each path's RMS flowrate error against the truth after the start-up.
 
     python scripts/alarm_decimation.py [--seeds 8] [--noise-um 0.05 0.3 1] [--offsets-um 12 -8 15 -18]
+                                       [--probe-angle-deg 45]
 """
 
 from __future__ import annotations
@@ -40,6 +41,7 @@ def main() -> None:
 
     from estimator.config import ML_MIN
     from estimator.ekf import OilFlowEKF
+    from estimator.measurement import probe_rotation
     from models.machine import load_machine
     from models.probes import read_probes
     from oilwatch.monitoring.estimate import estimator_config, estimator_model
@@ -50,20 +52,31 @@ def main() -> None:
     parser.add_argument("--noise-um", type=float, nargs="+", default=[0.05, 0.3, 1.0])
     parser.add_argument("--duration-s", type=float, default=3.0)
     parser.add_argument("--drop-s", type=float, default=1.5)
+    parser.add_argument("--drop-width-s", type=float, default=0.1, help="the sigmoid's width parameter")
     parser.add_argument(
         "--offsets-um", type=float, nargs=4, default=[0.0] * 4, help="probe zero offsets x1 y1 x2 y2 [um]"
     )
+    parser.add_argument(
+        "--probe-angle-deg",
+        type=float,
+        default=0.0,
+        help="probe pairs' angle (45: API 670), readings along them",
+    )
     args = parser.parse_args()
 
-    t, true, _, q = plant_run(args.duration_s, DT_S / RATIO, 0.0, drop_at_s=args.drop_s)
-    true = true + np.array(args.offsets_um) * 1e-6
+    t, true, _, q = plant_run(
+        args.duration_s, DT_S / RATIO, 0.0, drop_at_s=args.drop_s, drop_width_s=args.drop_width_s
+    )
+    true = true @ probe_rotation(np.radians(args.probe_angle_deg)).T + np.array(args.offsets_um) * 1e-6
     grid_t = t[RATIO - 1 :: RATIO]
     truth = q[RATIO - 1 :: RATIO]
     probes = read_probes(load_machine())
     model = estimator_model(None)
 
     def estimate(samples: np.ndarray, noise_um: float):
-        ekf = OilFlowEKF(model, estimator_config(75.0, noise_um, 0.0, probes))
+        ekf = OilFlowEKF(
+            model, estimator_config(75.0, noise_um, 0.0, probes, probe_angle_deg=args.probe_angle_deg)
+        )
         ekf.step(np.full(4, np.nan))  # the first sample at t = dt, as the FMU started at t = 0
         return ekf.run(samples)
 

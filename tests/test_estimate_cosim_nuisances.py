@@ -21,6 +21,7 @@ from fixtures.plant_records import (
 )
 from test_ekf_fmu import FMPY_PRELUDE
 
+from estimator.measurement import probe_rotation
 from oilwatch.cli import main
 from oilwatch.records.writers import write_record
 
@@ -197,16 +198,16 @@ def test_the_estimator_fmu_fed_the_same_samples_as_estimate_raises_the_same_alar
     api670_cosim, built_fmus, tmp_path
 ):
     """The co-simulated estimator on the same data: the OilFlowEKF FMU under fmpy, fed the conditioned
-    1 kHz samples ``oilwatch estimate`` consumed from the 5 kHz TDMS record (estimates.csv's x1_um..y2_um:
-    gap voltages -> positions in the model's frame, anti-aliased onto the keyphasor-referenced grid), with
-    the command's settings (offsets prior 25 um; probe angle 0, as those positions are in the model's frame),
-    gives our alarm within 10 ms and our flowrates within 0.1 % of nominal."""
+    1 kHz samples ``oilwatch estimate`` consumed from the 5 kHz TDMS record (gap voltages -> displacements
+    along the API 670 probes' axes, anti-aliased onto the keyphasor-referenced grid; estimates.csv's
+    x1_um..y2_um turned back onto the probes' axes), with the command's settings (offsets prior 25 um, probe
+    angle 45 deg), gives our alarm within 10 ms and our flowrates within 0.1 % of nominal."""
     cosim = {name: np.array(values) for name, values in api670_cosim.items()}
     out = _estimate_tdms(cosim, tmp_path)
     summary = json.loads((out / "summary.json").read_text())
     ours = read_estimates(out)
     assert summary["estimator"]["first_sample_time_s"] == 0.0  # the FMU starts at t = 0 as well
-    positions = np.column_stack([ours[f"{n}_um"] for n in PROBES])
+    positions = np.column_stack([ours[f"{n}_um"] for n in PROBES]) @ probe_rotation(np.radians(45.0)).T
     plant_time = ours["time_s"] - 0.3712
     # the keyphasor fixed the time origin to within its edge interpolation (4 us at 5 kHz): the same grid
     np.testing.assert_allclose(plant_time, 1e-3 * np.arange(1, plant_time.size + 1), atol=1e-5)
@@ -218,7 +219,7 @@ def test_the_estimator_fmu_fed_the_same_samples_as_estimate_raises_the_same_alar
 import numpy as np
 positions = np.load({str(data)!r})
 ekf, vr = load({str(built_fmus / "OilFlowEKF.fmu")!r}, "ekf",
-               {{"noise_um": {NOISE_UM}, "offset_prior_std_um": 25.0, "probe_angle_deg": 0.0}})
+               {{"noise_um": {NOISE_UM}, "offset_prior_std_um": 25.0, "probe_angle_deg": 45.0}})
 inputs = [vr[f"{{n}}_um"] for n in {PROBES!r}]
 outputs = [vr[n] for n in ("q1_est_ml_min", "q2_est_ml_min")]
 rows, flags = [], []

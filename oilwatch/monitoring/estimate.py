@@ -130,11 +130,14 @@ def estimator_config(
     first_sample_time_s: float,
     probes: Probes | None = None,
     baseline: OffsetBaseline | None = None,
+    probe_angle_deg: float = 0.0,
 ) -> EKFConfig:
     """The OilFlowEKF FMU's default configuration with the machine's probe nuisances (module docstring).
 
     ``probes``: the machine file's ``[probes]`` offsets prior and drift (None: offsets known, the FMU's
-    default); ``baseline``: a commissioning baseline's offsets prior (the FMU's ``baseline_file``)."""
+    default); ``baseline``: a commissioning baseline's offsets prior (the FMU's ``baseline_file``);
+    ``probe_angle_deg``: the probe pairs' mounting angle when the samples are along the probes' axes (the
+    FMU's ``probe_angle_deg``; 0: (x, y) positions)."""
     nuisance = {}
     if probes is not None:
         nuisance = {
@@ -146,6 +149,7 @@ def estimator_config(
         noise_std_m=noise_um * 1e-6,
         first_sample_time_s=first_sample_time_s,
         offset_baseline=baseline,
+        probe_angle_deg=probe_angle_deg,
         **nuisance,
     )
 
@@ -200,7 +204,11 @@ class EstimateRun:
         self.model = estimator_model(options.machine_file, follow=self.follow)
         self.live_stream = live_stream
         self.filter: OilFlowEKF | None = None
-        self.history = History(ESTIMATOR_DT_S, self.speed_hz, self.machine.bearing.clearance_m)
+        # the estimator takes the readings along the probes' axes when it can (the FMU's probe_angle_deg)
+        self.probe_angle_deg = self.stream.probe_angle_deg or 0.0
+        self.history = History(
+            ESTIMATOR_DT_S, self.speed_hz, self.machine.bearing.clearance_m, self.probe_angle_deg
+        )
         self.latency_s: list[float] = []
         self.estimator_s = 0.0  # time in the estimator's steps (the rest: reading, conditioning, writing)
         self.stages_s = dict.fromkeys(("read_condition", "rows", "write", "history"), 0.0)
@@ -308,7 +316,12 @@ class EstimateRun:
         first_k = int(block.k[0])
         lead = 1 if first_k >= 1 else 0
         config = estimator_config(
-            self.speed_hz, self.setup.noise_um, (first_k - lead) * ESTIMATOR_DT_S, self.probes, self.baseline
+            self.speed_hz,
+            self.setup.noise_um,
+            (first_k - lead) * ESTIMATOR_DT_S,
+            self.probes,
+            self.baseline,
+            self.probe_angle_deg,
         )
         self.filter = OilFlowEKF(self.model, config)
         missing = np.full(4, np.nan)
@@ -337,11 +350,11 @@ class EstimateRun:
         started = time.perf_counter()
         if self.follow:
             operating = map(self._operating, block.speed_hz.tolist(), block.oil_temperature_c.tolist())
-            for position, (speed, temperature) in zip(block.position_m, operating, strict=True):
+            for position, (speed, temperature) in zip(block.measurement_m, operating, strict=True):
                 reports.append(step(position, speed, temperature))
                 nuisances.append(snapshot())
         else:
-            for position in block.position_m:  # only the steps here: the rows are built per block below
+            for position in block.measurement_m:  # only the steps here: the rows are built per block below
                 reports.append(step(position))
                 nuisances.append(snapshot())
         self.estimator_s += time.perf_counter() - started

@@ -45,6 +45,7 @@ def summarize(run, wall_s: float, csv_path: Path) -> dict:
             "configuration": "EKFConfig.recommended: the OilFlowEKF FMU's defaults, with the machine "
             "file's probe offsets prior (FMU: offset_prior_std_um) or the baseline (FMU: baseline_file)",
             "offset_prior_std_um": round(run.filter.config.offset_prior_std_m * 1e6, 9),
+            "probe_angle_deg": run.probe_angle_deg,
             "baseline_file": run.options.baseline_file,
         },
         "q_nominal_ml_min": nominal,
@@ -93,7 +94,8 @@ def summarize(run, wall_s: float, csv_path: Path) -> dict:
 
 
 def _probe_summary(run) -> dict:
-    """Per probe at the end of the record: the estimator's offset estimate and std [um] (model frame), its
+    """Per probe at the end of the record: the estimator's offset estimate and std [um] (along the probe's
+    axis when the estimator takes the readings so, ``estimator.probe_angle_deg``, else along x or y), its
     status, and the time it was flagged faulty."""
     from estimator.channels import STATUS_NAMES
 

@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .history import History
+from .history import History, offsets_in_model_frame
 
 VIEW_FILES = {
     "trend": "trend.png",
@@ -108,7 +108,7 @@ def _centerline(history: History, summary: dict):
     figure, grid = plt.subplots(2, 2, figsize=(9, 8.4), layout="constrained", height_ratios=(1.0, 0.8))
     axes, zooms = grid[0], grid[1]
     circle = np.linspace(0.0, 2.0 * math.pi, 361)
-    offsets = history.last_offsets_um
+    offsets = offsets_in_model_frame(history.last_offsets_um, history.probe_angle_deg)
     corrected = bool(np.any(offsets != 0.0))
     for b, ax in enumerate(axes):
         x, y = values[:, 2 * b] - offsets[2 * b], values[:, 2 * b + 1] - offsets[2 * b + 1]
