@@ -19,6 +19,7 @@ from fixtures.plant_records import REST_GAP_V, gap_voltages, keyphasor, plant_ru
 
 from estimator.config import ML_MIN
 from estimator.ekf import OilFlowEKF
+from estimator.measurement import probe_rotation
 from oilwatch.cli import main
 from oilwatch.monitoring.estimate import estimator_config, estimator_model
 from oilwatch.records.writers import write_record
@@ -100,7 +101,7 @@ def test_tdms_gap_voltages_api670_offsets_keyphasor_at_5khz_give_the_estimator_s
     each probe its own rest gap (the offsets, corrected by rest_gap_v and declared known with
     --offset-prior-um 0; unknown offsets against the FMU: tests/test_estimate_cosim_nuisances.py), a notch
     keyphasor at rotor angle 40 deg, a DAQ clock 0.3712 s off the rotor's angle zero, 5 kHz. Reference: the
-    estimator fed the same run's samples at 1 kHz, offset-corrected.
+    estimator fed the same run's samples at 1 kHz along the probes' axes, offset-corrected.
     """
     t, _, measured, _ = plant_run(2.0, 2e-4, 0.3, drop_at_s=-10.0)  # bearing 1 at 75 % throughout
     shift = 0.3712
@@ -124,9 +125,10 @@ def test_tdms_gap_voltages_api670_offsets_keyphasor_at_5khz_give_the_estimator_s
     assert summary["record"]["anti_alias_taps"] > 1 and summary["record"]["keyphasor_pulses"] == 150
     np.testing.assert_allclose(ours["speed_hz"][-100:], 75.0, rtol=2e-4)
 
-    reference = OilFlowEKF(estimator_model(None), estimator_config(75.0, 0.3, 0.0))
+    # the estimator FMU's way with API 670 probes: the readings along their axes, probe_angle_deg = 45
+    reference = OilFlowEKF(estimator_model(None), estimator_config(75.0, 0.3, 0.0, probe_angle_deg=45.0))
     reference.step(np.full(4, np.nan))  # as the FMU started at t = 0
-    trace = reference.run(measured[4::5])
+    trace = reference.run(measured[4::5] @ probe_rotation(np.radians(45.0)).T)
     ref_t, ref_q = t[4::5], trace.q_m3_s / ML_MIN
     plant_time = ours["time_s"] - shift
     window = summary["final_window_s"]
