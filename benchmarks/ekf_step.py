@@ -256,6 +256,7 @@ def time_fmu(
     from fmpy.fmi2 import FMU2Slave
 
     md = read_model_description(str(fmu_path))
+    bare = md.coSimulation.modelIdentifier == "BareFilter"
     fmu = FMU2Slave(
         guid=md.guid,
         unzipDirectory=extract(str(fmu_path)),
@@ -270,7 +271,7 @@ def time_fmu(
     fmu.instantiate()
     fmu.setupExperiment(startTime=0.0)
     fmu.enterInitializationMode()
-    if ramps is not None:
+    if ramps is not None and not bare:
         fmu.setInteger([vr["bearing_table"]], [1])
         fmu.setReal([vr["speed_hz"], vr["oil_temperature_c"]], [float(ramps[0][0]), float(ramps[1][0])])
     fmu.exitInitializationMode()  # builds the model and compiles (or loads) the numba kernels
@@ -343,7 +344,28 @@ def operating_rows(args, record: np.ndarray) -> list[tuple[str, tuple[float, flo
                 time_fmu(path, ramp, args.repeats, ramps=(speed, temperature)),
             )
         )
+        rows.append(
+            (
+                "bare FMU under fmpy (doStep does nothing), the same calls with the ramps' inputs",
+                time_fmu(bare_fmu(folder), ramp, args.repeats, ramps=(speed, temperature)),
+            )
+        )
     return rows
+
+
+def bare_fmu(out_dir: str) -> Path:
+    """BareFilter.fmu (``benchmarks/fmus/bare_filter_slave.py``: the same inputs, a doStep that does nothing),
+    built now."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+    from oilwatch.cosim.fmu_build import FmuEntry, build_fmus
+
+    entry = FmuEntry(
+        name="BareFilter",
+        script=str(Path(__file__).resolve().parent / "fmus" / "bare_filter_slave.py"),
+        packages=(),
+        prefix="barefilter",
+    )
+    return next(p for p in build_fmus(out_dir, only=["BareFilter"], extra=(entry,)) if p.suffix == ".fmu")
 
 
 def ekf_fmu(path: str | None, out_dir: str) -> Path:
@@ -423,6 +445,8 @@ def main() -> None:
                 cost = time_fmu(ekf_fmu(args.fmu, folder), record, args.repeats)
             rows.append(("OilFlowEKF FMU under fmpy, with setReal/getReal, 4 channels", cost))
             costs[("fmu", "fmpy")] = cost[0]
+            cost = time_fmu(bare_fmu(folder), record, args.repeats)
+            rows.append(("bare FMU under fmpy (doStep does nothing), same calls", cost))
         headline.append((family, costs))
 
     rows += (
