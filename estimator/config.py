@@ -100,13 +100,32 @@ class AlarmConfig:
 
 @dataclass(frozen=True)
 class OffsetBaseline:
-    """Probe zero offsets from a commissioning baseline (:mod:`estimator.baseline`): the estimator's prior.
+    """A commissioning baseline (:mod:`estimator.baseline`): the nuisances' estimates at a known healthy
+    condition, which become the estimator's prior.
 
-    offsets_m, std_m : (x1, y1, x2, y2) estimates and their stds [m], std > 0.
+    offsets_m, std_m : (x1, y1, x2, y2) probe zero offsets and their stds [m], std > 0.
+    viscosity_factor, viscosity_factor_std : (2,) each bearing's viscosity factor and its std, or None (the
+        baseline did not estimate them; the prior stays 1 +- ``viscosity_factor_prior_std``).
+    unbalance, unbalance_std : (re, im) the unbalance relative to the machine file's and its stds, or None.
+    covariance : the joint covariance of those estimates, in the state's order (offsets [m], then the
+        viscosity factors and the unbalance when given), or None (independent). A factor read from the 1x
+        orbit and the offsets that then reproduce the static position are strongly correlated; keeping the
+        correlation lets a later run move both together instead of reading the factor's error as flow.
+    age_s : time from the baseline record to the start of the record the estimator runs on [s]; the
+        offsets' prior std is widened by the drift that time allows (:meth:`offset_prior_std_m`).
+    drift_m_per_day : the probes' zero drift rate bound [m / day] (the machine file's
+        ``[probes] offset_drift_um_per_day``) that ``age_s`` is multiplied by.
     """
 
     offsets_m: tuple[float, float, float, float]
     std_m: tuple[float, float, float, float]
+    viscosity_factor: tuple[float, float] | None = None
+    viscosity_factor_std: tuple[float, float] | None = None
+    unbalance: tuple[float, float] | None = None
+    unbalance_std: tuple[float, float] | None = None
+    covariance: tuple[tuple[float, ...], ...] | None = None
+    age_s: float = 0.0
+    drift_m_per_day: float = 0.0
 
     def __post_init__(self) -> None:
         for name in ("offsets_m", "std_m"):
@@ -117,6 +136,49 @@ class OffsetBaseline:
                 require_finite(f"OffsetBaseline.{name}", value)
         for value in self.std_m:
             require_positive("OffsetBaseline.std_m", value, "m")
+        for name in ("viscosity_factor", "unbalance"):
+            values, std = getattr(self, name), getattr(self, f"{name}_std")
+            if (values is None) != (std is None):
+                raise InputError(f"OffsetBaseline.{name} and {name}_std are given together or not at all")
+            if values is None:
+                continue
+            if len(values) != 2 or len(std) != 2:
+                raise InputError(f"OffsetBaseline.{name} and {name}_std need 2 values each")
+            for value in values:
+                require_finite(f"OffsetBaseline.{name}", value)
+            for value in std:
+                require_positive(f"OffsetBaseline.{name}_std", value)
+        if self.covariance is not None:
+            size = 4 + 2 * (self.viscosity_factor is not None) + 2 * (self.unbalance is not None)
+            matrix = np.asarray(self.covariance, dtype=float)
+            if matrix.shape != (size, size) or not np.isfinite(matrix).all():
+                raise InputError(
+                    f"OffsetBaseline.covariance must be a finite {size} x {size} matrix, got {matrix.shape}"
+                )
+        require_in_range("OffsetBaseline.age_s", self.age_s, 0.0, 1e9, "s")
+        require_in_range("OffsetBaseline.drift_m_per_day", self.drift_m_per_day, 0.0, 1e-3, "m/day")
+
+    def offset_prior_std_m(self) -> np.ndarray:
+        """(4,) the offsets' prior std [m]: the baseline's std and the drift since it in quadrature (a drift
+        of at most ``drift_m_per_day`` over ``age_s``, of unknown sign, taken as one std)."""
+        return np.sqrt(np.square(self.std_m) + self._drift_variance_m2())
+
+    def _drift_variance_m2(self) -> float:
+        return (self.drift_m_per_day * self.age_s / 86400.0) ** 2
+
+    def prior_covariance(self, viscosity: bool, unbalance: bool) -> np.ndarray | None:
+        """The joint prior covariance of a filter whose nuisance states are the offsets plus the viscosity
+        factors / the unbalance as flagged, when it holds exactly the baseline's (None otherwise); the
+        offsets' block widened as :meth:`offset_prior_std_m`."""
+        if (
+            self.covariance is None
+            or viscosity != (self.viscosity_factor is not None)
+            or unbalance != (self.unbalance is not None)
+        ):
+            return None
+        matrix = np.array(self.covariance, dtype=float)
+        matrix[range(4), range(4)] += self._drift_variance_m2()
+        return 0.5 * (matrix + matrix.T)
 
 
 @dataclass(frozen=True)
@@ -400,14 +462,15 @@ class BoundaryParameter:
 # One row per nuisance: its prior (parameters: name, EKFConfig field, unit, SI per user unit, min, max,
 # description) and its estimate (outputs, see NuisanceOutput). The estimator FMU and `oilwatch estimate`
 # generate their variables and columns from these rows; a new nuisance is one row in each.
+# The probes' mounting angle is a machine fact both FMUs share: fmu_src/machine_parameters.py declares it.
+OFFSET_PRIOR_FROM_MACHINE = -1.0
+"""Value of ``offset_prior_std_um`` standing for the machine file's ``[probes] offset_prior_std_um``."""
 NUISANCE_PRIORS = (
-    ("probe_angle_deg", "probe_angle_deg", "deg", 1.0, -360.0, 360.0,
-     "Mounting angle of each bearing's probe pair from the model's axes, counter-clockwise from +x (45: the "
-     "API 670 pair either side of the top); the x_um / y_um inputs are then along the probes' axes"),
-    ("offset_prior_std_um", "offset_prior_std_m", "um", 1e-6, 0.0, 1000.0,
+    ("offset_prior_std_um", "offset_prior_std_m", "um", 1e-6, OFFSET_PRIOR_FROM_MACHINE, 1000.0,
      "Prior std of each probe's zero offset; 0: the offsets are known to be zero (the paper's calibrated "
-     "probes); > 0 estimates four offset states (a real machine: the machine file's [probes] "
-     "offset_prior_std_um, 25 um). A baseline_file sets the offsets' prior instead"),
+     "probes); > 0 estimates four offset states drifting as the machine file's [probes] "
+     "offset_random_walk_um_sqrt_s; -1: the machine file's [probes] offset_prior_std_um (a real machine; "
+     "bundled turbine 25 um). A baseline_file sets the offsets' prior instead"),
     ("unbalance_prior_std", "unbalance_prior_std", "1", 1.0, 0.0, 10.0,
      "Prior std of each part of the unbalance relative to the machine file's (estimate starts at 1 + 0i); "
      "0: the machine file's unbalance is exact; > 0 estimates it as a complex random walk"),

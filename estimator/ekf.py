@@ -328,17 +328,29 @@ class OilFlowEKF:
         self._P = np.zeros((self._size, self._size))
         self._P[:n, :n] = self._physical(cfg.initial_displacement_std_m, cfg.initial_velocity_std_m_s)
         self._P[n : n + 2, n : n + 2] = (cfg.initial_flowrate_std_m3_s / self._q_nominal) ** 2 * np.eye(2)
-        if cfg.offset_baseline is not None:
-            self._x[self._offsets] = cfg.offset_baseline.offsets_m
-            self._P[self._offsets, self._offsets] = np.diag(np.square(cfg.offset_baseline.std_m))
+        baseline = cfg.offset_baseline
+        if baseline is not None:
+            self._x[self._offsets] = baseline.offsets_m
+            self._P[self._offsets, self._offsets] = np.diag(np.square(baseline.offset_prior_std_m()))
         elif self._n_offsets:
             self._P[self._offsets, self._offsets] = cfg.offset_prior_std_m**2 * np.eye(self._n_offsets)
-        if self._n_unbalance:
-            self._x[self._unbalance] = (1.0, 0.0)
-            self._P[self._unbalance, self._unbalance] = cfg.unbalance_prior_std**2 * np.eye(2)
-        if self._n_viscosity:
-            self._x[self._viscosity] = 1.0
-            self._P[self._viscosity, self._viscosity] = cfg.viscosity_factor_prior_std**2 * np.eye(2)
+        # the nuisances a commissioning baseline estimated are its prior; the configured one otherwise
+        viscosity_std = cfg.viscosity_factor_prior_std
+        for count, part, name, mean, std in (
+            (self._n_unbalance, self._unbalance, "unbalance", (1.0, 0.0), cfg.unbalance_prior_std),
+            (self._n_viscosity, self._viscosity, "viscosity_factor", (1.0, 1.0), viscosity_std),
+        ):
+            if not count:
+                continue
+            known = None if baseline is None else getattr(baseline, name)
+            self._x[part] = mean if known is None else known
+            variance = std**2 * np.ones(2) if known is None else np.square(getattr(baseline, f"{name}_std"))
+            self._P[part, part] = np.diag(variance)
+        joint = None
+        if baseline is not None:
+            joint = baseline.prior_covariance(self._n_viscosity > 0, self._n_unbalance > 0)
+        if joint is not None:  # the baseline's correlations (offsets, factors, unbalance: contiguous states)
+            self._P[n + 2 :, n + 2 :] = joint
         if callable(getattr(self.model, "reset_operating_state", None)):
             self.model.reset_operating_state()
         self._health, self._health_values = channels.new_health()
@@ -465,9 +477,13 @@ class OilFlowEKF:
         displacement = np.ascontiguousarray(displacement_m, dtype=np.float64)
         if displacement.shape != (4,):
             raise InputError(f"displacement_m must have shape (4,), got {displacement.shape}")
-        displacement = self._runout.compensate(displacement, self._step)
         if speed_hz is not None or oil_temperature_c is not None or rotor_angle_rad is not None:
             self._set_operating_point(speed_hz, oil_temperature_c, rotor_angle_rad)
+        # the runout at this sample's rotor angle: the model's (integral of the measured speed, anchored at
+        # the keyphasor) when it follows the operating point, else the nominal speed's
+        angle_of = getattr(self.model, "rotor_angle_rad", None)
+        angle = angle_of(self._first_step + self._step) if callable(angle_of) else None
+        displacement = self._runout.compensate(displacement, self._step, angle)
         step = self._step
         predict = step > 0
         if predict:

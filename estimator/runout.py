@@ -185,9 +185,20 @@ class RunoutCompensation:
             return np.zeros((4, 4))
         return np.diag(self.vectors.residual_variance_m2())
 
-    def compensate(self, displacement_m: np.ndarray, step: int) -> np.ndarray:
-        """Sample ``step`` (4,) [m] minus the runout at its rotor angle (the input itself without vectors)."""
+    def compensate(
+        self, displacement_m: np.ndarray, step: int, rotor_angle_rad: float | None = None
+    ) -> np.ndarray:
+        """Sample ``step`` (4,) [m] minus the runout at its rotor angle (the input itself without vectors):
+        ``rotor_angle_rad`` when given (the keyphasor's, or the integral of the measured speed), else
+        ``Omega t`` at the constant speed."""
         if self.vectors is None:
             return displacement_m
-        theta = self._omega * (self._t0 + step * self._dt)
+        theta = self._omega * (self._t0 + step * self._dt) if rotor_angle_rad is None else rotor_angle_rad
         return displacement_m - self.vectors.runout_m(theta)
+
+
+def runout_of_probes(probes) -> SlowRollVectors | None:
+    """The runout vectors the machine file's ``[probes]`` gives (``models.probes.Probes.runout``), or None."""
+    if probes.runout is None:
+        return None
+    return SlowRollVectors.from_document(probes.runout, "machine file [probes]")

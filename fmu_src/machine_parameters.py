@@ -1,12 +1,14 @@
-"""What both oilwatch FMUs share: the parameters ``machine_file`` and the unbalance, and the operating-point
-inputs ``speed_hz`` and ``oil_temperature_c``.
+"""What both oilwatch FMUs share: the parameters ``machine_file``, the unbalance, the probes' mounting angle
+and ``bearing_table``, and the operating-point inputs ``speed_hz`` and ``oil_temperature_c``.
 
 Both the plant and the estimator build the same rotor-bearing system from the same parameters (the filter
-must know the machine and the unbalance the plant has), so they declare and build it here. Machine facts are
-never start values: 0 (speed, flowrates), -1 (unbalance) or -300 (oil temperature) stand for "the machine
-file's value", resolved at initialization from the machine file, which is the FMU's own bundled one unless
-``machine_file`` names another. The inputs' values at initialization (their start values, settable like a
-parameter: ``--set plant.speed_hz=80``) are the start speed and oil temperature.
+must know the machine, the unbalance and the probes the plant has), so they declare, resolve and build it
+here: one declaration and one description per fact. Machine facts are never start values: 0 (speed,
+flowrates), -1 (unbalance), -300 (oil temperature) or -999 (probe angle: the machine file's ``[probes]``
+layout, :mod:`models.probes`) stand for "the machine file's value", resolved at initialization from the
+machine file, which is the FMU's own bundled one unless ``machine_file`` names another. The inputs' values
+at initialization (their start values, settable like a parameter: ``--set plant.speed_hz=80``) are the start
+speed and oil temperature. The estimator FMU also reads ``[probes]`` for the offsets' prior and drift.
 
 Where the bundled machine lives: ``resources/<relocated fmu_src>/machine/<stem>.toml`` and its tables in
 ``machine/tables/`` (written by ``oilwatch build-fmus --machine FILE``); an FMU built without that folder
@@ -20,6 +22,7 @@ from pathlib import Path
 
 from fmu_src.fmi_variables import UnitDefinition, register_unit
 from models.machine import BUNDLED_MACHINE, Machine, load_machine
+from models.probes import read_probes
 from models.system.factory import build_system
 from models.system.rotor_bearing import RotorBearingSystem
 from models.validation import InputError
@@ -30,6 +33,9 @@ MACHINE_FOLDER = "machine"
 register_unit(UnitDefinition("degC", {"K": 1}, 1.0, 273.15))
 NOMINAL_TEMPERATURE = -300.0
 """Value of ``oil_temperature_c`` standing for the machine's nominal oil temperature."""
+MACHINE_LAYOUT = -999.0
+"""Value of ``probe_angle_deg`` standing for the machine file's ``[probes]`` layout."""
+PROBE_ANGLE_RANGE_DEG = (-360.0, 360.0)
 OPERATING_INPUTS = (
     (
         "speed_hz",
@@ -57,12 +63,23 @@ MACHINE_REALS = (
      "Unbalance moment at the machine's unbalance node (the plant's and the estimator's must agree); -1: "
      "the machine file's ISO grade"),
     ("unbalance_phase_deg", 0.0, "deg", None, None, "Unbalance phase phi of Eqs. 5-6 (same in both FMUs)"),
+    ("probe_angle_deg", MACHINE_LAYOUT, "deg", MACHINE_LAYOUT, PROBE_ANGLE_RANGE_DEG[1],
+     "Mounting angle of each bearing's X probe, counter-clockwise from horizontal (+x), its Y probe 90 deg "
+     "further (0: horizontal/vertical; 45: the API 670 pair either side of top dead centre); the positions "
+     "are along the probes' axes. -999: the machine file's [probes] layout (bundled turbine: 0); else "
+     "within [-360, 360] deg (same in both FMUs)"),
 )  # fmt: skip
 """Real parameters both FMUs declare: name, start, unit, min, max, description."""
+BEARING_TABLE_DESCRIPTION = (
+    "0: the flowrate table at the start speed and nominal viscosity (speed_hz and oil_temperature_c must "
+    "stay at their start values); 1: the dimensionless table, following speed_hz and oil_temperature_c "
+    "(needs the machine file's [oil]; same in both FMUs)"
+)
 
 
 def declare_machine_parameters(slave) -> None:
-    """Declare ``machine_file`` and the unbalance parameters, and the operating-point inputs, on a slave."""
+    """Declare ``machine_file``, the unbalance, probe-angle and ``bearing_table`` parameters, and the
+    operating-point inputs, on a slave."""
     for name, start, unit, low, high, text in MACHINE_REALS:
         slave.declare_real(
             name, "parameter", start=start, unit=unit, minimum=low, maximum=high, description=text
@@ -75,6 +92,43 @@ def declare_machine_parameters(slave) -> None:
         start="",
         description="Machine file (TOML); empty: the machine bundled in this FMU",
     )
+    slave.declare_integer(
+        "bearing_table", "parameter", start=0, minimum=0, maximum=1, description=BEARING_TABLE_DESCRIPTION
+    )
+
+
+def probe_angle_deg(slave, machine: Machine) -> float:
+    """The probes' mounting angle [deg] of a slave's ``probe_angle_deg`` (-999: the machine file's
+    ``[probes]`` layout); one-line InputError outside [-360, 360] deg."""
+    if slave.probe_angle_deg == MACHINE_LAYOUT:
+        return read_probes(machine).angle_deg
+    low, high = PROBE_ANGLE_RANGE_DEG
+    if not low <= slave.probe_angle_deg <= high:
+        raise InputError(
+            f"probe_angle_deg must lie in [{low:g}, {high:g}] deg or be {MACHINE_LAYOUT:g} (the machine "
+            f"file's [probes] layout), got {slave.probe_angle_deg:g} deg"
+        )
+    return float(slave.probe_angle_deg)
+
+
+def require_oil(slave, machine: Machine) -> None:
+    """One-line InputError when ``bearing_table = 1`` on a machine without an oil."""
+    if slave.bearing_table == 1 and machine.oil is None:
+        raise InputError("bearing_table = 1 needs the machine's oil ([oil] in the machine file)")
+
+
+def held_operating_point(slave, machine: Machine, start: tuple[float, float | None]):
+    """The operating conditions of a slave's inputs now (:func:`operating_conditions`); with
+    ``bearing_table = 0`` an InputError when they left their start values ``start``."""
+    conditions = operating_conditions(slave, machine)
+    if slave.bearing_table == 0 and conditions != start:
+        speed, temperature = conditions
+        oil = "no oil" if temperature is None else f"{temperature:g} degC"
+        raise InputError(
+            "speed_hz and oil_temperature_c must stay at their start values with bearing_table = 0, got "
+            f"{speed:g} Hz and {oil} (bearing_table = 1 follows them)"
+        )
+    return conditions
 
 
 def operating_conditions(slave, machine: Machine) -> tuple[float, float | None]:

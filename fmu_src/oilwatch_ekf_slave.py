@@ -52,6 +52,7 @@ from estimator.config import (
     ESTIMATOR_PARAMETERS,
     INITIAL_FLOWRATE_STD_FRACTION,
     ML_MIN,
+    OFFSET_PRIOR_FROM_MACHINE,
     RECOMMENDED_DISPLACEMENT_PROCESS_STD_M,
     EKFConfig,
     config_from_parameters,
@@ -63,11 +64,15 @@ from estimator.ekf import StepReport
 from fmu_src.blas_threads import limit_blas_threads
 from fmu_src.machine_parameters import (
     declare_machine_parameters,
+    held_operating_point,
     machine_of,
     operating_conditions,
+    probe_angle_deg,
+    require_oil,
     rotor_bearing_system,
 )
 from fmu_src.slave_base import OilwatchSlave
+from models.probes import read_probes
 from models.system.augmented import GridAugmentedModel
 from models.system.operating_model import build_operating_model
 from models.validation import InputError
@@ -146,16 +151,6 @@ class OilFlowEKF(OilwatchSlave):
             start="",
             description="Commissioning baseline (JSON written by 'oilwatch baseline'): the probe offsets' "
             "prior; an absolute path or one relative to this FMU's resources folder; empty: none",
-        )
-        self.declare_integer(
-            "bearing_table",
-            "parameter",
-            start=0,
-            minimum=0,
-            maximum=1,
-            description="0: the flowrate table at the start speed and nominal viscosity (speed_hz and "
-            "oil_temperature_c constant); 1: the dimensionless table, following speed_hz and "
-            "oil_temperature_c (as the plant's bearing_table)",
         )
         self.declare_integer(
             "velocity_channels",
@@ -365,15 +360,16 @@ class OilFlowEKF(OilwatchSlave):
         machine = machine_of(self.machine_file, self.resources)
         self._machine = machine
         self._start_conditions = operating_conditions(self, machine)
+        require_oil(self, machine)
         if self.bearing_table == 1:
-            if machine.oil is None:
-                raise InputError("bearing_table = 1 needs the machine's oil ([oil] in the machine file)")
             model = build_operating_model(system, machine, self.sample_period_s)
         elif self.viscosity_factor_prior_std > 0.0:
             raise InputError("viscosity_factor_prior_std > 0 needs bearing_table = 1")
         else:
             model = GridAugmentedModel(system, self.sample_period_s)
-        self.filter = FlowFilter(model, self._config(nominal, initial, system.speed_hz, self._baseline()))
+        self.filter = FlowFilter(
+            model, self._config(machine, nominal, initial, system.speed_hz, self._baseline())
+        )
         built = time.perf_counter()
         self._warm_up()
         self.log(
@@ -397,16 +393,25 @@ class OilFlowEKF(OilwatchSlave):
             reason = error if isinstance(error, InputError) else f"cannot read {path}: {error}"
             raise InputError(f"baseline_file {self.baseline_file!r}: {reason}") from None
 
-    def _config(self, nominal_ml_min: float, initial_ml_min: float, speed_hz: float, baseline) -> EKFConfig:
-        """The estimator's configuration from the parameters (field units -> SI)."""
+    def _config(
+        self, machine, nominal_ml_min: float, initial_ml_min: float, speed_hz: float, baseline
+    ) -> EKFConfig:
+        """The estimator's configuration from the parameters (field units -> SI) and the machine file's
+        ``[probes]`` (mounting angle and offset prior for the sentinels, the offsets' drift always)."""
         omega = 2.0 * math.pi * speed_hz
         velocity_std = (
             RECOMMENDED_DISPLACEMENT_PROCESS_STD_M * omega
             if self.q_std_velocity_um_s < 0.0
             else self.q_std_velocity_um_s * 1e-6
         )
+        probes = read_probes(machine)
+        values = {p.name: getattr(self, p.name) for p in ESTIMATOR_PARAMETERS}
+        if values["offset_prior_std_um"] == OFFSET_PRIOR_FROM_MACHINE:
+            values["offset_prior_std_um"] = probes.offset_prior_std_m * 1e6
         return config_from_parameters(
-            {p.name: getattr(self, p.name) for p in ESTIMATOR_PARAMETERS},
+            values,
+            probe_angle_deg=probe_angle_deg(self, machine),
+            offset_random_walk_m_sqrt_s=probes.offset_random_walk_m_sqrt_s,
             velocity_noise=VELOCITY_MODES[self.velocity_channels],
             velocity_process_std_m_s=velocity_std,
             q_initial_m3_s=initial_ml_min * ML_MIN,
@@ -425,15 +430,8 @@ class OilFlowEKF(OilwatchSlave):
     def _operating_point(self) -> tuple[float | None, float | None]:
         """(speed [Hz], oil temperature [degC]) for the filter from the inputs (bearing_table = 0: None, and
         InputError when they left their start values)."""
-        conditions = operating_conditions(self, self._machine)
-        if self.bearing_table == 1:
-            return conditions
-        if conditions != self._start_conditions:
-            raise InputError(
-                "speed_hz and oil_temperature_c must stay at their start values with bearing_table = 0, got "
-                f"{conditions[0]:g} Hz and {conditions[1]:g} degC (bearing_table = 1 follows them)"
-            )
-        return None, None
+        conditions = held_operating_point(self, self._machine, self._start_conditions)
+        return conditions if self.bearing_table == 1 else (None, None)
 
     # ------------------------------------------------------------------------------- step
     def step(self, current_time: float, step_size: float) -> bool:

@@ -36,8 +36,11 @@ from pythonfmu import DefaultExperiment
 from fmu_src.blas_threads import limit_blas_threads
 from fmu_src.machine_parameters import (
     declare_machine_parameters,
+    held_operating_point,
     machine_of,
     operating_conditions,
+    probe_angle_deg,
+    require_oil,
     rotor_bearing_system,
 )
 from fmu_src.slave_base import OilwatchSlave
@@ -46,6 +49,7 @@ from models.system.fault import SigmoidFlowrate
 from models.system.measurement import FAULT_KINDS, PROBE_NAMES, MeasurementChain, ProbeErrors, UnbalanceChange
 from models.system.nonlinear_plant import FILM_MODELS, check_film_model, make_plant
 from models.system.operating_point import operating_system
+from models.system.plant import publish_initial_sample
 from models.validation import InputError
 
 # Per-probe parameters: (suffix, ProbeErrors field, unit, SI per unit, minimum, maximum, description).
@@ -209,15 +213,6 @@ class RotorBearingPlant(OilwatchSlave):
 
     def _declare_operating_point(self) -> None:
         real = self.declare_real
-        self.declare_integer(
-            "bearing_table",
-            "parameter",
-            start=0,
-            minimum=0,
-            maximum=1,
-            description="0: the flowrate table at the start speed and nominal viscosity (both "
-            "inputs constant); 1: the dimensionless table, following speed and oil temperature",
-        )
         real(
             "viscosity_factor",
             "parameter",
@@ -252,16 +247,6 @@ class RotorBearingPlant(OilwatchSlave):
         )
 
     def _declare_measurement_chain(self) -> None:
-        self.declare_real(
-            "probe_angle_deg",
-            "parameter",
-            start=0.0,
-            unit="deg",
-            minimum=-180.0,
-            maximum=180.0,
-            description="Angle of each bearing's X probe from horizontal, Y probe 90 deg further: "
-            "0 horizontal/vertical, 45 the API 670 pair (45 deg either side of top dead centre)",
-        )
         for probe in PROBE_NAMES:
             for suffix, _, unit, _, low, high, text in PROBE_PARAMETERS:
                 start = 1e9 if suffix == "fault_time_s" else 0.0
@@ -284,7 +269,7 @@ class RotorBearingPlant(OilwatchSlave):
                 "2 stuck at its last value, 3 glitch",
             )
 
-    def _chain(self) -> MeasurementChain:
+    def _chain(self, machine) -> MeasurementChain:
         probes = []
         for probe in PROBE_NAMES:
             values = {
@@ -292,7 +277,8 @@ class RotorBearingPlant(OilwatchSlave):
                 for suffix, field, _, si, *_ in PROBE_PARAMETERS
             }
             probes.append(ProbeErrors(**values, fault=FAULT_KINDS[getattr(self, f"{probe}_fault")]))
-        return MeasurementChain(tuple(probes), math.radians(self.probe_angle_deg))
+        angle = math.remainder(probe_angle_deg(self, machine), 360.0)  # the chain takes [-180, 180] deg
+        return MeasurementChain(tuple(probes), math.radians(angle))
 
     def _conditions(self, machine) -> tuple[float, float | None]:
         """(speed [Hz], oil temperature [degC] or None without an oil) from the inputs."""
@@ -308,8 +294,6 @@ class RotorBearingPlant(OilwatchSlave):
                 self.unbalance_phase_deg,
                 reduced=False,
             )
-        if machine.oil is None:
-            raise InputError("bearing_table = 1 needs the machine's oil ([oil] in the machine file)")
         speed, temperature = self._conditions(machine)
         viscosity = self.viscosity_factor * machine.oil.dynamic_viscosity_pa_s(temperature)
         return operating_system(
@@ -344,6 +328,7 @@ class RotorBearingPlant(OilwatchSlave):
     def setup(self) -> None:
         machine = machine_of(self.machine_file, self.resources)
         self._machine = machine
+        require_oil(self, machine)
         system = self._system(machine)
         self._start_conditions = self._conditions(machine)
         self._nominal_ml_min = system.nominal_flowrate_m3_s * ML_MIN_PER_M3_S
@@ -370,7 +355,7 @@ class RotorBearingPlant(OilwatchSlave):
                 self.seed,
                 initial_flowrates_m3_s=inputs,
                 start_time_s=self.start_time,
-                chain=self._chain(),
+                chain=self._chain(machine),
                 unbalance_change=UnbalanceChange(
                     self.unbalance_change_time_s,
                     self.unbalance_change_g_mm * 1e-6,
@@ -382,19 +367,14 @@ class RotorBearingPlant(OilwatchSlave):
             )
         except InputError as error:
             raise InputError(_fmu_names(str(error))) from None
-        self._publish(self.plant.current_sample())
+        self._publish(publish_initial_sample(self.plant))
 
     def step(self, current_time: float, step_size: float) -> bool:
         if abs(step_size - self.plant.dt_s) > 1e-12 * step_size:
             self.plant.set_period(step_size)
         inputs = self._inputs_m3_s() if self.flow_source == 1 else None
-        conditions = self._conditions(self._machine)
+        conditions = held_operating_point(self, self._machine, self._start_conditions)
         if self.bearing_table == 0:
-            if conditions != self._start_conditions:
-                raise InputError(
-                    "speed_hz and oil_temperature_c must stay at their start values with bearing_table "
-                    f"= 0, got {conditions[0]:g} Hz and {conditions[1]:g} degC"
-                )
             self._publish(self.plant.step(inputs))
         else:
             self._publish(self.plant.step(inputs, speed_hz=conditions[0], oil_temperature_c=conditions[1]))

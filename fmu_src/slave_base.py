@@ -13,13 +13,18 @@ What pythonfmu 0.7.0 does, and what this class does about it (verified with fmpy
 - A fixed (non-tunable) parameter set after ``fmi2ExitInitializationMode`` is an error (FMI 2.0,
   section 4.2.4: fixed parameters may be set only before initialization ends); pythonfmu would store it
   and the model would silently ignore it. This class refuses it: the value is not stored, a message
-  naming the parameter is logged at status error, and the call fails. pythonfmu 0.7's C++ wrapper maps
-  every Python exception to ``fmi2Fatal`` (``handle_py_exception`` throws its ``fatal_error``) and
-  ignores the return value of the set methods, so ``fmi2Error`` cannot be returned from Python. Before
-  raising, the slave therefore flags the refusal to oilwatch's FMI 2.0 loader, the FMU's own binary
-  (``oilwatch/cosim/native/fmi2_loader.c``, entry point ``oilwatch_loader_refused_set``): the loader
-  returns ``fmi2Error`` for that call, and the instance keeps stepping. Without the loader (the FMI 3.0
-  shells, a plain pythonfmu build) the host still sees ``fmi2Fatal`` with the logged reason.
+  naming the parameter is logged at status error, and the call fails.
+- A refused input is ``fmi2Error``, not ``fmi2Fatal``: the refused late set above, and an initialization
+  that fails on the user's input (a parameter out of range, an ``InputError`` of validation or set-up,
+  e.g. an unreadable ``baseline_file``). FMI 2.0 keeps ``fmi2Fatal`` for "all instances corrupted";
+  here only this instance's parameters were wrong. pythonfmu 0.7's C++ wrapper maps every Python
+  exception to ``fmi2Fatal`` (``handle_py_exception`` throws its ``fatal_error``) and ignores the return
+  values, so ``fmi2Error`` cannot be returned from Python. Before raising, the slave therefore flags the
+  refusal to oilwatch's FMI 2.0 loader, the FMU's own binary (``oilwatch/cosim/native/fmi2_loader.c``,
+  entry point ``oilwatch_loader_refused_call``): the loader returns ``fmi2Error`` for that call (a
+  refused set: the instance keeps stepping). Any other exception (an internal error) stays fatal. Without
+  the loader (the FMI 3.0 shells, a plain pythonfmu build) the host still sees ``fmi2Fatal`` with the
+  logged reason.
 - ``fmi2GetFMUstate`` returns whatever ``_get_fmu_state`` returns (a Python object held by
   reference; the default saves registered variables only). Here the state also holds deep copies of
   the attributes named in :attr:`OilwatchSlave.state_attributes` (numpy arrays, a
@@ -61,14 +66,14 @@ class SlaveInitializationError(RuntimeError):
     """Raised out of ``exit_initialization_mode`` (or a refused set) after the reasons were logged."""
 
 
-REFUSED_SET_ENTRY = "oilwatch_loader_refused_set"
-"""The loader's entry point that turns the current Set* call's fmi2Fatal into fmi2Error."""
+REFUSED_CALL_ENTRY = "oilwatch_loader_refused_call"
+"""The loader's entry point that turns the current call's fmi2Fatal into fmi2Error."""
 
 
-def flag_refused_set_to_loader(resources: str | None) -> bool:
-    """Tell the FMU's loader (module docstring) that the current Set* call is a refused set; return
+def flag_refused_call_to_loader(resources: str | None) -> bool:
+    """Tell the FMU's loader (module docstring) that the current FMI call refuses the user's input; return
     whether a loader took the flag. The loader is the binary beside ``resources/`` that exports
-    :data:`REFUSED_SET_ENTRY` and is already mapped into this process (it is what the host loaded, so
+    :data:`REFUSED_CALL_ENTRY` and is already mapped into this process (it is what the host loaded, so
     ``ctypes`` opens the same copy; nothing new is loaded)."""
     if not resources:
         return False
@@ -80,7 +85,7 @@ def flag_refused_set_to_loader(resources: str | None) -> bool:
     for binary in sorted(folder.glob("*.so")):
         if str(binary.resolve()) not in mapped:
             continue
-        entry = getattr(ctypes.CDLL(str(binary)), REFUSED_SET_ENTRY, None)
+        entry = getattr(ctypes.CDLL(str(binary)), REFUSED_CALL_ENTRY, None)
         if entry is not None:
             entry.restype = None
             entry()
@@ -225,7 +230,8 @@ class OilwatchSlave(Fmi2Slave):
         return problems
 
     def fail(self, problems: list[str], call: str) -> None:
-        """Log each problem at status error, then raise (pythonfmu turns it into fmi2Fatal)."""
+        """Log each problem at status error, then raise (pythonfmu turns it into fmi2Fatal; the loader into
+        fmi2Error when the call was flagged as refused)."""
         for problem in problems:
             self.log(f"{self.instance_name}: {problem}", Fmi2Status.error)
         raise SlaveInitializationError(f"{call}: " + "; ".join(problems))
@@ -238,16 +244,19 @@ class OilwatchSlave(Fmi2Slave):
 
     def exit_initialization_mode(self):
         problems = self._range_problems()
+        refused = bool(problems)  # the user's input: fmi2Error (module docstring); else an internal error
         if not problems:
             try:
                 self.validate_parameters()
                 self.setup()
             except InputError as error:
-                problems = [str(error)]
+                problems, refused = [str(error)], True
             except Exception as error:
                 problems = [f"internal error {type(error).__name__}: {error}"]
                 self.log(traceback.format_exc(), Fmi2Status.error)
         if problems:
+            if refused:
+                flag_refused_call_to_loader(self.resources)
             self.fail(problems, "initialization")
         self._initialized = True
 
@@ -264,7 +273,7 @@ class OilwatchSlave(Fmi2Slave):
             and self.vars[vr].variability in (Fmi2Variability.fixed, Fmi2Variability.constant)
         ]
         if problems:
-            flag_refused_set_to_loader(self.resources)
+            flag_refused_call_to_loader(self.resources)
             self.fail(problems, call)
 
     def set_real(self, vrs, values):

@@ -7,7 +7,11 @@ Read from :attr:`models.machine.Machine.raw` (the section is optional; every key
                                      # or "api670" (X at 45, Y at 135: either side of top dead centre)
     # x1.angle_deg = 30.0            # or each probe's own angle (the recorded-data reader's per-probe key)
     offset_prior_std_um = 25.0       # std of each probe's zero offset before any baseline
-    offset_random_walk_um_sqrt_s = 0.2   # drift of the offsets [um / sqrt(s)]
+    offset_random_walk_um_sqrt_s = 0.2   # drift of the offsets within a run [um / sqrt(s)]
+    offset_drift_um_per_day = 0.0    # bound on the zero drift since a commissioning baseline [um / day]
+    # x1.runout_1x_um = 2.0          # a probe's slow-roll (runout) vectors when known from the field's own
+    # x1.runout_1x_phase_deg = 30.0  # slow-roll measurement: 1x and 2x amplitude, phase from the keyphasor
+    # x1.runout_1x_std_um = 0.05     # and each component's std (keys runout_{1x,2x}_{um,phase_deg,std_um})
 
 One fact, one key: the probes' angles (``layout``, or per probe ``x1.angle_deg`` ...) are read here for the
 estimator and the plant and by the recorded-data reader (:mod:`oilwatch.records.probes`) from the same keys.
@@ -17,7 +21,13 @@ The old estimator-only key ``angle_deg`` at the top of the section is refused wi
 the key that replaces it.
 
 The offsets' prior: the bearing centre is known only from the cold-rest position and a clearance with a
-tolerance, so zero offsets of 10-25 um are ordinary.
+tolerance, so zero offsets of 10-25 um are ordinary. A baseline's offsets are widened by
+``offset_drift_um_per_day`` times the days since it (``estimator.config.OffsetBaseline``): the within-run
+random walk is no model of months (0.2 um/sqrt(s) is 59 um after a day).
+
+Runout: :attr:`Probes.runout` holds the per-probe ``runout_*`` keys as the lists a baseline file stores
+(``estimator.runout.SlowRollVectors.from_document`` reads it: :func:`estimator.runout.runout_of_probes`);
+None when no probe has one. A probe's missing keys are 0.
 """
 
 from __future__ import annotations
@@ -31,17 +41,50 @@ from .validation import InputError, require_in_range
 LAYOUTS = {"xy": (0.0, 90.0), "api670": (45.0, 135.0)}
 """Mounting angles (X probe, Y probe) [deg] of the named layouts, counter-clockwise from the model's +x."""
 
-DEFAULTS = {"offset_prior_std_um": 25.0, "offset_random_walk_um_sqrt_s": 0.2}
+DEFAULTS = {"offset_prior_std_um": 25.0, "offset_random_walk_um_sqrt_s": 0.2, "offset_drift_um_per_day": 0.0}
+
+RUNOUT_KEYS = {
+    "runout_1x_um": (0.0, 100.0),
+    "runout_1x_phase_deg": (-360.0, 360.0),
+    "runout_1x_std_um": (0.0, 100.0),
+    "runout_2x_um": (0.0, 100.0),
+    "runout_2x_phase_deg": (-360.0, 360.0),
+    "runout_2x_std_um": (0.0, 100.0),
+}
+"""The per-probe runout keys and their ranges (field units: um, degrees from the keyphasor)."""
 
 
 @dataclass(frozen=True)
 class Probes:
     """SI values of the ``[probes]`` section: angle_deg (the X probes' angle) [deg], offset_prior_std_m [m],
-    offset_random_walk_m_sqrt_s [m / sqrt(s)]."""
+    offset_random_walk_m_sqrt_s [m / sqrt(s)], offset_drift_m_per_day [m / day]; runout: the per-probe
+    runout keys as {key: [x1, y1, x2, y2]} in the field's units, or None (module docstring)."""
 
     angle_deg: float
     offset_prior_std_m: float
     offset_random_walk_m_sqrt_s: float
+    offset_drift_m_per_day: float = 0.0
+    runout: dict | None = None
+
+
+def _runout(section: dict) -> dict | None:
+    """The per-probe runout keys (module docstring), None when no probe gives one."""
+    columns = {key: [0.0] * 4 for key in RUNOUT_KEYS}
+    given = False
+    for k, name in enumerate(("x1", "y1", "x2", "y2")):
+        table = section.get(name, {})
+        if not isinstance(table, dict):
+            continue
+        for key, (low, high) in RUNOUT_KEYS.items():
+            if key not in table:
+                continue
+            value = table[key]
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise InputError(f"probes.{name}.{key} must be a number, got {value!r}")
+            unit = "deg" if key.endswith("deg") else "um"
+            columns[key][k] = require_in_range(f"probes.{name}.{key}", float(value), low, high, unit)
+            given = True
+    return columns if given else None
 
 
 def _probe_angles(section: dict) -> dict[str, float]:
@@ -100,4 +143,9 @@ def read_probes(machine: Machine) -> Probes:
             "probes.offset_random_walk_um_sqrt_s", float(values["offset_random_walk_um_sqrt_s"]), 0.0, 100.0
         )
         * 1e-6,
+        offset_drift_m_per_day=require_in_range(
+            "probes.offset_drift_um_per_day", float(values["offset_drift_um_per_day"]), 0.0, 1000.0, "um/day"
+        )
+        * 1e-6,
+        runout=_runout(section),
     )

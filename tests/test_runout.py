@@ -113,3 +113,31 @@ def test_too_short_a_slow_roll_record_is_refused():
     times = 1e-3 * np.arange(1, 200)
     with pytest.raises(InputError, match=r"probe x1 has 0\.7 revolution"):
         fit_slow_roll(times, np.zeros((len(times), 4)), 2 * math.pi * 3.75 * times)
+
+
+def test_under_a_speed_ramp_the_compensation_angle_is_the_integral_of_the_measured_speed():
+    """The estimator subtracts the runout at the operating model's rotor angle, the phase its unbalance
+    forcing uses (the integral of the measured speed, or the keyphasor's), not nominal Omega t."""
+    from models.machine import load_machine
+    from models.system.factory import load_system
+    from models.system.operating_model import build_operating_model
+
+    machine = load_machine()
+    model = build_operating_model(load_system(reduced=True), machine)
+    dt = model.dt_s
+    speeds = np.linspace(72.0, 78.0, 400)
+    for step, speed in enumerate(speeds, start=1):
+        model.set_operating_point(float(speed))
+        angle = model.rotor_angle_rad(step)
+        # the model's convention: a speed set at a step turns the rotor over the period after it
+        expected = 2.0 * math.pi * dt * (speeds[0] + speeds[: step - 1].sum())
+        w = model.exogenous(step)
+        assert math.isclose(angle, expected, rel_tol=1e-12) and np.allclose(
+            w[1:], [math.cos(angle), math.sin(angle)]
+        )
+    # a keyphasor angle given for the previous step re-anchors the rotor angle
+    model.set_operating_point(75.0, rotor_angle_rad=1.0)
+    assert math.isclose(model.rotor_angle_rad(len(speeds) + 1), 1.0 + 2.0 * math.pi * 75.0 * dt)
+    vectors = SlowRollVectors((2e-6 + 1e-6j, 0j, 0j, 0j), (0j,) * 4, (0.0,) * 4, (0.0,) * 4)
+    compensation = RunoutCompensation(vectors, 2.0 * math.pi * 75.0, dt, dt)
+    assert np.allclose(compensation.compensate(np.zeros(4), 10, 0.3), -vectors.runout_m(0.3))

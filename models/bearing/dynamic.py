@@ -65,7 +65,7 @@ class FilmImpedance:
         e0 = np.asarray(eccentricity_m, dtype=float)
         op = film_operator(grid, tuple(e0), (0.0, 0.0), self.omega_spin)
         self.p_ref = _reference_pressure(op)
-        transient = TransientFilm(bearing, speed_hz, grid.mesh)
+        transient = TransientFilm(bearing, speed_hz, grid.mesh, symmetric=False)
         self.volume0 = transient.gap_volume_m3(e0)
         n = grid.n_nodes
         p0 = np.zeros(n)

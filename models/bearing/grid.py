@@ -110,6 +110,8 @@ class FilmGrid:
     end_dist: np.ndarray
     pattern: sp.csr_matrix
     slots: dict
+    half: bool = False
+    """True: the grid covers z in [0, L/2] only, closed (a symmetry plane) at z = L/2 (:func:`film_grid`)."""
 
     @property
     def dpsi(self) -> np.ndarray:
@@ -150,15 +152,24 @@ def _axial_faces(length: float, groove: float, n: int) -> tuple[np.ndarray, int,
 
 
 @lru_cache(maxsize=16)
-def film_grid(bearing: JournalBearing, mesh: Mesh) -> FilmGrid:
-    """Build (and cache) the grid and the fixed sparsity pattern for ``bearing`` on ``mesh``."""
+def film_grid(bearing: JournalBearing, mesh: Mesh, half: bool = False) -> FilmGrid:
+    """Build (and cache) the grid and the fixed sparsity pattern for ``bearing`` on ``mesh``.
+
+    ``half``: only the cells of z < L/2 of the same mesh (needs an even ``n_axial``), with no flow
+    through the mid-plane. A rigid, aligned journal and an axially centred groove make the film
+    mirror-symmetric about it, so this half carries exactly half of every flow, force and volume."""
     n, m = mesh.n_circ, mesh.n_axial
+    if half and m % 2:
+        raise InputError(f"a half (mid-plane symmetric) grid needs an even mesh n_axial, got {m}")
     span = bearing.groove_span_rad
     k_circ = max(1, round(n * span / (2.0 * math.pi)))
     if n - k_circ < MIN_CIRCUMFERENTIAL_CELLS // 2:
         raise InputError(f"mesh n_circ={n} leaves too few land cells outside the groove")
     psi_faces = _split_faces(2.0 * math.pi, span, n, k_circ, 0.0)
     z_faces, j0, j1 = _axial_faces(bearing.length_m, bearing.groove_axial_m, m)
+    if half:  # the groove is centred with an even land on either side (see _axial_faces)
+        m //= 2
+        z_faces, j1 = z_faces[: m + 1], min(j1, m)
     alpha_lead = 0.5 * math.pi + bearing.groove_angle_rad - 0.5 * span
     alpha_faces = alpha_lead + psi_faces
     alpha_centres = 0.5 * (alpha_faces[:-1] + alpha_faces[1:])
@@ -200,7 +211,7 @@ def film_grid(bearing: JournalBearing, mesh: Mesh) -> FilmGrid:
     axial_dist = adist[keep]
 
     # Bearing ends (ambient pressure); the groove is closed at its axial ends.
-    ends = [(i, j) for j in (0, m - 1) for i in range(n) if not in_groove[i, j]]
+    ends = [(i, j) for j in ((0,) if half else (0, m - 1)) for i in range(n) if not in_groove[i, j]]
     end_faces = np.array(ends, dtype=np.int64).reshape(-1, 2)
     end_dist = 0.5 * dz[end_faces[:, 1]]
 
@@ -224,6 +235,7 @@ def film_grid(bearing: JournalBearing, mesh: Mesh) -> FilmGrid:
         end_dist=end_dist,
         pattern=pattern,
         slots=slots,
+        half=half,
     )
 
 

@@ -19,11 +19,17 @@ Newton) iteration, warm-started from the previous step's partition and unknowns.
 Per step the discrete balance summed over all volumes is exact (the fluxes telescope):
 supply - side leakage - d(film content)/dt = 0 to the linear solver's tolerance (tested).
 
-Fast path: first the projected SOR sweeps of Ausas et al. on the same balances
-(:mod:`models.bearing.transient_sweep`), warm-started; a step is accepted from them only when every
-volume's residual and the step's mass balance meet the tolerances, else the active set below finishes
-it (the fallback). On coarse meshes the sweeps converge in about a hundred sweeps of microseconds;
-on the production mesh they only predict the partition (see :data:`SWEEP_MAX_NODES`).
+Fast path: the step is solved by projected multigrid cycles (:mod:`models.bearing.transient_multigrid`:
+the projected Gauss-Seidel sweep of Ausas et al. as smoother, an aggregation coarse correction of the
+pressurized region) on large meshes, by projected SOR sweeps (:mod:`models.bearing.transient_sweep`) on
+small ones, warm-started from the film extrapolated linearly in time; a step is accepted only when
+every volume's residual and the step's mass balance meet the tolerances, else the active set below
+finishes it (the fallback).
+
+Symmetry: the journal is rigid and aligned and the groove axially centred, so the film is
+mirror-symmetric about the mid-plane; on an even ``n_axial`` only the half z < L/2 is solved (closed
+at the mid-plane, :func:`models.bearing.grid.film_grid` with ``half``) and forces, flows and content
+are doubled (tested against the whole film). It halves every solver's cost.
 
 Linear solves: the step matrices of successive steps differ little (the journal moves a fraction
 of the clearance, a few volumes switch), so the sparse LU of one step is reused as the
@@ -46,6 +52,7 @@ from .discretization import film_operator, force_weights
 from .film import FilmSolution, side_leakage, validate_state
 from .geometry import JournalBearing
 from .grid import PRODUCTION_MESH, FilmGrid, Mesh, film_grid
+from .transient_multigrid import CoarseCorrection, multigrid_solve
 from .transient_sweep import sor_sweeps
 
 BDF = {1: (1.0, (-1.0,)), 2: (1.5, (-2.0, 0.5))}
@@ -69,6 +76,18 @@ SWEEP_RESIDUAL_TOLERANCE = 1e-11
 """A sweep-solved step is accepted when every volume's balance residual is below this times U c L / 2 ..."""
 SWEEP_MASS_TOLERANCE = 1e-10
 """... and the step's mass-balance error (the residuals' sum) below this times the supply flow."""
+SOLVERS = ("multigrid", "sweeps", "active-set")
+"""``solver`` of :class:`TransientFilm`: projected multigrid cycles
+(:mod:`models.bearing.transient_multigrid`) or projected SOR sweeps
+(:mod:`models.bearing.transient_sweep`), each finished by the active set when it does not meet the
+tolerances; or the active set alone. The default: multigrid above :data:`MULTIGRID_MIN_NODES` volumes."""
+MULTIGRID_CYCLE_LIMIT = 100
+"""Multigrid cycles tried before the active set finishes a step."""
+MULTIGRID_MIN_NODES = 1000
+"""The default solver is the multigrid on grids of more volumes than this, else the sweeps. One bearing,
+3 um whirl at 64 steps per revolution, CPU per step under load ~17 (/tmp scans, residual 1e-8 / 1e-11):
+60 x 16 half (469 volumes) sweeps 0.84 ms, multigrid 1.34 ms; 120 x 36 half (2098) sweeps 8.5 ms,
+multigrid 4.4 ms (1e-11); 240 x 72 half (8389) multigrid 31 cycles, 16 ms (1e-11)."""
 
 
 def default_sweep_limit(n_nodes: int) -> int:
@@ -109,11 +128,14 @@ class TransientFilmState:
     gmres_iterations: int = 0
     sweeps: int = 0
     sweep_residual: float = 0.0
+    previous_pressure_pa: np.ndarray | None = None
+    previous_fill_fraction: np.ndarray | None = None
+    mirror: float = 1.0
 
     @property
     def total_content_m3(self) -> float:
-        """Oil held in the film [m^3]."""
-        return float(self.content_m3.sum())
+        """Oil held in the film [m^3] (``mirror`` = 2: the arrays hold the half z < L/2)."""
+        return float(self.mirror * self.content_m3.sum())
 
 
 class TransientFilm:
@@ -137,6 +159,8 @@ class TransientFilm:
         residual_tolerance: float = SWEEP_RESIDUAL_TOLERANCE,
         mass_tolerance: float = SWEEP_MASS_TOLERANCE,
         sweep_limit: int | None = None,
+        solver: str | None = None,
+        symmetric: bool | None = None,
     ):
         if order not in BDF:
             raise InputError(f"order must be 1 or 2 (backward Euler or BDF2), got {order!r}")
@@ -144,7 +168,10 @@ class TransientFilm:
         self.speed_hz = require_positive("speed_hz", speed_hz, "Hz")
         self.omega_rad_s = 2.0 * math.pi * self.speed_hz
         self.mesh = PRODUCTION_MESH if mesh is None else mesh
-        self.grid: FilmGrid = film_grid(bearing, self.mesh)
+        self.full_grid: FilmGrid = film_grid(bearing, self.mesh)
+        self.symmetric = self.mesh.n_axial % 2 == 0 if symmetric is None else bool(symmetric)
+        self.grid: FilmGrid = film_grid(bearing, self.mesh, half=self.symmetric)
+        self.mirror = 2.0 if self.symmetric else 1.0
         self.order = order
         grid = self.grid
         self.wx, self.wy = force_weights(grid)
@@ -158,9 +185,20 @@ class TransientFilm:
         self._lu = None
         self.factorizations = 0
         self.relaxation = 2.0 / (1.0 + SWEEP_RELAXATION_SCALE / self.mesh.n_axial)
-        self.sweep_limit = default_sweep_limit(grid.n_nodes) if sweep_limit is None else int(sweep_limit)
+        if solver is None:
+            large = grid.n_nodes > MULTIGRID_MIN_NODES
+            solver = "active-set" if sweep_limit == 0 else "multigrid" if large else "sweeps"
+        if solver not in SOLVERS:
+            raise InputError(f"solver must be one of {', '.join(SOLVERS)}; got {solver!r}")
+        self.solver = solver
+        if solver == "multigrid":
+            default_limit = MULTIGRID_CYCLE_LIMIT
+        else:
+            default_limit = 0 if solver == "active-set" else default_sweep_limit(grid.n_nodes)
+        self.sweep_limit = default_limit if sweep_limit is None else int(sweep_limit)
         if self.sweep_limit < 0:
             raise InputError(f"sweep_limit must be >= 0, got {sweep_limit!r}")
+        self._coarse = CoarseCorrection(grid) if solver == "multigrid" else None
         self.residual_tolerance = require_positive("residual_tolerance", residual_tolerance)
         self.mass_tolerance = require_positive("mass_tolerance", mass_tolerance)
         self.sweep_count = 0
@@ -173,19 +211,20 @@ class TransientFilm:
 
     def from_steady(self, film: FilmSolution, eccentricity_m, time_s: float = 0.0) -> TransientFilmState:
         """The transient state of a steady film solution (same bearing, speed and mesh)."""
-        if film.grid is not self.grid:
+        if film.grid is not self.full_grid:
             raise InputError("the steady film must be on the transient film's mesh and bearing")
         n = self.grid.n_nodes
         p = np.zeros(n)
         theta = np.zeros(n)
-        p[self.grid.node_of_cell] = film.pressure_pa
-        theta[self.grid.node_of_cell] = film.fill_fraction
+        cells = self.grid.node_of_cell
+        p[cells] = film.pressure_pa[:, : cells.shape[1]]
+        theta[cells] = film.fill_fraction[:, : cells.shape[1]]
         e = np.asarray(eccentricity_m, dtype=float)
         content = theta * self.gap_volume_m3(e)
         return TransientFilmState(
             p,
             theta,
-            film.full.copy(),
+            theta >= 1.0,
             content,
             None,
             e.copy(),
@@ -193,7 +232,14 @@ class TransientFilm:
             film.side_leakage_m3_s,
             film.supply_flow_m3_s,
             float(time_s),
+            mirror=self.mirror,
         )
+
+    def cell_values(self, node_values: np.ndarray) -> np.ndarray:
+        """A node array of this film's states as (n_circ, n_axial) cells of the whole bearing (the
+        symmetric half mirrored)."""
+        half = np.asarray(node_values)[self.grid.node_of_cell]
+        return np.concatenate([half, half[:, ::-1]], axis=1) if self.symmetric else half
 
     def step(
         self,
@@ -225,9 +271,9 @@ class TransientFilm:
             old = old + history[1] * state.previous_content_m3
         storage = beta * self.gap_volume_m3(e) / dt
         source = -old / dt
-        source[grid.groove_node] += q
-        start = state if guess is None else guess
-        sweep = self._sweeps(op, storage, source, start, q) if self.sweep_limit > 0 else None
+        source[grid.groove_node] += q / self.mirror
+        start = _extrapolated(state) if guess is None else guess
+        sweep = self._sweeps(op, storage, source, start, q / self.mirror) if self.sweep_limit > 0 else None
         if sweep is not None and sweep[3]:
             p, theta, full = sweep[0], sweep[1], sweep[2]
             iteration, linear = 0, 0
@@ -245,14 +291,17 @@ class TransientFilm:
             content_m3=content,
             previous_content_m3=state.content_m3,
             eccentricity_m=e.copy(),
-            force_n=np.array([p @ op.wx, p @ op.wy]),
-            side_leakage_m3_s=side_leakage(op, p),
+            force_n=self.mirror * np.array([p @ op.wx, p @ op.wy]),
+            side_leakage_m3_s=self.mirror * side_leakage(op, p),
             supply_flow_m3_s=q,
             time_s=state.time_s + dt,
             iterations=iteration,
             gmres_iterations=linear,
             sweeps=0 if sweep is None else sweep[4],
             sweep_residual=0.0 if sweep is None else sweep[5],
+            previous_pressure_pa=state.pressure_pa,
+            previous_fill_fraction=state.fill_fraction,
+            mirror=self.mirror,
         )
 
     def _sweeps(self, op, storage, source, start, q: float):
@@ -260,23 +309,17 @@ class TransientFilm:
         converged, sweeps, max |residual| / (U c L / 2))."""
         p = np.where(start.full, np.maximum(start.pressure_pa, 0.0) / self.p_ref, 0.0)
         theta = np.where(start.full, 1.0, np.minimum(start.fill_fraction, 1.0))
-        scale = op.couette_scale_m3_s
-        sweeps, worst, _, converged = sor_sweeps(
-            self._indptr,
-            self._cols,
-            self._diag,
-            op.ap_data * self.p_ref,
-            op.at_data,
-            storage,
-            source,
-            p,
-            theta,
-            self.relaxation,
-            self.residual_tolerance * scale,
-            self.mass_tolerance * max(q, scale * 1e-3),
-            self.sweep_limit,
-            SWEEP_CHECK_EVERY,
-        )
+        scale = op.couette_scale_m3_s / self.mirror  # the grid's own Couette flow (half the bearing's)
+        common = (self._indptr, self._cols, self._diag, op.ap_data * self.p_ref, op.at_data, storage, source)
+        limits = (self.residual_tolerance * scale, self.mass_tolerance * max(q, scale * 1e-3))
+        if self._coarse is not None:
+            sweeps, worst, _, converged = multigrid_solve(
+                self._coarse, *common, p, theta, *limits, self.sweep_limit
+            )
+        else:
+            sweeps, worst, _, converged = sor_sweeps(
+                *common, p, theta, self.relaxation, *limits, self.sweep_limit, SWEEP_CHECK_EVERY
+            )
         self.sweep_count += sweeps
         full = theta >= 1.0
         return p * self.p_ref, theta, full, converged, sweeps, worst / scale
@@ -359,6 +402,18 @@ class TransientFilm:
         return self._lu.solve(rhs, trans="T"), 0
 
 
+def _extrapolated(state: TransientFilmState) -> _Start:
+    """The start of a step: the film extrapolated linearly in time from its last two steps (the
+    journal moves smoothly, so this halves or better the residual the solver has to remove), or the
+    state itself before its second step. The partition follows the extrapolated pressure."""
+    if state.previous_pressure_pa is None:
+        return _Start(state.pressure_pa, state.fill_fraction, state.full)
+    p = 2.0 * state.pressure_pa - state.previous_pressure_pa
+    theta = np.clip(2.0 * state.fill_fraction - state.previous_fill_fraction, 0.0, 1.0)
+    full = p > 0.0
+    return _Start(np.maximum(p, 0.0), np.where(full, 1.0, np.minimum(theta, 1.0 - 1e-12)), full)
+
+
 def mass_balance_error(film: TransientFilm, before: TransientFilmState, after: TransientFilmState) -> float:
     """supply - side leakage - d(content)/dt of a step, relative to the supply flow [-]."""
     dt = after.time_s - before.time_s
@@ -368,4 +423,5 @@ def mass_balance_error(film: TransientFilm, before: TransientFilmState, after: T
         ).sum() / dt
     else:
         rate = (after.content_m3 - before.content_m3).sum() / dt
+    rate *= film.mirror
     return float((after.supply_flow_m3_s - after.side_leakage_m3_s - rate) / after.supply_flow_m3_s)

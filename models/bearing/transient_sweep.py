@@ -27,7 +27,7 @@ from numba import njit
 
 
 @njit(cache=True)
-def _residual(indptr, indices, ap, at, storage, rhs, p, theta, out):
+def step_residual(indptr, indices, ap, at, storage, rhs, p, theta, out):
     """r_k = b_k - sum_j Ap p_j - sum_j At theta_j - S_k theta_k into ``out``; returns (max |r|, sum r)."""
     worst = 0.0
     total = 0.0
@@ -42,6 +42,45 @@ def _residual(indptr, indices, ap, at, storage, rhs, p, theta, out):
         if abs(r) > worst:
             worst = abs(r)
     return worst, total
+
+
+@njit(cache=True)
+def sweep_factors(diag, ap, at, storage):
+    """Per volume: 1 / Ap[k, k], the outflow At[k, k] + S_k of a full volume and its inverse."""
+    n = storage.size
+    inverse_conductance = np.empty(n)
+    outflow = np.empty(n)
+    inverse_outflow = np.empty(n)
+    for k in range(n):
+        d = diag[k]
+        inverse_conductance[k] = 1.0 / ap[d]
+        outflow[k] = at[d] + storage[k]
+        inverse_outflow[k] = 1.0 / outflow[k]
+    return inverse_conductance, outflow, inverse_outflow
+
+
+@njit(cache=True)
+def projected_sweeps(indptr, indices, diag, ap, at, factors, rhs, p, theta, relaxation, n_sweeps):
+    """``n_sweeps`` projected SOR sweeps in place on ``p`` (scaled pressure) and ``theta``;
+    ``factors`` from :func:`sweep_factors`."""
+    inverse_conductance, outflow, inverse_outflow = factors
+    for _ in range(n_sweeps):
+        for k in range(p.size):
+            d = diag[k]
+            flow = 0.0
+            for s in range(indptr[k], indptr[k + 1]):
+                j = indices[s]
+                flow += ap[s] * p[j] + at[s] * theta[j]
+            # b: the balance's right-hand side less the neighbours' flows (the own terms added back).
+            b = rhs[k] - flow + ap[d] * p[k] + at[d] * theta[k]
+            p_full = (b - outflow[k]) * inverse_conductance[k]
+            p_new = p[k] + relaxation * (p_full - p[k]) if theta[k] >= 1.0 else p_full
+            if p_new > 0.0:
+                p[k] = p_new
+                theta[k] = 1.0
+            else:
+                p[k] = 0.0
+                theta[k] = min(b * inverse_outflow[k], 1.0)
 
 
 @njit(cache=True)
@@ -67,38 +106,17 @@ def sor_sweeps(
     max |r|, sum r, converged). The residual is checked before the first sweep (a converged warm
     start costs one residual pass) and then every ``check_every`` sweeps.
     """
-    n = p.size
-    work = np.empty(n)
-    worst, total = _residual(indptr, indices, ap, at, storage, rhs, p, theta, work)
+    work = np.empty(p.size)
+    worst, total = step_residual(indptr, indices, ap, at, storage, rhs, p, theta, work)
     if worst <= residual_limit and abs(total) <= mass_limit:
         return 0, worst, total, True
-    inverse_conductance = np.empty(n)
-    outflow = np.empty(n)
-    inverse_outflow = np.empty(n)
-    for k in range(n):
-        d = diag[k]
-        inverse_conductance[k] = 1.0 / ap[d]
-        outflow[k] = at[d] + storage[k]
-        inverse_outflow[k] = 1.0 / outflow[k]
-    for sweep in range(1, max_sweeps + 1):
-        for k in range(n):
-            d = diag[k]
-            flow = 0.0
-            for s in range(indptr[k], indptr[k + 1]):
-                j = indices[s]
-                flow += ap[s] * p[j] + at[s] * theta[j]
-            # b: the balance's right-hand side less the neighbours' flows (the own terms added back).
-            b = rhs[k] - flow + ap[d] * p[k] + at[d] * theta[k]
-            p_full = (b - outflow[k]) * inverse_conductance[k]
-            p_new = p[k] + relaxation * (p_full - p[k]) if theta[k] >= 1.0 else p_full
-            if p_new > 0.0:
-                p[k] = p_new
-                theta[k] = 1.0
-            else:
-                p[k] = 0.0
-                theta[k] = min(b * inverse_outflow[k], 1.0)
-        if sweep % check_every == 0 or sweep == max_sweeps:
-            worst, total = _residual(indptr, indices, ap, at, storage, rhs, p, theta, work)
-            if worst <= residual_limit and abs(total) <= mass_limit:
-                return sweep, worst, total, True
+    factors = sweep_factors(diag, ap, at, storage)
+    done = 0
+    while done < max_sweeps:
+        batch = min(check_every, max_sweeps - done)
+        projected_sweeps(indptr, indices, diag, ap, at, factors, rhs, p, theta, relaxation, batch)
+        done += batch
+        worst, total = step_residual(indptr, indices, ap, at, storage, rhs, p, theta, work)
+        if worst <= residual_limit and abs(total) <= mass_limit:
+            return done, worst, total, True
     return max_sweeps, worst, total, False

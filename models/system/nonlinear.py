@@ -259,7 +259,7 @@ class NonlinearRotorBearing:
         order = min(self.films[0].order, 1 if state.films[0].previous_content_m3 is None else 2)
         inverse = self._iteration_inverse(BDF[order][0])
         r1 = r + h * v + 0.5 * h * h * a
-        guesses = state.films
+        guesses = [None] * len(self.films)  # the first iterate starts from the films' extrapolation
         updates = []
         for iteration in range(self.max_corrections):
             positions = (self.selector @ r1).reshape(-1, 2)

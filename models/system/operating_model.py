@@ -202,6 +202,13 @@ class OperatingAugmentedModel:
         anchor_step, anchor_phase = self._anchor
         return anchor_phase + 2.0 * math.pi * self._speed * (step - anchor_step) * self.dt_s
 
+    def rotor_angle_rad(self, step: int) -> float:
+        """The rotor angle [rad] at ``step`` (t = step dt), the phase of the unbalance forcing: the integral
+        of the measured speed, from a keyphasor angle given for the previous step when there is one."""
+        if self._keyphasor is not None:
+            return self._keyphasor + 2.0 * math.pi * self._speed * self.dt_s
+        return self._phase_at(step)
+
     def exogenous(self, step: int) -> np.ndarray:
         """``w_k = [1, cos(phi_k), sin(phi_k)]``, phi_k the integral of the speed (or the keyphasor's)."""
         if self._keyphasor is not None:

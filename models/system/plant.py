@@ -228,3 +228,15 @@ class RotorBearingPlant:
         self.time_s = snapshot["time_s"]
         self._held = snapshot["held"].copy()
         self._set_conditions(*snapshot["conditions"])
+
+
+def publish_initial_sample(plant) -> PlantSample:
+    """Start a plant (:class:`RotorBearingPlant` or the transient-film plant of
+    :mod:`models.system.nonlinear_plant`) as the plant FMU does: publish the sample at the start time.
+
+    The FMU's outputs exist from initialization on, so that sample takes the noise generator's first draw
+    and the samples of the steps continue the sequence after it. Anything that must see the FMU's noise
+    from an in-process plant (the study's ``direct`` case, cross-checked against the FMU path to 0.05
+    ml/min) starts its plant here too: the FMU shell and the study share this one call.
+    """
+    return plant.current_sample()

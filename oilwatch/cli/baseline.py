@@ -18,9 +18,11 @@ def register(subparsers) -> None:
         help="estimate the probe zero offsets from a record at known flowrates (commissioning)",
         description=(
             "Read a record (CSV: time_s and the probe columns x1_um, y1_um, x2_um, y2_um along each probe's "
-            "axis; optional speed_hz and oil_temperature_c are not used yet) taken at known, healthy "
-            "flowrates (default: the machine's nominal), estimate the four probe zero offsets with their "
-            "covariance and write them as JSON: the estimator's prior for later runs. With "
+            "axis; optional speed_hz and oil_temperature_c, fed to the estimator's operating model when "
+            "the viscosity factors are estimated) taken at known, healthy flowrates (default: the "
+            "machine's nominal), estimate the four probe zero offsets, the complex unbalance and the "
+            "bearings' viscosity factors with their joint covariance and write them as JSON: the "
+            "estimator's prior for later runs. With "
             "--slow-roll-record, also fit each probe's 1x and 2x slow-roll (runout) vectors to a record "
             "taken at slow roll, store them with their stds and subtract them from the commissioning "
             "record (and, in later runs, from every sample: API 670 slow-roll compensation)."
@@ -44,12 +46,30 @@ def register(subparsers) -> None:
         default=None,
         help="prior std of each offset [um] (default: the machine file's [probes] offset_prior_std_um, 25)",
     )
+    parser.add_argument(
+        "--unbalance-prior",
+        type=float,
+        default=0.0,
+        help="prior std of the complex unbalance relative to the machine file's, e.g. 2; 0: not estimated "
+        "(default: 0)",
+    )
+    parser.add_argument(
+        "--viscosity-prior",
+        type=float,
+        default=0.0,
+        help="prior std of each bearing's viscosity factor (film over the oil law at the measured "
+        "temperature), e.g. 0.1: needs a record of tens of seconds (README); 0: not estimated (default: 0)",
+    )
     parser.add_argument("--out", required=True, metavar="FILE", help="baseline JSON to write")
     parser.set_defaults(func=run)
 
 
+OPERATING_COLUMNS = ("speed_hz", "oil_temperature_c")
+
+
 def read_record(path: str | Path, dt_s: float):
-    """(times (K,) [s], positions (K, 4) [m]) from a record CSV; rows with a non-finite time are skipped."""
+    """(times (K,) [s], positions (K, 4) [m], operating {column: (K,)}) from a record CSV, the operating
+    columns (speed_hz, oil_temperature_c) that it has; rows with a non-finite time are skipped."""
     import numpy as np
 
     from models.validation import InputError
@@ -57,14 +77,16 @@ def read_record(path: str | Path, dt_s: float):
     try:
         with open(path, newline="") as handle:
             reader = csv.DictReader(handle)
-            missing = [c for c in ("time_s", *PROBE_COLUMNS) if c not in (reader.fieldnames or [])]
+            names = reader.fieldnames or []
+            missing = [c for c in ("time_s", *PROBE_COLUMNS) if c not in names]
             if missing:
                 raise InputError(f"--record {path}: missing column(s) {', '.join(missing)}")
-            rows = [[row["time_s"], *(row[c] for c in PROBE_COLUMNS)] for row in reader]
+            columns = ("time_s", *PROBE_COLUMNS, *(c for c in OPERATING_COLUMNS if c in names))
+            rows = [[row[c] for c in columns] for row in reader]
     except FileNotFoundError:
         raise InputError(f"--record: file not found: {path}") from None
     try:
-        table = np.array(rows, dtype=float).reshape(-1, 5)
+        table = np.array(rows, dtype=float).reshape(-1, len(columns))
     except ValueError as error:
         raise InputError(f"--record {path}: not numeric ({error})") from None
     table = table[np.isfinite(table[:, 0])]
@@ -76,7 +98,11 @@ def read_record(path: str | Path, dt_s: float):
             f"--record {path}: samples must be {dt_s:g} s apart (the estimator's period), got "
             f"{steps.min():g} to {steps.max():g} s"
         )
-    return table[:, 0], table[:, 1:] * 1e-6
+    operating = {c: table[:, k] for k, c in enumerate(columns) if c in OPERATING_COLUMNS}
+    for column, values in operating.items():
+        if not np.isfinite(values).all():
+            raise InputError(f"--record {path}: {column} must be finite in every row")
+    return table[:, 0], table[:, 1:5] * 1e-6, operating
 
 
 def read_slow_roll_record(path: str | Path):
@@ -158,11 +184,21 @@ def run(args: argparse.Namespace) -> int:
     require_in_range("--offset-prior-um", prior_um, 0.01, 1000.0, "um")
     nominal = machine.lubrication.nominal_flowrate_m3_s
     flows = [nominal if v is None else v * ML_MIN for v in (args.q1_ml_min, args.q2_ml_min)]
-    model = GridAugmentedModel(build_system(machine, reduced=True))
+    require_in_range("--unbalance-prior", args.unbalance_prior, 0.0, 100.0)
+    require_in_range("--viscosity-prior", args.viscosity_prior, 0.0, 0.5)
+    reduced = build_system(machine, reduced=True)
+    if args.viscosity_prior > 0.0:  # the factors need the model that follows the operating point
+        from models.system.operating_model import build_operating_model
+
+        model = build_operating_model(reduced, machine)
+    else:
+        model = GridAugmentedModel(reduced)
     low, high = model.flowrate_bounds_m3_s
     for name, value in zip(("--q1-ml-min", "--q2-ml-min"), flows, strict=True):
         require_in_range(name, value / ML_MIN, low / ML_MIN, high / ML_MIN, "ml/min")
-    times, positions = read_record(args.record, model.dt_s)
+    times, positions, operating = read_record(args.record, model.dt_s)
+    if args.viscosity_prior == 0.0:
+        operating = {}
     first = round(times[0] / model.dt_s) * model.dt_s
     if abs(first - times[0]) > 1e-6 * model.dt_s:
         raise InputError(f"--record: time_s must lie on multiples of {model.dt_s:g} s, got {times[0]:g}")
@@ -175,8 +211,17 @@ def run(args: argparse.Namespace) -> int:
         offset_random_walk_m_sqrt_s=probes.offset_random_walk_m_sqrt_s,
         q_nominal_m3_s=nominal,
         runout=runout,
+        unbalance_prior_std=args.unbalance_prior,
+        viscosity_factor_prior_std=args.viscosity_prior,
     )
-    document = estimate_baseline(model, positions, flows, config)
+    document = estimate_baseline(
+        model,
+        positions,
+        flows,
+        config,
+        speed_hz=operating.get("speed_hz"),
+        oil_temperature_c=operating.get("oil_temperature_c"),
+    )
     document.update(record=str(args.record), machine_file=args.machine)
     if runout is not None:
         document.update(runout=runout.to_document(), slow_roll_record=str(args.slow_roll_record))
@@ -185,5 +230,12 @@ def run(args: argparse.Namespace) -> int:
         f"{c} {o:+.2f} +- {s:.2f}"
         for c, o, s in zip(PROBE_COLUMNS, document["offsets_um"], document["offset_std_um"], strict=True)
     )
-    print(f"baseline: offsets [um] {offsets}; written to {args.out}")
+    others = ""
+    if "viscosity_factor" in document:
+        factors = zip(document["viscosity_factor"], document["viscosity_factor_std"], strict=True)
+        others += "; viscosity factors " + ", ".join(f"{v:.3f} +- {s:.3f}" for v, s in factors)
+    if "unbalance" in document:
+        (re, im), (s_re, s_im) = document["unbalance"], document["unbalance_std"]
+        others += f"; unbalance {re:+.3f} {im:+.3f}i (std {s_re:.3f}, {s_im:.3f}) of the machine file's"
+    print(f"baseline: offsets [um] {offsets}{others}; written to {args.out}")
     return 0

@@ -16,7 +16,13 @@ import shlex
 import sys
 from pathlib import Path
 
-from .machine_option import add_machine_option, load_machine_option
+from .machine_option import (
+    add_coefficients_option,
+    add_fraction_range_option,
+    add_machine_option,
+    check_fraction_range,
+    load_machine_option,
+)
 
 DEFAULT_SPEED_RANGE = (0.6, 1.4)
 DEFAULT_VISCOSITY_RANGE = (0.5, 2.0)
@@ -33,22 +39,8 @@ def register(subparsers) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     add_machine_option(parser)
-    parser.add_argument(
-        "--speed-range",
-        type=float,
-        nargs=2,
-        metavar=("LOW", "HIGH"),
-        default=DEFAULT_SPEED_RANGE,
-        help="speeds to cover, as fractions of nominal (0.6 1.4)",
-    )
-    parser.add_argument(
-        "--viscosity-range",
-        type=float,
-        nargs=2,
-        metavar=("LOW", "HIGH"),
-        default=DEFAULT_VISCOSITY_RANGE,
-        help="viscosities to cover, as fractions of the nominal (0.5 2)",
-    )
+    add_fraction_range_option(parser, "speed", DEFAULT_SPEED_RANGE, "speeds")
+    add_fraction_range_option(parser, "viscosity", DEFAULT_VISCOSITY_RANGE, "viscosities")
     parser.add_argument(
         "--sommerfeld-ratio",
         type=float,
@@ -71,12 +63,7 @@ def register(subparsers) -> None:
     parser.add_argument(
         "--out", help="output JSON; default <machine dir>/tables/<stem>_bearing_dimensionless.json"
     )
-    parser.add_argument(
-        "--coefficients",
-        choices=("synchronous", "quasi-static"),
-        help="K, C at whirl frequency = spin speed or quasi-static; default: the machine file's "
-        "bearings.dynamic_coefficients (the file name follows: ..._dimensionless_synchronous.json)",
-    )
+    add_coefficients_option(parser, "the file name follows: ..._dimensionless_synchronous.json")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     parser.set_defaults(func=run)
 
@@ -112,14 +99,9 @@ def run(args) -> int:
         sommerfeld_number,
     )
     from models.rotor.assembly import Rotor
-    from models.validation import InputError
 
-    for name, (low, high) in (
-        ("--speed-range", args.speed_range),
-        ("--viscosity-range", args.viscosity_range),
-    ):
-        if not 0 < low <= 1.0 <= high:
-            raise InputError(f"{name} must satisfy 0 < LOW <= 1 <= HIGH, got {low:g} {high:g}")
+    check_fraction_range("--speed-range", args.speed_range)
+    check_fraction_range("--viscosity-range", args.viscosity_range)
     machine = load_machine_option(args)
     loads = [float(w) for w in Rotor.from_machine(machine).bearing_static_loads_n]
     bearing, speed = machine.bearing, machine.nominal_speed_hz

@@ -21,7 +21,7 @@ import sys
 from pathlib import Path
 
 from .bearing import add_common_arguments, machine_setup
-from .machine_option import compute_flowrate_table
+from .machine_option import add_coefficients_option, compute_flowrate_table
 from .outputs import output_file
 
 
@@ -38,12 +38,7 @@ def register(subparsers) -> None:
     parser.add_argument(
         "--out", help="output JSON file; default <machine dir>/tables/<stem>_bearing_<f>hz.json"
     )
-    parser.add_argument(
-        "--coefficients",
-        choices=("synchronous", "quasi-static"),
-        help="K, C at whirl frequency = spin speed, or quasi-static; default: the machine file's "
-        "bearings.dynamic_coefficients",
-    )
+    add_coefficients_option(parser, "the file name follows: ..._<f>hz_synchronous.json")
     parser.add_argument("--plot", metavar="FILE", help="also draw the table against flowrate")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     parser.set_defaults(func=run)

@@ -24,6 +24,45 @@ def add_machine_option(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--machine", metavar="FILE", default=None, help=MACHINE_HELP)
 
 
+def add_coefficients_option(parser: argparse.ArgumentParser, default_file: str) -> None:
+    """Add ``--coefficients KIND``, the kinds of :mod:`models.bearing.coefficient_kinds` (default: the
+    machine file's ``bearings.dynamic_coefficients``); ``default_file`` says which file that writes."""
+    from models.bearing.coefficient_kinds import COEFFICIENT_KINDS, QUASI_STATIC, SYNCHRONOUS
+
+    parser.add_argument(
+        "--coefficients",
+        choices=tuple(COEFFICIENT_KINDS),
+        help=f"K, C of the films: {SYNCHRONOUS!r} (at whirl frequency = spin speed) or {QUASI_STATIC!r}; "
+        f"default: the machine file's bearings.dynamic_coefficients ({default_file})",
+    )
+
+
+def add_fraction_range_option(
+    parser: argparse.ArgumentParser, name: str, default: tuple[float, float], what: str
+) -> None:
+    """Add ``--<name>-range LOW HIGH``: the ``what`` to cover, as fractions of the nominal (see
+    :func:`check_fraction_range`)."""
+    parser.add_argument(
+        f"--{name}-range",
+        type=float,
+        nargs=2,
+        metavar=("LOW", "HIGH"),
+        default=default,
+        help=f"{what} to cover, as fractions of the nominal ({default[0]:g} {default[1]:g}; "
+        "0 < LOW <= 1 <= HIGH)",
+    )
+
+
+def check_fraction_range(option: str, value: tuple[float, float]) -> tuple[float, float]:
+    """``value`` of a :func:`add_fraction_range_option` option, or InputError naming ``option``."""
+    from models.validation import InputError
+
+    low, high = value
+    if not 0 < low <= 1.0 <= high:
+        raise InputError(f"{option} must satisfy 0 < LOW <= 1 <= HIGH, got {low:g} {high:g}")
+    return low, high
+
+
 def load_machine_option(args: argparse.Namespace):
     """The machine of ``--machine`` (an InputError names a bad file)."""
     from models.machine import load_machine

@@ -61,6 +61,12 @@ def register(subparsers) -> None:
         "--out", default="robustness", metavar="DIR", help="output folder (default: robustness)"
     )
     parser.add_argument(
+        "--resume",
+        action="store_true",
+        help="keep the rows DIR/robustness.json already holds from a run with the same settings and run only "
+        "the others (a stopped run continues)",
+    )
+    parser.add_argument(
         "--from-json",
         nargs="+",
         default=None,
@@ -139,6 +145,7 @@ def run(args: argparse.Namespace) -> int:
         out_dir=out,
         workers=workers,
         progress=lambda text: print(f"robustness: {text}", file=sys.stderr, flush=True),
+        resume=args.resume,
     )
     table = "\n".join(format_table(rows))
     (out / "robustness.md").write_text(table + "\n")

@@ -201,7 +201,7 @@ def probe_setup(table: Mapping[str, object] | None = None, overrides: Iterable[s
 
 def _probe(name: str, table: Mapping[str, object], default_angle: float) -> Probe:
     for key in table:
-        if key not in PROBE_KEYS:
+        if key not in PROBE_KEYS and not key.startswith("runout_"):  # runout_*: the estimator's (issue 14)
             raise InputError(f"probes.{name}.{key}: unknown key; allowed: {', '.join(PROBE_KEYS)}")
     unit = _text(table.get("unit", "um"), f"{name}.unit")
     if unit not in UNITS:

@@ -29,9 +29,10 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from estimator.baseline import estimate_baseline
-from estimator.config import EKFConfig, OffsetBaseline
+from estimator.baseline import baseline_prior, estimate_baseline
+from estimator.config import EKFConfig
 from estimator.ekf import OilFlowEKF
+from estimator.runout import runout_of_probes
 from models.machine import load_machine
 from models.probes import read_probes
 from models.rotor.assembly import Rotor
@@ -75,6 +76,7 @@ class RobustnessRun:
         self.clearance_m = self.machine.bearing.clearance_m
         self.n_samples = round(self.duration_s / DT_S)
         self._bound: dict = {}
+        self._motions: dict = {}  # true_motion's, per plant variant, point and seed
         # issue 13's estimator side: a step that takes the measured operating point, viscosity-factor states
         self.follows_operating_point = _accepts(OilFlowEKF.step, "speed_hz") and (
             "viscosity_factor_prior_std" in {f.name for f in dataclasses.fields(EKFConfig)}
@@ -113,15 +115,49 @@ class RobustnessRun:
         )
 
     def record(self, case: Case, point_pct, seed: int, after_baseline: bool = True):
-        """(measured (K, 4) [m], speed (K,) [Hz], oil temperature (K,) [degC]) at t = dt ... T."""
+        """(measured (K, 4) [m], speed (K,) [Hz], oil temperature (K,) [degC]) at t = dt ... T.
+
+        The plant's true motion does not depend on its probes, so it is simulated once per plant variant,
+        truth point and seed (:meth:`true_motion`) and the case's measurement chain is applied to it with
+        the plant's own noise generator, draw for draw as :meth:`RotorBearingPlant.current_sample` does:
+        bit-identical to a plant built with that chain (tests/test_robustness_cli.py)."""
+        true, angle, times = self.true_motion(case, point_pct, seed, after_baseline)
+        chain = self.chain(case, after_baseline)
+        rng = np.random.default_rng(seed)
+        held = np.zeros(4)
+        measured = np.array(
+            [chain.measure(true[k], angle[k], times[k], rng, held) for k in range(len(times))]
+        )
+        times = DT_S * np.arange(1, len(times) + 1)
+        speed = np.array([self._speed(case, t - DT_S) for t in times])
+        temperature = np.array([self._temperature(case, t - DT_S) for t in times])
+        return measured, speed, temperature
+
+    def true_motion(self, case: Case, point_pct, seed: int, after_baseline: bool = True):
+        """(true positions (K, 4) [m], rotor angle (K,) [rad], times (K,) [s]) of the case's plant (its
+        unbalance, change, film and operating point; ideal probes), kept for the other cases of the run."""
+        change = case.unbalance_change if after_baseline else None
+        key = (
+            case.unbalance,
+            change,
+            case.viscosity_factor,
+            case.temperature_rise_c,
+            case.speed_ramp_hz,
+            case.operating_point,
+            tuple(point_pct),
+            seed,
+        )
+        if key not in self._motions:
+            self._motions[key] = self._simulate(case, point_pct, seed, change)
+        return self._motions[key]
+
+    def _simulate(self, case: Case, point_pct, seed: int, change_of_case):
         q = tuple(p / 100.0 * self.nominal_m3_s for p in point_pct)
         change = UnbalanceChange()
-        if case.unbalance_change is not None and after_baseline:
+        if change_of_case is not None:
             moment, phase = self._unbalance
             change = UnbalanceChange(
-                self.duration_s / 2.0,
-                moment * case.unbalance_change[0],
-                phase + math.radians(case.unbalance_change[1]),
+                self.duration_s / 2.0, moment * change_of_case[0], phase + math.radians(change_of_case[1])
             )
         conditions = {}
         if case.operating_point:
@@ -137,19 +173,20 @@ class RobustnessRun:
             self.noise_m,
             seed,
             initial_flowrates_m3_s=q,
-            chain=self.chain(case, after_baseline),
             unbalance_change=change,
             **conditions,
         )
         times = DT_S * np.arange(1, self.n_samples + 1)
         ramps = case.speed_ramp_hz is not None or case.temperature_rise_c != 0.0
-        speed = np.array([self._speed(case, t - DT_S) for t in times])
-        temperature = np.array([self._temperature(case, t - DT_S) for t in times])
-        samples = []
+        true, angle, clock = np.zeros((self.n_samples, 4)), np.zeros(self.n_samples), np.zeros(self.n_samples)
         for k in range(self.n_samples):
-            extra = {"speed_hz": speed[k], "oil_temperature_c": temperature[k]} if ramps else {}
-            samples.append(plant.step(q, **extra).measured_position_m)
-        return np.array(samples), speed, temperature
+            extra = {}
+            if ramps:
+                extra = {"speed_hz": self._speed(case, times[k] - DT_S)}
+                extra["oil_temperature_c"] = self._temperature(case, times[k] - DT_S)
+            true[k] = plant.step(q, **extra).true_position_m
+            angle[k], clock[k] = plant.rotor_angle_rad, plant.time_s
+        return true, angle, clock
 
     def config(self, case: Case) -> EKFConfig:
         """What a user would configure for this machine and case."""
@@ -164,7 +201,7 @@ class RobustnessRun:
         )
         if case.operating_point and self.follows_operating_point:
             values["viscosity_factor_prior_std"] = self.settings["viscosity_prior"]
-        config = EKFConfig.recommended(**values, **case.ekf)
+        config = EKFConfig.recommended(**values, runout=runout_of_probes(self.probes), **case.ekf)
         if case.compensate_runout:
             runout = slow_roll_vectors(
                 self.chain(case, False),
@@ -188,11 +225,9 @@ class RobustnessRun:
                 else self.model
             )
             document = estimate_baseline(model, record, q, config)
-            baseline = OffsetBaseline(
-                tuple(v * 1e-6 for v in document["offsets_um"]),
-                tuple(v * 1e-6 for v in document["offset_std_um"]),
-            )
-            config = dataclasses.replace(config, offset_baseline=baseline)
+            # the baseline record ends where the run's begins: no time for drift beyond the run's own
+            prior = baseline_prior(document, 0.0, self.probes.offset_drift_m_per_day)
+            config = dataclasses.replace(config, offset_baseline=prior)
         return config
 
     def bound_pct(self, point_pct) -> np.ndarray:
@@ -300,9 +335,12 @@ def run_robustness(
     out_dir: str | Path | None = None,
     workers: int = 1,
     progress: Callable[[str], None] | None = None,
+    resume: bool = False,
 ) -> list[dict]:
     """Every case at both truth points, in ``workers`` processes (1: in this process); each finished row is
-    written to ``out_dir/robustness.json`` at once. Rows come back in the cases' order."""
+    written to ``out_dir/robustness.json`` at once. Rows come back in the cases' order. ``resume``: the rows
+    an earlier run with the same settings wrote there are kept and not run again (rows that could not run
+    are run again)."""
     settings = {
         "machine_file": machine_file,
         "duration_s": duration_s,
@@ -316,6 +354,13 @@ def run_robustness(
     order = {job: k for k, job in enumerate(jobs)}
     rows: dict[int, dict] = {}
     path = Path(out_dir) / "robustness.json" if out_dir is not None else None
+    if resume and path is not None:
+        for row in _earlier_rows(path, settings):
+            job = (row["case"], (row["q1_pct"], row["q2_pct"]))
+            if job in order and "error" not in row:
+                rows[order[job]] = row
+        if progress is not None:
+            progress(f"{len(rows)} of {len(jobs)} rows kept from {path}")
 
     def finished(job, row) -> None:
         rows[order[job]] = row
@@ -327,15 +372,27 @@ def run_robustness(
             temporary.write_text(json.dumps(document, indent=1) + "\n")
             temporary.replace(path)
 
+    todo = [job for job in jobs if order[job] not in rows]
     if workers <= 1:
-        for job in jobs:
+        for job in todo:
             finished(job, _worker_row(settings, *job))
-    else:
+    elif todo:
         with ProcessPoolExecutor(max_workers=workers) as pool:
-            futures = {pool.submit(_worker_row, settings, *job): job for job in jobs}
+            futures = {pool.submit(_worker_row, settings, *job): job for job in todo}
             for future in as_completed(futures):
                 finished(futures[future], future.result())
     return [rows[k] for k in sorted(rows)]
+
+
+def _earlier_rows(path: Path, settings: dict) -> list[dict]:
+    """The rows of an earlier ``robustness.json`` made with the same settings (none otherwise)."""
+    try:
+        document = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return []
+    if not isinstance(document, dict) or document.get("settings") != settings:
+        return []
+    return [row for row in document.get("rows", []) if isinstance(row, dict) and "case" in row]
 
 
 def format_table(rows: Sequence[dict]) -> list[str]:

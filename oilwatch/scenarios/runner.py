@@ -18,7 +18,6 @@ import json
 import signal
 import threading
 import time as wallclock
-import zipfile
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -59,7 +58,8 @@ ROLES = {"plant": "x1_true_um", "ekf": "q1_est_ml_min"}
 class _StopBetweenSteps:
     """A recorder wrapper that raises KeyboardInterrupt after a row once SIGINT has been received, and
     removes the files of ``stale`` when the recording starts (every FMU initialized): a run that cannot
-    start leaves the previous run's files as they were, one that starts leaves nothing of them."""
+    start leaves the previous run's files as they were, one that starts leaves nothing of them. ``inner``
+    may be set after construction (once the FMUs are loaded), before the recording starts."""
 
     def __init__(self, inner, stale: tuple[Path, ...] = ()):
         self.inner = inner
@@ -109,27 +109,16 @@ def scenario_system(fmu_dir: Path | None = None, ssp: Path | None = None):
     yield plant_and_estimator(fmu_dir), {"plant": "plant", "ekf": "ekf"}
 
 
-def _operating_columns(
-    system: SystemDescription, plant: str, machine_file: str
-) -> dict[str, tuple[str, float]]:
-    """``{"plant.<input>": (<column>, nominal value)}`` for the :data:`OPERATING_INPUTS` the plant FMU has as
-    inputs (the oil temperature only for a machine with an oil); the nominal value replaces the input's
-    "the machine's nominal" sentinel (speed 0, temperature -300) in result.csv."""
-    from fmpy import read_model_description
-
+def _operating_columns(plant, machine_file: str) -> dict[str, tuple[str, float]]:
+    """``{"plant.<input>": (<column>, nominal value)}`` for the :data:`OPERATING_INPUTS` the loaded plant
+    FMU (a master's :class:`~oilwatch.cosim.loading.Slave`) has as inputs (the oil temperature only for a
+    machine with an oil); the nominal value replaces the input's "the machine's nominal" sentinel (speed 0,
+    temperature -300) in result.csv."""
     from models.machine import load_machine
 
     machine = load_machine(machine_file or None)
     nominal = {"speed_hz": machine.nominal_speed_hz, "oil_temperature_c": machine.nominal_oil_temperature_c}
-
-    spec = next(s for s in system.fmus if s.name == plant)
-    if not zipfile.is_zipfile(spec.path):
-        return {}  # the master refuses the FMU in its own one-line words when it loads it, right after
-    inputs = {
-        v.name
-        for v in read_model_description(str(spec.path), validate=False).modelVariables
-        if v.causality == "input"
-    }
+    inputs = {name for name, variable in plant.variables.items() if variable.causality == "input"}
     return {
         f"plant.{name}": (column, nominal[name])
         for name, column in OPERATING_INPUTS.items()
@@ -197,16 +186,17 @@ def run_scenario(
     csv_path = out / "result.csv"
     wall_start = wallclock.perf_counter()
     with scenario_system(fmu_dir, ssp) as (system, roles):
-        operating = _operating_columns(system, roles["plant"], run.machine_file)
-        columns = {**COLUMNS, **{name: column for name, (column, _) in operating.items()}}
-        record = [f"{roles[c.split('.')[0]]}.{c.split('.')[1]}" for c in columns]
-        rename = dict(zip(record, columns.values(), strict=True))
         parameters = {roles["plant"]: run.plant_parameters(), roles["ekf"]: run.ekf_parameters()}
-        stale = tuple(out / name for name in OUTPUT_FILES)
-        nominal = [(name.endswith("speed_hz"), value) for name, (_, value) in operating.items()]
-        recorder = _StopBetweenSteps(_Sentinels(CsvRecorder(csv_path, rename=rename), nominal), stale)
+        recorder = _StopBetweenSteps(None, tuple(out / name for name in OUTPUT_FILES))
         # SIGINT deferred from before loading: an interrupt inside an FMU call would surface as an FMU error.
         with _deferred_sigint(recorder), Master(system) as master:
+            # the plant's inputs from the FMU the master loaded (a file it refuses never gets here)
+            operating = _operating_columns(master.slaves[roles["plant"]], run.machine_file)
+            columns = {**COLUMNS, **{name: column for name, (column, _) in operating.items()}}
+            record = [f"{roles[c.split('.')[0]]}.{c.split('.')[1]}" for c in columns]
+            rename = dict(zip(record, columns.values(), strict=True))
+            nominal = [(name.endswith("speed_hz"), value) for name, (_, value) in operating.items()]
+            recorder.inner = _Sentinels(CsvRecorder(csv_path, rename=rename), nominal)
             result = master.run(
                 stop_time=run.duration_s,
                 step_size=SAMPLE_PERIOD_S,

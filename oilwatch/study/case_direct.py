@@ -24,7 +24,7 @@ import numpy as np
 from estimator.config import EKFConfig
 from estimator.ekf import OilFlowEKF
 from models.system.augmented import GridAugmentedModel
-from models.system.plant import RotorBearingPlant
+from models.system.plant import RotorBearingPlant, publish_initial_sample
 
 from .case_cosim import FMI_SEED_MODULUS, ML_MIN_TO_M3_S, full_system
 from .cases import CaseResult, reduce_record
@@ -57,7 +57,7 @@ def simulate_record(case: Case, system=None) -> np.ndarray:
         case.rng_seed % FMI_SEED_MODULUS,  # the plant FMU's seed: the cosim case sees the same noise
         initial_flowrates_m3_s=flowrates,
     )
-    plant.current_sample()  # the plant FMU publishes its t = 0 sample at initialization: the same noise draw
+    publish_initial_sample(plant)  # as the plant FMU does: the FMU path then sees the same noise
     return np.array([plant.step(flowrates).measured_position_m for _ in range(case.n_samples)])
 
 

@@ -198,6 +198,10 @@ def _run_locked(cases, out, model, model_name, client, scheduler, workers, retri
         "cases_run": len(log.new_rows),
         "cases_per_min": 60.0 * len(log.new_rows) / wall_s if log.new_rows and wall_s > 0 else None,
         "mean_case_wall_s": float(np.mean([row["wall_s"] for row in log.new_rows])) if log.new_rows else None,
+        # over every run of a resumed study: the cases' own times (with one worker, its wall time)
+        "case_wall_s_total": float(
+            sum(log.rows[case.case_id]["wall_s"] for case in cases if case.case_id in log.rows)
+        ),
     }
     write_json_atomic(out / "summary.json", summary)
     maps = _plot_maps(log.rows, cases, out, model_name)

@@ -19,17 +19,19 @@
  *    logger gets one message naming what is missing and the variable that points elsewhere, and
  *    fmi2Instantiate returns NULL.
  * 3. It dlopens pythonfmu_export.so (RTLD_LOCAL) and forwards every fmi2* call to it, with two
- *    changes (below): the status of a refused set, and errors that reach the host's logger always.
+ *    changes (below): the status of a refused input, and errors that reach the host's logger always.
  *
- * A refused set. FMI 2.0 (section 4.2.4) lets a fixed parameter be set only before
+ * A refused input. FMI 2.0 (section 4.2.4) lets a fixed parameter be set only before
  * fmi2ExitInitializationMode; the slave (fmu_src/slave_base.py) refuses a later set, leaves the value
- * and the instance untouched and raises. pythonfmu's wrapper turns every Python exception into
- * fmi2Fatal, which would tell the host the instance is lost. Before raising, the slave calls this
- * loader's exported oilwatch_loader_refused_set() (found through its resources folder, with ctypes),
- * which flags the current call; a Set* call that comes back fmi2Fatal with that flag returns
- * fmi2Error, and pythonfmu's own "Fatal py exception encountered ... unknown error" line for it is
- * dropped (the slave's message, logged first at status error, names the parameter). Any other fatal
- * stays fatal. The next fmi2DoStep works (tests/test_fmi_set_status.py).
+ * and the instance untouched and raises. Likewise fmi2ExitInitializationMode fails when the user's
+ * parameters are refused (out of range, an unreadable file): only this instance's input is wrong.
+ * pythonfmu's wrapper turns every Python exception into fmi2Fatal, which would tell the host that every
+ * instance is lost. Before raising, the slave calls this loader's exported oilwatch_loader_refused_call()
+ * (found through its resources folder, with ctypes), which flags the current call; a Set* call or
+ * fmi2ExitInitializationMode that comes back fmi2Fatal with that flag returns fmi2Error, and pythonfmu's
+ * own "Fatal py exception encountered ... unknown error" line for it is dropped (the slave's message,
+ * logged first at status error, names the parameter). Any other fatal stays fatal. After a refused set
+ * the next fmi2DoStep works (tests/test_fmi_set_status.py).
  *
  * Logging. pythonfmu drops every message, errors included, when the instance was made with
  * loggingOn = fmi2False, so a host that keeps debug logging off would see an error status and no
@@ -484,18 +486,18 @@ typedef struct {
     int host_logging;                /* the host's loggingOn / fmi2SetDebugLogging */
 } Instance;
 
-/* Set by the slave (oilwatch_loader_refused_set) during the Set* call it refuses; the call runs on the
- * host's thread, and the slave's Python code on the same thread. */
+/* Set by the slave (oilwatch_loader_refused_call) during the call whose input it refuses; the call runs
+ * on the host's thread, and the slave's Python code on the same thread. */
 static __thread int refused_in_call;
 
-EXPORT void oilwatch_loader_refused_set(void) { refused_in_call = 1; }
+EXPORT void oilwatch_loader_refused_call(void) { refused_in_call = 1; }
 
 static void relay_log(fmi2ComponentEnvironment environment, fmi2String name, fmi2Status status,
                       fmi2String category, fmi2String message, ...)
 {
     const Instance *self = environment;
     if (!self || !self->host.logger) return;
-    if (refused_in_call && status == fmi2Fatal) return; /* pythonfmu's line for the refused set */
+    if (refused_in_call && status == fmi2Fatal) return; /* pythonfmu's line for the refused call */
     if (status < fmi2Error && !self->host_logging) return;
     char text[8192], escaped[2 * sizeof text];
     va_list args;
@@ -572,22 +574,27 @@ EXPORT fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean on, size_t n,
         c = ((Instance *)c)->component;                                                                        \
         return inner.name args;                                                                                \
     }
-/* The Set* calls: a fatal status after the slave flagged a refused set is fmi2Error (top of the file). */
-#define FORWARD_SET(name, type)                                                                               \
-    EXPORT fmi2Status fmi2##name(fmi2Component c, const fmi2ValueReference vr[], size_t n, const type v[])    \
+/* The calls that can refuse the user's input: a fatal status after the slave flagged the refusal is
+ * fmi2Error (top of the file). */
+#define FORWARD_REFUSABLE(name, params, args)                                                                 \
+    EXPORT fmi2Status fmi2##name params                                                                        \
     {                                                                                                          \
         if (!c || !inner.name) return fmi2Error;                                                               \
+        c = ((Instance *)c)->component;                                                                        \
         refused_in_call = 0;                                                                                   \
-        fmi2Status status = inner.name(((Instance *)c)->component, vr, n, v);                                  \
+        fmi2Status status = inner.name args;                                                                   \
         if (status == fmi2Fatal && refused_in_call) status = fmi2Error;                                        \
         refused_in_call = 0;                                                                                   \
         return status;                                                                                         \
     }
+#define FORWARD_SET(name, type)                                                                               \
+    FORWARD_REFUSABLE(name, (fmi2Component c, const fmi2ValueReference vr[], size_t n, const type v[]),       \
+                      (c, vr, n, v))
 FORWARD(SetupExperiment, (fmi2Component c, fmi2Boolean tol_defined, fmi2Real tol, fmi2Real start,
                           fmi2Boolean stop_defined, fmi2Real stop),
         (c, tol_defined, tol, start, stop_defined, stop))
 FORWARD(EnterInitializationMode, (fmi2Component c), (c))
-FORWARD(ExitInitializationMode, (fmi2Component c), (c))
+FORWARD_REFUSABLE(ExitInitializationMode, (fmi2Component c), (c))
 FORWARD(Terminate, (fmi2Component c), (c))
 FORWARD(Reset, (fmi2Component c), (c))
 FORWARD(GetReal, (fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Real v[]), (c, vr, n, v))
