@@ -271,10 +271,20 @@ class RotorBearingSystem:
         """F_eff of a unit unbalance through the bearing dofs only: with A_ref = K - Omega^2 M + i Omega D
         at reference bearing impedances Z_ref (factorized once per whirl speed), the synchronous orbit's
         bearing displacements solve (I + H (Z_s - Z_ref)) x_b = h, H = P A_ref^-1 P^T, h = P A_ref^-1 F_1
-        (a 4 x 4 solve per flowrate pair, exact for any Z_ref); then F_eff = F_1 - P^T (Z_s - Z_qs) x_b."""
+        (a 4 x 4 solve per flowrate pair, exact for any Z_ref); then F_eff = F_1 - P^T (Z_s - Z_qs) x_b. At
+        another whirl speed than the system's, x_b comes from one direct solve of the synchronous orbit."""
         z_s = self._impedance_blocks(self.synchronous_tables, flowrates_m3_s, whirl_rad_s)
         z_qs = self._impedance_blocks(self.tables, flowrates_m3_s, whirl_rad_s)
-        return self.synchronous_unit_load(z_s, z_qs, whirl_rad_s)
+        if whirl_rad_s == self.omega_rad_s:
+            return self.synchronous_unit_load(z_s, z_qs, whirl_rad_s)
+        # Off the system's speed (a speed ramp: a new whirl speed every period) one direct solve of the
+        # synchronous orbit is cheaper than a reference response per speed.
+        w = whirl_rad_s
+        select = self.bearing_maps.reshape(-1, self.n_coordinates)
+        damping = self.damping + (w - self.omega_rad_s) * self.gyroscopic
+        matrix = self.stiffness - w * w * self.mass + 1j * w * damping + select.T @ z_s @ select
+        x_b = select @ np.linalg.solve(matrix, self.unit_unbalance_force)
+        return self.unit_unbalance_force - select.T @ ((z_s - z_qs) @ x_b)
 
     def synchronous_unit_load(
         self, z_synchronous: np.ndarray, z_dynamics: np.ndarray, whirl_rad_s: float | None = None
