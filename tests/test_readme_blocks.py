@@ -54,6 +54,10 @@ def test_the_robustness_and_study_tables_come_from_their_json(tmp_path, capsys):
         "std_err_pct": 0.04,
         "max_err_pct": 0.28,
         "mean_crlb_ratio": 1.4,
+        "bias_pct_b1": 0.01,
+        "bias_pct_b2": -0.02,
+        "mean_std_pct": 0.31,
+        "within_2std_fraction": 0.95,
         "paper": {"mean_err_pct": 1.82, "std_err_pct": 0.99, "max_err_pct": 5.06},
     }
     study = tmp_path / "known"
@@ -64,6 +68,6 @@ def test_the_robustness_and_study_tables_come_from_their_json(tmp_path, capsys):
     readme.write_text("<!-- generated study-nuisances: x -->\n<!-- /generated study-nuisances -->\n")
     assert study_tables(["--readme", str(readme), f"known={study}"]) == 0
     assert (
-        "| known | direct | 1 | 4/4 | 0.05 (1.82) | 0.04 (0.99) | 0.28 (5.06) | 1.40 | 10 min |"
-        in readme.read_text()
+        "| known | direct | 1 | 4/4 | 0.05 (1.82) | 0.04 (0.99) | 0.28 (5.06) | +0.01 / -0.02 | 0.31 | 95% "
+        "| 1.40 | 10 min |" in readme.read_text()
     )

@@ -209,3 +209,15 @@ def test_cli_bad_input_is_a_one_line_error(argv, name, tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert code == 2 and name in err and len(err.splitlines()) == 1
     assert not (tmp_path / "out").exists()
+
+
+def test_bias_and_the_filters_confidence_by_hand():
+    # std 1 ml/min: 0.168 % of 596.3 and 0.224 % of 447.2; errors (0.3, -0.1) % and (0.5, 0.2) %
+    cases = [Case(100.0, 100.0, 1.0), Case(75.0, 75.0, 1.0)]
+    rows = [_row(cases[0], 0.3, -0.1), _row(cases[1], 0.5, 0.2)]
+    level = noise_level_summary(rows, 1.0, n_expected=2)
+    assert level["bias_pct_b1"] == pytest.approx(0.4) and level["bias_pct_b2"] == pytest.approx(0.05)
+    std_pct = [100.0 / cases[0].q1_ml_min, 100.0 / cases[1].q1_ml_min]
+    assert level["mean_std_pct"] == pytest.approx(sum(std_pct) / 2)
+    # within +-2 std: 0.3 <= 0.335 yes, 0.1 yes, 0.5 > 0.447 no, 0.2 yes
+    assert level["within_2std_fraction"] == pytest.approx(0.75)

@@ -66,7 +66,15 @@ def _stats(rows: list[dict]) -> dict:
         "mean_err_pct_b1": float(absolute[:, 0].mean()),
         "mean_err_pct_b2": float(absolute[:, 1].mean()),
         "rms_err_pct": float(np.sqrt(np.mean(flat**2))),
+        "bias_pct_b1": float(errors[:, 0].mean()),
+        "bias_pct_b2": float(errors[:, 1].mean()),
     }
+    # the filter's own confidence: its std in % of the truth, and how often the truth lies within +-2 std
+    truth = np.array([[row["q1_true_ml_min"], row["q2_true_ml_min"]] for row in rows])
+    std_pct = 100.0 * np.array([[row["q1_std_ml_min"], row["q2_std_ml_min"]] for row in rows]) / truth
+    result.update(
+        mean_std_pct=float(std_pct.mean()), within_2std_fraction=float(np.mean(absolute <= 2 * std_pct))
+    )
     bounds = np.array([[row["crlb_q1_ml_min"], row["crlb_q2_ml_min"]] for row in rows])
     if np.all(np.isfinite(bounds)) and np.all(bounds > 0.0):
         truth = np.array([[row["q1_true_ml_min"], row["q2_true_ml_min"]] for row in rows])
@@ -98,7 +106,8 @@ def noise_level_summary(rows: Sequence[dict], noise_um: float, n_expected: int) 
     """Table 6 figures of one noise level from its case rows (any order), with the paper and the targets."""
     ordered = sorted(rows, key=lambda row: row["case_id"])
     stats = _stats(ordered) if ordered else None
-    keys = ("mean_err_pct", "std_err_pct", "max_err_pct", "worst_case", "mean_crlb_ratio")
+    keys = ("mean_err_pct", "std_err_pct", "max_err_pct", "worst_case", "mean_crlb_ratio", "mean_std_pct",
+            "within_2std_fraction")  # fmt: skip
     summary = {"noise_um": noise_um, "n_cases": len(ordered), "n_expected": n_expected}
     summary["complete"] = len(ordered) == n_expected
     summary.update({key: None for key in keys} if stats is None else stats)
