@@ -21,13 +21,15 @@ The FMU is ``--fmu`` (default: built into a temporary folder with ``build.build_
 system family, whose reduced-model response feeds it.
 
 Under ramps (issue 13): the estimator on ``models.system.operating_model.OperatingAugmentedModel`` (reduced,
-following the measured speed and oil temperature) while the speed ramps at 1 Hz/s (72 -> 78 Hz) and the oil
-warms by 10 degC per minute, every step a new operating point (its re-centrings included in the mean), beside
-the same filter on the reference grid at constant conditions, and the FMU with ``bearing_table = 1`` fed the
-same ramps through its ``speed_hz`` and ``oil_temperature_c`` inputs.
+following the measured speed and oil temperature) on the plant's record (full-order Newmark plant on the
+dimensionless table, 80/90 % flow) while the speed ramps up and down between 72 and 78 Hz at 1 Hz/s and the
+oil warms by 10 degC per minute for ``--ramp-s`` (60 s), fed the same speed and temperature, every step a new
+operating point (its re-centrings included in the mean); beside it the same filter on the reference grid at
+constant conditions, and the FMU with ``bearing_table = 1`` fed the same record through its ``speed_hz`` and
+``oil_temperature_c`` inputs. The plant's record is computed once (minutes) and cached.
 
 Usage: ``OPENBLAS_NUM_THREADS=1 python benchmarks/ekf_step.py [--steps 3000] [--repeats 5] [--table JSON]
-[--fmu OilFlowEKF.fmu] [--only-ramps]``
+[--fmu OilFlowEKF.fmu] [--only-ramps] [--ramp-s 60]``
 """
 
 from __future__ import annotations
@@ -174,44 +176,87 @@ class _ModelOnly:
 
 RAMP_HZ_PER_S = 1.0
 WARMING_C_PER_S = 10.0 / 60.0
+RAMP_HZ = (72.0, 78.0)
+RAMP_FLOWRATES = (0.8, 0.9)
+"""The plant's constant flowrates in the ramp record (fractions of nominal)."""
 
 
-def ramp_point(k: int, dt: float = 1.0e-3) -> tuple[float, float]:
-    """(speed [Hz], oil temperature over nominal [degC]) of sample k of the benchmark's ramps."""
-    t = k * dt
-    return 72.0 + RAMP_HZ_PER_S * (t % 6.0), WARMING_C_PER_S * (t % 60.0)
+def ramp_inputs(steps: int, nominal_c: float, dt: float = 1.0e-3) -> tuple[np.ndarray, np.ndarray]:
+    """Speed [Hz] and oil temperature [degC] of samples k = 1 .. steps: the speed ramps up and down between
+    72 and 78 Hz at 1 Hz/s (a triangle wave, continuous), the oil warms by 10 degC per minute."""
+    t = np.arange(1, steps + 1) * dt
+    period = 2.0 * (RAMP_HZ[1] - RAMP_HZ[0]) / RAMP_HZ_PER_S
+    phase = t % period
+    return RAMP_HZ[0] + RAMP_HZ_PER_S * np.minimum(phase, period - phase), nominal_c + WARMING_C_PER_S * t
+
+
+def plant_ramp_record(seconds: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(displacements (K, 4) [m], speed (K,) [Hz], oil temperature (K,) [degC]) of the plant (full-order
+    Newmark model on the dimensionless table, 1 um noise) under :func:`ramp_inputs` at
+    :data:`RAMP_FLOWRATES`, samples t = 1 ms .. seconds: what a machine would give the estimator, which is fed
+    the same speed and temperature. Cached in ``<cache>/benchmarks`` (the plant takes minutes)."""
+    from models.cache import user_cache_dir
+    from models.system.operating_point import operating_system
+    from models.system.plant import RotorBearingPlant
+
+    machine = load_machine()
+    nominal_c = machine.nominal_oil_temperature_c
+    steps = round(seconds / 1.0e-3)
+    path = user_cache_dir() / "benchmarks" / f"ekf_ramp_record_{steps}.npz"
+    if path.exists():
+        stored = np.load(path)
+        return stored["displacements"], stored["speed_hz"], stored["oil_temperature_c"]
+    speed, temperature = ramp_inputs(steps, nominal_c)
+    q = tuple(f * machine.lubrication.nominal_flowrate_m3_s for f in RAMP_FLOWRATES)
+    system = operating_system(machine, RAMP_HZ[0], machine.oil.dynamic_viscosity_pa_s(nominal_c))
+    plant = RotorBearingPlant(
+        system, 1e-3, None, 1e-6, 3, initial_flowrates_m3_s=q, oil=machine.oil, oil_temperature_c=nominal_c
+    )
+    displacements = np.empty((steps, 4))
+    for k in range(steps):
+        if k % (steps // 10) == 0:
+            print(f"  plant ramp record: {k / steps:4.0%}", flush=True)
+        sample = plant.step(q, speed_hz=float(speed[k]), oil_temperature_c=float(temperature[k]))
+        displacements[k] = sample.measured_position_m
+    path.parent.mkdir(parents=True, exist_ok=True)
+    np.savez(path, displacements=displacements, speed_hz=speed, oil_temperature_c=temperature)
+    return displacements, speed, temperature
 
 
 class _RampFilter:
-    """An OilFlowEKF fed the benchmark's ramps with every sample."""
+    """An OilFlowEKF fed a record's measured speed and oil temperature with every sample."""
 
-    def __init__(self, model, config: EKFConfig, nominal_c: float) -> None:
+    def __init__(self, model, config: EKFConfig, speed: np.ndarray, temperature: np.ndarray) -> None:
         self.ekf = OilFlowEKF(model, config)
-        self.nominal_c = nominal_c
+        self.inputs = list(zip(speed.tolist(), temperature.tolist(), strict=True))
         self.k = 0
 
     def step(self, z: np.ndarray) -> None:
-        speed, warming = ramp_point(self.k)
-        self.ekf.step(z, speed, self.nominal_c + warming)
+        speed, temperature = self.inputs[self.k]
+        self.ekf.step(z, speed, temperature)
         self.k += 1
 
 
 def time_fmu(
-    fmu_path: Path, record: np.ndarray, repeats: int, ramps: float | None = None
+    fmu_path: Path,
+    record: np.ndarray,
+    repeats: int,
+    ramps: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> tuple[float, float]:
     """Median and minimum over ``repeats`` passes of ``record`` of the cost per FMU step [us], including
     setReal of the four positions, doStep, getReal of four outputs and getBoolean of four flags.
 
     ``record[k]`` is the model's output at t_k = k dt; doStep(t, dt) gets the sample of t + dt (the FMU's
     unconnected ``t_sample_s``), so the filter sees aligned data. One instance runs on through the passes.
-    ``ramps``: the nominal oil temperature [degC]; the FMU then runs with ``bearing_table = 1`` and gets the
-    benchmark's ramps on its ``speed_hz`` and ``oil_temperature_c`` inputs with every step (setReal
-    included in the cost).
+    ``ramps``: the record's speed [Hz] and oil temperature [degC] (K,) each; the FMU then runs with
+    ``bearing_table = 1`` and gets them on its ``speed_hz`` and ``oil_temperature_c`` inputs with every step
+    (setReal included in the cost).
     """
     from fmpy import extract, read_model_description
     from fmpy.fmi2 import FMU2Slave
 
     md = read_model_description(str(fmu_path))
+    bare = md.coSimulation.modelIdentifier == "BareFilter"
     fmu = FMU2Slave(
         guid=md.guid,
         unzipDirectory=extract(str(fmu_path)),
@@ -226,14 +271,15 @@ def time_fmu(
     fmu.instantiate()
     fmu.setupExperiment(startTime=0.0)
     fmu.enterInitializationMode()
-    if ramps is not None:
+    if ramps is not None and not bare:
         fmu.setInteger([vr["bearing_table"]], [1])
-        fmu.setReal([vr["speed_hz"], vr["oil_temperature_c"]], [72.0, ramps])
+        fmu.setReal([vr["speed_hz"], vr["oil_temperature_c"]], [float(ramps[0][0]), float(ramps[1][0])])
     fmu.exitInitializationMode()  # builds the model and compiles (or loads) the numba kernels
     dt = 1.0e-3
     samples = (record * 1e6).tolist()
     if ramps is not None:
-        samples = [row + list(_shift(ramp_point(j), ramps)) for j, row in enumerate(samples)]
+        operating = zip(ramps[0].tolist(), ramps[1].tolist(), strict=True)
+        samples = [[*row, *point] for row, point in zip(samples, operating, strict=True)]
     steps = len(samples) - 1
     samples_us, k = [], 0
     for _ in range(repeats):
@@ -250,29 +296,34 @@ def time_fmu(
     return float(np.median(samples_us)), float(np.min(samples_us))
 
 
-def _shift(point: tuple[float, float], nominal_c: float) -> tuple[float, float]:
-    return point[0], nominal_c + point[1]
-
-
 def operating_rows(args, record: np.ndarray) -> list[tuple[str, tuple[float, float]]]:
-    """The estimator under the 1 Hz/s speed ramp and the oil warming, beside the reference at constant."""
+    """The estimator on the plant's ramp record (:func:`plant_ramp_record`, ``--ramp-s`` long), fed the
+    measured speed and oil temperature, beside the same filter on the reference grid at constant conditions
+    (``record``), re-centrings included in the mean; the FMU the same way."""
     from models.system.operating_model import build_operating_model
 
     machine = load_machine()
     model = build_operating_model(load_system(reduced=True), machine)
-    nominal_c = machine.nominal_oil_temperature_c
-    config = EKFConfig(velocity_noise="displacement-only", gate_tail_probability=0.0)
-    _RampFilter(model, config, nominal_c).ekf.run(record[:10])  # compile outside the timing
+    ramp, speed, temperature = plant_ramp_record(args.ramp_s)
+    config = EKFConfig(
+        velocity_noise="displacement-only", gate_tail_probability=0.0, first_sample_time_s=1e-3
+    )
+    factors = EKFConfig.recommended(viscosity_factor_prior_std=0.05, first_sample_time_s=1e-3)
+    for c in (config, factors):
+        _RampFilter(model, c, speed, temperature).ekf.run(ramp[:10])  # compile outside the timing
     rows = [
         (
             "OilFlowEKF, reference grid (26 states), constant",
             time_per_step(lambda: OilFlowEKF(model.reference, config), record, args.repeats),
-        ),
-        (
-            "OilFlowEKF, operating model (26 states), 1 Hz/s + 10 degC/min",
-            time_per_step(lambda: _RampFilter(model, config, nominal_c), record, args.repeats),
-        ),
+        )
     ]
+    label = f"{args.ramp_s:g} s plant ramps 1 Hz/s + 10 degC/min"
+    for name, c in (("", config), (", viscosity factors estimated", factors)):
+        before = model.recentre_count
+        cost = time_per_step(lambda c=c: _RampFilter(model, c, speed, temperature), ramp, args.repeats)
+        rows.append((f"OilFlowEKF, operating model, {label}{name}", cost))
+        passes = (model.recentre_count - before) / args.repeats
+        print(f"(operating model{name}: {passes:.0f} re-centrings per pass)")
     centre = np.array(
         [0.8 * model.nominal_flowrate_m3_s, 0.8 * model.nominal_flowrate_m3_s, 74.0, -2.5, -2.5]
     )
@@ -281,10 +332,7 @@ def operating_rows(args, record: np.ndarray) -> list[tuple[str, tuple[float, flo
         start = time.perf_counter()
         model.place_centre(centre)
         costs.append((time.perf_counter() - start) * 1e6)
-    rows.append(
-        ("one re-centring of the operating model (7 Frechet derivatives)", (np.median(costs), min(costs)))
-    )
-    print(f"(operating model: {model.recentre_count} re-centrings over the timed ramps and this row)")
+    rows.append(("one re-centring of the operating model", (np.median(costs), min(costs))))
     with tempfile.TemporaryDirectory(prefix="oilwatch_bench_") as folder:
         path = ekf_fmu(args.fmu, folder)
         rows.append(
@@ -292,11 +340,32 @@ def operating_rows(args, record: np.ndarray) -> list[tuple[str, tuple[float, flo
         )
         rows.append(
             (
-                "OilFlowEKF FMU under fmpy, bearing_table 1, 1 Hz/s + 10 degC/min",
-                time_fmu(path, record, args.repeats, ramps=nominal_c),
+                f"OilFlowEKF FMU under fmpy, bearing_table 1, {label}",
+                time_fmu(path, ramp, args.repeats, ramps=(speed, temperature)),
+            )
+        )
+        rows.append(
+            (
+                "bare FMU under fmpy (doStep does nothing), the same calls with the ramps' inputs",
+                time_fmu(bare_fmu(folder), ramp, args.repeats, ramps=(speed, temperature)),
             )
         )
     return rows
+
+
+def bare_fmu(out_dir: str) -> Path:
+    """BareFilter.fmu (``benchmarks/fmus/bare_filter_slave.py``: the same inputs, a doStep that does nothing),
+    built now."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+    from oilwatch.cosim.fmu_build import FmuEntry, build_fmus
+
+    entry = FmuEntry(
+        name="BareFilter",
+        script=str(Path(__file__).resolve().parent / "fmus" / "bare_filter_slave.py"),
+        packages=(),
+        prefix="barefilter",
+    )
+    return next(p for p in build_fmus(out_dir, only=["BareFilter"], extra=(entry,)) if p.suffix == ".fmu")
 
 
 def ekf_fmu(path: str | None, out_dir: str) -> Path:
@@ -341,6 +410,7 @@ def main() -> None:
     parser.add_argument("--table", default=None, help="bearing coefficient table JSON for the system model")
     parser.add_argument("--fmu", default=None, help="OilFlowEKF.fmu to time (default: build one)")
     parser.add_argument("--only-ramps", action="store_true", help="only the rows under speed/oil ramps")
+    parser.add_argument("--ramp-s", type=float, default=60.0, help="length of the plant's ramp record [s]")
     args = parser.parse_args()
     if args.only_ramps:
         record = measurements(GridAugmentedModel(load_system(reduced=True)), args.steps)
@@ -375,6 +445,8 @@ def main() -> None:
                 cost = time_fmu(ekf_fmu(args.fmu, folder), record, args.repeats)
             rows.append(("OilFlowEKF FMU under fmpy, with setReal/getReal, 4 channels", cost))
             costs[("fmu", "fmpy")] = cost[0]
+            cost = time_fmu(bare_fmu(folder), record, args.repeats)
+            rows.append(("bare FMU under fmpy (doStep does nothing), same calls", cost))
         headline.append((family, costs))
 
     rows += (

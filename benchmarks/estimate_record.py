@@ -8,7 +8,8 @@
 3. Baseline in the same run: the bare estimator loop (``OilFlowEKF.run``, the command's configuration: the
    machine file's probe offsets prior) on the first 60 s of the same data in this process, per sample, and the
    ratio of the command's cost per sample to it; the summary's ``estimator_s`` (the steps alone, measured in
-   the command) against its whole estimation time.
+   the command) against its whole estimation time, and its ``stages_s``: where the rest goes (reading and
+   conditioning the record, building the rows, formatting and writing them, the views' history).
 4. Live: ``oilwatch estimate -`` fed ``--live-s`` seconds of the record line by line at 1 kHz (real-time
    pacing) through a pipe; per-sample latency from writing a line to reading its estimate line back.
 
@@ -179,6 +180,14 @@ def main() -> None:
         print(
             f"  of which the estimator's steps {summary['estimator_s']:.1f} s ({100 * share:.0f} %): the "
             f"command costs {1 / share:.2f}x its estimator, measured in the same process at the same time"
+        )
+        samples = summary["samples"]
+        stages = {"estimator steps": summary["estimator_s"], **summary["stages_s"]}
+        other = summary["wall_s"] - sum(stages.values())
+        print(
+            "  where the time goes (us/sample): "
+            + ", ".join(f"{name} {seconds / samples * 1e6:.1f}" for name, seconds in stages.items())
+            + f", other {other / samples * 1e6:.1f}"
         )
         print(f"peak resident memory of the command: {result['peak_rss_mb']:.0f} MB")
         q1, q2 = summary["q1_final_ml_min"], summary["q2_final_ml_min"]

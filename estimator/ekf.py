@@ -386,35 +386,42 @@ class OilFlowEKF:
         n = self._n
         return np.sqrt(np.diag(self._P)[n : n + 2]) * self._q_nominal
 
+    def _nuisance(self, block: slice, known: tuple[float, ...]) -> tuple[np.ndarray, np.ndarray]:
+        """(estimate, std) copies of a nuisance block of the state; (the known value, zeros) when the block
+        is not estimated (an empty slice)."""
+        if block.stop > block.start:
+            return self._x[block].copy(), np.sqrt(np.diag(self._P)[block])
+        return np.array(known, dtype=float), np.zeros(len(known))
+
     @property
     def offset_m(self) -> np.ndarray:
         """(4,) estimated probe zero offsets [m] (zeros when the offsets are not estimated)."""
-        return self._x[self._offsets].copy() if self._n_offsets else np.zeros(4)
+        return self._nuisance(self._offsets, (0.0,) * 4)[0]
 
     @property
     def offset_std_m(self) -> np.ndarray:
         """(4,) their stds [m] (zeros when the offsets are not estimated)."""
-        return np.sqrt(np.diag(self._P)[self._offsets]) if self._n_offsets else np.zeros(4)
+        return self._nuisance(self._offsets, (0.0,) * 4)[1]
 
     @property
     def unbalance(self) -> np.ndarray:
         """(2,) the estimated unbalance (real, imaginary) relative to the machine file's ((1, 0) if fixed)."""
-        return self._x[self._unbalance].copy() if self._n_unbalance else np.array([1.0, 0.0])
+        return self._nuisance(self._unbalance, (1.0, 0.0))[0]
 
     @property
     def unbalance_std(self) -> np.ndarray:
         """(2,) its stds (zeros when the unbalance is not estimated)."""
-        return np.sqrt(np.diag(self._P)[self._unbalance]) if self._n_unbalance else np.zeros(2)
+        return self._nuisance(self._unbalance, (1.0, 0.0))[1]
 
     @property
     def viscosity_factor(self) -> np.ndarray:
         """(2,) each bearing's estimated viscosity factor (film over the oil law's; ones if not estimated)."""
-        return self._x[self._viscosity].copy() if self._n_viscosity else np.ones(2)
+        return self._nuisance(self._viscosity, (1.0, 1.0))[0]
 
     @property
     def viscosity_factor_std(self) -> np.ndarray:
         """(2,) their stds (zeros when the factors are not estimated)."""
-        return np.sqrt(np.diag(self._P)[self._viscosity]) if self._n_viscosity else np.zeros(2)
+        return self._nuisance(self._viscosity, (1.0, 1.0))[1]
 
     @property
     def dynamic_state(self) -> np.ndarray:

@@ -39,10 +39,12 @@ from __future__ import annotations
 
 import math
 import time
+from functools import partial
 from pathlib import Path
 
 import numpy as np
 from pythonfmu import DefaultExperiment
+from pythonfmu.enums import Fmi2Causality
 
 from estimator.baseline import load_baseline
 from estimator.channels import STATUS_NAMES
@@ -80,6 +82,9 @@ POSITIONS = ("x1", "y1", "x2", "y2")
 VELOCITY_MODES = ("displacement-only", "paper", "correlated")
 GRID_TOLERANCE = 1e-3
 """A sample time within this fraction of a period of the grid is on the grid."""
+KEYPHASOR_UNCONNECTED = -1.0
+CORE_OUTPUTS, NUISANCE_OUTPUTS = "core", "nuisances"
+"""The two groups of outputs published together when the host reads one of them."""
 OWN_REALS = (
     ("sample_period_s", SAMPLING_PERIOD_S, "s", 1e-5, 0.01,
      "Sampling period of the filter's discrete model; its samples lie on t = k period"),
@@ -107,7 +112,7 @@ class OilFlowEKF(OilwatchSlave):
         "per step, not the paper's 10 um / 10 um/s)"
     )
     default_experiment = DefaultExperiment(start_time=0.0, stop_time=20.0, step_size=SAMPLING_PERIOD_S)
-    state_attributes = ("filter_state",)
+    state_attributes = ("filter_state", "keyphasor_state")
 
     def __init__(self, **kwargs):
         limit_blas_threads()
@@ -117,8 +122,12 @@ class OilFlowEKF(OilwatchSlave):
         self._missing = np.full(4, np.nan)
         self._warned_off_grid = False
         self._nuisance_names = [row[0] for row in nuisance_names()]
+        self._report: StepReport | None = None
+        self._stale = {CORE_OUTPUTS: False, NUISANCE_OUTPUTS: False}
+        self._previous_angle_rad: float | None = None
         self._declare_parameters()
         self._declare_inputs_outputs()
+        self._read_outputs_when_asked()
 
     def _declare_parameters(self) -> None:
         declare_machine_parameters(self)
@@ -172,6 +181,16 @@ class OilFlowEKF(OilwatchSlave):
             unit="s",
             description="Time the positions refer to (connect to the plant's t_sample_s); -1 (not "
             "connected): the end of the communication step",
+        )
+        real(
+            "rotor_angle_deg",
+            "input",
+            start=KEYPHASOR_UNCONNECTED,
+            unit="deg",
+            description="Rotor angle at the sample from the keyphasor's once-per-revolution mark, 0-360 "
+            "(connect to the plant's rotor_angle_deg, or a keyphasor-derived angle); with bearing_table = 1 "
+            "the unbalance phase then follows it instead of the integral of speed_hz; -1 (not connected) "
+            "or non-finite: the integral of speed_hz",
         )
         for b in (1, 2):
             real(
@@ -263,6 +282,36 @@ class OilFlowEKF(OilwatchSlave):
     def filter_state(self, state) -> None:
         if state is not None:
             self.filter.set_state(state)
+            # the outputs were restored with the state; a later step's report must not overwrite them
+            self._report = None
+            self._stale = {CORE_OUTPUTS: False, NUISANCE_OUTPUTS: False}
+
+    @property
+    def keyphasor_state(self) -> float | None:
+        """The keyphasor angle of the last sample [rad] (None: none): where the next prediction starts."""
+        return self._previous_angle_rad
+
+    @keyphasor_state.setter
+    def keyphasor_state(self, angle: float | None) -> None:
+        self._previous_angle_rad = angle
+
+    def _read_outputs_when_asked(self) -> None:
+        """Give every output a getter that publishes the last step's report when the host first reads one
+        (module docstring: lazy outputs), the nuisance outputs apart from the others."""
+        nuisances = set(self._nuisance_names)
+        for variable in self.vars.values():
+            if variable.causality == Fmi2Causality.output:
+                group = NUISANCE_OUTPUTS if variable.local_name in nuisances else CORE_OUTPUTS
+                variable.getter = partial(self._output, variable.local_name, group)
+
+    def _output(self, name: str, group: str):
+        if self._stale[group]:
+            self._stale[group] = False
+            if group == CORE_OUTPUTS:
+                self._publish_core(self._report if self._report is not None else self.filter.current_report())
+            else:
+                self._publish_nuisances()
+        return getattr(self, name)
 
     def validate_parameters(self) -> None:
         if self.q_std_velocity_um_s < 0.0 and self.q_std_velocity_um_s != -1.0:
@@ -411,6 +460,7 @@ class OilFlowEKF(OilwatchSlave):
         operating = self._operating_point()
         while self.filter.step_count < index:
             self.filter.step(self._missing, *operating)  # a gap: predict through it
+            self._previous_angle_rad = None
         measurement = self._measurement
         measurement[0] = self.x1_um * 1e-6
         measurement[1] = self.y1_um * 1e-6
@@ -418,13 +468,25 @@ class OilFlowEKF(OilwatchSlave):
         measurement[3] = self.y2_um * 1e-6
         if bad_stamp:
             measurement[:] = np.nan
-        self._publish(self.filter.step(measurement, *operating))
+        angle = self._previous_angle_rad if self.bearing_table == 1 else None
+        self._report = self.filter.step(measurement, *operating, angle)
+        self._stale[CORE_OUTPUTS] = self._stale[NUISANCE_OUTPUTS] = True
+        keyphasor = self.rotor_angle_deg
+        connected = math.isfinite(keyphasor) and keyphasor >= 0.0 and not bad_stamp
+        self._previous_angle_rad = math.radians(keyphasor) if connected else None
         return True
 
     def _publish(self, report: StepReport | None = None) -> None:
-        """Copy a step report (default: the last one, rebuilt from the state) to the outputs."""
-        if report is None:
-            report = self.filter.current_report()
+        """Copy a step report (default: the last one, rebuilt from the state) to all outputs now."""
+        self._publish_core(report if report is not None else self.filter.current_report())
+        self._publish_nuisances()
+        self._stale = {CORE_OUTPUTS: False, NUISANCE_OUTPUTS: False}
+
+    def _publish_nuisances(self) -> None:
+        for name, value in zip(self._nuisance_names, nuisance_values(self.filter), strict=True):
+            setattr(self, name, value)
+
+    def _publish_core(self, report: StepReport) -> None:
         q, std, starved = report.q_m3_s, report.q_std_m3_s, report.starved
         self.q1_est_ml_min = float(q[0]) / ML_MIN
         self.q2_est_ml_min = float(q[1]) / ML_MIN
@@ -440,8 +502,6 @@ class OilFlowEKF(OilwatchSlave):
         status = report.probe_status
         self.probe_status_x1, self.probe_status_y1 = int(status[0]), int(status[1])
         self.probe_status_x2, self.probe_status_y2 = int(status[2]), int(status[3])
-        for name, value in zip(self._nuisance_names, nuisance_values(self.filter), strict=True):
-            setattr(self, name, value)
         steps = self.filter.step_count
         self.t_estimate_s = (
             -1.0

@@ -10,7 +10,9 @@ that the check does not depend on the model that made the record):
 
     python scripts/ekf_reference_trace.py tests/data/ekf_reference_trace.npz
 
-The committed file was written by the estimator of commit 1f59dcc (before the step-cost work);
+The committed file was written by the estimator of commit 1f59dcc (before the step-cost work), with the
+synchronous 1x load at the instantaneous speed (``models/system/rotor_bearing.py``, ``operating_maps.py`` and
+``newmark.py`` of the branch that made it) copied into that tree, since the ``ramps`` case depends on it;
 ``tests/test_ekf_reference_trace.py`` replays the stored records through today's estimator and asks the
 estimates, their stds and the NIS to agree within 1e-9 relative, and the flags exactly.
 """

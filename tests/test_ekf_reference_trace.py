@@ -1,6 +1,7 @@
 """The faster estimator step gives the estimates of the step before it (scripts/ekf_reference_trace.py).
 
-The stored records were run through the estimator of commit 1f59dcc; today's must agree within 1e-9
+The stored records were run through the estimator of commit 1f59dcc (with today's synchronous 1x load at
+the instantaneous speed, see the script); today's must agree within 1e-9
 relative on the estimates, their stds and the NIS, and exactly on the counts and flags.
 """
 

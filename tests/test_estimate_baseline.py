@@ -9,7 +9,7 @@ import json
 
 import numpy as np
 import pytest
-from fixtures.plant_records import NOMINAL_ML_MIN, plant_run
+from fixtures.plant_records import NOMINAL_ML_MIN, plant_run, read_estimates
 
 from oilwatch.cli import main
 from oilwatch.records.writers import write_record
@@ -23,13 +23,6 @@ def _record(path, duration_s: float, seed: int, drop_at_s: float | None):
     probes = measured * 1e6 + OFFSETS_UM
     write_record(path, {"time_s": t, **{f"{n}_um": probes[:, i] for i, n in enumerate(PROBES)}})
     return q[-1]
-
-
-def _estimates(folder):
-    lines = (folder / "estimates.csv").read_text().splitlines()
-    header = lines[0].split(",")
-    table = np.array([[float(x) if x else np.nan for x in line.split(",")] for line in lines[1:]])
-    return {name: table[:, i] for i, name in enumerate(header)}
 
 
 @pytest.mark.slow
@@ -47,7 +40,7 @@ def test_a_baseline_gives_the_flowrates_of_a_record_with_20_um_offsets_sooner_an
     for name, extra in (("prior", []), ("baseline", ["--baseline", str(baseline)])):
         out = tmp_path / name
         assert main(["estimate", str(record), "--out", str(out), "--no-views", "--no-progress", *extra]) == 0
-        runs[name] = (json.loads((out / "summary.json").read_text()), _estimates(out))
+        runs[name] = (json.loads((out / "summary.json").read_text()), read_estimates(out))
     with_baseline, without = runs["baseline"][0], runs["prior"][0]
     assert with_baseline["estimator"]["baseline_file"] == str(baseline)
     assert without["estimator"]["offset_prior_std_um"] == 25.0  # the machine file's [probes] prior

@@ -15,10 +15,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 from fixtures.fmu_subprocess import REPO_ROOT, run_json
-from fixtures.plant_records import REST_GAP_V, gap_voltages, keyphasor, plant_run
+from fixtures.plant_records import REST_GAP_V, gap_voltages, keyphasor, plant_run, read_estimates
 
 from estimator.config import ML_MIN
 from estimator.ekf import OilFlowEKF
+from estimator.measurement import probe_rotation
 from oilwatch.cli import main
 from oilwatch.monitoring.estimate import estimator_config, estimator_model
 from oilwatch.records.writers import write_record
@@ -26,13 +27,6 @@ from oilwatch.records.writers import write_record
 NOMINAL = 596.3
 TOLERANCE_ML_MIN = 0.001 * NOMINAL  # 0.1 % of nominal
 PROBES = ("x1", "y1", "x2", "y2")
-
-
-def _estimates(folder: Path) -> dict[str, np.ndarray]:
-    lines = (folder / "estimates.csv").read_text().splitlines()
-    header = lines[0].split(",")
-    table = np.array([[float(x) if x else np.nan for x in line.split(",")] for line in lines[1:]])
-    return {name: table[:, i] for i, name in enumerate(header)}
 
 
 def _onsets(flags: np.ndarray, times: np.ndarray) -> np.ndarray:
@@ -81,7 +75,7 @@ result = {{name: arrays[name][1:].tolist() for name in record}}  # the rows afte
         out = tmp_path / suffix
         record = write_record(tmp_path / f"run.{suffix}", columns)
         summary = _estimate(record, out, "--no-views", "--offset-prior-um", "0")  # the FMU's default
-        ours = _estimates(out)
+        ours = read_estimates(out)
         np.testing.assert_allclose(ours["time_s"], t, atol=1e-9)
         for b in (1, 2):
             error = np.abs(ours[f"q{b}_est_ml_min"] - np.array(cosim[f"ekf.q{b}_est_ml_min"]))
@@ -107,7 +101,7 @@ def test_tdms_gap_voltages_api670_offsets_keyphasor_at_5khz_give_the_estimator_s
     each probe its own rest gap (the offsets, corrected by rest_gap_v and declared known with
     --offset-prior-um 0; unknown offsets against the FMU: tests/test_estimate_cosim_nuisances.py), a notch
     keyphasor at rotor angle 40 deg, a DAQ clock 0.3712 s off the rotor's angle zero, 5 kHz. Reference: the
-    estimator fed the same run's samples at 1 kHz, offset-corrected.
+    estimator fed the same run's samples at 1 kHz along the probes' axes, offset-corrected.
     """
     t, _, measured, _ = plant_run(2.0, 2e-4, 0.3, drop_at_s=-10.0)  # bearing 1 at 75 % throughout
     shift = 0.3712
@@ -117,14 +111,24 @@ def test_tdms_gap_voltages_api670_offsets_keyphasor_at_5khz_give_the_estimator_s
     for n in PROBES:
         probe += [f"{n}.column={n}_gap", f"{n}.unit=V", f"{n}.rest_gap_v={REST_GAP_V[n]}"]
     probe_options = [f"--probe={p}" for p in probe]
-    summary = _estimate(record, tmp_path / "out", "--no-views", "--offset-prior-um", "0", *probe_options)
-    ours = _estimates(tmp_path / "out")
+    summary = _estimate(
+        record,
+        tmp_path / "out",
+        "--no-views",
+        "--offset-prior-um",
+        "0",
+        "--operating-point",
+        "nominal",
+        *probe_options,
+    )  # fmt: skip  (the reference: the estimator at the nominal point; the keyphasor speed is not followed)
+    ours = read_estimates(tmp_path / "out")
     assert summary["record"]["anti_alias_taps"] > 1 and summary["record"]["keyphasor_pulses"] == 150
     np.testing.assert_allclose(ours["speed_hz"][-100:], 75.0, rtol=2e-4)
 
-    reference = OilFlowEKF(estimator_model(None), estimator_config(75.0, 0.3, 0.0))
+    # the estimator FMU's way with API 670 probes: the readings along their axes, probe_angle_deg = 45
+    reference = OilFlowEKF(estimator_model(None), estimator_config(75.0, 0.3, 0.0, probe_angle_deg=45.0))
     reference.step(np.full(4, np.nan))  # as the FMU started at t = 0
-    trace = reference.run(measured[4::5])
+    trace = reference.run(measured[4::5] @ probe_rotation(np.radians(45.0)).T)
     ref_t, ref_q = t[4::5], trace.q_m3_s / ML_MIN
     plant_time = ours["time_s"] - shift
     window = summary["final_window_s"]

@@ -50,6 +50,26 @@ def test_a_missing_reading_blanks_only_the_coordinates_it_enters():
     np.testing.assert_array_equal(np.isnan(inclined[0]), [False, False, True, True])
 
 
+def test_square_probe_pairs_at_one_angle_feed_the_estimator_along_their_axes_as_the_fmu():
+    """API 670 (or any square pairs at one angle): the estimator takes the readings along the probes' axes
+    with EKFConfig.probe_angle_deg = the X probes' angle, as the estimator FMU does (the innovation gate and
+    the fault checks are per probe: fed (x, y), a gap-voltage record alarmed 33 ms after the FMU on the same
+    samples); any other mounting gives (x, y) positions."""
+    from estimator.measurement import probe_rotation
+
+    api670 = PositionConverter(probe_setup({"layout": "api670"}), CLEARANCE_M)
+    assert api670.pair_angle_deg == 45.0
+    assert PositionConverter(probe_setup(), CLEARANCE_M).pair_angle_deg == 0.0
+    odd = probe_setup({}, ["x1.angle_deg=30", "y1.angle_deg=120", "x2.angle_deg=45", "y2.angle_deg=135"])
+    assert PositionConverter(odd, CLEARANCE_M).pair_angle_deg is None
+    not_square = probe_setup({}, ["y1.angle_deg=100"])
+    assert PositionConverter(not_square, CLEARANCE_M).pair_angle_deg is None
+    positions = np.array([[10e-6, 20e-6, -5e-6, 7e-6]])
+    along = api670.along_axis_m(api670.readings(positions))
+    np.testing.assert_allclose(along, positions @ probe_rotation(math.radians(45.0)).T, atol=1e-15)
+    np.testing.assert_allclose(api670.positions_from_axes_m(along), positions, atol=1e-15)
+
+
 def test_probe_keys_from_the_machine_file_are_checked_and_overridden_on_the_command_line():
     setup = probe_setup({"x1": {"column": "ch0"}, "noise_um": 2.0}, ["x1.column=ch9", "y2.angle_deg=80"])
     assert setup.probe("x1").column == "ch9" and setup.noise_um == 2.0 and setup.probe("y2").angle_deg == 80.0
@@ -260,7 +280,7 @@ def test_further_fields_of_the_estimator_s_step_report_become_estimate_columns_i
 
     from estimator.config import nuisance_names
     from estimator.ekf import StepReport
-    from oilwatch.monitoring.estimate import estimate_columns
+    from oilwatch.monitoring.columns import estimate_columns
 
     @dataclass(slots=True)
     class FurtherReport(StepReport):  # a field a later estimator may report, and a nuisance the filter gives

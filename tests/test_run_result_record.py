@@ -39,7 +39,9 @@ def test_a_run_s_result_csv_is_a_record_for_estimate_and_baseline(built_fmus, tm
         "--no-progress",
         "--offset-prior-um",
         "0",
-    ]  # fmt: skip  (the run's estimator: offsets known, the FMU's default)
+        "--operating-point",
+        "nominal",
+    ]  # fmt: skip  (the run's estimator: offsets known and the nominal model, the FMU's defaults)
     assert main(arguments) == 0
     summary = json.loads((out / "summary.json").read_text())
     lines = (out / "estimates.csv").read_text().splitlines()

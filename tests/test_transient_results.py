@@ -59,7 +59,7 @@ def test_frequency_dependent_root_recomputes():
 
 
 @pytest.mark.slow  # transient runs: seconds of film steps
-@pytest.mark.parametrize("key", ["orbits", "orbits_120x36"])
+@pytest.mark.parametrize("key", ["orbits", "orbits_120x36", "orbits_240x72"])
 def test_orbit_run_start_recomputes(key):
     if key not in RESULTS:
         pytest.skip(f"no {key} in the results")

@@ -170,7 +170,7 @@ class TransientFilm:
         self.mesh = PRODUCTION_MESH if mesh is None else mesh
         self.full_grid: FilmGrid = film_grid(bearing, self.mesh)
         self.symmetric = self.mesh.n_axial % 2 == 0 if symmetric is None else bool(symmetric)
-        self.grid: FilmGrid = film_grid(bearing, self.mesh, half=self.symmetric)
+        self.grid: FilmGrid = film_grid(bearing, self.mesh, half=True) if self.symmetric else self.full_grid
         self.mirror = 2.0 if self.symmetric else 1.0
         self.order = order
         grid = self.grid

@@ -210,7 +210,7 @@ class GridAugmentedModel(_AugmentedModelBase):
         cosine, sine = float(w[1]), float(w[2])
         loaded = np.array([1.0, a * cosine - b * sine, a * sine + b * cosine])
         nxt, ad, jq = self.propagate(state, loaded, flowrate_m3_s)
-        _rotated_columns(self.harmonic_forcing(flowrate_m3_s), cosine, sine, self._unbalance_jacobian)
+        rotate_harmonic_columns(self.harmonic_forcing(flowrate_m3_s), cosine, sine, self._unbalance_jacobian)
         return nxt, ad, jq, self._unbalance_jacobian
 
     def _node(self, axis: int, q: float) -> int:
@@ -228,7 +228,7 @@ class GridAugmentedModel(_AugmentedModelBase):
 
 
 @numba.njit(cache=True)
-def _rotated_columns(harmonic, cosine, sine, out):  # pragma: no cover - compiled
+def rotate_harmonic_columns(harmonic, cosine, sine, out):  # pragma: no cover - compiled
     """``out[:, 0] = G_h [cos, sin]``, ``out[:, 1] = G_h [-sin, cos]`` for the harmonic columns G_h (n, 2)."""
     for r in range(harmonic.shape[0]):
         out[r, 0] = harmonic[r, 0] * cosine + harmonic[r, 1] * sine

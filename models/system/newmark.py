@@ -172,8 +172,9 @@ class NewmarkIntegrator:
         times = np.asarray(time_s, dtype=float)[..., None]
         phase = self.rotor_angle_rad + self.speed_rad_s * (times - self.time_s)
         growth = (self.speed_rad_s / self.system.omega_rad_s) ** 2
-        # The unit load at the flowrates of the period's start (the synchronous 1x load depends on them).
-        unit = self.system.unit_unbalance_load(self.flowrates_m3_s)
+        # The unit load at the flowrates of the period's start and its speed (the synchronous 1x load depends
+        # on both).
+        unit = self.system.unit_unbalance_load(self.flowrates_m3_s, self.speed_rad_s)
         return (growth * self.unbalance_moment * unit * np.exp(1j * phase)).real
 
     def _exogenous(self, time_s: float) -> np.ndarray:
@@ -293,7 +294,7 @@ class NewmarkIntegrator:
         n, n2 = self.n, 2 * self.n
         blocks = self._bearing_blocks(flows)
         constant = self.system.gravity_force + self._select.T @ blocks[2]
-        unit = self.system.unit_unbalance_load(flows)
+        unit = self.system.unit_unbalance_load(flows, self.speed_rad_s)
         cosine, sine = unit.real, -unit.imag
         columns = np.zeros((3 * n, n2 + 3))
         columns[:n2, :n2] = np.eye(n2)

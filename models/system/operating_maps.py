@@ -13,7 +13,8 @@ number and flowrate over its Couette flow), with
   Omega_0)^2``); for a system with synchronous tables (``RotorBearingSystem.synchronous_tables``: the
   turbine's default) the 1x load is the effective load ``F_eff`` whose response through the quasi-static
   dynamics is the synchronous orbit, from both dimensionless tables at the operating point
-  (``RotorBearingSystem.synchronous_unit_load``, impedances at the system's speed as the plant takes them);
+  (``RotorBearingSystem.synchronous_unit_load``: the rotor's dynamic stiffness and the impedances
+  K + i Omega C at the operating point's speed, as the plant takes them);
 * the exosystem's rotation at the speed;
 
 and gives the derivatives of ``(A_d, G)`` along the operating axes with ``scipy.linalg.expm_frechet`` (the
@@ -104,16 +105,14 @@ class OperatingMaps:
             force += p.T @ (np.array([0.0, load]) + k @ row[0:2])
             if self.synchronous_table is not None:
                 pair = slice(2 * b, 2 * b + 2)
-                z_dynamics[pair, pair] = k + 1j * self._reference_omega * c
+                z_dynamics[pair, pair] = k + 1j * omega * c
                 s_row = self._slice(speed_hz, mu, load, True).rows(np.array([q]))[0]
-                z_synchronous[pair, pair] = s_row[2:6].reshape(2, 2) + 1j * self._reference_omega * s_row[
-                    6:10
-                ].reshape(2, 2)
+                z_synchronous[pair, pair] = s_row[2:6].reshape(2, 2) + 1j * omega * s_row[6:10].reshape(2, 2)
         if self.synchronous_table is None:
             unbalance = sys.unbalance_force
         else:
             moment = sys.unbalance_moment_kg_m * np.exp(1j * sys.unbalance_phase_rad)
-            unbalance = moment * sys.synchronous_unit_load(z_synchronous, z_dynamics)
+            unbalance = moment * sys.synchronous_unit_load(z_synchronous, z_dynamics, omega)
         unbalance = unbalance * (omega / self._reference_omega) ** 2
         block = np.zeros((2 * n + 3, 2 * n + 3))
         block[:n, n : 2 * n] = np.eye(n)

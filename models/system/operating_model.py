@@ -43,7 +43,7 @@ from ..bearing.operating_table import operating_table_path
 from ..machine import Machine
 from ..oil import Oil
 from ..validation import InputError, require_positive
-from .augmented import GridAugmentedModel
+from .augmented import GridAugmentedModel, rotate_harmonic_columns
 from .operating_maps import OperatingMaps
 from .operating_point import ConditionedTable, operating_table_of
 from .rotor_bearing import RotorBearingSystem
@@ -112,6 +112,14 @@ class OperatingAugmentedModel:
         self._corrections_g = np.zeros((6, n, 3))
         self._coefficients = np.zeros(6)
         self._centre: np.ndarray | None = None  # (q1, q2, speed, ln mu1, ln mu2)
+        self._centre_values: tuple[float, ...] = ()  # the same as Python floats, for the per-step tests
+        r = self.recentring
+        q_scale = self.nominal_flowrate_m3_s or 0.5 * sum(self.flowrate_bounds_m3_s)
+        self._threshold_scales = (
+            r.speed_fraction * self.speed_hz,
+            r.log_viscosity,
+            r.flowrate_fraction * q_scale,
+        )
         self._centre_step = NEVER
         self._viscosity_jacobian = np.zeros((n, 2))
         self._unbalance_jacobian = np.zeros((n, 2))
@@ -244,54 +252,55 @@ class OperatingAugmentedModel:
         if not (f1 > 0.0 and f2 > 0.0):
             raise InputError(f"viscosity factors must be > 0, got ({f1:g}, {f2:g})")
         w = self.exogenous(step) if exogenous is None else exogenous
+        cosine, sine = float(w[1]), float(w[2])
         loaded = w
         if unbalance is not None:
             a, b = float(unbalance[0]), float(unbalance[1])
-            loaded = np.array([1.0, a * w[1] - b * w[2], a * w[2] + b * w[1]])
+            loaded = np.array([1.0, a * cosine - b * sine, a * sine + b * cosine])
         nxt, ad, jq = self.reference.propagate(state, loaded, flowrate_m3_s)
         log_mu = self._log_oil_viscosity
-        point = np.array([q1, q2, self._speed, log_mu + math.log(f1), log_mu + math.log(f2)])
+        point = (q1, q2, self._speed, log_mu + math.log(f1), log_mu + math.log(f2))
         at_reference = point[2] == self.speed_hz and point[3] == self._log_mu0 and point[4] == self._log_mu0
-        want_jf = viscosity_factor is not None
-        if at_reference and not want_jf:
+        coefficients = self._coefficients
+        if at_reference and viscosity_factor is None:
             jf = None  # today's model exactly
         else:
             distance = self._distance(point)
             if distance > self.recentring.hard_factor or (
                 distance > 1.0 and step - self._centre_step >= self.recentring.min_interval_steps
             ):
-                self._recentre(point)
+                self._recentre(np.array(point))
                 self._centre_step = step
-            coefficients = self._coefficients
             coefficients[0] = 0.0 if at_reference else 1.0
-            coefficients[1:] = 0.0 if at_reference else point - self._centre
+            if at_reference:
+                coefficients[1:] = 0.0
+            else:
+                centre = self._centre_values
+                for i in range(5):
+                    coefficients[i + 1] = point[i] - centre[i]
             jf = self._viscosity_jacobian
             _apply_correction(
-                self._corrections_a, self._corrections_g, coefficients, state, loaded, nxt, ad, jq, jf
+                self._corrections_a, self._corrections_g, coefficients, state, loaded, nxt, ad, jq, jf, f1, f2
             )
-            jf[:, 0] /= f1
-            jf[:, 1] /= f2
         if unbalance is None:
             return nxt, ad, jq, jf, None
         harmonic = self.reference.harmonic_forcing(flowrate_m3_s)
         if not at_reference:
-            harmonic = harmonic + np.tensordot(self._coefficients, self._corrections_g[:, :, 1:], axes=1)
+            harmonic = _corrected_harmonic(harmonic, coefficients, self._corrections_g)
         ju = self._unbalance_jacobian
-        ju[:, 0] = harmonic @ w[1:]
-        ju[:, 1] = harmonic @ np.array([-w[2], w[1]])
+        rotate_harmonic_columns(harmonic, cosine, sine, ju)
         return nxt, ad, jq, jf, ju
 
-    def _distance(self, point: np.ndarray) -> float:
+    def _distance(self, point: tuple[float, ...]) -> float:
         """How far ``point`` is from the centre, in thresholds (largest axis; inf without a centre)."""
-        centre = self._centre
-        if centre is None:
+        if self._centre is None:
             return math.inf
-        r = self.recentring
-        q_scale = self.nominal_flowrate_m3_s or 0.5 * sum(self.flowrate_bounds_m3_s)
+        centre = self._centre_values
+        speed_scale, viscosity_scale, flowrate_scale = self._threshold_scales
         return max(
-            abs(point[2] - centre[2]) / (r.speed_fraction * self.speed_hz),
-            max(abs(point[3] - centre[3]), abs(point[4] - centre[4])) / r.log_viscosity,
-            max(abs(point[0] - centre[0]), abs(point[1] - centre[1])) / (r.flowrate_fraction * q_scale),
+            abs(point[2] - centre[2]) / speed_scale,
+            max(abs(point[3] - centre[3]), abs(point[4] - centre[4])) / viscosity_scale,
+            max(abs(point[0] - centre[0]), abs(point[1] - centre[1])) / flowrate_scale,
         )
 
     def _recentre(self, point: np.ndarray) -> None:
@@ -309,6 +318,7 @@ class OperatingAugmentedModel:
         ca[1:3], cg[1:3] = da_c[0:2] - da_0, dg_c[0:2] - dg_0
         ca[3:6], cg[3:6] = da_c[2:5], dg_c[2:5]
         self._centre = point.copy()
+        self._centre_values = tuple(float(v) for v in point)
         self.recentre_count += 1
 
     def place_centre(self, point) -> None:
@@ -338,37 +348,58 @@ class OperatingAugmentedModel:
         return self.maps.discrete_map(np.asarray(flowrate_m3_s, dtype=float), self._speed, mu)
 
 
-@numba.njit(cache=True)
-def _apply_correction(ca, cg, coefficients, state, w, nxt, ad, jq, jf):  # pragma: no cover - compiled
-    """Add ``sum_k c_k (A_k s + G_k w)`` to the map; the q and ln mu Jacobians from the derivative terms."""
+# Reassociation lets the compiler vectorize the row sums (a few ulps from the sequential sums); no other
+# fast-math assumption.
+@numba.njit(cache=True, fastmath={"reassoc", "contract"})
+def _apply_correction(ca, cg, coefficients, state, w, nxt, ad, jq, jf, f1, f2):  # pragma: no cover
+    """Add ``sum_k c_k (A_k s + G_k w)`` to the map; the q and ln mu Jacobians from the derivative terms,
+    the latter divided by the viscosity factors (the Jacobian per unit of factor)."""
     n = state.shape[0]
     m = w.shape[0]
     for r in range(n):
         jf[r, 0] = 0.0
         jf[r, 1] = 0.0
+    corrected = coefficients[0] != 0.0
     for k in range(6):
         c = coefficients[k]
         a_k = ca[k]
         g_k = cg[k]
+        if c != 0.0:
+            for r in range(n):
+                row = a_k[r]
+                out = ad[r]
+                for col in range(n):
+                    out[col] += c * row[col]
         for r in range(n):
+            row = a_k[r]
             y = 0.0
             for col in range(n):
-                v = a_k[r, col]
-                y += v * state[col]
-                if c != 0.0:
-                    ad[r, col] += c * v
+                y += row[col] * state[col]
             for col in range(m):
                 y += g_k[r, col] * w[col]
             if c != 0.0:
                 nxt[r] += c * y
-            if k == 1 and coefficients[0] != 0.0:
+            if k == 1 and corrected:
                 jq[r, 0] += y
-            elif k == 2 and coefficients[0] != 0.0:
+            elif k == 2 and corrected:
                 jq[r, 1] += y
             elif k == 4:
-                jf[r, 0] = y
+                jf[r, 0] = y / f1
             elif k == 5:
-                jf[r, 1] = y
+                jf[r, 1] = y / f2
+
+
+@numba.njit(cache=True)
+def _corrected_harmonic(harmonic, coefficients, cg):  # pragma: no cover - compiled
+    """The harmonic input columns (n, 2) of the corrected map: ``G_h + sum_k c_k G_k[:, 1:]``."""
+    out = np.empty_like(harmonic)
+    for r in range(harmonic.shape[0]):
+        for col in range(2):
+            value = 0.0
+            for k in range(coefficients.shape[0]):
+                value += coefficients[k] * cg[k, r, col + 1]
+            out[r, col] = harmonic[r, col] + value
+    return out
 
 
 REFERENCE_TABLES = ("flowrate", "dimensionless")

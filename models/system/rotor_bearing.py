@@ -107,7 +107,7 @@ class RotorBearingSystem:
         self.tables = tuple(tables)
         self.synchronous_tables = None if synchronous_tables is None else tuple(synchronous_tables)
         self._unit_loads: dict[tuple, np.ndarray] = {}
-        self._synchronous_reference: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._synchronous_references: dict[float, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
         self.speed_hz = speed_hz
         self.omega_rad_s = 2.0 * np.pi * speed_hz
         self.basis = basis
@@ -239,56 +239,95 @@ class RotorBearingSystem:
         moment = self.unbalance_moment_kg_m * np.exp(1j * self.unbalance_phase_rad)
         return moment * self.unit_unbalance_load(flowrates_m3_s)
 
-    def unit_unbalance_load(self, flowrates_m3_s: Sequence[float]) -> np.ndarray:
+    def unit_unbalance_load(
+        self, flowrates_m3_s: Sequence[float], whirl_rad_s: float | None = None
+    ) -> np.ndarray:
         """Load (n,) complex of a unit unbalance moment (1 kg m at phase 0) at the flowrates: with
-        ``synchronous_tables`` the load F_eff of the module docstring, else ``unit_unbalance_force``."""
+        ``synchronous_tables`` the load F_eff of the module docstring, else ``unit_unbalance_force``.
+
+        ``whirl_rad_s``: the spin speed of the 1x orbit (None: the system's). The rotor's dynamic stiffness
+        (gyroscopic term included) and the bearing impedances K + i Omega C are taken at it, as the tables
+        give K and C at their current conditions; the load keeps the magnitude of the system's speed
+        (``m Omega_0^2`` per kg m): F_eff is linear in the unbalance force, so the load at the whirl speed is
+        this times (Omega / Omega_0)^2, which the caller applies as it does to the unbalance force."""
         if self.synchronous_tables is None:
             return self.unit_unbalance_force
+        whirl = self._whirl(whirl_rad_s)
         conditions = tuple(getattr(t, "conditions", ()) for t in self.tables + self.synchronous_tables)
-        key = (*(float(q) for q in flowrates_m3_s), *conditions)
+        key = (*(float(q) for q in flowrates_m3_s), *conditions, whirl)
         if key not in self._unit_loads:
             if len(self._unit_loads) > 4096:
                 self._unit_loads.clear()
-            self._unit_loads[key] = self._effective_unit_load(flowrates_m3_s)
+            self._unit_loads[key] = self._effective_unit_load(flowrates_m3_s, whirl)
         return self._unit_loads[key]
 
-    def _effective_unit_load(self, flowrates_m3_s: Sequence[float]) -> np.ndarray:
-        """F_eff of a unit unbalance through the bearing dofs only: with A_ref = K - Omega^2 M + i Omega D
-        at reference bearing impedances Z_ref (factorized once), the synchronous orbit's bearing
-        displacements solve (I + H (Z_s - Z_ref)) x_b = h, H = P A_ref^-1 P^T, h = P A_ref^-1 F_1 (a
-        4 x 4 solve per flowrate pair); then F_eff = F_1 - P^T (Z_s - Z_qs) x_b."""
-        z_s = self._impedance_blocks(self.synchronous_tables, flowrates_m3_s)
-        return self.synchronous_unit_load(z_s, self._impedance_blocks(self.tables, flowrates_m3_s))
+    def _whirl(self, whirl_rad_s: float | None) -> float:
+        """The 1x whirl speed [rad/s]: the system's unless given (checked > 0)."""
+        if whirl_rad_s is None:
+            return self.omega_rad_s
+        return require_positive("whirl speed", whirl_rad_s, "rad/s")
 
-    def synchronous_unit_load(self, z_synchronous: np.ndarray, z_dynamics: np.ndarray) -> np.ndarray:
+    def _effective_unit_load(self, flowrates_m3_s: Sequence[float], whirl_rad_s: float) -> np.ndarray:
+        """F_eff of a unit unbalance through the bearing dofs only: with A_ref = K - Omega^2 M + i Omega D
+        at reference bearing impedances Z_ref (factorized once per whirl speed), the synchronous orbit's
+        bearing displacements solve (I + H (Z_s - Z_ref)) x_b = h, H = P A_ref^-1 P^T, h = P A_ref^-1 F_1
+        (a 4 x 4 solve per flowrate pair, exact for any Z_ref); then F_eff = F_1 - P^T (Z_s - Z_qs) x_b. At
+        another whirl speed than the system's, x_b comes from one direct solve of the synchronous orbit."""
+        z_s = self._impedance_blocks(self.synchronous_tables, flowrates_m3_s, whirl_rad_s)
+        z_qs = self._impedance_blocks(self.tables, flowrates_m3_s, whirl_rad_s)
+        if whirl_rad_s == self.omega_rad_s:
+            return self.synchronous_unit_load(z_s, z_qs, whirl_rad_s)
+        # Off the system's speed (a speed ramp: a new whirl speed every period) one direct solve of the
+        # synchronous orbit is cheaper than a reference response per speed.
+        w = whirl_rad_s
+        select = self.bearing_maps.reshape(-1, self.n_coordinates)
+        damping = self.damping + (w - self.omega_rad_s) * self.gyroscopic
+        matrix = self.stiffness - w * w * self.mass + 1j * w * damping + select.T @ z_s @ select
+        x_b = select @ np.linalg.solve(matrix, self.unit_unbalance_force)
+        return self.unit_unbalance_force - select.T @ ((z_s - z_qs) @ x_b)
+
+    def synchronous_unit_load(
+        self, z_synchronous: np.ndarray, z_dynamics: np.ndarray, whirl_rad_s: float | None = None
+    ) -> np.ndarray:
         """F_eff (n,) complex of a unit unbalance for block-diagonal bearing impedances K + i Omega C
-        (2 nb, 2 nb) at the system's speed: the synchronous ones of the 1x orbit and the ones of the model's
-        dynamics (module docstring). For models that evaluate their own coefficients (operating points)."""
-        if self._synchronous_reference is None:
-            self._synchronous_reference = self._reference_response()
-        h, big_h, z_ref = self._synchronous_reference
+        (2 nb, 2 nb) at the whirl speed ``whirl_rad_s`` (None: the system's): the synchronous ones of the 1x
+        orbit and the ones of the model's dynamics (module docstring; magnitude as
+        :meth:`unit_unbalance_load`). For models that evaluate their own coefficients (operating points)."""
+        h, big_h, z_ref = self._reference_response(self._whirl(whirl_rad_s))
         x_b = np.linalg.solve(np.eye(h.size) + big_h @ (z_synchronous - z_ref), h)
         select = self.bearing_maps.reshape(-1, self.n_coordinates)
         return self.unit_unbalance_force - select.T @ ((z_synchronous - z_dynamics) @ x_b)
 
-    def _impedance_blocks(self, tables, flowrates_m3_s: Sequence[float]) -> np.ndarray:
-        """Block-diagonal K + i Omega C (2 nb, 2 nb) of ``tables`` at the flowrates."""
+    def _impedance_blocks(self, tables, flowrates_m3_s: Sequence[float], whirl_rad_s: float) -> np.ndarray:
+        """Block-diagonal K + i Omega C (2 nb, 2 nb) of ``tables`` at the flowrates and whirl speed."""
         nb = len(tables)
         z = np.zeros((2 * nb, 2 * nb), dtype=complex)
         for b, (table, q) in enumerate(zip(tables, flowrates_m3_s, strict=True)):
             c = table.evaluate(q)
-            z[2 * b : 2 * b + 2, 2 * b : 2 * b + 2] = c.stiffness + 1j * self.omega_rad_s * c.damping
+            z[2 * b : 2 * b + 2, 2 * b : 2 * b + 2] = c.stiffness + 1j * whirl_rad_s * c.damping
         return z
 
-    def _reference_response(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(h, H, Z_ref) of :meth:`_effective_unit_load`, at the quasi-static impedances of mid-range flow."""
+    def _reference_response(self, whirl_rad_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(h, H, Z_ref) of :meth:`_effective_unit_load` at a whirl speed, at the quasi-static impedances of
+        mid-range flow (cached per whirl speed: a speed ramp asks for a new one every period)."""
+        found = self._synchronous_references.get(whirl_rad_s)
+        if found is not None:
+            return found
+        if len(self._synchronous_references) > 64:
+            self._synchronous_references.clear()
         low, high = self.flowrate_bounds_m3_s
-        z_ref = self._impedance_blocks(self.tables, [0.5 * (low + high)] * len(self.tables))
+        w = whirl_rad_s
+        z_ref = self._impedance_blocks(self.tables, [0.5 * (low + high)] * len(self.tables), w)
         select = self.bearing_maps.reshape(-1, self.n_coordinates)
-        w = self.omega_rad_s
-        matrix = self.stiffness - w * w * self.mass + 1j * w * self.damping + select.T @ z_ref @ select
+        damping = self.damping + (w - self.omega_rad_s) * self.gyroscopic
+        matrix = self.stiffness - w * w * self.mass + 1j * w * damping + select.T @ z_ref @ select
         response = solve(matrix, np.column_stack([self.unit_unbalance_force, select.T]))
-        return select @ response[:, 0], select @ response[:, 1:], z_ref
+        found = self._synchronous_references[whirl_rad_s] = (
+            select @ response[:, 0],
+            select @ response[:, 1:],
+            z_ref,
+        )
+        return found
 
     def bearing_positions(self, coordinates: np.ndarray) -> np.ndarray:
         """Bearing (x, y) displacements (n_bearings, 2) of the coordinates (real or complex)."""

@@ -10,6 +10,8 @@ from pathlib import Path
 
 def register(subparsers) -> None:
     """Add the ``estimate`` subcommand."""
+    from oilwatch.monitoring.estimate import OPERATING_POINTS
+
     from .machine_option import add_machine_option
 
     parser = subparsers.add_parser(
@@ -69,6 +71,15 @@ def register(subparsers) -> None:
         help="write every N-th estimator sample to estimates.csv (default: 1; the summary, alarms and views "
         "use every sample)",
     )
+    parser.add_argument(
+        "--operating-point",
+        choices=OPERATING_POINTS,
+        default="auto",
+        help="follow: the estimator's model follows the record's speed (speed_hz column or keyphasor) and "
+        "oil temperature (oil_temperature_c) along the dimensionless bearing tables, as the estimator FMU "
+        "with bearing_table = 1; nominal: the model at the machine's nominal speed and viscosity "
+        "(bearing_table = 0); auto (default): follow when the record has a speed or an oil temperature",
+    )
     parser.add_argument("--no-views", action="store_true", help="no PNG views and no report.html")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument(
@@ -111,6 +122,7 @@ def run(args: argparse.Namespace) -> int:
         output_every=args.output_every,
         views=not args.no_views,
         live=live,
+        operating_point=args.operating_point,
     )
     if len(args.records) > 1:
         return _run_many(args, options)

@@ -6,26 +6,34 @@ initial states, the first sample at the record's first grid time), except that a
 zero offsets: their prior is the machine file's ``[probes] offset_prior_std_um`` (the FMU's
 ``offset_prior_std_um``, default 0 there) or a commissioning baseline (``--baseline``, the FMU's
 ``baseline_file``). Fed the same samples with the same settings, it gives the co-simulated FMU's estimates.
-The model is the machine file's reduced rotor-bearing system at its
-nominal speed with the machine file's unbalance, sampled at 1 kHz (:data:`ESTIMATOR_DT_S`).
+The model is the machine file's reduced rotor-bearing system with the machine file's unbalance, sampled at
+1 kHz (:data:`ESTIMATOR_DT_S`): at the nominal speed and viscosity (the FMU's ``bearing_table = 0``), or, when
+the record gives a speed (a ``speed_hz`` column or the keyphasor) or an oil temperature, its operating model,
+which each sample's speed and oil temperature (held over the period that ends at the sample, as the FMU holds
+its inputs over a step) move along the dimensionless bearing tables (``bearing_table = 1``; see
+:class:`EstimateOptions`, ``--operating-point``).
 
 Outputs, in ``out_dir``:
 
 * ``estimates.csv``: one row per estimator sample (or every ``output_every``-th), written and flushed block
   by block (line by line from standard input), so that nothing is lost when a run stops; columns from
-  :func:`estimate_columns`: time, both flowrate estimates and stds, alarms, NIS, convergence, the
-  conditioned shaft positions, speed, oil temperature, and every further field the estimator's step report
-  carries (nuisance estimates, probe health, model consistency: named after the field, SI suffixes ``_m``
-  and ``_m3_s`` converted to ``_um`` and ``_ml_min``);
-* ``summary.json`` (:func:`summarize`), the views (:mod:`oilwatch.monitoring.views`) and ``report.html``.
+  :func:`oilwatch.monitoring.columns.estimate_columns`: time, both flowrate estimates and stds, alarms,
+  NIS, convergence, the conditioned shaft positions, speed, oil temperature, and every further field the
+  estimator's step report carries (nuisance estimates, probe health, model consistency: named after the
+  field, SI suffixes ``_m`` and ``_m3_s`` converted to ``_um`` and ``_ml_min``);
+* ``summary.json`` (:func:`oilwatch.monitoring.summary.summarize`), the views
+  (:mod:`oilwatch.monitoring.views`) and ``report.html``.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import sys
+import functools
+import gc
+import itertools
 import time
 from collections.abc import Callable
+from contextlib import contextmanager
 from pathlib import Path
 from typing import TextIO
 
@@ -33,15 +41,10 @@ import numpy as np
 
 from estimator.config import (
     ML_MIN,
-    NUISANCE_OUTPUTS,
     EKFConfig,
     OffsetBaseline,
-    nuisance_names,
-    nuisance_snapshot,
-    nuisance_table,
-    nuisance_values,
 )
-from estimator.ekf import OilFlowEKF, StepReport
+from estimator.ekf import OilFlowEKF
 from models.machine import Machine, load_machine
 from models.probes import Probes, read_probes
 from models.validation import InputError
@@ -49,24 +52,32 @@ from oilwatch.records import RecordStream, probe_setup
 from oilwatch.records.readers import STDIN
 from oilwatch.study.storage import write_json_atomic
 
+from .columns import NuisanceColumns, column_decimals, estimate_columns
+from .csv_rows import RowWriter
 from .history import History
 
 ESTIMATOR_DT_S = 1e-3
 """The estimator's sampling period (its discrete model's step, as the FMU's default)."""
-BASE_FIELDS = (
-    "step",
-    "q_m3_s",
-    "q_std_m3_s",
-    "nis",
-    "n_measurements",
-    "converged",
-    "measurement_ok",
-    "starved",
-)
-"""StepReport fields every estimator has; any further field becomes extra columns."""
-SPEED_MISMATCH_FRACTION = 0.01
-
+OPERATING_POINTS = ("auto", "follow", "nominal")
 _MODELS: dict[tuple, object] = {}
+GC_BLOCKS = 64
+"""Blocks between the collections of young objects while the automatic collector is off (below)."""
+
+
+@contextmanager
+def _young_collections_only():
+    """The automatic cyclic garbage collector off for the estimation loop: every step allocates a report
+    and a few arrays, which made it run full collections over the whole heap (numba, scipy, the model), 5-10 %
+    of the loop (measured in CPU time). The loop makes no reference cycles; :meth:`EstimateRun.run` still
+    collects the young generations every :data:`GC_BLOCKS` blocks, so a reader that did cannot grow memory
+    without bound."""
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if enabled:
+            gc.enable()
 
 
 @dataclasses.dataclass(frozen=True)
@@ -81,17 +92,36 @@ class EstimateOptions:
     chunk_rows: int = 8192
     views: bool = True
     live: bool = False
+    operating_point: str = "auto"
+    """``follow``: the estimator's operating model follows the record's speed and oil temperature (the
+    estimator FMU's ``bearing_table = 1``); ``nominal``: the model at the machine's nominal speed and
+    viscosity (``bearing_table = 0``); ``auto``: follow when the record has a speed (a ``speed_hz`` column or
+    a keyphasor) or an oil-temperature column and the machine has an ``[oil]``."""
 
 
-def estimator_model(machine_file: str | None, dt_s: float = ESTIMATOR_DT_S):
-    """The estimator's model of a machine file, built once per process (a Dask worker keeps it)."""
+def estimator_model(machine_file: str | None, dt_s: float = ESTIMATOR_DT_S, follow: bool = False):
+    """The estimator's model of a machine file: the reduced system at the nominal point (the estimator FMU's
+    ``bearing_table = 0``), built once per process (a Dask worker keeps it), or, with ``follow``, its
+    operating model on the dimensionless tables (``bearing_table = 1``), built afresh on every call: its
+    correction centre is state the filter's reset does not clear (as in the FMU, which builds one per
+    instance), so a cached one would make a record's estimates depend on what ran before it."""
     from models.system.augmented import GridAugmentedModel
-    from models.system.factory import load_system
 
+    if follow:
+        from models.system.operating_model import build_operating_model
+
+        return build_operating_model(_reduced_system(machine_file), load_machine(machine_file), dt_s)
     key = (machine_file, dt_s)
     if key not in _MODELS:
-        _MODELS[key] = GridAugmentedModel(load_system(machine_file, reduced=True), dt_s)
+        _MODELS[key] = GridAugmentedModel(_reduced_system(machine_file), dt_s)
     return _MODELS[key]
+
+
+@functools.lru_cache(maxsize=4)
+def _reduced_system(machine_file: str | None):
+    from models.system.factory import load_system
+
+    return load_system(machine_file, reduced=True)
 
 
 def estimator_config(
@@ -100,11 +130,14 @@ def estimator_config(
     first_sample_time_s: float,
     probes: Probes | None = None,
     baseline: OffsetBaseline | None = None,
+    probe_angle_deg: float = 0.0,
 ) -> EKFConfig:
     """The OilFlowEKF FMU's default configuration with the machine's probe nuisances (module docstring).
 
     ``probes``: the machine file's ``[probes]`` offsets prior and drift (None: offsets known, the FMU's
-    default); ``baseline``: a commissioning baseline's offsets prior (the FMU's ``baseline_file``)."""
+    default); ``baseline``: a commissioning baseline's offsets prior (the FMU's ``baseline_file``);
+    ``probe_angle_deg``: the probe pairs' mounting angle when the samples are along the probes' axes (the
+    FMU's ``probe_angle_deg``; 0: (x, y) positions)."""
     nuisance = {}
     if probes is not None:
         nuisance = {
@@ -116,67 +149,9 @@ def estimator_config(
         noise_std_m=noise_um * 1e-6,
         first_sample_time_s=first_sample_time_s,
         offset_baseline=baseline,
+        probe_angle_deg=probe_angle_deg,
         **nuisance,
     )
-
-
-def _field_columns(name: str, value) -> tuple[list[str], float]:
-    """Column names of an extra report field and the factor from its SI unit to the field unit."""
-    base, scale = name, 1.0
-    for suffix, unit, factor in (("_m3_s", "_ml_min", 1.0 / ML_MIN), ("_m", "_um", 1e6)):
-        if name.endswith(suffix):
-            base, scale = name[: -len(suffix)] + unit, factor
-            break
-    size = np.size(value)
-    if size == 1:
-        return [base], scale
-    head, unit = [*base.rsplit("_", 1), ""][:2] if scale != 1.0 else (base, "")
-    tail = f"_{unit}" if unit else ""
-    names = [f"{head}_{label}{tail}" for label in _labels(size)]
-    return names, scale
-
-
-def _labels(size: int) -> list[str]:
-    if size == 4:
-        return ["x1", "y1", "x2", "y2"]
-    if size == 2:
-        return ["b1", "b2"]
-    return [str(i + 1) for i in range(size)]
-
-
-def estimate_columns(report: StepReport) -> tuple[list[str], list[tuple[str, float, int]]]:
-    """The estimates.csv header for an estimator whose step report looks like ``report``, and the extra
-    fields to copy (name, unit factor, size)."""
-    columns = [
-        "time_s",
-        "q1_est_ml_min",
-        "q2_est_ml_min",
-        "q1_std_ml_min",
-        "q2_std_ml_min",
-        "starved1",
-        "starved2",
-        "nis",
-        "n_channels",
-        "converged",
-        "measurement_ok",
-        "x1_um",
-        "y1_um",
-        "x2_um",
-        "y2_um",
-        "speed_hz",
-        "oil_temperature_c",
-    ]
-    extras = []
-    covered = {name for row in NUISANCE_OUTPUTS for name in (row.estimate, row.std)}
-    for item in dataclasses.fields(report):
-        if item.name in BASE_FIELDS or item.name in covered:  # nuisances: the columns of nuisance_names()
-            continue
-        value = getattr(report, item.name)
-        names, scale = _field_columns(item.name, value)
-        columns += names
-        extras.append((item.name, scale, len(names)))
-    columns += [row[0] for row in nuisance_names()]
-    return columns, extras
 
 
 class EstimateRun:
@@ -191,12 +166,17 @@ class EstimateRun:
         total_callback: Callable[[int | None, str], None] | None = None,
         live_stream: TextIO | None = None,
     ) -> None:
+        if options.operating_point not in OPERATING_POINTS:
+            raise InputError(
+                f"--operating-point must be one of {', '.join(OPERATING_POINTS)}, got "
+                f"{options.operating_point!r}"
+            )
         self.source = source
         self.out = Path(out_dir)
         self.options = options
         self.machine: Machine = load_machine(options.machine_file)
         self.setup = probe_setup(self.machine.raw.get("probes"), options.probe_overrides)
-        self.speed_hz = self.machine.nominal_speed_hz  # the estimator's model runs at the nominal speed
+        self.speed_hz = self.machine.nominal_speed_hz  # the model's reference speed
         self.probes = read_probes(self.machine)
         if options.offset_prior_std_um is not None:
             self.probes = dataclasses.replace(
@@ -219,33 +199,89 @@ class EstimateRun:
         )
         if total_callback is not None:
             total_callback(self.stream.reader.total, self.stream.reader.progress_unit)
-        self.model = estimator_model(options.machine_file)  # after the record's checks: errors come first
+        self.follow, self.operating_reason = self._operating_choice()
+        # after the record's checks: errors come first
+        self.model = estimator_model(options.machine_file, follow=self.follow)
         self.live_stream = live_stream
         self.filter: OilFlowEKF | None = None
-        self.history = History(ESTIMATOR_DT_S, self.speed_hz, self.machine.bearing.clearance_m)
+        # the estimator takes the readings along the probes' axes when it can (the FMU's probe_angle_deg)
+        self.probe_angle_deg = self.stream.probe_angle_deg or 0.0
+        self.history = History(
+            ESTIMATOR_DT_S, self.speed_hz, self.machine.bearing.clearance_m, self.probe_angle_deg
+        )
         self.latency_s: list[float] = []
         self.estimator_s = 0.0  # time in the estimator's steps (the rest: reading, conditioning, writing)
+        self.stages_s = dict.fromkeys(("read_condition", "rows", "write", "history"), 0.0)
+        """Where the rest of the time goes, after the first block: reading and conditioning the record,
+        building the rows from the step reports, formatting and writing them, the views' history."""
+
+    def _operating_choice(self) -> tuple[bool, str]:
+        """(follow the record's speed and oil temperature?, why), from ``operating_point`` (see
+        :class:`EstimateOptions`)."""
+        choice = self.options.operating_point
+        stream = self.stream
+        measured = [
+            name
+            for name, present in (
+                ("speed", stream.speed_source != "none"),
+                ("oil temperature", stream.has_temperature),
+            )
+            if present
+        ]
+        if choice == "nominal":
+            return False, "nominal (--operating-point nominal)"
+        if choice == "follow":
+            if self.machine.oil is None:
+                raise InputError(
+                    "--operating-point follow needs the machine's oil ([oil] in the machine file) to turn "
+                    "the oil temperature into a viscosity"
+                )
+            return True, "follows the record's " + (" and ".join(measured) or "(constant) operating point")
+        if not measured:
+            return False, "nominal (the record has no speed and no oil temperature)"
+        if self.machine.oil is None:
+            return False, "nominal (the machine file has no [oil]: the model cannot follow)"
+        return True, "follows the record's " + " and ".join(measured)
 
     def run(self) -> dict:
         """Process the record; write estimates.csv (and, unless ``views`` is off, the views and report)."""
         self.out.mkdir(parents=True, exist_ok=True)
         started = None
         csv_path = self.out / "estimates.csv"
-        with open(csv_path, "w", encoding="utf-8", newline="") as csv_file:
-            writer = _RowWriter(csv_file, self.live_stream, self.options.output_every)
-            for block in self.stream.blocks():
+        with open(csv_path, "w", encoding="utf-8", newline="") as csv_file, _young_collections_only():
+            writer = RowWriter(csv_file, self.live_stream, self.options.output_every)
+            clock, spent = time.perf_counter, self.stages_s
+            blocks = self.stream.blocks()
+            for count in itertools.count(1):
+                if count % GC_BLOCKS == 0:
+                    gc.collect(1)
+                t0 = clock()
+                block = next(blocks, None)
+                t1 = clock()
+                if block is None:
+                    break
                 first = self.filter is None
                 if first:
-                    self._start(int(block.k[0]), writer)
-                    started = time.perf_counter()
+                    self._start(block, writer)
+                    started = t1 = clock()
+                else:
+                    spent["read_condition"] += t1 - t0
+                steps = self.estimator_s
                 rows = self._estimate(block)
+                t2 = clock()
+                spent["rows"] += t2 - t1 - (self.estimator_s - steps)
                 writer.write(rows)
+                t3 = clock()
+                spent["write"] += t3 - t2
                 if self.options.live and not first:  # from the arrival of the line to its estimate written
-                    self.latency_s.append(time.perf_counter() - self.stream.reader.received_s)
+                    self.latency_s.append(t3 - self.stream.reader.received_s)
                 self.history.add(block, rows, self._columns)
+                spent["history"] += clock() - t3
         if self.filter is None:
             raise InputError(f"{self.stream.reader.name}: no sample to estimate from (record too short)")
         wall = time.perf_counter() - started
+        from .summary import summarize
+
         summary = summarize(self, wall, csv_path)
         self._write_summary(summary)
         if self.options.views:
@@ -262,36 +298,65 @@ class EstimateRun:
     def _write_summary(self, summary: dict) -> None:
         write_json_atomic(self.out / "summary.json", summary)
 
-    def _start(self, first_k: int, writer: _RowWriter) -> None:
+    def _operating(self, speed_hz: float, oil_temperature_c: float) -> tuple[float | None, float | None]:
+        """A sample's (speed, oil temperature) for the filter's step: None where not recorded (NaN: the
+        model keeps the last value) or not followed."""
+        if not self.follow:
+            return None, None
+        return (
+            speed_hz if speed_hz == speed_hz else None,
+            oil_temperature_c if oil_temperature_c == oil_temperature_c else None,
+        )
+
+    def _start(self, block, writer: RowWriter) -> None:
         """The filter, started one period before the first sample when it can, with a missing sample there:
         what the OilFlowEKF FMU does in a co-simulation started at the record's start time (the plant's
-        first output is its state after one step), so that both give the same estimates."""
+        first output is its state after one step; that missing step holds the first sample's operating
+        point, as the FMU holds its inputs over the step), so that both give the same estimates."""
+        first_k = int(block.k[0])
         lead = 1 if first_k >= 1 else 0
         config = estimator_config(
-            self.speed_hz, self.setup.noise_um, (first_k - lead) * ESTIMATOR_DT_S, self.probes, self.baseline
+            self.speed_hz,
+            self.setup.noise_um,
+            (first_k - lead) * ESTIMATOR_DT_S,
+            self.probes,
+            self.baseline,
+            self.probe_angle_deg,
         )
         self.filter = OilFlowEKF(self.model, config)
         missing = np.full(4, np.nan)
-        for sample in (np.zeros(4), np.zeros(4), missing):  # compile the kernels (as the FMU does)
-            self.filter.step(sample)
+        operating = self._operating(float(block.speed_hz[0]), float(block.oil_temperature_c[0]))
+        # compile the kernels, as the FMU does, at the first sample's operating point (the FMU's start
+        # inputs): that places the operating model's first correction centre where the FMU's is
+        warm = (self.speed_hz if operating[0] is None else operating[0], operating[1]) if self.follow else ()
+        for sample in (np.zeros(4), np.zeros(4), missing):
+            self.filter.step(sample, *warm)
         self.filter.reset()
         for _ in range(lead):
-            self.filter.step(missing)
+            self.filter.step(missing, *operating)
         self._first_k = first_k - lead
-        self._columns, self._extras = estimate_columns(self.filter.current_report())
-        writer.header(self._columns)
+        report = self.filter.current_report()
+        self._columns, self._extras = estimate_columns(report)
+        self._nuisances = NuisanceColumns(self.filter)
+        writer.header(self._columns, column_decimals(self._columns, report))
 
     def _estimate(self, block) -> np.ndarray:
         ekf = self.filter
         expected = self._first_k + ekf.step_count
         if int(block.k[0]) != expected:
             raise InputError(f"internal: grid index {int(block.k[0])} after {expected - 1}")  # bridged, never
-        step, snapshot = ekf.step, nuisance_snapshot
+        step, snapshot = ekf.step, self._nuisances.snapshot
         reports, nuisances = [], []
         started = time.perf_counter()
-        for position in block.position_m:  # only the steps here: the rows are built per block below
-            reports.append(step(position))
-            nuisances.append(snapshot(ekf))
+        if self.follow:
+            operating = map(self._operating, block.speed_hz.tolist(), block.oil_temperature_c.tolist())
+            for position, (speed, temperature) in zip(block.measurement_m, operating, strict=True):
+                reports.append(step(position, speed, temperature))
+                nuisances.append(snapshot())
+        else:
+            for position in block.measurement_m:  # only the steps here: the rows are built per block below
+                reports.append(step(position))
+                nuisances.append(snapshot())
         self.estimator_s += time.perf_counter() - started
         scale = 1.0 / ML_MIN
         columns = [
@@ -304,7 +369,7 @@ class EstimateRun:
             values = np.array([getattr(r, name) for r in reports], dtype=np.float64)
             values = values.reshape(len(reports), size)
             columns.append(values * factor)
-        columns.append(nuisance_table(nuisances))
+        columns.append(self._nuisances.table(nuisances))
         table = np.column_stack(columns)
         rows = np.empty((table.shape[0], len(self._columns)))
         rows[:, 0] = block.time_s
@@ -314,127 +379,3 @@ class EstimateRun:
         rows[:, 16] = block.oil_temperature_c
         rows[:, 17:] = table[:, 10:]
         return rows
-
-
-class _RowWriter:
-    """estimates.csv (and the live stream), flushed after every block."""
-
-    def __init__(self, file: TextIO, live: TextIO | None, every: int) -> None:
-        self.file, self.live, self.every = file, live, every
-        self._count = 0
-        self._format = ""
-
-    def header(self, columns: list[str]) -> None:
-        flags = {"starved1", "starved2", "n_channels", "converged", "measurement_ok"}
-        self._format = ",".join("%d" if name in flags else "%.9g" for name in columns) + "\n"
-        self._format = self._format.replace("%.9g", "%.6f", 1)  # time_s
-        line = ",".join(columns) + "\n"
-        for target in (self.file, self.live):
-            if target is not None:
-                target.write(line)
-                target.flush()
-
-    def write(self, rows: np.ndarray) -> None:
-        every = self.every
-        start = (-self._count) % every
-        self._count += rows.shape[0]
-        picked = rows[start::every]
-        if picked.shape[0] == 0:
-            return
-        fmt = self._format
-        text = "".join(fmt % tuple(row) for row in picked.tolist())
-        text = text.replace("nan", "")  # a missing value is an empty cell, as in the record format
-        self.file.write(text)
-        self.file.flush()
-        if self.live is not None:
-            self.live.write(text)
-            self.live.flush()
-
-
-def final_window(duration_s: float) -> float:
-    """The summary's final window: the last 10 % of the record, at most 30 s."""
-    return min(0.1 * duration_s, 30.0)
-
-
-def summarize(run: EstimateRun, wall_s: float, csv_path: Path) -> dict:
-    """summary.json: final estimates, alarms, record provenance, speed and timing."""
-    history = run.history
-    history.flush()
-    nominal = run.filter.config.q_nominal_m3_s / ML_MIN
-    duration = history.duration_s
-    window = final_window(duration)
-    final = history.final_means(window)
-    summary = {
-        "record": run.stream.provenance(),
-        "machine_file": str(run.machine.source_path),
-        "estimator": {
-            "model": f"reduced rotor-bearing system of {run.machine.name!r} at {run.speed_hz:g} Hz",
-            "dt_s": ESTIMATOR_DT_S,
-            "noise_um": run.setup.noise_um,
-            "first_sample_time_s": run.filter.config.first_sample_time_s,
-            "configuration": "EKFConfig.recommended: the OilFlowEKF FMU's defaults, with the machine "
-            "file's probe offsets prior (FMU: offset_prior_std_um) or the baseline (FMU: baseline_file)",
-            "offset_prior_std_um": round(run.filter.config.offset_prior_std_m * 1e6, 9),
-            "baseline_file": run.options.baseline_file,
-        },
-        "q_nominal_ml_min": nominal,
-        "samples": history.samples,
-        "duration_s": duration,
-        "final_window_s": window,
-        **final,
-        "alarms": history.alarms,
-        "verdict": {},
-        "speed": history.speed_summary(run.speed_hz),
-        "wall_s": round(wall_s, 3),
-        "estimator_s": round(run.estimator_s, 3),
-        "realtime_factor": round(duration / wall_s, 2) if wall_s > 0 else None,
-        "estimates_csv": str(csv_path),
-    }
-    summary["probes"] = _probe_summary(run)
-    if run.latency_s:
-        latency = np.asarray(run.latency_s)
-        summary["live_latency_ms"] = {
-            "median": round(float(np.median(latency)) * 1e3, 4),
-            "p99": round(float(np.quantile(latency, 0.99)) * 1e3, 4),
-            "max": round(float(latency.max()) * 1e3, 4),
-            "blocks": int(latency.size),
-        }
-    for b in (1, 2):
-        q = summary[f"q{b}_final_ml_min"]
-        alarmed = any(a["bearing"] == b for a in history.alarms)
-        starved_now = bool(history.last_starved[b - 1])
-        summary["verdict"][f"bearing{b}"] = (
-            "STARVED (alarm at the end)"
-            if starved_now
-            else "alarm raised during the record, cleared"
-            if alarmed
-            else "healthy"
-        ) + ("" if q is None else f": {q:.1f} ml/min, {100.0 * q / nominal:.1f} % of nominal")
-    mismatch = summary["speed"].get("max_deviation_fraction")
-    if mismatch is not None and mismatch > SPEED_MISMATCH_FRACTION:
-        print(
-            f"oilwatch estimate: warning: the recorded speed differs from the estimator's model "
-            f"({run.speed_hz:g} Hz) by up to {100 * mismatch:.1f} %: the estimator does not follow the "
-            "speed yet",
-            file=sys.stderr,
-        )
-    return summary
-
-
-def _probe_summary(run: EstimateRun) -> dict:
-    """Per probe at the end of the record: the estimator's offset estimate and std [um] (model frame), its
-    status, and the time it was flagged faulty."""
-    from estimator.channels import STATUS_NAMES
-
-    values = dict(zip((row[0] for row in nuisance_names()), nuisance_values(run.filter), strict=True))
-    history = run.history
-    out = {}
-    for i, name in enumerate(("x1", "y1", "x2", "y2")):
-        status = None if history.last_status is None else int(history.last_status[i])
-        out[name] = {
-            "offset_um": values[f"offset_{name}_um"],
-            "offset_std_um": values[f"offset_{name}_std_um"],
-            "status_final": None if status is None else STATUS_NAMES[status],
-            "flagged_s": round(float(history.flagged_samples[i]) * history.dt, 6),
-        }
-    return out

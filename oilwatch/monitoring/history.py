@@ -14,7 +14,7 @@ SLOW_BIN_S = 0.5
 ORBIT_S = 1.0
 FINAL_RING_S = 30.0
 BATCH_ROWS = 1024
-# estimates.csv column positions (oilwatch.monitoring.estimate.estimate_columns)
+# estimates.csv column positions (oilwatch.monitoring.columns.estimate_columns)
 TIME, Q, STD, STARVED, NIS, CONVERGED, OK, POSITION, SPEED, TEMPERATURE = (
     0, slice(1, 3), slice(3, 5), slice(5, 7), 7, 9, 10, slice(11, 15), 15, 16
 )  # fmt: skip
@@ -83,8 +83,12 @@ class _Ring:
 class History:
     """Accumulates the rows of :class:`oilwatch.monitoring.estimate.EstimateRun` (module docstring)."""
 
-    def __init__(self, dt_s: float, speed_hz: float, clearance_m: float) -> None:
+    def __init__(
+        self, dt_s: float, speed_hz: float, clearance_m: float, probe_angle_deg: float = 0.0
+    ) -> None:
         self.dt, self.speed_hz, self.clearance_m = dt_s, speed_hz, clearance_m
+        self.probe_angle_deg = probe_angle_deg
+        """The estimator's probe frame: its offsets are along probe axes at this angle (0: x and y)."""
         self.samples = 0
         self.first_k: int | None = None
         self.trend = _Bins(max(1, round(TREND_BIN_S / dt_s)), 6)  # q1 q2 std1 std2 starved1 starved2
@@ -95,7 +99,8 @@ class History:
         """Per probe, the samples it was flagged faulty (probe_status != 0)."""
         self.last_status: np.ndarray | None = None
         self.last_offsets_um = np.zeros(4)
-        """The estimator's last probe offset estimates (model frame; zeros when it does not estimate them)."""
+        """The estimator's last probe offset estimates (along the probes' axes at :attr:`probe_angle_deg`;
+        zeros when it does not estimate them)."""
         self._final = _Ring(max(1, round(FINAL_RING_S / dt_s)), 4)
         self._orbit_n = max(2, round(ORBIT_S / dt_s))
         self._start_k: list[np.ndarray] = []
@@ -252,3 +257,15 @@ def _is_health(name: str) -> bool:
 def _finite(value: float) -> float | None:
     value = float(value)
     return value if math.isfinite(value) else None
+
+
+def offsets_in_model_frame(offsets_um: np.ndarray, probe_angle_deg: float) -> np.ndarray:
+    """(4,) probe offsets along the axes of pairs at ``probe_angle_deg`` -> (x1, y1, x2, y2) offsets [um]
+    (the inverse of ``estimator.measurement.probe_rotation``)."""
+    angle = math.radians(probe_angle_deg)
+    c, s = math.cos(angle), math.sin(angle)
+    out = np.empty(4)
+    for b in (0, 1):
+        along_x, along_y = offsets_um[2 * b], offsets_um[2 * b + 1]
+        out[2 * b], out[2 * b + 1] = c * along_x - s * along_y, s * along_x + c * along_y
+    return out

@@ -19,7 +19,7 @@ CAPTIONS = {
 STYLE = (
     "body{font-family:sans-serif;max-width:1000px;margin:1em auto;color:#222}"
     "table{border-collapse:collapse;margin:0.5em 0}"
-    "td,th{border:1px solid #bbb;padding:3px 8px;text-align:right}"
+    "td,th{border:1px solid #bbb;padding:3px 8px;text-align:right}td.text{text-align:left}"
     "th{background:#eee}.bad{color:#b00;font-weight:bold}.ok{color:#060;font-weight:bold}"
     "img{max-width:100%}figure{margin:1em 0}figcaption{font-size:90%;color:#555}"
     "pre{background:#f6f6f6;padding:0.5em;font-size:80%;overflow-x:auto}"
@@ -41,7 +41,7 @@ def write_report(summary: dict, out_dir: Path) -> Path:
         q = summary[f"q{b}_final_ml_min"]
         pct = None if q is None else 100.0 * q / nominal
         rows.append(
-            f"<tr><th>bearing {b}</th><td class='{css}'>{html.escape(verdict)}</td>"
+            f"<tr><th>bearing {b}</th><td class='{css} text'>{html.escape(verdict)}</td>"
             f"<td>{_number(q, 1)}</td><td>{_number(pct, 2)}</td>"
             f"<td>{_number(summary[f'q{b}_std_final_ml_min'], 2)}</td></tr>"
         )
@@ -77,6 +77,7 @@ def write_report(summary: dict, out_dir: Path) -> Path:
         ("gaps bridged", f"{record['gap_count']} ({record['missing_samples']} missing samples)"),
         ("machine file", summary["machine_file"]),
         ("estimator", summary["estimator"]["model"]),
+        ("operating point", summary["estimator"].get("operating_point", "-")),
         (
             "probe offsets' prior",
             summary["estimator"].get("baseline_file")
@@ -84,7 +85,9 @@ def write_report(summary: dict, out_dir: Path) -> Path:
         ),
         ("real-time factor", _number(summary["realtime_factor"], 1)),
     ]
-    fact_rows = "".join(f"<tr><th>{html.escape(k)}</th><td>{html.escape(str(v))}</td></tr>" for k, v in facts)
+    fact_rows = "".join(
+        f"<tr><th>{html.escape(k)}</th><td class='text'>{html.escape(str(v))}</td></tr>" for k, v in facts
+    )
     figures = []
     for name, file in VIEW_FILES.items():
         path = out_dir / file
@@ -109,7 +112,8 @@ def write_report(summary: dict, out_dir: Path) -> Path:
         f"<th>status at the end</th><th>flagged faulty [s]</th></tr>{probes}</table>"
         f"<h2>Record and estimator</h2><table>{fact_rows}</table>"
         f"<h2>Views</h2>{''.join(figures)}"
-        f"<h2>Summary</h2><pre>{html.escape(json.dumps(_without_views(summary), indent=1))}</pre>"
+        "<h2>Summary</h2><details><summary>summary.json</summary>"
+        f"<pre>{html.escape(json.dumps(_without_views(summary), indent=1))}</pre></details>"
         "</body></html>\n"
     )
     path = out_dir / "report.html"

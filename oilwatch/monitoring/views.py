@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .history import History
+from .history import History, offsets_in_model_frame
 
 VIEW_FILES = {
     "trend": "trend.png",
@@ -59,7 +59,7 @@ def _trend(history: History, summary: dict):
 
     times, values = history.trend.arrays()
     nominal = summary["q_nominal_ml_min"]
-    figure, axes = plt.subplots(2, 1, figsize=(9, 6), sharex=True, constrained_layout=True)
+    figure, axes = plt.subplots(2, 1, figsize=(9, 6.3), sharex=True, layout="constrained")
     for b, ax in enumerate(axes):
         q, std, starved = values[:, b], values[:, 2 + b], values[:, 4 + b] > 0.5
         ax.fill_between(times, q - 2 * std, q + 2 * std, color="tab:blue", alpha=0.25, label="+-2 std")
@@ -90,7 +90,12 @@ def _trend(history: History, summary: dict):
         high = np.nanmax((q + 2 * std)[settled]) if settled.any() else 1.5 * nominal
         ax.set_ylim(max(0.0, min(low, 0.85 * nominal)), max(high, 1.05 * nominal))
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=7, loc="best", ncol=5)
+    # one legend above both panels: inside a panel it hid the band where the estimate sat (seen in a browser)
+    handles = {}
+    for ax in axes:
+        for handle, label in zip(*ax.get_legend_handles_labels(), strict=True):
+            handles.setdefault(label, handle)
+    figure.legend(handles.values(), handles.keys(), loc="outside upper center", ncol=6, fontsize=8)
     axes[-1].set_xlabel("record time [s]")
     return figure
 
@@ -100,9 +105,10 @@ def _centerline(history: History, summary: dict):
 
     times, values = history.slow.arrays()
     clearance_um = history.clearance_m * 1e6
-    figure, axes = plt.subplots(1, 2, figsize=(9, 4.6), constrained_layout=True)
+    figure, grid = plt.subplots(2, 2, figsize=(9, 8.4), layout="constrained", height_ratios=(1.0, 0.8))
+    axes, zooms = grid[0], grid[1]
     circle = np.linspace(0.0, 2.0 * math.pi, 361)
-    offsets = history.last_offsets_um
+    offsets = offsets_in_model_frame(history.last_offsets_um, history.probe_angle_deg)
     corrected = bool(np.any(offsets != 0.0))
     for b, ax in enumerate(axes):
         x, y = values[:, 2 * b] - offsets[2 * b], values[:, 2 * b + 1] - offsets[2 * b + 1]
@@ -115,6 +121,10 @@ def _centerline(history: History, summary: dict):
         ax.set_xlim(-1.1 * clearance_um, 1.1 * clearance_um)
         ax.set_ylim(-1.1 * clearance_um, 1.1 * clearance_um)
         seen = np.flatnonzero(np.isfinite(x) & np.isfinite(y))
+        if seen.size > 1:
+            _zoom(zooms[b], x[seen], y[seen], times[seen], clearance_um)
+        else:
+            zooms[b].set_axis_off()
         if seen.size:
             last = seen[-1]
             eccentricity = math.hypot(x[last], y[last]) / clearance_um
@@ -132,8 +142,26 @@ def _centerline(history: History, summary: dict):
         ax.set_ylabel("y [um] (vertical)")
         ax.legend(fontsize=7, loc="upper right")
         ax.grid(alpha=0.3)
-    figure.colorbar(points, ax=axes, label="record time [s]", shrink=0.8)
+    figure.colorbar(points, ax=grid, label="record time [s]", shrink=0.6)
     return figure
+
+
+def _zoom(ax, x: np.ndarray, y: np.ndarray, times: np.ndarray, clearance_um: float) -> None:
+    """The centreline's path magnified: a few um of lift or sinking are invisible against the clearance
+    circle (seen in the browser: the path was one dot)."""
+    span = max(float(np.ptp(x)), float(np.ptp(y)), 0.01 * clearance_um)
+    cx, cy = 0.5 * (x.min() + x.max()), 0.5 * (y.min() + y.max())
+    ax.plot(x, y, color="0.5", lw=0.5)
+    ax.scatter(x, y, c=times, s=12, cmap="viridis", vmin=times.min(), vmax=times.max(), zorder=3)
+    ax.plot(x[-1:], y[-1:], "o", mfc="none", mec="k", ms=8, label="last")
+    ax.set_xlim(cx - 0.65 * span, cx + 0.65 * span)
+    ax.set_ylim(cy - 0.65 * span, cy + 0.65 * span)
+    ax.set_aspect("equal")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="upper right")
+    ax.set_title(f"the path magnified ({1.3 * span:.2g} um across)", fontsize=9)
+    ax.set_xlabel("x [um]")
+    ax.set_ylabel("y [um]")
 
 
 def synchronous_orbit(k: np.ndarray, positions_um: np.ndarray, dt_s: float, speed_hz: float) -> dict | None:
@@ -189,6 +217,20 @@ def _orbits(history: History, summary: dict):
     return figure
 
 
+def _channels_used(history: History, values: np.ndarray) -> np.ndarray:
+    """Per slow bin, the mean number of channels in an accepted sample: the probes with data and not
+    excluded as faulty, over the share of samples that updated the estimator (a gap takes all four)."""
+    usable = values[:, 4:8].copy()
+    status = [f"probe_status_{name}" for name in PROBES]
+    if history.extra_bins is not None and set(status) <= set(history.extra_names):
+        _, extra = history.extra_bins.arrays()
+        if extra.shape[0] == usable.shape[0]:
+            flagged = extra[:, [history.extra_names.index(name) for name in status]]
+            usable = np.clip(usable - flagged, 0.0, 1.0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(values[:, 8] > 0, usable.sum(axis=1) / values[:, 8], np.nan)
+
+
 def _probe_health(history: History, summary: dict):
     import matplotlib.pyplot as plt
 
@@ -207,8 +249,12 @@ def _probe_health(history: History, summary: dict):
     ax.grid(alpha=0.3)
     ax.set_title("probe health (0.5 s bins)", fontsize=10)
     ax = axes[1]
-    ax.plot(times, values[:, 9], color="tab:purple", lw=1.2, label="mean NIS of accepted samples")
-    ax.axhline(4.0, color="0.4", ls="--", lw=0.8, label="expected (4 channels)")
+    label = "mean NIS of accepted samples"
+    ax.step(times, values[:, 9], color="tab:purple", where="post", lw=1.2, label=label)
+    # a consistent filter's NIS averages the channels it used: 4, fewer while a probe is dead or excluded
+    # (seen in the browser: the NIS "fell" to 3 against a fixed line at 4 while y2 was dead)
+    expected = _channels_used(history, values)
+    ax.step(times, expected, "--", color="0.4", where="post", lw=0.8, label="expected (channels used)")
     ax.set_ylabel("NIS")
     ax.legend(fontsize=7)
     ax.grid(alpha=0.3)

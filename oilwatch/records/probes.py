@@ -264,19 +264,37 @@ class PositionConverter:
             normals = np.array([setup.probes[2 * b].direction, setup.probes[2 * b + 1].direction])
             self._inverse[2 * b : 2 * b + 2, 2 * b : 2 * b + 2] = np.linalg.inv(normals)
 
+    @property
+    def pair_angle_deg(self) -> float | None:
+        """The estimator's ``probe_angle_deg`` (``EKFConfig``) when it can take these probes' readings along
+        their axes, as the estimator FMU does: each bearing's Y probe 90 deg counter-clockwise of its X
+        probe, both bearings' X probes at the same angle; None otherwise (the readings are then turned into
+        (x, y) positions first)."""
+        x1, y1, x2, y2 = (probe.angle_deg for probe in self.setup.probes)
+        same = math.isclose(((x2 - x1 + 180.0) % 360.0) - 180.0, 0.0, abs_tol=1e-9)
+        square = all(
+            math.isclose(((y - x - 90.0 + 180.0) % 360.0) - 180.0, 0.0, abs_tol=1e-9)
+            for x, y in ((x1, y1), (x2, y2))
+        )
+        return x1 if same and square else None
+
     def along_axis_m(self, readings: np.ndarray) -> np.ndarray:
         """(k, 4) readings in the probes' units -> (k, 4) displacements along each probe's axis [m]."""
         return readings * self._scale + self._offset
 
+    def positions_from_axes_m(self, along_m: np.ndarray) -> np.ndarray:
+        """(k, 4) displacements along the probes' axes [m] -> (x1, y1, x2, y2) [m] (NaN as in
+        :meth:`positions_m`)."""
+        out = np.zeros_like(along_m)
+        for i, row in enumerate(self._inverse):
+            for j in np.flatnonzero(row):
+                out[:, i] += row[j] * along_m[:, j]
+        return out
+
     def positions_m(self, readings: np.ndarray) -> np.ndarray:
         """(k, 4) readings -> (k, 4) (x1, y1, x2, y2) [m]. A missing (NaN) reading makes missing only the
         coordinates it enters: both of its bearing for inclined probes, one for probes along x and y."""
-        along = self.along_axis_m(readings)
-        out = np.zeros_like(along)
-        for i, row in enumerate(self._inverse):
-            for j in np.flatnonzero(row):
-                out[:, i] += row[j] * along[:, j]
-        return out
+        return self.positions_from_axes_m(self.along_axis_m(readings))
 
     def readings(self, positions_m: np.ndarray) -> np.ndarray:
         """The inverse map: (k, 4) (x1, y1, x2, y2) [m] -> readings in the probes' units (for writing

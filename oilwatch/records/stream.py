@@ -12,7 +12,9 @@
 4. the keyphasor, when the set-up names one: its first pulse fixes the estimator's time origin so that the
    model's rotor angle there is ``keyphasor_angle_deg`` (samples before it are dropped); it also gives the
    speed when the record has no speed column;
-5. probe readings -> (x1, y1, x2, y2) [m] (:class:`oilwatch.records.probes.PositionConverter`);
+5. probe readings -> displacements along the probes' axes [m], which the estimator takes when each bearing's
+   pair is square and both pairs at one angle (as the estimator FMU with ``probe_angle_deg``), and
+   (x1, y1, x2, y2) [m] for the rows and views (:class:`oilwatch.records.probes.PositionConverter`);
 6. anti-alias filtering and resampling onto the estimator's grid
    (:class:`oilwatch.records.signal.GridResampler`).
 
@@ -52,6 +54,10 @@ class GridBlock:
     position_m: np.ndarray
     speed_hz: np.ndarray
     oil_temperature_c: np.ndarray
+    measurement_m: np.ndarray
+    """(k, 4) what the estimator takes [m]: the readings along the probes' axes when
+    :attr:`RecordStream.probe_angle_deg` is not None (a missing reading blanks only its own channel), else
+    ``position_m``."""
 
 
 @dataclass
@@ -104,6 +110,7 @@ class RecordStream:
             else "none"
         )
         self.converter = PositionConverter(setup, self.clearance_m)
+        self.probe_angle_deg = self.converter.pair_angle_deg
         self._keyphasor = (
             Keyphasor(setup.keyphasor_edge, setup.keyphasor_threshold_v) if setup.keyphasor_column else None
         )
@@ -312,14 +319,18 @@ class RecordStream:
                 self.rows_before_keyphasor += first
                 keep = slice(first, None)
         readings = np.column_stack([chunk.columns[c] for c in setup.probe_columns])[keep]
-        values = np.column_stack([self.converter.positions_m(readings), speed[keep], temperature[keep]])
+        along = self.probe_angle_deg is not None
+        signals = self.converter.along_axis_m(readings) if along else self.converter.positions_m(readings)
+        values = np.column_stack([signals, speed[keep], temperature[keep]])
         k, grid = self._resampler.push(t[keep] - self.time_shift_s, values)
+        measurement = grid[:, :4]
         return GridBlock(
             k=k,
             time_s=k * self.dt_s + self.time_shift_s,
-            position_m=grid[:, :4],
+            position_m=self.converter.positions_from_axes_m(measurement) if along else measurement,
             speed_hz=grid[:, 4],
             oil_temperature_c=grid[:, 5],
+            measurement_m=measurement,
         )
 
     def provenance(self) -> dict:
