@@ -180,7 +180,9 @@ with open_ssp({str(built_fmus / "OilStarvation.ssp")!r}) as system:
         for name, value in expected.items():
             assert bound[name] == pytest.approx(value), (instance, name)
     connected = {c.split(" -> ")[1] for c in result["connections"]}
-    assert connected == {f"ekf.{n}" for n in ("x1_um", "y1_um", "x2_um", "y2_um", "t_sample_s")}
+    # the keyphasor (rotor angle) is wired by name, as an FMI host with a keyphasor channel would
+    expected_inputs = ("x1_um", "y1_um", "x2_um", "y2_um", "t_sample_s", "rotor_angle_deg")
+    assert connected == {f"ekf.{n}" for n in expected_inputs}
     assert result["experiment"] == [20.0, 1e-3]
 
 
