@@ -71,7 +71,9 @@ def _fmi3_variable(variable, owner: OilwatchSlave):
         "variability": Fmi3Variability[variable.variability.name],
         "initial": Fmi3Initial[variable.initial.name] if variable.initial is not None else None,
         "description": variable.description,
-        "getter": lambda: getattr(owner, name),
+        # the FMI 2.0 variable's own getter where it has one: the EKF's lazy outputs publish the last step's
+        # report when first read
+        "getter": variable.getter if variable.getter is not None else (lambda: getattr(owner, name)),
         "setter": lambda value: setattr(owner, name, value),
     }
     start = getattr(owner, name)

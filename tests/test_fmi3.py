@@ -197,6 +197,6 @@ result = summary
     )
     assert result["fmi3"]["parameters"] == result["fmi2"]["parameters"]
     assert result["fmi3"]["connections"] == result["fmi2"]["connections"]
-    assert len(result["fmi3"]["connections"]) == 5
+    assert len(result["fmi3"]["connections"]) == 6  # four probes, the sample time, the keyphasor
     assert result["fmi3"]["kinds"] == ["Slave3", "Slave3"]
     assert result["fmi2"]["kinds"] == ["Slave", "Slave"]
