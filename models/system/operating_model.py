@@ -164,13 +164,17 @@ class OperatingAugmentedModel:
         self._keyphasor = None if rotor_angle_rad is None else float(rotor_angle_rad)
 
     def reset_operating_state(self) -> None:
-        """Back to the reference operating point with the phase at zero at step 0 (the filter's reset)."""
+        """Back to the state of a model just built (the filter's reset): the reference operating point, the
+        phase at zero at step 0 and no correction centre, so that what ran before leaves no trace (the next
+        transition away from the reference re-centres at its own point)."""
         self._speed = float(self.speed_hz)
         self._log_oil_viscosity = self._log_mu0
         self._anchor = (0, 0.0)
         self._last_step = None
         self._keyphasor = None
         self._centre_step = NEVER
+        self._centre = None
+        self._centre_values = ()
 
     def get_operating_state(self) -> dict[str, np.ndarray]:
         """What the next transitions depend on besides their arguments (for an FMU state): copies."""
