@@ -32,6 +32,7 @@ import functools
 import gc
 import itertools
 import time
+import types
 from collections.abc import Callable
 from contextlib import contextmanager
 from pathlib import Path
@@ -40,7 +41,6 @@ from typing import TextIO
 import numpy as np
 
 from estimator.config import (
-    ML_MIN,
     EKFConfig,
     OffsetBaseline,
 )
@@ -52,7 +52,7 @@ from oilwatch.records import RecordStream, probe_setup
 from oilwatch.records.readers import STDIN
 from oilwatch.study.storage import write_json_atomic
 
-from .columns import NuisanceColumns, column_decimals, estimate_columns
+from .columns import NuisanceColumns, TraceRows, column_decimals, estimate_columns
 from .csv_rows import RowWriter
 from .history import History
 
@@ -336,7 +336,8 @@ class EstimateRun:
             self.filter.step(missing, *operating)
         self._first_k = first_k - lead
         report = self.filter.current_report()
-        self._columns, self._extras = estimate_columns(report)
+        self._columns, extras = estimate_columns(report)
+        self._rows = TraceRows(self._columns, extras)
         self._nuisances = NuisanceColumns(self.filter)
         writer.header(self._columns, column_decimals(self._columns, report))
 
@@ -345,37 +346,30 @@ class EstimateRun:
         expected = self._first_k + ekf.step_count
         if int(block.k[0]) != expected:
             raise InputError(f"internal: grid index {int(block.k[0])} after {expected - 1}")  # bridged, never
+        count = block.k.size
+        started = time.perf_counter()
+        trace = self._steps(block)
+        self.estimator_s += time.perf_counter() - started
+        return self._rows.rows(block, trace, count)
+
+    def _steps(self, block):
+        """The estimator's per-sample outputs over a block (the fields of :class:`estimator.ekf.EstimateTrace`
+        and the nuisances'), step by step (until the library's batch entry is there)."""
+        ekf = self.filter
         step, snapshot = ekf.step, self._nuisances.snapshot
         reports, nuisances = [], []
-        started = time.perf_counter()
         if self.follow:
             operating = map(self._operating, block.speed_hz.tolist(), block.oil_temperature_c.tolist())
             for position, (speed, temperature) in zip(block.measurement_m, operating, strict=True):
                 reports.append(step(position, speed, temperature))
                 nuisances.append(snapshot())
         else:
-            for position in block.measurement_m:  # only the steps here: the rows are built per block below
+            for position in block.measurement_m:
                 reports.append(step(position))
                 nuisances.append(snapshot())
-        self.estimator_s += time.perf_counter() - started
-        scale = 1.0 / ML_MIN
-        columns = [
-            np.array([r.q_m3_s for r in reports]) * scale,
-            np.array([r.q_std_m3_s for r in reports]) * scale,
-            np.array([r.starved for r in reports]),
-            np.array([(r.nis, r.n_measurements, r.converged, r.measurement_ok) for r in reports]),
-        ]
-        for name, factor, size in self._extras:
-            values = np.array([getattr(r, name) for r in reports], dtype=np.float64)
-            values = values.reshape(len(reports), size)
-            columns.append(values * factor)
-        columns.append(self._nuisances.table(nuisances))
-        table = np.column_stack(columns)
-        rows = np.empty((table.shape[0], len(self._columns)))
-        rows[:, 0] = block.time_s
-        rows[:, 1:11] = table[:, :10]
-        rows[:, 11:15] = block.position_m * 1e6
-        rows[:, 15] = block.speed_hz
-        rows[:, 16] = block.oil_temperature_c
-        rows[:, 17:] = table[:, 10:]
-        return rows
+        fields = {
+            item.name: np.array([getattr(r, item.name) for r in reports])
+            for item in dataclasses.fields(reports[0])
+        }
+        fields.update(self._nuisances.arrays(nuisances))
+        return types.SimpleNamespace(**fields)
