@@ -178,7 +178,8 @@ def main() -> None:
             f"oilwatch estimate: {duration:.0f} s of record in {wall:.1f} s wall (whole command) = "
             f"{duration / wall:.1f}x real time; estimation after set-up {summary['wall_s']:.1f} s = "
             f"{summary['realtime_factor']:.1f}x; {per_sample:.1f} us/sample = {per_sample / bare:.2f}x the "
-            "bare estimator"
+            f"bare estimator; by CPU {summary['cpu_s'] / summary['samples'] * 1e6:.1f} us/sample = "
+            f"{summary['realtime_factor_cpu']:.1f}x"
         )
         cpu = result["cpu_s"]
         print(

@@ -232,6 +232,7 @@ class EstimateRun:
         )
         self.latency_s: list[float] = []
         self.estimator_s = 0.0  # time in the estimator's steps (the rest: reading, conditioning, writing)
+        self.cpu_s = 0.0  # this process's CPU time over the same span as the summary's wall_s
         self.stages_s = dict.fromkeys(("read_condition", "rows", "write", "history"), 0.0)
         """Where the rest of the time goes, after the first block: reading and conditioning the record,
         building the rows from the step reports, formatting and writing them, the views' history."""
@@ -289,7 +290,7 @@ class EstimateRun:
     def run(self) -> dict:
         """Process the record; write estimates.csv (and, unless ``views`` is off, the views and report)."""
         self.out.mkdir(parents=True, exist_ok=True)
-        started = None
+        started, started_cpu = None, 0.0
         csv_path = self.out / "estimates.csv"
         with open(csv_path, "w", encoding="utf-8", newline="") as csv_file, _young_collections_only():
             writer = RowWriter(csv_file, self.live_stream, self.options.output_every)
@@ -307,6 +308,7 @@ class EstimateRun:
                 if first:
                     self._start(block, writer)
                     started = t1 = clock()
+                    started_cpu = time.process_time()
                 else:
                     spent["read_condition"] += t1 - t0
                 steps = self.estimator_s
@@ -323,6 +325,7 @@ class EstimateRun:
         if self.filter is None:
             raise InputError(f"{self.stream.reader.name}: no sample to estimate from (record too short)")
         wall = time.perf_counter() - started
+        self.cpu_s = time.process_time() - started_cpu
         from .summary import summarize
 
         summary = summarize(self, wall, csv_path)

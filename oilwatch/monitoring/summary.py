@@ -61,6 +61,8 @@ def summarize(run, wall_s: float, csv_path: Path) -> dict:
         "estimator_s": round(run.estimator_s, 3),
         "stages_s": {name: round(value, 3) for name, value in run.stages_s.items()},
         "realtime_factor": round(duration / wall_s, 2) if wall_s > 0 else None,
+        "cpu_s": round(run.cpu_s, 3),
+        "realtime_factor_cpu": round(duration / run.cpu_s, 2) if run.cpu_s > 0 else None,
         "estimates_csv": str(csv_path),
     }
     summary["probes"] = _probe_summary(run)
