@@ -4,7 +4,8 @@
    flow (750 revolutions, so that repeating its true positions keeps the orbit's phase continuous) repeated,
    with fresh 1 um white noise on every sample; written in chunks.
 2. ``oilwatch estimate RECORD`` in a subprocess: wall time (whole command, and the summary's estimation time
-   after set-up), real-time factor, the child's peak resident memory (``ru_maxrss``).
+   after set-up), real-time factor, the child's CPU time (user + system: the real-time factor per core, what
+   a shared machine's load does not inflate) and its peak resident memory (``ru_maxrss``).
 3. Baseline in the same run: the bare estimator loop (``OilFlowEKF.run``, the command's configuration: the
    machine file's probe offsets prior) on the first 60 s of the same data in this process, per sample, and the
    ratio of the command's cost per sample to it; the summary's ``estimator_s`` (the steps alone, measured in
@@ -75,6 +76,7 @@ def bare_estimator_us_per_sample(path: Path, samples: int = 60000) -> float:
 
 def run_command(path: Path, out: Path) -> dict:
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1", MPLBACKEND="Agg")
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     started = time.perf_counter()
     process = subprocess.run(
         [sys.executable, "-m", "oilwatch", "estimate", str(path), "--out", str(out), "--no-progress"],
@@ -87,8 +89,9 @@ def run_command(path: Path, out: Path) -> dict:
     if process.returncode != 0:
         raise SystemExit(process.stderr)
     summary = json.loads((out / "summary.json").read_text())
-    peak_mb = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024.0
-    return {"wall_s": wall, "summary": summary, "peak_rss_mb": peak_mb}
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return {"wall_s": wall, "cpu_s": cpu, "summary": summary, "peak_rss_mb": after.ru_maxrss / 1024.0}
 
 
 def live_latency(path: Path, out: Path, seconds: float) -> dict:
@@ -157,6 +160,7 @@ def main() -> None:
     parser.add_argument("--live-s", type=float, default=20.0)
     parser.add_argument("--workdir", help="where the record goes (default: a temporary folder)")
     args = parser.parse_args()
+    print(f"load average at the start: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
     with tempfile.TemporaryDirectory(dir=args.workdir) as folder:
         work = Path(folder)
         record = work / "long.csv"
@@ -174,7 +178,13 @@ def main() -> None:
             f"oilwatch estimate: {duration:.0f} s of record in {wall:.1f} s wall (whole command) = "
             f"{duration / wall:.1f}x real time; estimation after set-up {summary['wall_s']:.1f} s = "
             f"{summary['realtime_factor']:.1f}x; {per_sample:.1f} us/sample = {per_sample / bare:.2f}x the "
-            "bare estimator"
+            f"bare estimator; by CPU {summary['cpu_s'] / summary['samples'] * 1e6:.1f} us/sample = "
+            f"{summary['realtime_factor_cpu']:.1f}x"
+        )
+        cpu = result["cpu_s"]
+        print(
+            f"  by CPU: the command used {cpu:.1f} s of CPU ({100 * cpu / wall:.0f} % of a core) = "
+            f"{duration / cpu:.1f}x real time per core"
         )
         share = summary["estimator_s"] / summary["wall_s"]
         print(
@@ -198,6 +208,7 @@ def main() -> None:
                 f"stdin at 1 kHz, {live['samples']} samples: latency line in -> estimate line out median "
                 f"{live['median_ms']:.2f} ms, p99 {live['p99_ms']:.2f} ms, max {live['max_ms']:.2f} ms"
             )
+    print(f"load average at the end: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
 
 
 if __name__ == "__main__":

@@ -47,6 +47,7 @@ def summarize(run, wall_s: float, csv_path: Path) -> dict:
             "offset_prior_std_um": round(run.filter.config.offset_prior_std_m * 1e6, 9),
             "probe_angle_deg": run.probe_angle_deg,
             "baseline_file": run.options.baseline_file,
+            "runout": run.runout_source,
         },
         "q_nominal_ml_min": nominal,
         "samples": history.samples,
@@ -60,6 +61,8 @@ def summarize(run, wall_s: float, csv_path: Path) -> dict:
         "estimator_s": round(run.estimator_s, 3),
         "stages_s": {name: round(value, 3) for name, value in run.stages_s.items()},
         "realtime_factor": round(duration / wall_s, 2) if wall_s > 0 else None,
+        "cpu_s": round(run.cpu_s, 3),
+        "realtime_factor_cpu": round(duration / run.cpu_s, 2) if run.cpu_s > 0 else None,
         "estimates_csv": str(csv_path),
     }
     summary["probes"] = _probe_summary(run)
