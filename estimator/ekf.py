@@ -101,6 +101,7 @@ from .step_kernel import (
     SUMMARY_UNBALANCE_EXTRA,
     SUMMARY_UNBALANCE_WALK,
     ekf_step,
+    grid_batch,
 )
 
 MIN_VISCOSITY_FACTOR = 0.2
@@ -195,6 +196,14 @@ class OilFlowEKF:
         self._summary_settings[SUMMARY_CONVERGED_DRIFT] = cfg.converged_drift_fraction
         self._report = np.zeros(REPORT_SIZE)
         self._batch_table = np.empty((0, REPORT_SIZE))
+        # a grid model at one speed with no nuisance in its transition: whole batches in one compiled call
+        batch = getattr(model, "batch_transition", None)
+        plain = not (
+            self._follows or self._n_unbalance or self._n_viscosity or self._runout.vectors is not None
+        )
+        self._grid_batch = batch() if callable(batch) and plain else None
+        self._batch_next, self._batch_exogenous = np.zeros(n), np.zeros(3)
+        self._batch_transition, self._batch_flow_jacobian = np.zeros((n, n)), np.zeros((n, 2))
         self._counters = np.zeros(N_COUNTERS, dtype=np.int64)
         self._counters[COUNT_FIRST] = n
         for index, block in ((COUNT_VISCOSITY, self._viscosity), (COUNT_UNBALANCE, self._unbalance)):
@@ -625,6 +634,49 @@ class OilFlowEKF:
         out.fill(table, count)
         return out
 
+    def _run_grid_batch(self, record: np.ndarray, table: np.ndarray) -> None:
+        """:func:`estimator.step_kernel.grid_batch` on the record's rows (K, 4), reports into ``table``."""
+        transition, forcing, axes, omega, dt = self._grid_batch
+        grid_batch(
+            transition,
+            forcing,
+            axes,
+            omega,
+            dt,
+            self._first_step,
+            record,
+            table,
+            self._batch_next,
+            self._batch_transition,
+            self._batch_flow_jacobian,
+            self._batch_exogenous,
+            self._x,
+            self._P,
+            self._trailing_jacobian,
+            self._process_noise,
+            self._jacobian,
+            self._work,
+            self._z8,
+            self._obs4,
+            self._noise4,
+            self._obs8,
+            self._noise8,
+            self._settings,
+            self._health,
+            self._health_values,
+            self._channel_settings,
+            self._accepted,
+            self._changing,
+            self._counters,
+            self._nis_window,
+            self._nis_sums,
+            self._history,
+            self._summary_settings,
+            self.alarm.record,
+            self.alarm.settings,
+            self._report,
+        )
+
     def _batch_inputs(self, displacements_m, speed_hz, oil_temperature_c, missing: bool = False):
         """The record (K, 4) and the per-sample operating point as lists of Python floats or None (or None
         for a column not given); ``missing``: NaN entries are None."""
@@ -645,9 +697,13 @@ class OilFlowEKF:
         return record, operating
 
     def _advance_rows(self, record, operating, start: int, stop: int, table: np.ndarray) -> None:
-        """Samples ``start:stop`` of the record through :meth:`_advance`, each report into ``table``'s row."""
+        """Samples ``start:stop`` of the record through :meth:`_advance`, each report into ``table``'s row
+        (all in one compiled call for a grid model at one speed with no operating point given)."""
         advance, report = self._advance, self._report
         speed, temperature = operating
+        if speed is None and temperature is None and self._grid_batch is not None:
+            self._run_grid_batch(np.ascontiguousarray(record[start:stop]), table[start:stop])
+            return
         if speed is None and temperature is None:
             for k in range(start, stop):
                 advance(record[k], None, None, None)

@@ -6,13 +6,17 @@ test, the convergence rule, the SI estimates and the nuisances' estimates and st
 process noise of the next prediction (wider while the model is inconsistent) and the starvation alarm
 (:func:`estimator.alarm.update_alarm`). Everything the step reports lands in one float array laid out by
 the ``REPORT_*`` slices below, so that the per-sample Python work is one call and one copy, and a batch of
-samples (:meth:`estimator.ekf.OilFlowEKF.run_batch`) stores a row per sample.
+samples (:meth:`estimator.ekf.OilFlowEKF.run_batch`) stores a row per sample. For a model on a flowrate
+grid at one speed (``GridAugmentedModel.batch_transition``) :func:`grid_batch` runs a whole record in one
+call: the grid's compiled transition, then :func:`ekf_step`, sample after sample.
 """
 
 from __future__ import annotations
 
 import numpy as np
 from numba import njit
+
+from models.system.flowrate_grid import interpolate_map
 
 from .alarm import RAISED_CONSISTENT, STARVED, update_alarm
 from .channels import STATUS
@@ -243,3 +247,106 @@ def ekf_step(
     for i in range(4):
         report[REPORT_STATUS + i] = health[i, STATUS]
     counters[COUNT_STEP] += 1
+
+
+@njit(cache=True)
+def grid_batch(
+    grid_transition: np.ndarray,
+    grid_forcing: np.ndarray,
+    axes: np.ndarray,
+    omega_rad_s: float,
+    dt_s: float,
+    first_step: int,
+    record: np.ndarray,
+    table: np.ndarray,
+    next_state: np.ndarray,
+    state_jacobian: np.ndarray,
+    flowrate_jacobian: np.ndarray,
+    exogenous: np.ndarray,
+    state: np.ndarray,
+    covariance: np.ndarray,
+    trailing_jacobian: np.ndarray,
+    process_noise: np.ndarray,
+    augmented_jacobian: np.ndarray,
+    work: np.ndarray,
+    stacked: np.ndarray,
+    observation4: np.ndarray,
+    noise4: np.ndarray,
+    observation8: np.ndarray,
+    noise8: np.ndarray,
+    settings: np.ndarray,
+    health: np.ndarray,
+    health_values: np.ndarray,
+    channel_settings: np.ndarray,
+    accepted: np.ndarray,
+    changing: np.ndarray,
+    counters: np.ndarray,
+    nis_window: np.ndarray,
+    nis_sums: np.ndarray,
+    history: np.ndarray,
+    summary_settings: np.ndarray,
+    alarm_record: np.ndarray,
+    alarm_settings: np.ndarray,
+    report: np.ndarray,
+) -> None:
+    """:func:`ekf_step` for every sample of ``record`` (K, 4), each report into ``table[k]``, with the grid
+    model's transition (:func:`models.system.flowrate_grid.interpolate_map` from the current estimate at
+    ``w = [1, cos(Omega t), sin(Omega t)]``, ``t = (first_step + k - 1) dt``, as
+    ``GridAugmentedModel.transition``) before every sample but the filter's first."""
+    n = next_state.shape[0]
+    for k in range(record.shape[0]):
+        step = counters[COUNT_STEP]
+        predict = step > 0
+        if predict:
+            time_s = (first_step + step - 1) * dt_s
+            phase = omega_rad_s * time_s
+            exogenous[0] = 1.0
+            exogenous[1] = np.cos(phase)
+            exogenous[2] = np.sin(phase)
+            q1 = report[REPORT_FLOWRATE]
+            q2 = report[REPORT_FLOWRATE + 1]
+            interpolate_map(
+                grid_transition,
+                grid_forcing,
+                axes,
+                state[:n],
+                exogenous,
+                q1,
+                q2,
+                next_state,
+                state_jacobian,
+                flowrate_jacobian,
+            )
+        ekf_step(
+            state,
+            covariance,
+            predict,
+            next_state,
+            state_jacobian,
+            flowrate_jacobian,
+            trailing_jacobian,
+            process_noise,
+            augmented_jacobian,
+            work,
+            record[k],
+            stacked,
+            observation4,
+            noise4,
+            observation8,
+            noise8,
+            settings,
+            health,
+            health_values,
+            channel_settings,
+            accepted,
+            changing,
+            counters,
+            nis_window,
+            nis_sums,
+            history,
+            summary_settings,
+            alarm_record,
+            alarm_settings,
+            report,
+        )
+        table[k, :] = report
