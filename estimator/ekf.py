@@ -338,6 +338,34 @@ class OilFlowEKF:
         self._process_noise[n : n + 2, n : n + 2] = self._q_var * np.eye(2)
         self.alarm.clear()
         self._set_last(0.0, 0, False, False, True)
+        # the compiled step's arguments after the sample's (estimator.step_kernel.ekf_step), in its order
+        self._arrays = (
+            self._x,
+            self._P,
+            self._trailing_jacobian,
+            self._process_noise,
+            self._jacobian,
+            self._work,
+            self._z8,
+            self._obs4,
+            self._noise4,
+            self._obs8,
+            self._noise8,
+            self._settings,
+            self._health,
+            self._health_values,
+            self._channel_settings,
+            self._accepted,
+            self._changing,
+            self._counters,
+            self._nis_window,
+            self._nis_sums,
+            self._history,
+            self._summary_settings,
+            self.alarm.record,
+            self.alarm.settings,
+            self._report,
+        )
 
     @property
     def flowrate_m3_s(self) -> np.ndarray:
@@ -469,38 +497,7 @@ class OilFlowEKF:
         else:
             n = self._n
             next_state, state_jac, flow_jac = self._x[:n], self._work[:n, :n], self._work[:n, :2]
-        ekf_step(
-            self._x,
-            self._P,
-            predict,
-            next_state,
-            state_jac,
-            flow_jac,
-            self._trailing_jacobian,
-            self._process_noise,
-            self._jacobian,
-            self._work,
-            displacement,
-            self._z8,
-            self._obs4,
-            self._noise4,
-            self._obs8,
-            self._noise8,
-            self._settings,
-            self._health,
-            self._health_values,
-            self._channel_settings,
-            self._accepted,
-            self._changing,
-            self._counters,
-            self._nis_window,
-            self._nis_sums,
-            self._history,
-            self._summary_settings,
-            self.alarm.record,
-            self.alarm.settings,
-            self._report,
-        )
+        ekf_step(predict, next_state, state_jac, flow_jac, displacement, *self._arrays)
 
     def _predict_with_model(self, model_step: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The model's transition from the current estimate to the next sample: ``(s_next, df/ds, df/dq)``,
@@ -650,31 +647,7 @@ class OilFlowEKF:
             self._batch_transition,
             self._batch_flow_jacobian,
             self._batch_exogenous,
-            self._x,
-            self._P,
-            self._trailing_jacobian,
-            self._process_noise,
-            self._jacobian,
-            self._work,
-            self._z8,
-            self._obs4,
-            self._noise4,
-            self._obs8,
-            self._noise8,
-            self._settings,
-            self._health,
-            self._health_values,
-            self._channel_settings,
-            self._accepted,
-            self._changing,
-            self._counters,
-            self._nis_window,
-            self._nis_sums,
-            self._history,
-            self._summary_settings,
-            self.alarm.record,
-            self.alarm.settings,
-            self._report,
+            self._arrays,
         )
 
     def _batch_inputs(self, displacements_m, speed_hz, oil_temperature_c, missing: bool = False):

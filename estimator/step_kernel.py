@@ -33,6 +33,8 @@ REPORT_SIZE = 35
 # the int64 counters array: advanced in place (step, since_update) and the state's layout
 COUNT_STEP, COUNT_SINCE_UPDATE, COUNT_FIRST, COUNT_VISCOSITY, COUNT_UNBALANCE, COUNT_OFFSETS = range(6)
 N_COUNTERS = 6
+ARRAY_COUNTERS = 17
+"""Index of ``counters`` in the filter's arrays (:func:`ekf_step`'s arguments after the sample's)."""
 # the settings array of :func:`step_summary` and :func:`ekf_step`
 (
     SUMMARY_Q_NOMINAL,
@@ -151,17 +153,17 @@ def step_summary(
 
 @njit(cache=True)
 def ekf_step(
-    state: np.ndarray,
-    covariance: np.ndarray,
     predict: bool,
     next_state: np.ndarray,
     state_jacobian: np.ndarray,
     flowrate_jacobian: np.ndarray,
+    displacement: np.ndarray,
+    state: np.ndarray,
+    covariance: np.ndarray,
     trailing_jacobian: np.ndarray,
     process_noise: np.ndarray,
     augmented_jacobian: np.ndarray,
     work: np.ndarray,
-    displacement: np.ndarray,
     stacked: np.ndarray,
     observation4: np.ndarray,
     noise4: np.ndarray,
@@ -183,8 +185,10 @@ def ekf_step(
     report: np.ndarray,
 ) -> None:
     """One sample after the model's transition (module docstring), in place; advances
-    ``counters[COUNT_STEP]`` and ``counters[COUNT_SINCE_UPDATE]``. The arguments up to ``changing`` are
-    :func:`estimator.kernels.filter_step`'s (its flowrate scale is ``summary_settings[SUMMARY_Q_NOMINAL]``),
+    ``counters[COUNT_STEP]`` and ``counters[COUNT_SINCE_UPDATE]``. The first five arguments are the sample's
+    (the transition and the measured displacements), the filter's arrays follow in the order of
+    ``OilFlowEKF._arrays``; those up to ``changing`` are :func:`estimator.kernels.filter_step`'s (its
+    flowrate scale is ``summary_settings[SUMMARY_Q_NOMINAL]``),
     the ring buffers and settings :func:`step_summary`'s, ``alarm_record`` and ``alarm_settings`` the
     alarm's (:class:`estimator.alarm.StarvationAlarm`); ``report`` (REPORT_SIZE,) out."""
     status, nis, rows, _ = filter_step(
@@ -263,90 +267,27 @@ def grid_batch(
     state_jacobian: np.ndarray,
     flowrate_jacobian: np.ndarray,
     exogenous: np.ndarray,
-    state: np.ndarray,
-    covariance: np.ndarray,
-    trailing_jacobian: np.ndarray,
-    process_noise: np.ndarray,
-    augmented_jacobian: np.ndarray,
-    work: np.ndarray,
-    stacked: np.ndarray,
-    observation4: np.ndarray,
-    noise4: np.ndarray,
-    observation8: np.ndarray,
-    noise8: np.ndarray,
-    settings: np.ndarray,
-    health: np.ndarray,
-    health_values: np.ndarray,
-    channel_settings: np.ndarray,
-    accepted: np.ndarray,
-    changing: np.ndarray,
-    counters: np.ndarray,
-    nis_window: np.ndarray,
-    nis_sums: np.ndarray,
-    history: np.ndarray,
-    summary_settings: np.ndarray,
-    alarm_record: np.ndarray,
-    alarm_settings: np.ndarray,
-    report: np.ndarray,
+    arrays: tuple,
 ) -> None:
     """:func:`ekf_step` for every sample of ``record`` (K, 4), each report into ``table[k]``, with the grid
     model's transition (:func:`models.system.flowrate_grid.interpolate_map` from the current estimate at
     ``w = [1, cos(Omega t), sin(Omega t)]``, ``t = (first_step + k - 1) dt``, as
-    ``GridAugmentedModel.transition``) before every sample but the filter's first."""
+    ``GridAugmentedModel.transition``) before every sample but the filter's first. ``arrays``: the
+    filter's arrays, :func:`ekf_step`'s arguments after the sample's (state first, report last)."""
+    state, counters, report = arrays[0], arrays[ARRAY_COUNTERS], arrays[-1]
     n = next_state.shape[0]
     for k in range(record.shape[0]):
-        step = counters[COUNT_STEP]
-        predict = step > 0
+        predict = counters[COUNT_STEP] > 0
         if predict:
-            time_s = (first_step + step - 1) * dt_s
+            time_s = (first_step + counters[COUNT_STEP] - 1) * dt_s
             phase = omega_rad_s * time_s
             exogenous[0] = 1.0
             exogenous[1] = np.cos(phase)
             exogenous[2] = np.sin(phase)
-            q1 = report[REPORT_FLOWRATE]
-            q2 = report[REPORT_FLOWRATE + 1]
+            q1, q2 = report[REPORT_FLOWRATE], report[REPORT_FLOWRATE + 1]
+            next_, jacobian, flow = next_state, state_jacobian, flowrate_jacobian
             interpolate_map(
-                grid_transition,
-                grid_forcing,
-                axes,
-                state[:n],
-                exogenous,
-                q1,
-                q2,
-                next_state,
-                state_jacobian,
-                flowrate_jacobian,
+                grid_transition, grid_forcing, axes, state[:n], exogenous, q1, q2, next_, jacobian, flow
             )
-        ekf_step(
-            state,
-            covariance,
-            predict,
-            next_state,
-            state_jacobian,
-            flowrate_jacobian,
-            trailing_jacobian,
-            process_noise,
-            augmented_jacobian,
-            work,
-            record[k],
-            stacked,
-            observation4,
-            noise4,
-            observation8,
-            noise8,
-            settings,
-            health,
-            health_values,
-            channel_settings,
-            accepted,
-            changing,
-            counters,
-            nis_window,
-            nis_sums,
-            history,
-            summary_settings,
-            alarm_record,
-            alarm_settings,
-            report,
-        )
+        ekf_step(predict, next_state, state_jacobian, flowrate_jacobian, record[k], *arrays)
         table[k, :] = report
