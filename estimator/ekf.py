@@ -196,6 +196,7 @@ class OilFlowEKF:
         self._summary_settings[SUMMARY_CONVERGED_DRIFT] = cfg.converged_drift_fraction
         self._report = np.zeros(REPORT_SIZE)
         self._batch_table = np.empty((0, REPORT_SIZE))
+        self._one_row = np.empty((1, REPORT_SIZE))
         # a grid model at one speed with no nuisance in its transition: whole batches in one compiled call
         batch = getattr(model, "batch_transition", None)
         plain = not (
@@ -475,12 +476,17 @@ class OilFlowEKF:
         oil_temperature_c: float | None,
         rotor_angle_rad: float | None,
     ) -> None:
-        """:meth:`step` without its report: everything lands in ``self._report``."""
+        """:meth:`step` without its report: everything lands in ``self._report`` (a grid model at one speed
+        with no operating point given: the compiled batch of one sample, no Python between model and
+        filter)."""
         displacement = np.ascontiguousarray(displacement_m, dtype=np.float64)
         if displacement.shape != (4,):
             raise InputError(f"displacement_m must have shape (4,), got {displacement.shape}")
         if speed_hz is not None or oil_temperature_c is not None or rotor_angle_rad is not None:
             self._set_operating_point(speed_hz, oil_temperature_c, rotor_angle_rad)
+        if self._grid_batch is not None and speed_hz is None and oil_temperature_c is None:
+            self._run_grid_batch(displacement.reshape(1, 4), self._one_row)
+            return
         step = int(self._counters[COUNT_STEP])
         if self._runout.vectors is not None:
             # the runout at this sample's rotor angle: the model's (integral of the measured speed, anchored

@@ -1,9 +1,9 @@
 """``OilFlowEKF.run_batch``, the batch entry of ``oilwatch estimate``, gives exactly what ``step`` gives.
 
 On a grid model at one speed the whole block runs in one compiled call (the grid's transition and the
-filter's step); with an operating point it goes sample by sample. Either way the trace must equal the
-step reports bit for bit, block after block from the filter's state, with a NaN operating point meaning
-"not given" for that sample.
+filter's step; ``step`` itself takes that path, one sample at a time); with an operating point it goes
+sample by sample through Python. Either way the trace must equal the Python steps bit for bit, block after
+block from the filter's state, with a NaN operating point meaning "not given" for that sample.
 """
 
 from __future__ import annotations
@@ -67,13 +67,29 @@ def _same(trace, reports, offsets):
     np.testing.assert_array_equal(trace["offset_m"], offsets)
 
 
-def test_a_grid_model_s_batches_equal_its_steps(operating, record):
+class _WithoutBatch:
+    """A grid model seen through the protocol only (no ``batch_transition``): the filter steps it from
+    Python, the path the compiled batch must reproduce."""
+
+    def __init__(self, model) -> None:
+        self._model = model
+
+    def __getattr__(self, name):
+        if name == "batch_transition":
+            raise AttributeError(name)
+        return getattr(self._model, name)
+
+
+def test_a_grid_model_s_compiled_batches_equal_its_python_steps(operating, record):
     config = EKFConfig.recommended(offset_prior_std_m=10e-6)
     batched = OilFlowEKF(operating.reference, config)
-    assert batched._grid_batch is not None  # the compiled path is the one under test
+    stepped = OilFlowEKF(_WithoutBatch(operating.reference), config)
+    assert batched._grid_batch is not None and stepped._grid_batch is None  # the two paths under test
     trace = _blocks(batched, record)
-    reports, offsets = _steps(OilFlowEKF(operating.reference, config), record)
+    reports, offsets = _steps(stepped, record)
     _same(trace, reports, offsets)
+    compiled, _ = _steps(OilFlowEKF(operating.reference, config), record)  # step() takes the batch path
+    _same(trace, compiled, offsets)
     assert trace["offset_m"][-1].any() and not trace["measurement_ok"][301:305].any()
 
 
