@@ -231,10 +231,10 @@ class EstimateRun:
             ESTIMATOR_DT_S, self.speed_hz, self.machine.bearing.clearance_m, self.probe_angle_deg
         )
         self.latency_s: list[float] = []
-        self.estimator_s = 0.0  # time in the estimator's steps (the rest: reading, conditioning, writing)
+        self.estimator_s = 0.0  # CPU time in the estimator's steps (the rest: reading, conditioning, writing)
         self.cpu_s = 0.0  # this process's CPU time over the same span as the summary's wall_s
         self.stages_s = dict.fromkeys(("read_condition", "rows", "write", "history"), 0.0)
-        """Where the rest of the time goes, after the first block: reading and conditioning the record,
+        """Where the rest of the CPU time goes, after the first block: reading and conditioning the record,
         building the rows from the step reports, formatting and writing them, the views' history."""
 
     def _runout(self) -> tuple[SlowRollVectors | None, str | None]:
@@ -294,7 +294,8 @@ class EstimateRun:
         csv_path = self.out / "estimates.csv"
         with open(csv_path, "w", encoding="utf-8", newline="") as csv_file, _young_collections_only():
             writer = RowWriter(csv_file, self.live_stream, self.options.output_every)
-            clock, spent = time.perf_counter, self.stages_s
+            clock, spent = time.process_time, self.stages_s  # CPU time: preemption by a shared machine's load
+            # would land in whichever stage it interrupts
             blocks = self.stream.blocks()
             for count in itertools.count(1):
                 if count % GC_BLOCKS == 0:
@@ -307,8 +308,8 @@ class EstimateRun:
                 first = self.filter is None
                 if first:
                     self._start(block, writer)
-                    started = t1 = clock()
-                    started_cpu = time.process_time()
+                    started, started_cpu = time.perf_counter(), clock()
+                    t1 = started_cpu
                 else:
                     spent["read_condition"] += t1 - t0
                 steps = self.estimator_s
@@ -319,13 +320,13 @@ class EstimateRun:
                 t3 = clock()
                 spent["write"] += t3 - t2
                 if self.options.live and not first:  # from the arrival of the line to its estimate written
-                    self.latency_s.append(t3 - self.stream.reader.received_s)
+                    self.latency_s.append(time.perf_counter() - self.stream.reader.received_s)
                 self.history.add(block, rows, self._columns)
                 spent["history"] += clock() - t3
         if self.filter is None:
             raise InputError(f"{self.stream.reader.name}: no sample to estimate from (record too short)")
         wall = time.perf_counter() - started
-        self.cpu_s = time.process_time() - started_cpu
+        self.cpu_s = clock() - started_cpu
         from .summary import summarize
 
         summary = summarize(self, wall, csv_path)
@@ -394,9 +395,9 @@ class EstimateRun:
         if int(block.k[0]) != expected:
             raise InputError(f"internal: grid index {int(block.k[0])} after {expected - 1}")  # bridged, never
         count = block.k.size
-        started = time.perf_counter()
+        started = time.process_time()
         trace = self._steps(block)
-        self.estimator_s += time.perf_counter() - started
+        self.estimator_s += time.process_time() - started
         return self._rows.rows(block, trace, count)
 
     def _steps(self, block):
