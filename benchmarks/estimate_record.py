@@ -201,6 +201,9 @@ def main() -> None:
             + ", ".join(f"{name} {seconds / samples * 1e6:.1f}" for name, seconds in stages.items())
             + f", other {other / samples * 1e6:.1f}"
         )
+        tenths = summary["cpu_us_per_sample_by_tenth"]
+        if tenths:
+            print("  CPU per sample along the record, by tenth (us): " + " ".join(f"{v:.1f}" for v in tenths))
         print(f"peak resident memory of the command: {result['peak_rss_mb']:.0f} MB")
         q1, q2 = summary["q1_final_ml_min"], summary["q2_final_ml_min"]
         print(f"final estimates: q1 {q1:.2f}, q2 {q2:.2f} ml/min")

@@ -66,6 +66,9 @@ ESTIMATOR_DT_S = 1e-3
 OPERATING_POINTS = ("auto", "follow", "nominal")
 _MODELS: dict[tuple, object] = {}
 GC_BLOCKS = 64
+MAX_CPU_MARKS = 1024
+"""Marks of the CPU time spent so far (the summary's cost per sample along the record) kept at most: at
+uniform sample counts, twice as far apart whenever there would be more."""
 """Blocks between the collections of young objects while the automatic collector is off (below)."""
 
 
@@ -233,6 +236,11 @@ class EstimateRun:
         self.latency_s: list[float] = []
         self.estimator_s = 0.0  # CPU time in the estimator's steps (the rest: reading, conditioning, writing)
         self.cpu_s = 0.0  # this process's CPU time over the same span as the summary's wall_s
+        self.cpu_marks: list[tuple[int, float]] = [(0, 0.0)]
+        """(samples estimated, CPU time since the first block), about every :attr:`_mark_spacing` samples:
+        does the cost per sample change along the record (summary ``cpu_us_per_sample_by_tenth``)?"""
+        self._mark_spacing = options.chunk_rows
+        self._next_mark = self._mark_spacing
         self.stages_s = dict.fromkeys(("read_condition", "rows", "write", "history"), 0.0)
         """Where the rest of the CPU time goes, after the first block: reading and conditioning the record,
         building the rows from the step reports, formatting and writing them, the views' history."""
@@ -290,7 +298,7 @@ class EstimateRun:
     def run(self) -> dict:
         """Process the record; write estimates.csv (and, unless ``views`` is off, the views and report)."""
         self.out.mkdir(parents=True, exist_ok=True)
-        started, started_cpu = None, 0.0
+        started, started_cpu, done = None, 0.0, 0
         csv_path = self.out / "estimates.csv"
         with open(csv_path, "w", encoding="utf-8", newline="") as csv_file, _young_collections_only():
             writer = RowWriter(csv_file, self.live_stream, self.options.output_every)
@@ -314,6 +322,9 @@ class EstimateRun:
                     spent["read_condition"] += t1 - t0
                 steps = self.estimator_s
                 rows = self._estimate(block)
+                done += rows.shape[0]
+                if done >= self._next_mark:
+                    self._mark(done, clock() - started_cpu)
                 t2 = clock()
                 spent["rows"] += t2 - t1 - (self.estimator_s - steps)
                 writer.write(rows)
@@ -327,6 +338,8 @@ class EstimateRun:
             raise InputError(f"{self.stream.reader.name}: no sample to estimate from (record too short)")
         wall = time.perf_counter() - started
         self.cpu_s = clock() - started_cpu
+        if done > self.cpu_marks[-1][0]:
+            self._mark(done, self.cpu_s)
         from .summary import summarize
 
         summary = summarize(self, wall, csv_path)
@@ -341,6 +354,13 @@ class EstimateRun:
             summary["report_html"] = str(write_report(summary, self.out))
             self._write_summary(summary)
         return summary
+
+    def _mark(self, done: int, cpu_s: float) -> None:
+        self.cpu_marks.append((done, cpu_s))
+        self._next_mark = done + self._mark_spacing
+        if len(self.cpu_marks) > MAX_CPU_MARKS:
+            self.cpu_marks = self.cpu_marks[::2]
+            self._mark_spacing *= 2
 
     def _write_summary(self, summary: dict) -> None:
         write_json_atomic(self.out / "summary.json", summary)
