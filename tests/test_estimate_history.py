@@ -1,6 +1,6 @@
 """The bins behind estimate's views (oilwatch.monitoring.history): running means over fixed bins that widen
 (pairs merged) past a cap, the same whatever the block sizes, equal to the direct means over the final bins;
-the trend of a long record stays within its cap."""
+the trend of a long record stays within its cap; the summary's CPU cost per tenth of the record."""
 
 from __future__ import annotations
 
@@ -9,6 +9,7 @@ import types
 import numpy as np
 
 from oilwatch.monitoring.history import MAX_TREND_BINS, History, _Bins
+from oilwatch.monitoring.summary import _cost_by_tenth
 
 
 def _direct(values: np.ndarray, times: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
@@ -57,3 +58,14 @@ def test_the_trend_of_a_long_record_stays_within_its_cap():
     assert MAX_TREND_BINS // 2 < times.size <= MAX_TREND_BINS
     np.testing.assert_allclose(values[:, :2], 600.0)
     assert history.samples == total
+
+
+def test_the_cost_per_tenth_of_the_record_follows_the_cpu_marks():
+    samples = np.arange(0, 100_001, 4096)
+    samples[-1] = 100_000
+    cpu = np.where(samples <= 50_000, 40e-6 * samples, 40e-6 * 50_000 + 60e-6 * (samples - 50_000))
+    tenths = _cost_by_tenth(list(zip(samples.tolist(), cpu.tolist(), strict=True)))
+    np.testing.assert_allclose(tenths[:4], 40.0, rtol=1e-9)
+    np.testing.assert_allclose(tenths[6:], 60.0, rtol=1e-9)
+    assert 40.0 < tenths[4] <= 60.0 and 40.0 <= tenths[5] <= 60.0  # the marks straddle the change
+    assert _cost_by_tenth([(0, 0.0), (8192, 0.3)]) is None

@@ -66,6 +66,9 @@ ESTIMATOR_DT_S = 1e-3
 OPERATING_POINTS = ("auto", "follow", "nominal")
 _MODELS: dict[tuple, object] = {}
 GC_BLOCKS = 64
+MAX_CPU_MARKS = 1024
+"""Marks of the CPU time spent so far (the summary's cost per sample along the record) kept at most: at
+uniform sample counts, twice as far apart whenever there would be more."""
 """Blocks between the collections of young objects while the automatic collector is off (below)."""
 
 
@@ -231,10 +234,15 @@ class EstimateRun:
             ESTIMATOR_DT_S, self.speed_hz, self.machine.bearing.clearance_m, self.probe_angle_deg
         )
         self.latency_s: list[float] = []
-        self.estimator_s = 0.0  # time in the estimator's steps (the rest: reading, conditioning, writing)
+        self.estimator_s = 0.0  # CPU time in the estimator's steps (the rest: reading, conditioning, writing)
         self.cpu_s = 0.0  # this process's CPU time over the same span as the summary's wall_s
+        self.cpu_marks: list[tuple[int, float]] = [(0, 0.0)]
+        """(samples estimated, CPU time since the first block), about every :attr:`_mark_spacing` samples:
+        does the cost per sample change along the record (summary ``cpu_us_per_sample_by_tenth``)?"""
+        self._mark_spacing = options.chunk_rows
+        self._next_mark = self._mark_spacing
         self.stages_s = dict.fromkeys(("read_condition", "rows", "write", "history"), 0.0)
-        """Where the rest of the time goes, after the first block: reading and conditioning the record,
+        """Where the rest of the CPU time goes, after the first block: reading and conditioning the record,
         building the rows from the step reports, formatting and writing them, the views' history."""
 
     def _runout(self) -> tuple[SlowRollVectors | None, str | None]:
@@ -290,11 +298,12 @@ class EstimateRun:
     def run(self) -> dict:
         """Process the record; write estimates.csv (and, unless ``views`` is off, the views and report)."""
         self.out.mkdir(parents=True, exist_ok=True)
-        started, started_cpu = None, 0.0
+        started, started_cpu, done = None, 0.0, 0
         csv_path = self.out / "estimates.csv"
         with open(csv_path, "w", encoding="utf-8", newline="") as csv_file, _young_collections_only():
             writer = RowWriter(csv_file, self.live_stream, self.options.output_every)
-            clock, spent = time.perf_counter, self.stages_s
+            clock, spent = time.process_time, self.stages_s  # CPU time: preemption by a shared machine's load
+            # would land in whichever stage it interrupts
             blocks = self.stream.blocks()
             for count in itertools.count(1):
                 if count % GC_BLOCKS == 0:
@@ -307,25 +316,30 @@ class EstimateRun:
                 first = self.filter is None
                 if first:
                     self._start(block, writer)
-                    started = t1 = clock()
-                    started_cpu = time.process_time()
+                    started, started_cpu = time.perf_counter(), clock()
+                    t1 = started_cpu
                 else:
                     spent["read_condition"] += t1 - t0
                 steps = self.estimator_s
                 rows = self._estimate(block)
+                done += rows.shape[0]
+                if done >= self._next_mark:
+                    self._mark(done, clock() - started_cpu)
                 t2 = clock()
                 spent["rows"] += t2 - t1 - (self.estimator_s - steps)
                 writer.write(rows)
                 t3 = clock()
                 spent["write"] += t3 - t2
                 if self.options.live and not first:  # from the arrival of the line to its estimate written
-                    self.latency_s.append(t3 - self.stream.reader.received_s)
+                    self.latency_s.append(time.perf_counter() - self.stream.reader.received_s)
                 self.history.add(block, rows, self._columns)
                 spent["history"] += clock() - t3
         if self.filter is None:
             raise InputError(f"{self.stream.reader.name}: no sample to estimate from (record too short)")
         wall = time.perf_counter() - started
-        self.cpu_s = time.process_time() - started_cpu
+        self.cpu_s = clock() - started_cpu
+        if done > self.cpu_marks[-1][0]:
+            self._mark(done, self.cpu_s)
         from .summary import summarize
 
         summary = summarize(self, wall, csv_path)
@@ -340,6 +354,13 @@ class EstimateRun:
             summary["report_html"] = str(write_report(summary, self.out))
             self._write_summary(summary)
         return summary
+
+    def _mark(self, done: int, cpu_s: float) -> None:
+        self.cpu_marks.append((done, cpu_s))
+        self._next_mark = done + self._mark_spacing
+        if len(self.cpu_marks) > MAX_CPU_MARKS:
+            self.cpu_marks = self.cpu_marks[::2]
+            self._mark_spacing *= 2
 
     def _write_summary(self, summary: dict) -> None:
         write_json_atomic(self.out / "summary.json", summary)
@@ -394,9 +415,9 @@ class EstimateRun:
         if int(block.k[0]) != expected:
             raise InputError(f"internal: grid index {int(block.k[0])} after {expected - 1}")  # bridged, never
         count = block.k.size
-        started = time.perf_counter()
+        started = time.process_time()
         trace = self._steps(block)
-        self.estimator_s += time.perf_counter() - started
+        self.estimator_s += time.process_time() - started
         return self._rows.rows(block, trace, count)
 
     def _steps(self, block):
