@@ -19,8 +19,8 @@ definite on every level. Piecewise-constant prolongation makes the Galerkin oper
 stiff for a Laplacian, so each coarse correction is over-relaxed by :data:`COARSE_SCALE` (Blaheta's
 over-correction; Vanek, Mandel & Brezina, Computing 56, 179, 1996, for the stiffness argument).
 
-Cycle: ``pre_sweeps`` projected sweeps, the residual (the acceptance test: every volume's balance and
-the step's mass balance, as for the sweeps alone), then one V-cycle on the residual equation of F
+Cycle: one projected sweep that leaves its residual behind (the acceptance test: every volume's balance
+and the step's mass balance, as for the sweeps alone), then one V-cycle on the residual equation of F
 (symmetric Gauss-Seidel on the coarse levels, a dense solve on the coarsest) added to p on F.
 """
 
@@ -33,7 +33,8 @@ import numpy as np
 from numba import njit
 
 from .grid import FilmGrid
-from .transient_sweep import projected_sweeps, step_residual, sweep_factors
+from .transient_kernels import StepArrays
+from .transient_sweep import projected_sweep_residual, step_residual, sweep_factors
 
 COARSE_SCALE = 1.7
 """Over-correction of every piecewise-constant coarse correction (1 would be the plain Galerkin one)."""
@@ -184,9 +185,9 @@ class CoarseCorrection:
         n1 = self.levels[0].n
         self.zero1, self._unit = np.zeros(n1), np.ones(n1)
 
-    def build(self, indptr, indices, ap, full) -> None:
-        """The coarse operators of the Poiseuille matrix ``ap`` (CSR on the fine pattern) on ``full``."""
-        data, mask = ap, full
+    def build(self, k: StepArrays, full) -> None:
+        """The coarse operators of the step's Poiseuille matrix on the volumes ``full``."""
+        indptr, indices, data, mask = k.indptr, k.indices, k.ap, full
         for lv, c_data, c_mask in zip(self.levels, self.data, self.mask, strict=True):
             _galerkin(indptr, indices, data, mask, lv.slot_of, lv.parent, c_data, c_mask, lv.diag)
             indptr, indices, data, mask = lv.indptr, lv.indices, c_data, c_mask
@@ -196,7 +197,7 @@ class CoarseCorrection:
         dense[rows, last.indices] = self.data[-1]
         self._coarsest = np.linalg.inv(dense)
 
-    def correct(self, p, residual, full, indptr, indices, ap) -> None:
+    def correct(self, p, residual, full) -> None:
         """p[full] += the V-cycle's correction for ``residual`` on the full volumes, with the step
         length that minimises the error's energy norm along it (Ap[F, F] is symmetric positive
         definite; the over-corrected coarse levels are only approximately right for every mode)."""
@@ -230,39 +231,35 @@ class CoarseCorrection:
 
 def multigrid_solve(
     correction: CoarseCorrection,
-    indptr,
-    indices,
-    diag,
-    ap,
-    at,
-    storage,
-    rhs,
+    k: StepArrays,
     p,
     theta,
     residual_limit: float,
     mass_limit: float,
     max_cycles: int,
-    pre_sweeps: int = 1,
     relaxation: float = 1.0,
 ):
     """Projected multigrid cycles in place on ``p`` (scaled pressure) and ``theta``.
 
-    Same arguments and acceptance as :func:`models.bearing.transient_sweep.sor_sweeps`. Returns
-    (cycles, max |r|, sum r, converged); a converged warm start costs one residual pass."""
+    Same acceptance as :func:`models.bearing.transient_sweep.sor_sweeps`, judged on the residual the
+    sweep leaves (:func:`~models.bearing.transient_sweep.projected_sweep_residual`) and confirmed by
+    a fresh residual pass. Returns (cycles, max |r|, sum r, converged); a converged warm start costs
+    one residual pass."""
     work = np.empty(p.size)
-    worst, total = step_residual(indptr, indices, ap, at, storage, rhs, p, theta, work)
+    worst, total = step_residual(k, p, theta, work)
     if worst <= residual_limit and abs(total) <= mass_limit:
         return 0, worst, total, True
-    factors = sweep_factors(diag, ap, at, storage)
+    factors = sweep_factors(k)
     mask = None
     for cycle in range(1, max_cycles + 1):
-        projected_sweeps(indptr, indices, diag, ap, at, factors, rhs, p, theta, relaxation, pre_sweeps)
-        worst, total = step_residual(indptr, indices, ap, at, storage, rhs, p, theta, work)
+        worst, total = projected_sweep_residual(k, factors, p, theta, relaxation, work)
         if worst <= residual_limit and abs(total) <= mass_limit:
-            return cycle, worst, total, True
+            worst, total = step_residual(k, p, theta, work)
+            if worst <= residual_limit and abs(total) <= mass_limit:
+                return cycle, worst, total, True
         full = theta >= 1.0
         if mask is None or not np.array_equal(full, mask):
             mask = full
-            correction.build(indptr, indices, ap, mask)
-        correction.correct(p, work, mask, indptr, indices, ap)
+            correction.build(k, mask)
+        correction.correct(p, work, mask)
     return max_cycles, worst, total, False
