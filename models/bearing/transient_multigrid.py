@@ -28,6 +28,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import lru_cache
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -170,63 +171,95 @@ def _masked_residual(indptr, indices, data, mask, x, b, out):
         out[k] = total
 
 
+class LevelArrays(NamedTuple):
+    """The coarse levels of a :class:`CoarseCorrection` for the compiled cycle: per level (finest
+    first) its pattern, ``parent`` and ``slot_of`` maps and over-correction ``scale``, and the work
+    arrays (Galerkin ``data``, ``mask`` of levels with a full member, ``x``, ``b``, ``r``);
+    ``coarsest`` the inverse of the last level's operator."""
+
+    indptr: tuple
+    indices: tuple
+    diag: tuple
+    parent: tuple
+    slot_of: tuple
+    scale: tuple
+    data: tuple
+    mask: tuple
+    x: tuple
+    b: tuple
+    r: tuple
+    coarsest: np.ndarray
+
+
 class CoarseCorrection:
-    """The masked Galerkin hierarchy of one film grid and its V-cycle (work arrays kept between steps)."""
+    """The masked Galerkin hierarchy of one film grid and its work arrays, kept between steps."""
 
     def __init__(self, grid: FilmGrid, smoothing: int = 1):
-        self.levels = hierarchy(grid)
+        levels = hierarchy(grid)
         self.smoothing = smoothing
-        self.data = [np.zeros(lv.indices.size) for lv in self.levels]
-        self.mask = [np.zeros(lv.n, dtype=np.bool_) for lv in self.levels]
-        self.x = [np.zeros(lv.n) for lv in self.levels]
-        self.b = [np.zeros(lv.n) for lv in self.levels]
-        self.r = [np.zeros(lv.n) for lv in self.levels]
-        self._coarsest = None
-        n1 = self.levels[0].n
-        self.zero1, self._unit = np.zeros(n1), np.ones(n1)
 
-    def build(self, k: StepArrays, full) -> None:
-        """The coarse operators of the step's Poiseuille matrix on the volumes ``full``."""
-        indptr, indices, data, mask = k.indptr, k.indices, k.ap, full
-        for lv, c_data, c_mask in zip(self.levels, self.data, self.mask, strict=True):
-            _galerkin(indptr, indices, data, mask, lv.slot_of, lv.parent, c_data, c_mask, lv.diag)
-            indptr, indices, data, mask = lv.indptr, lv.indices, c_data, c_mask
-        last = self.levels[-1]
-        dense = np.zeros((last.n, last.n))
-        rows = np.repeat(np.arange(last.n), np.diff(last.indptr))
-        dense[rows, last.indices] = self.data[-1]
-        self._coarsest = np.linalg.inv(dense)
+        def each(make):
+            return tuple(make(lv) for lv in levels)
 
-    def correct(self, p, residual, full) -> None:
-        """p[full] += the V-cycle's correction for ``residual`` on the full volumes, with the step
-        length that minimises the error's energy norm along it (Ap[F, F] is symmetric positive
-        definite; the over-corrected coarse levels are only approximately right for every mode)."""
-        levels = self.levels
-        _restrict(residual, full, levels[0].parent, self.b[0])
-        depth = len(levels)
-        for i in range(depth - 1):
-            lv, x, b = levels[i], self.x[i], self.b[i]
-            x[:] = 0.0
-            for _ in range(self.smoothing):
-                _gauss_seidel(lv.indptr, lv.indices, self.data[i], lv.diag, self.mask[i], x, b, True)
-            _masked_residual(lv.indptr, lv.indices, self.data[i], self.mask[i], x, b, self.r[i])
-            _restrict(self.r[i], self.mask[i], levels[i + 1].parent, self.b[i + 1])
-        self.x[-1][:] = self._coarsest @ self.b[-1]
-        for i in range(depth - 2, -1, -1):
-            lv = levels[i]
-            _prolong(self.x[i], self.mask[i], levels[i + 1].parent, self.x[i + 1], levels[i + 1].scale)
-            for _ in range(self.smoothing):
-                _gauss_seidel(
-                    lv.indptr, lv.indices, self.data[i], lv.diag, self.mask[i], self.x[i], self.b[i], False
-                )
-        # d = P (scale x): its curvature d^T Ap[F, F] d and d^T r[F] are exact on the first level
-        # (A_1 = P^T Ap[F, F] P, b_1 = P^T r[F]), so the step length costs no fine-level pass.
-        first = levels[0]
-        y = first.scale * self.x[0]
-        _masked_residual(first.indptr, first.indices, self.data[0], self.mask[0], y, self.zero1, self.r[0])
-        curvature = -(y @ self.r[0])
-        step = (y @ self.b[0]) / curvature if curvature > 0.0 else 0.0
-        _prolong(p, full, first.parent, y, step * self._unit)
+        self.arrays = LevelArrays(
+            indptr=each(lambda lv: lv.indptr),
+            indices=each(lambda lv: lv.indices),
+            diag=each(lambda lv: lv.diag),
+            parent=each(lambda lv: lv.parent),
+            slot_of=each(lambda lv: lv.slot_of),
+            scale=each(lambda lv: lv.scale),
+            data=each(lambda lv: np.zeros(lv.indices.size)),
+            mask=each(lambda lv: np.zeros(lv.n, dtype=np.bool_)),
+            x=each(lambda lv: np.zeros(lv.n)),
+            b=each(lambda lv: np.zeros(lv.n)),
+            r=each(lambda lv: np.zeros(lv.n)),
+            coarsest=np.zeros((levels[-1].n, levels[-1].n)),
+        )
+
+
+@njit(cache=True)
+def _build(h: LevelArrays, k: StepArrays, full) -> None:
+    """The coarse operators of the step's Poiseuille matrix on the volumes ``full``."""
+    indptr, indices, data, mask = k.indptr, k.indices, k.ap, full
+    depth = len(h.data)
+    for i in range(depth):
+        _galerkin(indptr, indices, data, mask, h.slot_of[i], h.parent[i], h.data[i], h.mask[i], h.diag[i])
+        indptr, indices, data, mask = h.indptr[i], h.indices[i], h.data[i], h.mask[i]
+    last = depth - 1
+    n = h.x[last].size
+    dense = np.zeros((n, n))
+    for row in range(n):
+        for s in range(h.indptr[last][row], h.indptr[last][row + 1]):
+            dense[row, h.indices[last][s]] = h.data[last][s]
+    h.coarsest[:, :] = np.linalg.inv(dense)
+
+
+@njit(cache=True)
+def _correct(h: LevelArrays, p, residual, full, smoothing) -> None:
+    """p[full] += the V-cycle's correction for ``residual`` on the full volumes, with the step
+    length that minimises the error's energy norm along it (Ap[F, F] is symmetric positive
+    definite; the over-corrected coarse levels are only approximately right for every mode)."""
+    depth = len(h.data)
+    _restrict(residual, full, h.parent[0], h.b[0])
+    for i in range(depth - 1):
+        x = h.x[i]
+        x[:] = 0.0
+        for _ in range(smoothing):
+            _gauss_seidel(h.indptr[i], h.indices[i], h.data[i], h.diag[i], h.mask[i], x, h.b[i], True)
+        _masked_residual(h.indptr[i], h.indices[i], h.data[i], h.mask[i], x, h.b[i], h.r[i])
+        _restrict(h.r[i], h.mask[i], h.parent[i + 1], h.b[i + 1])
+    h.x[depth - 1][:] = h.coarsest @ h.b[depth - 1]
+    for i in range(depth - 2, -1, -1):
+        _prolong(h.x[i], h.mask[i], h.parent[i + 1], h.x[i + 1], h.scale[i + 1])
+        for _ in range(smoothing):
+            _gauss_seidel(h.indptr[i], h.indices[i], h.data[i], h.diag[i], h.mask[i], h.x[i], h.b[i], False)
+    # d = P (scale x): its curvature d^T Ap[F, F] d and d^T r[F] are exact on the first level
+    # (A_1 = P^T Ap[F, F] P, b_1 = P^T r[F]), so the step length costs no fine-level pass.
+    y = h.scale[0] * h.x[0]
+    _masked_residual(h.indptr[0], h.indices[0], h.data[0], h.mask[0], y, np.zeros(y.size), h.r[0])
+    curvature = -(y @ h.r[0])
+    step = (y @ h.b[0]) / curvature if curvature > 0.0 else 0.0
+    _prolong(p, full, h.parent[0], y, np.full(y.size, step))
 
 
 def multigrid_solve(
@@ -245,21 +278,34 @@ def multigrid_solve(
     sweep leaves (:func:`~models.bearing.transient_sweep.projected_sweep_residual`) and confirmed by
     a fresh residual pass. Returns (cycles, max |r|, sum r, converged); a converged warm start costs
     one residual pass."""
-    work = np.empty(p.size)
+    h = correction.arrays
+    return _cycles(h, k, p, theta, residual_limit, mass_limit, max_cycles, relaxation, correction.smoothing)
+
+
+@njit(cache=True)
+def _cycles(h, k, p, theta, residual_limit, mass_limit, max_cycles, relaxation, smoothing):
+    n = p.size
+    work = np.empty(n)
     worst, total = step_residual(k, p, theta, work)
     if worst <= residual_limit and abs(total) <= mass_limit:
         return 0, worst, total, True
     factors = sweep_factors(k)
-    mask = None
+    mask = np.zeros(n, dtype=np.bool_)
+    built = False
     for cycle in range(1, max_cycles + 1):
         worst, total = projected_sweep_residual(k, factors, p, theta, relaxation, work)
         if worst <= residual_limit and abs(total) <= mass_limit:
             worst, total = step_residual(k, p, theta, work)
             if worst <= residual_limit and abs(total) <= mass_limit:
                 return cycle, worst, total, True
-        full = theta >= 1.0
-        if mask is None or not np.array_equal(full, mask):
-            mask = full
-            correction.build(k, mask)
-        correction.correct(p, work, mask)
+        changed = not built
+        for i in range(n):
+            full = theta[i] >= 1.0
+            if full != mask[i]:
+                mask[i] = full
+                changed = True
+        if changed:
+            _build(h, k, mask)
+            built = True
+        _correct(h, p, work, mask, smoothing)
     return max_cycles, worst, total, False
