@@ -19,9 +19,10 @@ definite on every level. Piecewise-constant prolongation makes the Galerkin oper
 stiff for a Laplacian, so each coarse correction is over-relaxed by :data:`COARSE_SCALE` (Blaheta's
 over-correction; Vanek, Mandel & Brezina, Computing 56, 179, 1996, for the stiffness argument).
 
-Cycle: one projected sweep that leaves its residual behind (the acceptance test: every volume's balance
-and the step's mass balance, as for the sweeps alone), then one V-cycle on the residual equation of F
-(symmetric Gauss-Seidel on the coarse levels, a dense solve on the coarsest) added to p on F.
+Cycle: one projected sweep (over-relaxed, :data:`RELAXATION`) that leaves its residual behind (the
+acceptance test: every volume's balance and the step's mass balance, as for the sweeps alone), then
+one V-cycle on the residual equation of F (symmetric Gauss-Seidel on the coarse levels, a dense solve
+on the coarsest) added to p on F.
 """
 
 from __future__ import annotations
@@ -39,6 +40,12 @@ from .transient_sweep import projected_sweep_residual, step_residual, sweep_fact
 
 COARSE_SCALE = 1.7
 """Over-correction of every piecewise-constant coarse correction (1 would be the plain Galerkin one)."""
+RELAXATION = 1.2
+"""Over-relaxation of the full volumes' pressure in the cycle's projected sweep. The coarse correction
+holds the fill fraction, so the mode that couples a front's pressures to the fill next to it is left
+to the sweeps, which over-relaxation speeds up. Mean cycles per bearing-step, 240 x 72 half film,
+3 um whirl, plant tolerances (1e-8 / 1e-7): 1.0: 18.6, 1.15: 15.8, 1.2: 15.0, 1.3: 15.7, 1.4: 18.1,
+1.5: 22.8; at the studies' tolerances (1e-11 / 1e-10) 30.8 -> 23.5, on 120 x 36 15.6 -> 13.3."""
 COARSEST_NODES = 80
 """The hierarchy stops at a level with at most this many nodes, solved densely."""
 
@@ -270,7 +277,7 @@ def multigrid_solve(
     residual_limit: float,
     mass_limit: float,
     max_cycles: int,
-    relaxation: float = 1.0,
+    relaxation: float = RELAXATION,
 ):
     """Projected multigrid cycles in place on ``p`` (scaled pressure) and ``theta``.
 
