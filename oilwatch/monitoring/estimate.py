@@ -35,7 +35,6 @@ import functools
 import gc
 import itertools
 import time
-import types
 from collections.abc import Callable
 from contextlib import contextmanager
 from pathlib import Path
@@ -57,7 +56,7 @@ from oilwatch.records.probes import merged_section
 from oilwatch.records.readers import STDIN
 from oilwatch.study.storage import write_json_atomic
 
-from .columns import NuisanceColumns, TraceRows, column_decimals, estimate_columns
+from .columns import TraceRows, column_decimals, estimate_columns
 from .csv_rows import RowWriter
 from .history import History
 from .timing import CpuMarks, LatencyHistogram
@@ -391,7 +390,7 @@ class EstimateRun:
         report = self.filter.current_report()
         self._columns, extras = estimate_columns(report)
         self._rows = TraceRows(self._columns, extras)
-        self._nuisances = NuisanceColumns(self.filter)
+        self._trace = None
         writer.header(self._columns, column_decimals(self._columns, report))
 
     def _estimate(self, block) -> np.ndarray:
@@ -406,23 +405,10 @@ class EstimateRun:
         return self._rows.rows(block, trace, count)
 
     def _steps(self, block):
-        """The estimator's per-sample outputs over a block (the fields of :class:`estimator.ekf.EstimateTrace`
-        and the nuisances'), step by step (until the library's batch entry is there)."""
-        ekf = self.filter
-        step, snapshot = ekf.step, self._nuisances.snapshot
-        reports, nuisances = [], []
-        if self.follow:
-            operating = map(self._operating, block.speed_hz.tolist(), block.oil_temperature_c.tolist())
-            for position, (speed, temperature) in zip(block.measurement_m, operating, strict=True):
-                reports.append(step(position, speed, temperature))
-                nuisances.append(snapshot())
-        else:
-            for position in block.measurement_m:
-                reports.append(step(position))
-                nuisances.append(snapshot())
-        fields = {
-            item.name: np.array([getattr(r, item.name) for r in reports])
-            for item in dataclasses.fields(reports[0])
-        }
-        fields.update(self._nuisances.arrays(nuisances))
-        return types.SimpleNamespace(**fields)
+        """The estimator's per-sample outputs over a block (:meth:`estimator.ekf.OilFlowEKF.run_batch`, into
+        the previous block's trace when it has the rows)."""
+        count = block.k.size
+        reuse = self._trace if self._trace is not None and self._trace.nis.shape[0] >= count else None
+        speed, temperature = (block.speed_hz, block.oil_temperature_c) if self.follow else (None, None)
+        self._trace = self.filter.run_batch(block.measurement_m, speed, temperature, out=reuse)
+        return self._trace
