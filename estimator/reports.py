@@ -81,6 +81,14 @@ class ReportView(StepReport):
         self._values = values
 
     @property
+    def values(self) -> np.ndarray:
+        """The whole report (REPORT_SIZE,) in the ``REPORT_*`` layout of :mod:`estimator.step_kernel`, read
+        only (e.g. for publishing every output from one ``tolist()``)."""
+        view = self._values.view()
+        view.flags.writeable = False
+        return view
+
+    @property
     def q_m3_s(self) -> np.ndarray:
         return self._values[REPORT_FLOWRATE : REPORT_FLOWRATE + 2]
 
