@@ -42,13 +42,32 @@ def _galerkin(indptr, indices, data, mask, slot_of, parent, coarse_data, coarse_
 
 @njit(cache=True)
 def _invert_coarsest(h) -> None:
+    """The Cholesky factor L (lower) of the coarsest operator into ``h.coarsest``: the masked
+    Laplacian is irreducibly diagonally dominant (its diagonal keeps the faces to cavitated volumes
+    and the bearing ends), its Galerkin products and unit diagonals symmetric positive definite."""
     last = len(h.data) - 1
     n = h.x[last].size
     dense = np.zeros((n, n))
     for row in range(n):
         for s in range(h.indptr[last][row], h.indptr[last][row + 1]):
             dense[row, h.indices[last][s]] = h.data[last][s]
-    h.coarsest[:, :] = np.linalg.inv(dense)
+    h.coarsest[:, :] = np.linalg.cholesky(dense)
+
+
+@njit(cache=True)
+def coarsest_solve(factor, b, x) -> None:
+    """x = (L L^T)^-1 b for the lower Cholesky ``factor`` L."""
+    n = b.size
+    for i in range(n):
+        total = b[i]
+        for j in range(i):
+            total -= factor[i, j] * x[j]
+        x[i] = total / factor[i, i]
+    for i in range(n - 1, -1, -1):
+        total = x[i]
+        for j in range(i + 1, n):
+            total -= factor[j, i] * x[j]
+        x[i] = total / factor[i, i]
 
 
 @njit(cache=True)

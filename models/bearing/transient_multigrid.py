@@ -37,6 +37,7 @@ from numba import njit
 
 from .grid import FilmGrid
 from .transient_galerkin import build as build_coarse
+from .transient_galerkin import coarsest_solve
 from .transient_galerkin import update as update_coarse
 from .transient_kernels import StepArrays, transpose_slots
 from .transient_sweep import projected_sweep_residual, step_residual, sweep_factors
@@ -181,7 +182,7 @@ class LevelArrays(NamedTuple):
     """The coarse levels of a :class:`CoarseCorrection` for the compiled cycle: per level (finest
     first) its pattern, ``parent`` and ``slot_of`` maps and over-correction ``scale``, and the work
     arrays (Galerkin ``data``, ``mask`` of levels with a full member, ``x``, ``b``, ``r``);
-    ``coarsest`` the inverse of the last level's operator. For the incremental update of
+    ``coarsest`` the Cholesky factor of the last level's operator. For the incremental update of
     :mod:`models.bearing.transient_galerkin`: per level its entries' ``rows`` and ``transpose``
     slots, the ``member_ptr`` / ``member_slots`` of every entry, the full-member ``count`` of every
     node, and work arrays (``flag`` and ``affected`` entries, ``switched`` nodes)."""
@@ -256,7 +257,7 @@ def _correct(h: LevelArrays, p, residual, full, smoothing) -> None:
             _gauss_seidel(h.indptr[i], h.indices[i], h.data[i], h.diag[i], h.mask[i], x, h.b[i], True)
         _masked_residual(h.indptr[i], h.indices[i], h.data[i], h.mask[i], x, h.b[i], h.r[i])
         _restrict(h.r[i], h.mask[i], h.parent[i + 1], h.b[i + 1])
-    h.x[depth - 1][:] = h.coarsest @ h.b[depth - 1]
+    coarsest_solve(h.coarsest, h.b[depth - 1], h.x[depth - 1])
     for i in range(depth - 2, -1, -1):
         _prolong(h.x[i], h.mask[i], h.parent[i + 1], h.x[i + 1], h.scale[i + 1])
         for _ in range(smoothing):
