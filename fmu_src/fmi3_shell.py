@@ -65,15 +65,18 @@ class RangedInt32(RangeMixin, Int32):
 
 def _fmi3_variable(variable, owner: OilwatchSlave):
     """The FMI 3.0 twin of one declared FMI 2.0 variable, reading and writing ``owner``'s attribute."""
-    name = variable.local_name
+    name, reference = variable.local_name, (variable.value_reference,)
+
+    def getter():
+        owner.refresh_outputs(reference)  # the EKF's lazy outputs publish the last step's report when read
+        return getattr(owner, name)
+
     common = {
         "causality": Fmi3Causality[variable.causality.name],
         "variability": Fmi3Variability[variable.variability.name],
         "initial": Fmi3Initial[variable.initial.name] if variable.initial is not None else None,
         "description": variable.description,
-        # the FMI 2.0 variable's own getter where it has one: the EKF's lazy outputs publish the last step's
-        # report when first read
-        "getter": variable.getter if variable.getter is not None else (lambda: getattr(owner, name)),
+        "getter": getter,
         "setter": lambda value: setattr(owner, name, value),
     }
     start = getattr(owner, name)

@@ -25,6 +25,11 @@ What pythonfmu 0.7.0 does, and what this class does about it (verified with fmpy
   refused set: the instance keeps stepping). Any other exception (an internal error) stays fatal. Without
   the loader (the FMI 3.0 shells, a plain pythonfmu build) the host still sees ``fmi2Fatal`` with the
   logged reason.
+- The Get/Set calls are the per-step cost of a host (issue 14: the estimator FMU's step within 50 us), so they
+  avoid pythonfmu's per-variable work: each type's variables sit in a dict by value reference (pythonfmu
+  checks ``isinstance`` per variable and call), a declared variable's default getter and setter are
+  ``functools.partial(getattr/setattr, self, name)`` (no Python frame), and the fixed parameters are one set
+  checked only after initialization (``isdisjoint``, not a scan of the call's variables).
 - ``fmi2GetFMUstate`` returns whatever ``_get_fmu_state`` returns (a Python object held by
   reference; the default saves registered variables only). Here the state also holds deep copies of
   the attributes named in :attr:`OilwatchSlave.state_attributes` (numpy arrays, a
@@ -43,12 +48,14 @@ import ctypes
 import math
 import pickle
 import traceback
+from functools import partial
 from pathlib import Path
 from typing import Any, ClassVar
 from xml.etree.ElementTree import Element
 
 from pythonfmu import Fmi2Slave
 from pythonfmu.enums import Fmi2Causality, Fmi2Status, Fmi2Variability
+from pythonfmu.variables import Boolean, Integer, Real, String
 
 from models.validation import InputError
 
@@ -93,6 +100,10 @@ def flag_refused_call_to_loader(resources: str | None) -> bool:
     return False
 
 
+VARIABLE_TYPES = (Real, Integer, Boolean, String)
+"""pythonfmu's variable types, each with its Get/Set calls."""
+
+
 class OilwatchSlave(Fmi2Slave):
     """Base class of the oilwatch FMI 2.0 co-simulation slaves (see the module docstring)."""
 
@@ -102,6 +113,8 @@ class OilwatchSlave(Fmi2Slave):
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
         self._declared: list = []
+        self._by_type: dict[type, dict[int, Any]] = {kind: {} for kind in VARIABLE_TYPES}
+        self._fixed_references: set[int] = set()
         self._initialized = False
         self.start_time = 0.0
         self.stop_time: float | None = None
@@ -112,8 +125,23 @@ class OilwatchSlave(Fmi2Slave):
         if (low is not None and start < low) or (high is not None and start > high):
             raise ValueError(f"variable {variable.name}: start {start} outside [{low}, {high}]")
         setattr(self, variable.local_name, start)
+        # builtins bound to the name (pythonfmu's default lambdas cost a Python frame per value)
+        variable.getter = partial(getattr, self, variable.local_name)
+        if variable.variability != Fmi2Variability.constant:
+            variable.setter = partial(setattr, self, variable.local_name)
         self.register_variable(variable)
         self._declared.append(variable)
+
+    def register_variable(self, var, nested: bool = True) -> None:
+        """pythonfmu's registration, plus the lookup tables of the Get/Set calls (module docstring)."""
+        super().register_variable(var, nested)
+        kind = next(k for k in VARIABLE_TYPES if isinstance(var, k))
+        self._by_type[kind][var.value_reference] = var
+        if var.causality == Fmi2Causality.parameter and var.variability in (
+            Fmi2Variability.fixed,
+            Fmi2Variability.constant,
+        ):
+            self._fixed_references.add(var.value_reference)
 
     def declare_real(
         self,
@@ -260,37 +288,66 @@ class OilwatchSlave(Fmi2Slave):
             self.fail(problems, "initialization")
         self._initialized = True
 
-    # ----------------------------------------------------- setters after initialization
+    # ------------------------------------------------------------------ get and set
     def _refuse_fixed_after_initialization(self, vrs, values, call: str) -> None:
         """Fail (module docstring) when a call after initialization sets a fixed parameter."""
-        if not self._initialized:
-            return
+        fixed = self._fixed_references
         problems = [
             f"{self.vars[vr].name} is a fixed parameter: it can be set only before "
             f"fmi2ExitInitializationMode; {value!r} was not applied (reset the instance to change it)"
             for vr, value in zip(vrs, values, strict=True)
-            if self.vars[vr].causality == Fmi2Causality.parameter
-            and self.vars[vr].variability in (Fmi2Variability.fixed, Fmi2Variability.constant)
+            if vr in fixed
         ]
         if problems:
             flag_refused_call_to_loader(self.resources)
             self.fail(problems, call)
 
+    def _set(self, kind: type, call: str, vrs, values) -> None:
+        if self._initialized and not self._fixed_references.isdisjoint(vrs):
+            self._refuse_fixed_after_initialization(vrs, values, call)
+        table = self._by_type[kind]
+        try:  # the setters are setattr (no KeyError of their own)
+            for vr, value in zip(vrs, values, strict=True):
+                table[vr].setter(value)
+        except KeyError as error:
+            raise TypeError(f"Variable with valueReference={error} is not of type {kind.__name__}!") from None
+
+    def refresh_outputs(self, vrs) -> None:
+        """Bring the outputs among the value references ``vrs`` up to date before they are read: a slave that
+        computes its outputs only when asked overrides this. Every read goes through it: the Get calls, the
+        FMU state and the FMI 3.0 shell (:mod:`fmu_src.fmi3_shell`)."""
+
+    def _get(self, kind: type, convert, vrs) -> list:
+        self.refresh_outputs(vrs)
+        table = self._by_type[kind]
+        try:  # the getters are getattr (no KeyError of their own)
+            return [convert(table[vr].getter()) for vr in vrs]
+        except KeyError as error:
+            raise TypeError(f"Variable with valueReference={error} is not of type {kind.__name__}!") from None
+
     def set_real(self, vrs, values):
-        self._refuse_fixed_after_initialization(vrs, values, "fmi2SetReal")
-        super().set_real(vrs, values)
+        self._set(Real, "fmi2SetReal", vrs, values)
 
     def set_integer(self, vrs, values):
-        self._refuse_fixed_after_initialization(vrs, values, "fmi2SetInteger")
-        super().set_integer(vrs, values)
+        self._set(Integer, "fmi2SetInteger", vrs, values)
 
     def set_boolean(self, vrs, values):
-        self._refuse_fixed_after_initialization(vrs, values, "fmi2SetBoolean")
-        super().set_boolean(vrs, values)
+        self._set(Boolean, "fmi2SetBoolean", vrs, values)
 
     def set_string(self, vrs, values):
-        self._refuse_fixed_after_initialization(vrs, values, "fmi2SetString")
-        super().set_string(vrs, values)
+        self._set(String, "fmi2SetString", vrs, values)
+
+    def get_real(self, vrs):
+        return self._get(Real, float, vrs)
+
+    def get_integer(self, vrs):
+        return self._get(Integer, int, vrs)
+
+    def get_boolean(self, vrs):
+        return self._get(Boolean, bool, vrs)
+
+    def get_string(self, vrs):
+        return self._get(String, str, vrs)
 
     def do_step(self, current_time: float, step_size: float) -> bool:
         """Advance by ``step_size`` [s]; exceptions of :meth:`step` are logged, then re-raised."""
@@ -310,6 +367,7 @@ class OilwatchSlave(Fmi2Slave):
 
     # ------------------------------------------------------------------------ state
     def _get_fmu_state(self) -> dict[str, Any]:
+        self.refresh_outputs(self.vars.keys())
         state = super()._get_fmu_state()
         state["__attributes__"] = {name: copy.deepcopy(getattr(self, name)) for name in self.state_attributes}
         return state
