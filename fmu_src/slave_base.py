@@ -22,9 +22,9 @@ What pythonfmu 0.7.0 does, and what this class does about it (verified with fmpy
   values, so ``fmi2Error`` cannot be returned from Python. Before raising, the slave therefore flags the
   refusal to oilwatch's FMI 2.0 loader, the FMU's own binary (``oilwatch/cosim/native/fmi2_loader.c``,
   entry point ``oilwatch_loader_refused_call``): the loader returns ``fmi2Error`` for that call (a
-  refused set: the instance keeps stepping). Any other exception (an internal error) stays fatal. Without
-  the loader (the FMI 3.0 shells, a plain pythonfmu build) the host still sees ``fmi2Fatal`` with the
-  logged reason.
+  refused set: the instance keeps stepping). Any other exception (an internal error) stays fatal. The FMI
+  3.0 shells' binary has the same entry point (``native/fmi3_refusal.c``: fmi3Error). Without either (a
+  plain pythonfmu build) the host still sees ``fmi2Fatal`` with the logged reason.
 - The Get/Set calls are the per-step cost of a host (issue 14: the estimator FMU's step within 50 us), so they
   avoid pythonfmu's per-variable work: each type's variables sit in a dict by value reference (pythonfmu
   checks ``isinstance`` per variable and call), a declared variable's default getter and setter are
@@ -84,12 +84,13 @@ def flag_refused_call_to_loader(resources: str | None) -> bool:
     ``ctypes`` opens the same copy; nothing new is loaded)."""
     if not resources:
         return False
-    folder = Path(resources).parent / "binaries" / "linux64"
+    binaries = Path(resources).parent / "binaries"
     try:
         mapped = Path("/proc/self/maps").read_text(encoding="utf-8", errors="replace")
     except OSError:
         return False
-    for binary in sorted(folder.glob("*.so")):
+    # FMI 2.0's folder and FMI 3.0's (its layer over pythonfmu3, oilwatch/cosim/native/fmi3_refusal.c)
+    for binary in sorted([*binaries.glob("linux64/*.so"), *binaries.glob("x86_64-linux/*.so")]):
         if str(binary.resolve()) not in mapped:
             continue
         entry = getattr(ctypes.CDLL(str(binary)), REFUSED_CALL_ENTRY, None)
@@ -98,6 +99,20 @@ def flag_refused_call_to_loader(resources: str | None) -> bool:
             entry()
             return True
     return False
+
+
+def outlive_the_wrappers_cleanup(facade) -> None:
+    """Take one more reference to the object pythonfmu's (or pythonfmu3's) C++ wrapper holds, its class and
+    its log queue, before an exception the host will see as fmi2Error / fmi3Error.
+
+    On every Python exception the wrapper's ``handle_py_exception`` calls ``cleanPyObject``, which releases
+    its references to the instance, the class and the log queue (``Py_XDECREF`` of ``pInstance_``,
+    ``pClass_``, ``pMessages_``) but keeps the pointers and uses them in the next call and again when the
+    instance is freed. After fmi2Fatal nothing more is called; after a refused input the host steps on, and
+    without these references the instance would be used after its release (a crash at the next garbage
+    collection or at exit)."""
+    for held in (facade, type(facade), facade._get_log_queue()):
+        ctypes.pythonapi.Py_IncRef(ctypes.py_object(held))
 
 
 VARIABLE_TYPES = (Real, Integer, Boolean, String)
@@ -109,9 +124,12 @@ class OilwatchSlave(Fmi2Slave):
 
     #: Names of attributes (beyond registered variables) saved by fmi2GetFMUstate.
     state_attributes: ClassVar[tuple[str, ...]] = ()
+    #: The FMI call that ends initialization, in messages (the FMI 3.0 shell names its own).
+    initialization_end_call = "fmi2ExitInitializationMode"
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
+        self.fmi_facade = self  # the object the FMI wrapper holds (the FMI 3.0 shell when it wraps it)
         self._declared: list = []
         self._by_type: dict[type, dict[int, Any]] = {kind: {} for kind in VARIABLE_TYPES}
         self._fixed_references: set[int] = set()
@@ -284,27 +302,34 @@ class OilwatchSlave(Fmi2Slave):
                 self.log(traceback.format_exc(), Fmi2Status.error)
         if problems:
             if refused:
-                flag_refused_call_to_loader(self.resources)
+                self._flag_refused_call()
             self.fail(problems, "initialization")
         self._initialized = True
 
     # ------------------------------------------------------------------ get and set
-    def _refuse_fixed_after_initialization(self, vrs, values, call: str) -> None:
-        """Fail (module docstring) when a call after initialization sets a fixed parameter."""
+    def refuse_fixed_after_initialization(self, vrs, values, call: str) -> None:
+        """Fail (module docstring) when ``call``, made after initialization, sets a fixed parameter among the
+        value references ``vrs``; nothing is set then."""
+        if not self._initialized or self._fixed_references.isdisjoint(vrs):
+            return
         fixed = self._fixed_references
         problems = [
             f"{self.vars[vr].name} is a fixed parameter: it can be set only before "
-            f"fmi2ExitInitializationMode; {value!r} was not applied (reset the instance to change it)"
+            f"{self.initialization_end_call}; {value!r} was not applied (reset the instance to change it)"
             for vr, value in zip(vrs, values, strict=True)
             if vr in fixed
         ]
-        if problems:
-            flag_refused_call_to_loader(self.resources)
-            self.fail(problems, call)
+        self._flag_refused_call()
+        self.fail(problems, call)
+
+    def _flag_refused_call(self) -> None:
+        """The current call refuses the user's input: fmi2Error / fmi3Error through the FMU's binary (module
+        docstring), the instance kept alive through the wrapper's cleanup."""
+        if flag_refused_call_to_loader(self.resources):
+            outlive_the_wrappers_cleanup(self.fmi_facade)
 
     def _set(self, kind: type, call: str, vrs, values) -> None:
-        if self._initialized and not self._fixed_references.isdisjoint(vrs):
-            self._refuse_fixed_after_initialization(vrs, values, call)
+        self.refuse_fixed_after_initialization(vrs, values, call)
         table = self._by_type[kind]
         try:  # the setters are setattr (no KeyError of their own)
             for vr, value in zip(vrs, values, strict=True):
