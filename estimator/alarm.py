@@ -21,12 +21,38 @@ Designed for: firing within 2 s of the centre of a sudden 25 % drop and never in
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 from models.validation import InputError
 
 from .config import AlarmConfig
 
 _STATE_KEYS = ("alarm_starved", "alarm_on_count", "alarm_off_count", "alarm_raised_consistent")
+# rows of the alarm's record (4, n_bearings) and entries of its settings
+STARVED, ON_COUNT, OFF_COUNT, RAISED_CONSISTENT = range(4)
+CONFIDENCE_Z, ON_LEVEL, OFF_LEVEL, HOLD_ON_STEPS, HOLD_OFF_STEPS = range(5)
+N_ALARM_SETTINGS = 5
+
+
+@njit(cache=True)
+def update_alarm(flowrate: np.ndarray, std: np.ndarray, consistent: bool, record: np.ndarray, settings):
+    """The rule of the module docstring, one step, in place on ``record`` (4, n_bearings) int64 (rows
+    STARVED, ON_COUNT, OFF_COUNT, RAISED_CONSISTENT); ``settings`` the N_ALARM_SETTINGS values."""
+    z = settings[CONFIDENCE_Z]
+    for i in range(record.shape[1]):
+        if record[STARVED, i]:
+            recovered = flowrate[i] - z * std[i] > settings[OFF_LEVEL]
+            record[OFF_COUNT, i] = record[OFF_COUNT, i] + 1 if recovered else 0
+            if record[OFF_COUNT, i] >= settings[HOLD_OFF_STEPS]:
+                record[STARVED, i] = 0
+                record[OFF_COUNT, i] = 0
+        else:
+            low = flowrate[i] + z * std[i] < settings[ON_LEVEL]
+            record[ON_COUNT, i] = record[ON_COUNT, i] + 1 if low else 0
+            if record[ON_COUNT, i] >= settings[HOLD_ON_STEPS]:
+                record[STARVED, i] = 1
+                record[RAISED_CONSISTENT, i] = 1 if consistent else 0
+                record[ON_COUNT, i] = 0
 
 
 class StarvationAlarm:
@@ -35,70 +61,66 @@ class StarvationAlarm:
     Parameters
     ----------
     config : thresholds. dt_s : step [s]. q_nominal_m3_s : reference flowrate [m^3/s].
+
+    Its record (:attr:`record`, (4, n_bearings) int64) and :attr:`settings` are what the compiled step of
+    :mod:`estimator.step_kernel` advances in place (:func:`update_alarm`).
     """
 
     def __init__(self, config: AlarmConfig, dt_s: float, q_nominal_m3_s: float, n_bearings: int = 2) -> None:
         self.config = config
-        self._on_level = config.on_fraction * q_nominal_m3_s
-        self._off_level = config.off_fraction * q_nominal_m3_s
-        self._hold_on_steps = max(1, round(config.hold_on_s / dt_s))
-        self._hold_off_steps = max(1, round(config.hold_off_s / dt_s))
-        self._starved = np.zeros(n_bearings, dtype=bool)
-        self._on_count = np.zeros(n_bearings, dtype=np.int64)
-        self._off_count = np.zeros(n_bearings, dtype=np.int64)
-        self._raised_consistent = np.zeros(n_bearings, dtype=bool)
+        self.settings = np.zeros(N_ALARM_SETTINGS)
+        self.settings[CONFIDENCE_Z] = config.confidence_z
+        self.settings[ON_LEVEL] = config.on_fraction * q_nominal_m3_s
+        self.settings[OFF_LEVEL] = config.off_fraction * q_nominal_m3_s
+        self.settings[HOLD_ON_STEPS] = max(1, round(config.hold_on_s / dt_s))
+        self.settings[HOLD_OFF_STEPS] = max(1, round(config.hold_off_s / dt_s))
+        self.record = np.zeros((4, n_bearings), dtype=np.int64)
+
+    def clear(self) -> None:
+        """Back to no alarm and no hold under way."""
+        self.record[:, :] = 0
 
     @property
     def starved(self) -> np.ndarray:
         """(n_bearings,) bool copy of the current alarm flags."""
-        return self._starved.copy()
+        return self.record[STARVED] != 0
 
     @property
     def starved_consistent(self) -> np.ndarray:
         """(n_bearings,) bool: the alarm is set and was raised while the model was consistent."""
-        return self._starved & self._raised_consistent
+        return (self.record[STARVED] != 0) & (self.record[RAISED_CONSISTENT] != 0)
 
     def update(
         self, flowrate_m3_s: np.ndarray, std_m3_s: np.ndarray, model_consistent: bool = True
     ) -> np.ndarray:
         """Advance one step with the estimates and stds [m^3/s], (n_bearings,) each, and the model
         consistency flag of this step; return the alarm flags."""
-        z = self.config.confidence_z
-        for i in range(self._starved.size):
-            if self._starved[i]:
-                recovered = flowrate_m3_s[i] - z * std_m3_s[i] > self._off_level
-                self._off_count[i] = self._off_count[i] + 1 if recovered else 0
-                if self._off_count[i] >= self._hold_off_steps:
-                    self._starved[i] = False
-                    self._off_count[i] = 0
-            else:
-                low = flowrate_m3_s[i] + z * std_m3_s[i] < self._on_level
-                self._on_count[i] = self._on_count[i] + 1 if low else 0
-                if self._on_count[i] >= self._hold_on_steps:
-                    self._starved[i] = True
-                    self._raised_consistent[i] = model_consistent
-                    self._on_count[i] = 0
-        return self._starved.copy()
+        update_alarm(
+            np.asarray(flowrate_m3_s, dtype=np.float64),
+            np.asarray(std_m3_s, dtype=np.float64),
+            bool(model_consistent),
+            self.record,
+            self.settings,
+        )
+        return self.starved
 
     def get_state(self) -> dict[str, np.ndarray]:
         """Copies of the complete alarm state (flags and hold counters)."""
+        record = self.record
         return {
-            "alarm_starved": self._starved.copy(),
-            "alarm_on_count": self._on_count.copy(),
-            "alarm_off_count": self._off_count.copy(),
-            "alarm_raised_consistent": self._raised_consistent.copy(),
+            "alarm_starved": record[STARVED] != 0,
+            "alarm_on_count": record[ON_COUNT].copy(),
+            "alarm_off_count": record[OFF_COUNT].copy(),
+            "alarm_raised_consistent": record[RAISED_CONSISTENT] != 0,
         }
 
     def set_state(self, state: dict[str, np.ndarray]) -> None:
         """Restore a state from :meth:`get_state` exactly."""
+        shape = self.record.shape[1:]
         for key in _STATE_KEYS:
             if key not in state:
                 raise InputError(f"alarm state lacks {key!r}")
-            if np.shape(state[key]) != self._starved.shape:
-                raise InputError(
-                    f"alarm state {key!r} must have shape {self._starved.shape}, got {np.shape(state[key])}"
-                )
-        self._starved[:] = np.asarray(state["alarm_starved"], dtype=bool)
-        self._on_count[:] = np.asarray(state["alarm_on_count"], dtype=np.int64)
-        self._off_count[:] = np.asarray(state["alarm_off_count"], dtype=np.int64)
-        self._raised_consistent[:] = np.asarray(state["alarm_raised_consistent"], dtype=bool)
+            if np.shape(state[key]) != shape:
+                raise InputError(f"alarm state {key!r} must have shape {shape}, got {np.shape(state[key])}")
+        for row, key in enumerate(_STATE_KEYS):
+            self.record[row] = np.asarray(state[key]).astype(np.int64)

@@ -51,7 +51,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
 
 import numpy as np
 from scipy.special import chdtri, ndtri
@@ -61,93 +60,52 @@ from models.validation import InputError
 from . import channels
 from .alarm import StarvationAlarm
 from .config import EKFConfig
-from .kernels import (
+from .measurement import displacement_channels, velocity_channels
+from .model import AugmentedModel, has_static_state
+from .reports import EstimateTrace, ReportView, StepReport
+from .runout import RunoutCompensation
+from .state import export_state, import_state
+from .step_kernel import (
+    COUNT_FIRST,
+    COUNT_OFFSETS,
+    COUNT_SINCE_UPDATE,
+    COUNT_STEP,
+    COUNT_UNBALANCE,
+    COUNT_VISCOSITY,
+    N_COUNTERS,
     N_SUMMARY_SETTINGS,
+    REPORT_CHANGING,
+    REPORT_CONSISTENT,
+    REPORT_CONVERGED,
+    REPORT_FLOWRATE,
+    REPORT_NIS,
+    REPORT_OFFSET,
+    REPORT_OFFSET_STD,
+    REPORT_OK,
+    REPORT_ROWS,
+    REPORT_SIZE,
+    REPORT_STARVED,
+    REPORT_STARVED_CONSISTENT,
+    REPORT_STATUS,
+    REPORT_STD,
+    REPORT_UNBALANCE,
+    REPORT_UNBALANCE_STD,
+    REPORT_VISCOSITY,
+    REPORT_VISCOSITY_STD,
     SUMMARY_CONSISTENCY_Z,
     SUMMARY_CONVERGED_DRIFT,
     SUMMARY_CONVERGED_STD,
-    SUMMARY_FLOWRATE,
     SUMMARY_Q_HIGH,
     SUMMARY_Q_LOW,
     SUMMARY_Q_NOMINAL,
-    SUMMARY_SIZE,
-    SUMMARY_STD,
-    SUMMARY_VISCOSITY,
-    SUMMARY_VISCOSITY_STD,
-    UPDATE_ACCEPTED,
-    filter_step,
-    step_summary,
+    SUMMARY_UNBALANCE_EXTRA,
+    SUMMARY_UNBALANCE_WALK,
+    ekf_step,
+    grid_batch,
 )
-from .measurement import displacement_channels, velocity_channels
-from .model import AugmentedModel, has_static_state
-from .runout import RunoutCompensation
-from .state import export_state, import_state
 
 MIN_VISCOSITY_FACTOR = 0.2
 """The model never sees a viscosity factor below this (a random walk kept physical)."""
-
-
-@dataclass(slots=True)
-class StepReport:
-    """What the filter reports after one sample.
-
-    step : index k of the sample just processed. q_m3_s, q_std_m3_s : (2,) estimates and their stds from P
-    [m^3/s]. nis : normalized innovation squared of this sample (0 when no update was made).
-    n_measurements : rows used by the update (0 when no channel was usable or all were rejected).
-    converged : see module docstring. measurement_ok : the update used at least one channel.
-    starved : (2,) bool alarm flags. probe_status : (4,) int codes of :mod:`estimator.channels` (0 healthy).
-    model_consistent : the windowed NIS test passes. changing : (2,) bool, the change test fires on the
-    bearing. starved_consistent : (2,) bool, alarm raised while the model was consistent.
-    viscosity_factor, viscosity_factor_std : (2,) each bearing's estimated viscosity factor and its std
-    (1 and 0 when the factors are not estimated).
-    """
-
-    step: int
-    q_m3_s: np.ndarray
-    q_std_m3_s: np.ndarray
-    nis: float
-    n_measurements: int
-    converged: bool
-    measurement_ok: bool
-    starved: np.ndarray
-    probe_status: np.ndarray
-    model_consistent: bool
-    changing: np.ndarray
-    starved_consistent: np.ndarray
-    viscosity_factor: np.ndarray
-    viscosity_factor_std: np.ndarray
-
-    @property
-    def probe_faulty(self) -> np.ndarray:
-        """(4,) bool: the probe is flagged faulty and excluded."""
-        return self.probe_status != channels.OK
-
-
-@dataclass
-class EstimateTrace:
-    """Per-step outputs of :meth:`OilFlowEKF.run` for K samples: arrays (K, 2), (K, 4) or (K,), fields as
-    StepReport."""
-
-    q_m3_s: np.ndarray
-    q_std_m3_s: np.ndarray
-    nis: np.ndarray
-    n_measurements: np.ndarray
-    converged: np.ndarray
-    measurement_ok: np.ndarray
-    starved: np.ndarray
-    probe_status: np.ndarray
-    model_consistent: np.ndarray
-    changing: np.ndarray
-    starved_consistent: np.ndarray
-    offset_m: np.ndarray
-    offset_std_m: np.ndarray
-    viscosity_factor: np.ndarray
-    viscosity_factor_std: np.ndarray
-
-    @property
-    def probe_faulty(self) -> np.ndarray:
-        """(K, 4) bool: probe flagged faulty."""
-        return self.probe_status != channels.OK
 
 
 class OilFlowEKF:
@@ -236,7 +194,22 @@ class OilFlowEKF:
         self._summary_settings[SUMMARY_CONSISTENCY_Z] = float(ndtri(1.0 - cfg.consistency_tail_probability))
         self._summary_settings[SUMMARY_CONVERGED_STD] = cfg.converged_std_fraction
         self._summary_settings[SUMMARY_CONVERGED_DRIFT] = cfg.converged_drift_fraction
-        self._summary = np.zeros(SUMMARY_SIZE)
+        self._report = np.zeros(REPORT_SIZE)
+        self._batch_table = np.empty((0, REPORT_SIZE))
+        self._one_row = np.empty((1, REPORT_SIZE))
+        # a grid model at one speed with no nuisance in its transition: whole batches in one compiled call
+        batch = getattr(model, "batch_transition", None)
+        plain = not (
+            self._follows or self._n_unbalance or self._n_viscosity or self._runout.vectors is not None
+        )
+        self._grid_batch = batch() if callable(batch) and plain else None
+        self._batch_next, self._batch_exogenous = np.zeros(n), np.zeros(3)
+        self._batch_transition, self._batch_flow_jacobian = np.zeros((n, n)), np.zeros((n, 2))
+        self._counters = np.zeros(N_COUNTERS, dtype=np.int64)
+        self._counters[COUNT_FIRST] = n
+        for index, block in ((COUNT_VISCOSITY, self._viscosity), (COUNT_UNBALANCE, self._unbalance)):
+            self._counters[index] = block.start if block.stop > block.start else -1
+        self._counters[COUNT_OFFSETS] = self._offsets.start if self._n_offsets else -1
 
         self._process_noise = np.zeros((self._size, self._size))
         self._process_noise[:n, :n] = self._physical(
@@ -247,7 +220,8 @@ class OilFlowEKF:
             walk = cfg.offset_random_walk_m_sqrt_s**2 * self._dt
             self._process_noise[self._offsets, self._offsets] = walk * np.eye(self._n_offsets)
         self._unbalance_walk = cfg.unbalance_random_walk_sqrt_s**2 * self._dt
-        self._unbalance_extra = cfg.unbalance_inconsistent_std**2
+        self._summary_settings[SUMMARY_UNBALANCE_WALK] = self._unbalance_walk
+        self._summary_settings[SUMMARY_UNBALANCE_EXTRA] = cfg.unbalance_inconsistent_std**2
         if self._n_unbalance:
             self._process_noise[self._unbalance, self._unbalance] = self._unbalance_walk * np.eye(2)
         if self._n_viscosity:
@@ -357,16 +331,42 @@ class OilFlowEKF:
             self.model.reset_operating_state()
         self._health, self._health_values = channels.new_health()
         self._operating = (getattr(self.model, "speed_hz", None), None)
-        self._step = 0
+        self._counters[COUNT_STEP] = self._counters[COUNT_SINCE_UPDATE] = 0
         self._history = np.zeros((self._window, 2))
-        self._since_update = 0
         self._nis_window = np.zeros((self._consistency_steps, 2))  # NIS and rows of each step
         self._nis_sums = np.zeros(2)
         self._changing = np.zeros(2, dtype=bool)
         self._process_noise[n : n + 2, n : n + 2] = self._q_var * np.eye(2)
-        self._last = (0.0, 0, False, False, True)
-        self.alarm = StarvationAlarm(cfg.alarm, self._dt, self._q_nominal)
-        self._refresh_summary()
+        self.alarm.clear()
+        self._set_last(0.0, 0, False, False, True)
+        # the compiled step's arguments after the sample's (estimator.step_kernel.ekf_step), in its order
+        self._arrays = (
+            self._x,
+            self._P,
+            self._trailing_jacobian,
+            self._process_noise,
+            self._jacobian,
+            self._work,
+            self._z8,
+            self._obs4,
+            self._noise4,
+            self._obs8,
+            self._noise8,
+            self._settings,
+            self._health,
+            self._health_values,
+            self._channel_settings,
+            self._accepted,
+            self._changing,
+            self._counters,
+            self._nis_window,
+            self._nis_sums,
+            self._history,
+            self._summary_settings,
+            self.alarm.record,
+            self.alarm.settings,
+            self._report,
+        )
 
     @property
     def flowrate_m3_s(self) -> np.ndarray:
@@ -438,28 +438,17 @@ class OilFlowEKF:
 
     def current_report(self) -> StepReport:
         """The report of the last processed sample, rebuilt from the state (e.g. after :meth:`set_state`)."""
-        nis, rows, ok, converged, consistent = self._last
-        return StepReport(
-            self._step - 1,
-            self.flowrate_m3_s,
-            self.flowrate_std_m3_s,
-            nis,
-            rows,
-            converged,
-            ok,
-            self.alarm.starved,
-            self._health[:, channels.STATUS].copy(),
-            consistent,
-            self._changing.copy(),
-            self.alarm.starved_consistent,
-            self.viscosity_factor,
-            self.viscosity_factor_std,
-        )
+        self._refresh_report()
+        return self._step_report(self.step_count - 1)
+
+    def _step_report(self, step: int) -> StepReport:
+        """The report of sample ``step``, on a copy of the report array (independent of the filter)."""
+        return ReportView(step, self._report.copy())
 
     @property
     def step_count(self) -> int:
         """Number of samples processed."""
-        return self._step
+        return int(self._counters[COUNT_STEP])
 
     def step(
         self,
@@ -476,101 +465,51 @@ class OilFlowEKF:
         (None: unchanged), and the keyphasor's ``rotor_angle_rad`` at the previous sample (None: the integral
         of the speed) go to a model that follows them; a model that does not accepts only its own speed.
         """
+        step = int(self._counters[COUNT_STEP])
+        self._advance(displacement_m, speed_hz, oil_temperature_c, rotor_angle_rad)
+        return self._step_report(step)
+
+    def _advance(
+        self,
+        displacement_m: np.ndarray,
+        speed_hz: float | None,
+        oil_temperature_c: float | None,
+        rotor_angle_rad: float | None,
+    ) -> None:
+        """:meth:`step` without its report: everything lands in ``self._report`` (a grid model at one speed
+        with no operating point given: the compiled batch of one sample, no Python between model and
+        filter)."""
         displacement = np.ascontiguousarray(displacement_m, dtype=np.float64)
         if displacement.shape != (4,):
             raise InputError(f"displacement_m must have shape (4,), got {displacement.shape}")
         if speed_hz is not None or oil_temperature_c is not None or rotor_angle_rad is not None:
             self._set_operating_point(speed_hz, oil_temperature_c, rotor_angle_rad)
+        if self._grid_batch is not None and speed_hz is None and oil_temperature_c is None:
+            self._run_grid_batch(displacement.reshape(1, 4), self._one_row)
+            return
+        step = int(self._counters[COUNT_STEP])
         if self._runout.vectors is not None:
             # the runout at this sample's rotor angle: the model's (integral of the measured speed, anchored
             # at the keyphasor) when it follows the operating point, else the nominal speed's
             angle_of = self._rotor_angle_of
-            angle = angle_of(self._first_step + self._step) if angle_of is not None else None
-            displacement = self._runout.compensate(displacement, self._step, angle)
-        step = self._step
+            angle = angle_of(self._first_step + step) if angle_of is not None else None
+            displacement = self._runout.compensate(displacement, step, angle)
         predict = step > 0
         if predict:
             next_state, state_jac, flow_jac = self._predict_with_model(self._first_step + step - 1)
+            next_state = np.ascontiguousarray(next_state, dtype=np.float64)
+            state_jac = np.ascontiguousarray(state_jac, dtype=np.float64)
+            flow_jac = np.ascontiguousarray(flow_jac, dtype=np.float64)
         else:
             n = self._n
             next_state, state_jac, flow_jac = self._x[:n], self._work[:n, :n], self._work[:n, :2]
-        status, nis, rows, _ = filter_step(
-            self._x,
-            self._P,
-            predict,
-            np.ascontiguousarray(next_state, dtype=np.float64),
-            np.ascontiguousarray(state_jac, dtype=np.float64),
-            np.ascontiguousarray(flow_jac, dtype=np.float64),
-            self._q_nominal,
-            self._trailing_jacobian,
-            self._process_noise,
-            self._jacobian,
-            self._work,
-            displacement,
-            self._z8,
-            self._obs4,
-            self._noise4,
-            self._obs8,
-            self._noise8,
-            self._settings,
-            self._health,
-            self._health_values,
-            self._channel_settings,
-            self._accepted,
-            self._changing,
-        )
-        ok = status == UPDATE_ACCEPTED
-        if not (ok and math.isfinite(nis)):
-            nis, rows = 0.0, 0
-        self._since_update = 0 if ok else self._since_update + 1
-        summary = self._summary
-        consistent, converged = step_summary(
-            self._x,
-            self._P,
-            self._n,
-            self._viscosity.start if self._n_viscosity else -1,
-            step,
-            self._since_update,
-            nis,
-            rows,
-            self._nis_window,
-            self._nis_sums,
-            self._history,
-            self._summary_settings,
-            summary,
-        )
-        if self._n_unbalance:
-            variance = self._unbalance_walk + (0.0 if consistent else self._unbalance_extra)
-            first = self._unbalance.start
-            self._process_noise[first, first] = self._process_noise[first + 1, first + 1] = variance
-        values = summary.copy()  # the report's arrays are views of this copy, independent of the filter
-        q = values[SUMMARY_FLOWRATE : SUMMARY_FLOWRATE + 2]
-        std = values[SUMMARY_STD : SUMMARY_STD + 2]
-        starved = self.alarm.update(q, std, consistent)
-        self._last = (nis, rows, ok, converged, consistent)
-        self._step = step + 1
-        return StepReport(
-            step,
-            q,
-            std,
-            nis,
-            rows,
-            converged,
-            ok,
-            starved,
-            self._health[:, channels.STATUS].copy(),
-            consistent,
-            self._changing.copy(),
-            self.alarm.starved_consistent,
-            values[SUMMARY_VISCOSITY : SUMMARY_VISCOSITY + 2],
-            values[SUMMARY_VISCOSITY_STD : SUMMARY_VISCOSITY_STD + 2],
-        )
+        ekf_step(predict, next_state, state_jac, flow_jac, displacement, *self._arrays)
 
     def _predict_with_model(self, model_step: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The model's transition from the current estimate to the next sample: ``(s_next, df/ds, df/dq)``,
         with the nuisance columns of the Jacobian (viscosity factors, unbalance) put into place."""
         n = self._n
-        flowrate = self._summary[SUMMARY_FLOWRATE : SUMMARY_FLOWRATE + 2]
+        flowrate = self._report[REPORT_FLOWRATE : REPORT_FLOWRATE + 2]
         trailing = self._trailing_jacobian
         if self._n_viscosity:
             factors = np.maximum(self._x[self._viscosity], MIN_VISCOSITY_FACTOR)
@@ -590,12 +529,41 @@ class OilFlowEKF:
             return next_state, state_jac, flow_jac
         return self.model.transition(self._x[:n], flowrate, model_step)
 
-    def _refresh_summary(self) -> None:
-        """The step summary from the state as it is (after a reset or a restored state): the flowrates the
-        next prediction starts from, and what :meth:`current_report` reads."""
-        n = self._n
-        self._summary[SUMMARY_FLOWRATE : SUMMARY_FLOWRATE + 2] = self._flowrate_si()
-        self._summary[SUMMARY_STD : SUMMARY_STD + 2] = np.sqrt(np.diag(self._P)[n : n + 2]) * self._q_nominal
+    def _refresh_report(self) -> None:
+        """The report array from the state as it is (after a reset or a restored state): the flowrates the
+        next prediction starts from, the nuisances and the flags :meth:`current_report` reads."""
+        report = self._report
+        report[REPORT_FLOWRATE : REPORT_FLOWRATE + 2] = self._flowrate_si()
+        report[REPORT_STD : REPORT_STD + 2] = self.flowrate_std_m3_s
+        report[REPORT_VISCOSITY : REPORT_VISCOSITY + 2] = self.viscosity_factor
+        report[REPORT_VISCOSITY_STD : REPORT_VISCOSITY_STD + 2] = self.viscosity_factor_std
+        report[REPORT_OFFSET : REPORT_OFFSET + 4] = self.offset_m
+        report[REPORT_OFFSET_STD : REPORT_OFFSET_STD + 4] = self.offset_std_m
+        report[REPORT_UNBALANCE : REPORT_UNBALANCE + 2] = self.unbalance
+        report[REPORT_UNBALANCE_STD : REPORT_UNBALANCE_STD + 2] = self.unbalance_std
+        report[REPORT_STARVED : REPORT_STARVED + 2] = self.alarm.starved
+        report[REPORT_STARVED_CONSISTENT : REPORT_STARVED_CONSISTENT + 2] = self.alarm.starved_consistent
+        report[REPORT_CHANGING : REPORT_CHANGING + 2] = self._changing
+        report[REPORT_STATUS : REPORT_STATUS + 4] = self._health[:, channels.STATUS]
+
+    def _set_last(self, nis: float, rows: int, ok: bool, converged: bool, consistent: bool) -> None:
+        """The last sample's scalars (a reset, a restored state) and the rest of the report from the state."""
+        report = self._report
+        report[REPORT_NIS], report[REPORT_ROWS], report[REPORT_OK] = nis, rows, ok
+        report[REPORT_CONVERGED], report[REPORT_CONSISTENT] = converged, consistent
+        self._refresh_report()
+
+    @property
+    def _last(self) -> tuple[float, int, bool, bool, bool]:
+        """(nis, n_measurements, measurement_ok, converged, model_consistent) of the last sample."""
+        report = self._report
+        return (
+            float(report[REPORT_NIS]),
+            int(report[REPORT_ROWS]),
+            bool(report[REPORT_OK]),
+            bool(report[REPORT_CONVERGED]),
+            bool(report[REPORT_CONSISTENT]),
+        )
 
     def _set_operating_point(
         self, speed_hz: float | None, oil_temperature_c: float | None, rotor_angle_rad: float | None
@@ -625,10 +593,72 @@ class OilFlowEKF:
         speed_hz: np.ndarray | None = None,
         oil_temperature_c: np.ndarray | None = None,
     ) -> EstimateTrace:
-        """Process a record of K samples (K, 4) [m] with :meth:`step`; return the per-step outputs.
+        """Process a record of K samples (K, 4) [m] as K :meth:`step` calls; return the per-step outputs.
 
         ``speed_hz`` and ``oil_temperature_c`` (K,), when given, are each sample's measured operating point
         (see :meth:`step`). ``progress(done, total)`` is called every 100 samples and at the end."""
+        record, operating = self._batch_inputs(displacements_m, speed_hz, oil_temperature_c)
+        count = record.shape[0]
+        trace = EstimateTrace.empty(count)
+        table = np.empty((count, REPORT_SIZE))
+        for start in range(0, count, 100):
+            if progress is not None:
+                progress(start, count)
+            stop = min(start + 100, count)
+            self._advance_rows(record, operating, start, stop, table)
+        if progress is not None:
+            progress(count, count)
+        trace.fill(table, count)
+        return trace
+
+    def run_batch(
+        self,
+        displacements_m: np.ndarray,
+        speed_hz: np.ndarray | None = None,
+        oil_temperature_c: np.ndarray | None = None,
+        out: EstimateTrace | None = None,
+    ) -> EstimateTrace:
+        """K samples (K, 4) [m] on from the filter's current state, bit-identical to K :meth:`step` calls,
+        without a StepReport per sample: the batch entry of ``oilwatch estimate``.
+
+        ``speed_hz`` [Hz] and ``oil_temperature_c`` [degC] (K,) as in :meth:`step`; a NaN entry means not
+        given for that sample (the model keeps the last value). ``out``: a trace of at least K rows whose
+        first K rows are filled and which is returned (no allocation per block); else a new trace."""
+        record, operating = self._batch_inputs(displacements_m, speed_hz, oil_temperature_c, missing=True)
+        count = record.shape[0]
+        if out is None:
+            out = EstimateTrace.empty(count)
+        elif out.q_m3_s.shape[0] < count:
+            raise InputError(f"out must have at least {count} rows, got {out.q_m3_s.shape[0]}")
+        table = self._batch_table
+        if table.shape[0] < count:
+            table = self._batch_table = np.empty((count, REPORT_SIZE))
+        self._advance_rows(record, operating, 0, count, table)
+        out.fill(table, count)
+        return out
+
+    def _run_grid_batch(self, record: np.ndarray, table: np.ndarray) -> None:
+        """:func:`estimator.step_kernel.grid_batch` on the record's rows (K, 4), reports into ``table``."""
+        transition, forcing, axes, omega, dt = self._grid_batch
+        grid_batch(
+            transition,
+            forcing,
+            axes,
+            omega,
+            dt,
+            self._first_step,
+            record,
+            table,
+            self._batch_next,
+            self._batch_transition,
+            self._batch_flow_jacobian,
+            self._batch_exogenous,
+            self._arrays,
+        )
+
+    def _batch_inputs(self, displacements_m, speed_hz, oil_temperature_c, missing: bool = False):
+        """The record (K, 4) and the per-sample operating point as lists of Python floats or None (or None
+        for a column not given); ``missing``: NaN entries are None."""
         record = np.asarray(displacements_m, dtype=np.float64)
         if record.ndim != 2 or record.shape[1] != 4:
             raise InputError(f"displacements_m must have shape (K, 4), got {record.shape}")
@@ -639,51 +669,33 @@ class OilFlowEKF:
                 values = np.asarray(values, dtype=float)
                 if values.shape != (count,):
                     raise InputError(f"{name} must have shape ({count},), got {values.shape}")
+                values = values.tolist()
+                if missing:
+                    values = [None if v != v else v for v in values]
             operating.append(values)
-        trace = EstimateTrace(
-            q_m3_s=np.zeros((count, 2)),
-            q_std_m3_s=np.zeros((count, 2)),
-            nis=np.zeros(count),
-            n_measurements=np.zeros(count, dtype=np.int64),
-            converged=np.zeros(count, dtype=bool),
-            measurement_ok=np.zeros(count, dtype=bool),
-            starved=np.zeros((count, 2), dtype=bool),
-            probe_status=np.zeros((count, 4), dtype=np.int64),
-            model_consistent=np.zeros(count, dtype=bool),
-            changing=np.zeros((count, 2), dtype=bool),
-            starved_consistent=np.zeros((count, 2), dtype=bool),
-            offset_m=np.zeros((count, 4)),
-            offset_std_m=np.zeros((count, 4)),
-            viscosity_factor=np.ones((count, 2)),
-            viscosity_factor_std=np.zeros((count, 2)),
-        )
-        for k in range(count):
-            if progress is not None and k % 100 == 0:
-                progress(k, count)
-            report = self.step(
+        return record, operating
+
+    def _advance_rows(self, record, operating, start: int, stop: int, table: np.ndarray) -> None:
+        """Samples ``start:stop`` of the record through :meth:`_advance`, each report into ``table``'s row
+        (all in one compiled call for a grid model at one speed with no operating point given)."""
+        advance, report = self._advance, self._report
+        speed, temperature = operating
+        if speed is None and temperature is None and self._grid_batch is not None:
+            self._run_grid_batch(np.ascontiguousarray(record[start:stop]), table[start:stop])
+            return
+        if speed is None and temperature is None:
+            for k in range(start, stop):
+                advance(record[k], None, None, None)
+                table[k] = report
+            return
+        for k in range(start, stop):
+            advance(
                 record[k],
-                None if operating[0] is None else float(operating[0][k]),
-                None if operating[1] is None else float(operating[1][k]),
+                None if speed is None else speed[k],
+                None if temperature is None else temperature[k],
+                None,
             )
-            trace.q_m3_s[k] = report.q_m3_s
-            trace.q_std_m3_s[k] = report.q_std_m3_s
-            trace.nis[k] = report.nis
-            trace.n_measurements[k] = report.n_measurements
-            trace.converged[k] = report.converged
-            trace.measurement_ok[k] = report.measurement_ok
-            trace.starved[k] = report.starved
-            trace.probe_status[k] = report.probe_status
-            trace.model_consistent[k] = report.model_consistent
-            trace.changing[k] = report.changing
-            trace.starved_consistent[k] = report.starved_consistent
-            if self._n_offsets:
-                trace.offset_m[k] = self.offset_m
-                trace.offset_std_m[k] = self.offset_std_m
-            trace.viscosity_factor[k] = report.viscosity_factor
-            trace.viscosity_factor_std[k] = report.viscosity_factor_std
-        if progress is not None:
-            progress(count, count)
-        return trace
+            table[k] = report
 
     def get_state(self) -> dict[str, np.ndarray]:
         """The complete filter state as copies of numpy arrays (restoring it continues bit-identically)."""

@@ -39,27 +39,41 @@ def predict_covariance(
     covariance : (N, N) P. state_jacobian : (n, n). flowrate_jacobian : (n, 2) per model flowrate unit;
     flowrate_scale c converts it to the filter's unit. unbalance_jacobian : (n, 0 or 2), the last columns.
     process_noise : (N, N) Q. augmented_jacobian, work : (N, N) scratch.
+
+    Only the first n rows of J differ from the identity, so with ``T = J[:n] P`` (n, N) the result is
+    ``P[:n, :n] = T J[:n]^T``, ``P[:n, n:] = T[:, n:]`` (and its transpose), ``P[n:, n:]`` unchanged: two
+    products of n x n x N instead of two of N^3.
     """
     n = state_jacobian.shape[0]
     size = covariance.shape[0]
     n_unbalance = unbalance_jacobian.shape[1]
+    top = augmented_jacobian[:n]  # J[:n], contiguous rows
     for i in range(n):
         for j in range(n):
-            augmented_jacobian[i, j] = state_jacobian[i, j]
+            top[i, j] = state_jacobian[i, j]
         for j in range(n, n + 2):
-            augmented_jacobian[i, j] = flowrate_jacobian[i, j - n] * flowrate_scale
+            top[i, j] = flowrate_jacobian[i, j - n] * flowrate_scale
         for j in range(n + 2, size - n_unbalance):
-            augmented_jacobian[i, j] = 0.0
+            top[i, j] = 0.0
         for j in range(n_unbalance):
-            augmented_jacobian[i, size - n_unbalance + j] = unbalance_jacobian[i, j]
-    for i in range(n, size):
-        for j in range(size):
-            augmented_jacobian[i, j] = 1.0 if i == j else 0.0
-    np.dot(augmented_jacobian, covariance, work)
-    np.dot(work, augmented_jacobian.T, covariance)
-    for i in range(size):
-        covariance[i, i] += process_noise[i, i]
+            top[i, size - n_unbalance + j] = unbalance_jacobian[i, j]
+    product = work[:n]  # T = J[:n] P, (n, N)
+    np.dot(top, covariance, product)
+    block = np.empty((n, n))
+    np.dot(product, top.T, block)
+    for i in range(n):
+        covariance[i, i] = block[i, i] + process_noise[i, i]
         for j in range(i):
+            value = 0.5 * (block[i, j] + block[j, i]) + process_noise[i, j]
+            covariance[i, j] = value
+            covariance[j, i] = value
+        for j in range(n, size):
+            value = product[i, j] + process_noise[i, j]
+            covariance[i, j] = value
+            covariance[j, i] = value
+    for i in range(n, size):
+        covariance[i, i] += process_noise[i, i]
+        for j in range(n, i):
             value = 0.5 * (covariance[i, j] + covariance[j, i]) + process_noise[i, j]
             covariance[i, j] = value
             covariance[j, i] = value
@@ -143,7 +157,7 @@ def update(
     )
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath={"reassoc", "contract"})
 def update_with_cross(
     state: np.ndarray,
     covariance: np.ndarray,
@@ -158,21 +172,33 @@ def update_with_cross(
     The Joseph form ``P+ = (I - K H) P (I - K H)^T + K R K^T`` is evaluated as
     ``A = P - K (H P)``, ``P+ = A + (K R - A H^T) K^T``, which costs O(m N^2) instead of O(N^3); the second
     term vanishes in exact arithmetic for the optimal gain and is what makes the form insensitive to gain
-    errors.
+    errors. The products are loops over contiguous rows (m <= 8 is too thin for BLAS to pay); reassociation
+    lets the compiler vectorize them (a few ulps from sequential sums).
     """
     m = observation.shape[0]
     size = state.shape[0]
-    innovation_cov = np.dot(cross, observation.T) + measurement_noise
+    innovation_cov = np.empty((m, m))
     for i in range(m):
+        for j in range(i + 1):
+            value = 0.0
+            for c in range(size):
+                value += cross[i, c] * observation[j, c]
+            innovation_cov[i, j] = value
+    for i in range(m):  # symmetric: the lower triangle, mirrored
         for j in range(i):
-            value = 0.5 * (innovation_cov[i, j] + innovation_cov[j, i])
+            value = innovation_cov[i, j] + 0.5 * (measurement_noise[i, j] + measurement_noise[j, i])
             innovation_cov[i, j] = value
             innovation_cov[j, i] = value
-    innovation = measurement - np.dot(observation, state)
-    lower = innovation_cov.copy()
+        innovation_cov[i, i] += measurement_noise[i, i]
+    whitened = np.empty((m, 1))
+    for i in range(m):
+        value = measurement[i]
+        for c in range(size):
+            value -= observation[i, c] * state[c]
+        whitened[i, 0] = value
+    lower = innovation_cov
     if not _cholesky_lower(lower):
         return UPDATE_NOT_POSITIVE, np.inf
-    whitened = innovation.reshape(m, 1).copy()
     _solve_lower_inplace(lower, whitened)
     nis = 0.0
     for i in range(m):
@@ -183,14 +209,38 @@ def update_with_cross(
     gain_t = cross.copy()  # becomes K^T = S^-1 H P, (m, N)
     _solve_lower_inplace(lower, gain_t)
     _solve_upper_transposed_inplace(lower, gain_t)
-    for j in range(size):
-        correction = 0.0
-        for i in range(m):
-            correction += cross[i, j] * whitened[i, 0]
-        state[j] += correction
-    reduced = covariance - np.dot(gain_t.T, cross)  # A = (I - K H) P
-    residual = np.dot(gain_t.T, measurement_noise) - np.dot(reduced, observation.T)  # K R - A H^T
-    covariance[:, :] = reduced + np.dot(residual, gain_t)
+    for i in range(m):
+        weight = whitened[i, 0]
+        for j in range(size):
+            state[j] += cross[i, j] * weight
+    # A = P - K (H P), in place in P
+    for i in range(size):
+        row = covariance[i]
+        for k in range(m):
+            gain = gain_t[k, i]
+            cross_row = cross[k]
+            for j in range(size):
+                row[j] -= gain * cross_row[j]
+    # residual = K R - A H^T, (N, m)
+    residual = np.empty((size, m))
+    for i in range(size):
+        row = covariance[i]
+        for k in range(m):
+            value = 0.0
+            for c in range(m):
+                value += gain_t[c, i] * measurement_noise[c, k]
+            h_row = observation[k]
+            for j in range(size):
+                value -= row[j] * h_row[j]
+            residual[i, k] = value
+    # P+ = A + residual K^T
+    for i in range(size):
+        row = covariance[i]
+        for k in range(m):
+            weight = residual[i, k]
+            gain_row = gain_t[k]
+            for j in range(size):
+                row[j] += weight * gain_row[j]
     for i in range(size):
         for j in range(i):
             value = 0.5 * (covariance[i, j] + covariance[j, i])
@@ -369,85 +419,3 @@ def detect_change(
         fires = statistic / settings[3] > settings[4] and settings[1] < q < settings[2]
         changing[b] = fires
         process_noise[first + b, first + b] = settings[5] + (settings[6] if fires else 0.0)
-
-
-# the layout of the step summary (:func:`step_summary`)
-SUMMARY_FLOWRATE, SUMMARY_STD, SUMMARY_VISCOSITY, SUMMARY_VISCOSITY_STD = 0, 2, 4, 6
-SUMMARY_SIZE = 8
-# the settings array of :func:`step_summary`
-(
-    SUMMARY_Q_NOMINAL,
-    SUMMARY_Q_LOW,
-    SUMMARY_Q_HIGH,
-    SUMMARY_CONSISTENCY_Z,
-    SUMMARY_CONVERGED_STD,
-    SUMMARY_CONVERGED_DRIFT,
-) = range(6)
-N_SUMMARY_SETTINGS = 6
-
-
-@njit(cache=True)
-def step_summary(
-    state: np.ndarray,
-    covariance: np.ndarray,
-    first: int,
-    viscosity: int,
-    step: int,
-    since_update: int,
-    nis: float,
-    rows: int,
-    nis_window: np.ndarray,
-    nis_sums: np.ndarray,
-    history: np.ndarray,
-    settings: np.ndarray,
-    summary: np.ndarray,
-) -> tuple[bool, bool]:
-    """What the filter reports after the update of sample ``step``, in place: the windowed NIS test and the
-    convergence rule of :mod:`estimator.ekf`, and the SI estimates.
-
-    first : index of q1 / q_nominal in the state; viscosity : index of the first viscosity factor (-1: not
-    estimated). since_update : samples since the last accepted update, this one included. nis, rows : of
-    this sample (0 when it made no update). nis_window (C, 2), nis_sums (2,), history (W, 2) : the ring
-    buffers, advanced here. settings : the SUMMARY_* values. summary : (SUMMARY_SIZE,) out, the flowrates
-    clipped to the table [m^3/s], their stds, the viscosity factors and their stds (1 and 0 if not
-    estimated). Returns ``(model_consistent, converged)``.
-    """
-    slot = step % nis_window.shape[0]
-    nis_sums[0] += nis - nis_window[slot, 0]
-    nis_sums[1] += rows - nis_window[slot, 1]
-    nis_window[slot, 0] = nis
-    nis_window[slot, 1] = rows
-    dof = nis_sums[1]
-    consistent = True
-    if not (step + 1 < nis_window.shape[0] or dof < 1.0):
-        # Wilson-Hilferty: chi2 quantile ~ dof (1 - 2/(9 dof) + z sqrt(2/(9 dof)))^3
-        c = 2.0 / (9.0 * dof)
-        consistent = nis_sums[0] <= dof * (1.0 - c + settings[SUMMARY_CONSISTENCY_Z] * np.sqrt(c)) ** 3.0
-    scale = settings[SUMMARY_Q_NOMINAL]
-    low, high = settings[SUMMARY_Q_LOW], settings[SUMMARY_Q_HIGH]
-    window = history.shape[0]
-    slot = step % window
-    drift = 0.0
-    largest = 0.0
-    for b in range(2):
-        scaled = state[first + b]
-        deviation = np.sqrt(covariance[first + b, first + b])
-        drift = max(drift, abs(scaled - history[slot, b]))
-        history[slot, b] = scaled
-        largest = max(largest, deviation)
-        # clipped in SI as well: the round trip through the scaled unit may leave a bound by one ulp
-        summary[SUMMARY_FLOWRATE + b] = min(max(scaled * scale, low), high)
-        summary[SUMMARY_STD + b] = deviation * scale
-        if viscosity >= 0:
-            summary[SUMMARY_VISCOSITY + b] = state[viscosity + b]
-            summary[SUMMARY_VISCOSITY_STD + b] = np.sqrt(covariance[viscosity + b, viscosity + b])
-        else:
-            summary[SUMMARY_VISCOSITY + b] = 1.0
-            summary[SUMMARY_VISCOSITY_STD + b] = 0.0
-    converged = (
-        step >= window
-        and since_update < window
-        and largest < settings[SUMMARY_CONVERGED_STD]
-        and drift < settings[SUMMARY_CONVERGED_DRIFT]
-    )
-    return consistent, converged

@@ -31,6 +31,8 @@ import numpy as np
 
 from models.validation import InputError
 
+from .step_kernel import COUNT_SINCE_UPDATE, COUNT_STEP
+
 if TYPE_CHECKING:
     from .ekf import OilFlowEKF
 
@@ -43,8 +45,8 @@ def export_state(ekf: OilFlowEKF) -> dict[str, np.ndarray]:
         "P": ekf._P.copy(),
         "health": ekf._health.copy(),
         "health_values": ekf._health_values.copy(),
-        "step": np.array(ekf._step, dtype=np.int64),
-        "since_update": np.array(ekf._since_update, dtype=np.int64),
+        "step": np.array(ekf.step_count, dtype=np.int64),
+        "since_update": np.array(ekf._counters[COUNT_SINCE_UPDATE], dtype=np.int64),
         "q_history": ekf._history.copy(),
         "nis_window": ekf._nis_window.copy(),
         "nis_sums": ekf._nis_sums.copy(),
@@ -84,8 +86,8 @@ def import_state(ekf: OilFlowEKF, state: dict[str, np.ndarray]) -> None:
     ekf._P[:, :] = covariance
     ekf._health[:, :] = _checked(state, "health", ekf._health.shape)
     ekf._health_values[:, :] = _checked(state, "health_values", ekf._health_values.shape)
-    ekf._step = int(_checked(state, "step", ()))
-    ekf._since_update = int(_checked(state, "since_update", ()))
+    ekf._counters[COUNT_STEP] = int(_checked(state, "step", ()))
+    ekf._counters[COUNT_SINCE_UPDATE] = int(_checked(state, "since_update", ()))
     ekf._history[:, :] = _checked(state, "q_history", ekf._history.shape)
     ekf._nis_window[:, :] = _checked(state, "nis_window", ekf._nis_window.shape)
     ekf._nis_sums[:] = _checked(state, "nis_sums", (2,))
@@ -94,9 +96,8 @@ def import_state(ekf: OilFlowEKF, state: dict[str, np.ndarray]) -> None:
     ekf._process_noise[n, n], ekf._process_noise[n + 1, n + 1] = float(noise[0]), float(noise[1])
     ekf._changing[:] = _checked(state, "changing", (2,))
     nis, rows, ok, converged, consistent = _checked(state, "last", (5,))
-    ekf._last = (float(nis), int(rows), bool(ok), bool(converged), bool(consistent))
     ekf.alarm.set_state(state)
-    ekf._refresh_summary()
+    ekf._set_last(float(nis), int(rows), bool(ok), bool(converged), bool(consistent))
     if "operating" in state:
         has_speed, speed, has_temperature, temperature = (
             float(v) for v in _checked(state, "operating", (4,))

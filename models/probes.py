@@ -8,7 +8,7 @@ Read from :attr:`models.machine.Machine.raw` (the section is optional; every key
     # x1.angle_deg = 30.0            # or each probe's own angle (the recorded-data reader's per-probe key)
     offset_prior_std_um = 25.0       # std of each probe's zero offset before any baseline
     offset_random_walk_um_sqrt_s = 0.2   # drift of the offsets within a run [um / sqrt(s)]
-    offset_drift_um_per_day = 0.0    # bound on the zero drift since a commissioning baseline [um / day]
+    offset_drift_um_per_day = 0.1    # bound on the zero drift since a commissioning baseline [um / day]
     # x1.runout_1x_um = 2.0          # a probe's slow-roll (runout) vectors when known from the field's own
     # x1.runout_1x_phase_deg = 30.0  # slow-roll measurement: 1x and 2x amplitude, phase from the keyphasor
     # x1.runout_1x_std_um = 0.05     # and each component's std (keys runout_{1x,2x}_{um,phase_deg,std_um})
@@ -23,7 +23,11 @@ the key that replaces it.
 The offsets' prior: the bearing centre is known only from the cold-rest position and a clearance with a
 tolerance, so zero offsets of 10-25 um are ordinary. A baseline's offsets are widened by
 ``offset_drift_um_per_day`` times the days since it (``estimator.config.OffsetBaseline``): the within-run
-random walk is no model of months (0.2 um/sqrt(s) is 59 um after a day).
+random walk is no model of months (0.2 um/sqrt(s) is 59 um after a day). The default drift bound, 0.1
+um/day: API 670 allows a probe, cable and driver set a deviation from its straight line of +-25 um (1 mil)
+over 0-45 degC, and a seasonal swing of about 20 degC over about 90 days moves a zero by up to
+25 um x 20/45 / 90 days = 0.12 um/day; a baseline a month old is then trusted to 3 um (``oilwatch
+robustness``'s offsets-step case).
 
 Runout: :attr:`Probes.runout` holds the per-probe ``runout_*`` keys as the lists a baseline file stores
 (``estimator.runout.SlowRollVectors.from_document`` reads it: :func:`estimator.runout.runout_of_probes`);
@@ -41,7 +45,7 @@ from .validation import InputError, require_in_range
 LAYOUTS = {"xy": (0.0, 90.0), "api670": (45.0, 135.0)}
 """Mounting angles (X probe, Y probe) [deg] of the named layouts, counter-clockwise from the model's +x."""
 
-DEFAULTS = {"offset_prior_std_um": 25.0, "offset_random_walk_um_sqrt_s": 0.2, "offset_drift_um_per_day": 0.0}
+DEFAULTS = {"offset_prior_std_um": 25.0, "offset_random_walk_um_sqrt_s": 0.2, "offset_drift_um_per_day": 0.1}
 
 RUNOUT_KEYS = {
     "runout_1x_um": (0.0, 100.0),

@@ -66,3 +66,25 @@ def test_a_chain_applied_to_the_shared_true_motion_is_the_plant_with_that_chain(
     )
     direct = np.array([plant.step(q).measured_position_m for _ in range(len(measured))])
     assert np.array_equal(measured, direct, equal_nan=True)
+
+
+def test_the_offset_step_case_moves_the_offsets_since_a_baseline_its_age_trusts_to_3_um():
+    from estimator.config import OffsetBaseline
+    from models.machine import load_machine
+    from models.probes import read_probes
+    from oilwatch.robustness.cases import BASELINE_AGE_DAYS, DRIFT_M, case_by_name, probe_errors
+
+    case = case_by_name("offsets-step")
+    before = np.array([p.zero_offset_m for p in probe_errors(case, 1, 60.0, after_baseline=False)])
+    after = np.array([p.zero_offset_m for p in probe_errors(case, 1, 60.0, after_baseline=True)])
+    assert np.allclose(np.abs(after - before), DRIFT_M)
+    assert all(p.zero_drift_m_s == 0.0 for p in probe_errors(case, 1, 60.0, after_baseline=True))
+    # the turbine's [probes] drift rate times the baseline's age widens the offsets' prior to 3 um
+    drift = read_probes(load_machine(None)).offset_drift_m_per_day
+    baseline = OffsetBaseline(
+        offsets_m=(0.0,) * 4,
+        std_m=(1e-12,) * 4,
+        age_s=BASELINE_AGE_DAYS * 86400.0,
+        drift_m_per_day=drift,
+    )
+    assert np.allclose(baseline.offset_prior_std_m(), DRIFT_M, rtol=1e-6)

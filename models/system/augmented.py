@@ -191,6 +191,13 @@ class GridAugmentedModel(_AugmentedModelBase):
             self._flow_jacobian,
         )
 
+    def batch_transition(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, float]:
+        """``(transition, forcing, axes, Omega [rad/s], dt [s])``: what a compiled loop needs to evaluate
+        :meth:`transition` without calling back into Python: ``interpolate_map(transition, forcing, axes,
+        s, w, q1, q2, ...)`` of :mod:`models.system.flowrate_grid` with ``w = [1, cos(Omega t), sin(Omega
+        t)]``, ``t = step dt``."""
+        return (*self.grid.kernel_arrays, float(self.system.omega_rad_s), float(self.dt_s))
+
     def harmonic_forcing(self, flowrate_m3_s: np.ndarray) -> np.ndarray:
         """The harmonic input columns (n, 2) of ``G`` at the grid node nearest to the flowrates."""
         return self.grid.forcing[self._node(0, flowrate_m3_s[0]), self._node(1, flowrate_m3_s[1]), :, 1:]

@@ -101,19 +101,29 @@ class FlowrateGrid:
         ``exogenous`` is ``w_k = [1, cos(Omega t_k), sin(Omega t_k)]``. Flowrates outside the grid raise
         InputError. The ``out_*`` arrays, when given, are filled in place (no allocation in a step loop).
         """
+        self.check_flowrates(q1_m3_s, q2_m3_s)
+        n = self.n_states
+        nxt = np.empty(n) if out_next is None else out_next
+        ad = np.empty((n, n)) if out_transition is None else out_transition
+        jq = np.empty((n, 2)) if out_flow_jacobian is None else out_flow_jacobian
+        axes = self._axes
+        interpolate_map(self.transition, self.forcing, axes, state, exogenous, q1_m3_s, q2_m3_s, nxt, ad, jq)
+        return nxt, ad, jq
+
+    def check_flowrates(self, q1_m3_s: float, q2_m3_s: float) -> None:
+        """InputError unless (q1, q2) [m^3/s] lies on the grid."""
         q1_min, q1_max, q2_min, q2_max = self._limits
         if not (q1_min <= q1_m3_s <= q1_max and q2_min <= q2_m3_s <= q2_max):
             raise InputError(
                 f"flowrates (q1, q2) = ({q1_m3_s * 6e7:.1f}, {q2_m3_s * 6e7:.1f}) ml/min must lie in "
                 f"[{q1_min * 6e7:.1f}, {q1_max * 6e7:.1f}] x [{q2_min * 6e7:.1f}, {q2_max * 6e7:.1f}] ml/min"
             )
-        n = self.n_states
-        nxt = np.empty(n) if out_next is None else out_next
-        ad = np.empty((n, n)) if out_transition is None else out_transition
-        jq = np.empty((n, 2)) if out_flow_jacobian is None else out_flow_jacobian
-        axes = self._axes
-        _interpolate(self.transition, self.forcing, axes, state, exogenous, q1_m3_s, q2_m3_s, nxt, ad, jq)
-        return nxt, ad, jq
+
+    @cached_property
+    def kernel_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(transition, forcing, axes)``: the arguments of :func:`interpolate_map` that describe the grid,
+        for compiled callers that fuse the interpolation into their own step."""
+        return self.transition, self.forcing, self._axes
 
     @cached_property
     def _limits(self) -> tuple[float, float, float, float]:
@@ -130,7 +140,9 @@ class FlowrateGrid:
 # Reassociation lets the compiler vectorize the row sums (results differ from the sequential sums by a few
 # ulps); no other fast-math assumption (NaN and infinity keep their meaning).
 @numba.njit(cache=True, fastmath={"reassoc", "contract"})
-def _interpolate(transition, forcing, axes, state, exogenous, q1, q2, nxt, ad, jq):  # pragma: no cover
+def interpolate_map(transition, forcing, axes, state, exogenous, q1, q2, nxt, ad, jq):  # pragma: no cover
+    """Into ``nxt``, ``ad``, ``jq``: the interpolated ``A_d s + G w``, ``A_d`` and the flowrate Jacobian at
+    (q1, q2), from the grid arrays of :attr:`FlowrateGrid.kernel_arrays`."""
     h1, h2 = axes[1], axes[4]
     i, t1 = _cell(q1, axes[0], h1, int(axes[2]))
     j, t2 = _cell(q2, axes[3], h2, int(axes[5]))

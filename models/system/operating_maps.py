@@ -63,6 +63,14 @@ class OperatingMaps:
         self._loads = system.static_loads_n
         self._mass_lu = lu_factor(system.mass)
         self._slices: dict[tuple[float, float, float], object] = {}
+        # M^-1 of what the block's rows are linear in, once: the rotor's stiffness, structural damping,
+        # gyroscopic matrix and gravity, and each bearing's map P_b^T (a block is then small products)
+        mass_lu = self._mass_lu
+        self._minv_stiffness = lu_solve(mass_lu, system.stiffness)
+        self._minv_damping = lu_solve(mass_lu, self._structural_damping)
+        self._minv_gyroscopic = lu_solve(mass_lu, system.gyroscopic)
+        self._minv_gravity = lu_solve(mass_lu, system.gravity_force)
+        self._minv_maps = [lu_solve(mass_lu, p.T) for p in system.bearing_maps]
 
     def _slice(self, speed_hz: float, viscosity_pa_s: float, load_n: float, synchronous: bool = False):
         key = (speed_hz, viscosity_pa_s, load_n, synchronous)
@@ -85,24 +93,27 @@ class OperatingMaps:
         return max(r[0] for r in ranges), min(r[1] for r in ranges)
 
     def block(self, flowrates_m3_s, speed_hz: float, viscosities_pa_s) -> np.ndarray:
-        """The continuous block (2n + 3, 2n + 3) of the exact map at the operating point."""
+        """The continuous block (2n + 3, 2n + 3) of the exact map at the operating point.
+
+        Its rows ``M^-1 [-K, -C, loads]`` are sums of the rotor's part (precomputed) and each bearing's
+        ``M^-1 P_b^T (k_b, c_b, load_b + k_b e_b)`` (``P_b`` its 2 x n map)."""
         sys = self.system
         n = self._n
         omega = 2.0 * math.pi * speed_hz
-        damping = self._structural_damping + omega * sys.gyroscopic
-        stiffness = sys.stiffness.copy()
-        force = sys.gravity_force.copy()
+        minv_stiffness = self._minv_stiffness.copy()
+        minv_damping = self._minv_damping + omega * self._minv_gyroscopic
+        minv_force = self._minv_gravity.copy()
         nb = len(self._loads)
         z_dynamics = np.zeros((2 * nb, 2 * nb), dtype=complex)
         z_synchronous = np.zeros((2 * nb, 2 * nb), dtype=complex)
-        for b, (p, q, mu, load) in enumerate(
-            zip(sys.bearing_maps, flowrates_m3_s, viscosities_pa_s, self._loads, strict=True)
+        for b, (p, minv_p, q, mu, load) in enumerate(
+            zip(sys.bearing_maps, self._minv_maps, flowrates_m3_s, viscosities_pa_s, self._loads, strict=True)
         ):
             row = self._slice(speed_hz, mu, load).rows(np.array([q]))[0]
             k, c = row[2:6].reshape(2, 2), row[6:10].reshape(2, 2)
-            stiffness += p.T @ k @ p
-            damping += p.T @ c @ p
-            force += p.T @ (np.array([0.0, load]) + k @ row[0:2])
+            minv_stiffness += (minv_p @ k) @ p
+            minv_damping += (minv_p @ c) @ p
+            minv_force += minv_p @ (np.array([0.0, load]) + k @ row[0:2])
             if self.synchronous_table is not None:
                 pair = slice(2 * b, 2 * b + 2)
                 z_dynamics[pair, pair] = k + 1j * omega * c
@@ -116,11 +127,12 @@ class OperatingMaps:
         unbalance = unbalance * (omega / self._reference_omega) ** 2
         block = np.zeros((2 * n + 3, 2 * n + 3))
         block[:n, n : 2 * n] = np.eye(n)
-        mass_lu = self._mass_lu
-        block[n : 2 * n, :n] = -lu_solve(mass_lu, stiffness)
-        block[n : 2 * n, n : 2 * n] = -lu_solve(mass_lu, damping)
-        loads = np.column_stack([force, unbalance.real, -unbalance.imag])
-        block[n : 2 * n, 2 * n :] = lu_solve(mass_lu, loads)
+        block[n : 2 * n, :n] = -minv_stiffness
+        block[n : 2 * n, n : 2 * n] = -minv_damping
+        block[n : 2 * n, 2 * n] = minv_force
+        block[n : 2 * n, 2 * n + 1 :] = lu_solve(
+            self._mass_lu, np.column_stack([unbalance.real, -unbalance.imag])
+        )
         block[2 * n + 1, 2 * n + 2] = -omega
         block[2 * n + 2, 2 * n + 1] = omega
         return block

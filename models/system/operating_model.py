@@ -43,7 +43,8 @@ from ..bearing.operating_table import operating_table_path
 from ..machine import Machine
 from ..oil import Oil
 from ..validation import InputError, require_positive
-from .augmented import GridAugmentedModel, rotate_harmonic_columns
+from .augmented import GridAugmentedModel
+from .flowrate_grid import interpolate_map
 from .operating_maps import OperatingMaps
 from .operating_point import ConditionedTable, operating_table_of
 from .rotor_bearing import RotorBearingSystem
@@ -123,6 +124,12 @@ class OperatingAugmentedModel:
         self._centre_step = NEVER
         self._viscosity_jacobian = np.zeros((n, 2))
         self._unbalance_jacobian = np.zeros((n, 2))
+        self._next = np.zeros(n)
+        self._transition = np.zeros((n, n))
+        self._flow_jacobian = np.zeros((n, 2))
+        self._w = np.zeros(3)
+        self._no_unbalance = np.zeros(0)
+        self._grid = reference.grid
         self.recentre_count = 0
         self._speed = float(self.speed_hz)
         self._log_oil_viscosity = self._log_mu0
@@ -157,13 +164,17 @@ class OperatingAugmentedModel:
         self._keyphasor = None if rotor_angle_rad is None else float(rotor_angle_rad)
 
     def reset_operating_state(self) -> None:
-        """Back to the reference operating point with the phase at zero at step 0 (the filter's reset)."""
+        """Back to the state of a model just built (the filter's reset): the reference operating point, the
+        phase at zero at step 0 and no correction centre, so that what ran before leaves no trace (the next
+        transition away from the reference re-centres at its own point)."""
         self._speed = float(self.speed_hz)
         self._log_oil_viscosity = self._log_mu0
         self._anchor = (0, 0.0)
         self._last_step = None
         self._keyphasor = None
         self._centre_step = NEVER
+        self._centre = None
+        self._centre_values = ()
 
     def get_operating_state(self) -> dict[str, np.ndarray]:
         """What the next transitions depend on besides their arguments (for an FMU state): copies."""
@@ -211,12 +222,16 @@ class OperatingAugmentedModel:
 
     def exogenous(self, step: int) -> np.ndarray:
         """``w_k = [1, cos(phi_k), sin(phi_k)]``, phi_k the integral of the speed (or the keyphasor's)."""
+        phase = self._transition_phase(step)
+        return np.array([1.0, math.cos(phase), math.sin(phase)])
+
+    def _transition_phase(self, step: int) -> float:
+        """phi_k of the transition from ``step``, which anchors a keyphasor angle given for it."""
         if self._keyphasor is not None:
             self._anchor = (step, self._keyphasor)
             self._keyphasor = None
         self._last_step = step
-        phase = self._phase_at(step)
-        return np.array([1.0, math.cos(phase), math.sin(phase)])
+        return self._phase_at(step)
 
     # ------------------------------------------------------------------ maps
     def physical_covariance(self, displacement_std_m: float, velocity_std_m_s: float) -> np.ndarray:
@@ -248,48 +263,62 @@ class OperatingAugmentedModel:
         phase's (the phase is then left alone). The arrays are reused on the next call.
         """
         q1, q2 = float(flowrate_m3_s[0]), float(flowrate_m3_s[1])
-        f1, f2 = (1.0, 1.0) if viscosity_factor is None else map(float, viscosity_factor)
-        if not (f1 > 0.0 and f2 > 0.0):
-            raise InputError(f"viscosity factors must be > 0, got ({f1:g}, {f2:g})")
-        w = self.exogenous(step) if exogenous is None else exogenous
-        cosine, sine = float(w[1]), float(w[2])
-        loaded = w
-        if unbalance is not None:
-            a, b = float(unbalance[0]), float(unbalance[1])
-            loaded = np.array([1.0, a * cosine - b * sine, a * sine + b * cosine])
-        nxt, ad, jq = self.reference.propagate(state, loaded, flowrate_m3_s)
+        if viscosity_factor is None:
+            f1 = f2 = 1.0
+        else:
+            f1, f2 = float(viscosity_factor[0]), float(viscosity_factor[1])
+            if not (f1 > 0.0 and f2 > 0.0):
+                raise InputError(f"viscosity factors must be > 0, got ({f1:g}, {f2:g})")
+        w = self._w
+        if exogenous is None:
+            phase = self._transition_phase(step)
+            w[0], w[1], w[2] = 1.0, math.cos(phase), math.sin(phase)
+        else:
+            w[:] = exogenous
+        self._grid.check_flowrates(q1, q2)
         log_mu = self._log_oil_viscosity
         point = (q1, q2, self._speed, log_mu + math.log(f1), log_mu + math.log(f2))
         at_reference = point[2] == self.speed_hz and point[3] == self._log_mu0 and point[4] == self._log_mu0
         coefficients = self._coefficients
-        if at_reference and viscosity_factor is None:
-            jf = None  # today's model exactly
-        else:
+        correct = not (at_reference and viscosity_factor is None)  # else today's model exactly
+        if correct:
             distance = self._distance(point)
             if distance > self.recentring.hard_factor or (
                 distance > 1.0 and step - self._centre_step >= self.recentring.min_interval_steps
             ):
                 self._recentre(np.array(point))
                 self._centre_step = step
-            coefficients[0] = 0.0 if at_reference else 1.0
             if at_reference:
-                coefficients[1:] = 0.0
+                coefficients[:] = 0.0
             else:
-                centre = self._centre_values
-                for i in range(5):
-                    coefficients[i + 1] = point[i] - centre[i]
-            jf = self._viscosity_jacobian
-            _apply_correction(
-                self._corrections_a, self._corrections_g, coefficients, state, loaded, nxt, ad, jq, jf, f1, f2
-            )
-        if unbalance is None:
-            return nxt, ad, jq, jf, None
-        harmonic = self.reference.harmonic_forcing(flowrate_m3_s)
-        if not at_reference:
-            harmonic = _corrected_harmonic(harmonic, coefficients, self._corrections_g)
-        ju = self._unbalance_jacobian
-        rotate_harmonic_columns(harmonic, cosine, sine, ju)
-        return nxt, ad, jq, jf, ju
+                c0, c1, c2, c3, c4 = self._centre_values
+                coefficients[:] = (1.0, q1 - c0, q2 - c1, point[2] - c2, point[3] - c3, point[4] - c4)
+        transition, forcing, axes = self._grid.kernel_arrays
+        nxt, ad, jq = self._next, self._transition, self._flow_jacobian
+        jf, ju = self._viscosity_jacobian, self._unbalance_jacobian
+        _operating_transition(
+            transition,
+            forcing,
+            axes,
+            np.ascontiguousarray(state, dtype=np.float64),
+            w,
+            self._no_unbalance if unbalance is None else np.ascontiguousarray(unbalance, dtype=np.float64),
+            q1,
+            q2,
+            self._corrections_a,
+            self._corrections_g,
+            coefficients,
+            correct,
+            not at_reference,
+            nxt,
+            ad,
+            jq,
+            jf,
+            ju,
+            f1,
+            f2,
+        )
+        return nxt, ad, jq, (jf if correct else None), (None if unbalance is None else ju)
 
     def _distance(self, point: tuple[float, ...]) -> float:
         """How far ``point`` is from the centre, in thresholds (largest axis; inf without a centre)."""
@@ -390,16 +419,63 @@ def _apply_correction(ca, cg, coefficients, state, w, nxt, ad, jq, jf, f1, f2): 
 
 
 @numba.njit(cache=True)
-def _corrected_harmonic(harmonic, coefficients, cg):  # pragma: no cover - compiled
-    """The harmonic input columns (n, 2) of the corrected map: ``G_h + sum_k c_k G_k[:, 1:]``."""
-    out = np.empty_like(harmonic)
-    for r in range(harmonic.shape[0]):
-        for col in range(2):
-            value = 0.0
+def _operating_transition(
+    transition,
+    forcing,
+    axes,
+    state,
+    w,
+    unbalance,
+    q1,
+    q2,
+    ca,
+    cg,
+    coefficients,
+    correct,
+    harmonic,
+    nxt,
+    ad,
+    jq,
+    jf,
+    ju,
+    f1,
+    f2,
+):  # pragma: no cover - compiled
+    """The whole transition in one call: the loaded input ``w`` (rotated by the unbalance (a, b) when it
+    has 2 entries), the reference grid's interpolation (:func:`interpolate_map`), the correction when
+    ``correct`` (:func:`_apply_correction`), and for an unbalance its Jacobian ``ju`` from the harmonic
+    columns of G at the nearest grid node, corrected when ``harmonic``."""
+    loaded = np.empty(3)
+    loaded[0] = w[0]
+    with_unbalance = unbalance.shape[0] == 2
+    if with_unbalance:
+        a, b = unbalance[0], unbalance[1]
+        loaded[1] = a * w[1] - b * w[2]
+        loaded[2] = a * w[2] + b * w[1]
+    else:
+        loaded[1] = w[1]
+        loaded[2] = w[2]
+    interpolate_map(transition, forcing, axes, state, loaded, q1, q2, nxt, ad, jq)
+    if correct:
+        _apply_correction(ca, cg, coefficients, state, loaded, nxt, ad, jq, jf, f1, f2)
+    if not with_unbalance:
+        return
+    # the harmonic input columns at the grid node nearest to the flowrates (ghost layer included)
+    i = 1 + min(max(round((q1 - axes[0]) / axes[1]), 0), int(axes[2]) - 1)
+    j = 1 + min(max(round((q2 - axes[3]) / axes[4]), 0), int(axes[5]) - 1)
+    cosine, sine = w[1], w[2]
+    for r in range(nxt.shape[0]):
+        g1, g2 = forcing[i, j, r, 1], forcing[i, j, r, 2]
+        if harmonic:
+            c1 = 0.0
+            c2 = 0.0
             for k in range(coefficients.shape[0]):
-                value += coefficients[k] * cg[k, r, col + 1]
-            out[r, col] = harmonic[r, col] + value
-    return out
+                c1 += coefficients[k] * cg[k, r, 1]
+                c2 += coefficients[k] * cg[k, r, 2]
+            g1 += c1
+            g2 += c2
+        ju[r, 0] = g1 * cosine + g2 * sine
+        ju[r, 1] = g2 * cosine - g1 * sine
 
 
 REFERENCE_TABLES = ("flowrate", "dimensionless")

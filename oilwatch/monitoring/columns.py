@@ -8,7 +8,7 @@ import dataclasses
 
 import numpy as np
 
-from estimator.config import ML_MIN, NUISANCE_OUTPUTS, nuisance_names, nuisance_values
+from estimator.config import ML_MIN, NUISANCE_OUTPUTS, nuisance_names
 from estimator.ekf import OilFlowEKF, StepReport
 
 BASE_FIELDS = (
@@ -22,6 +22,26 @@ BASE_FIELDS = (
     "starved",
 )
 """StepReport fields every estimator has; any further field becomes extra columns."""
+BASE_COLUMNS = (
+    "time_s",
+    "q1_est_ml_min",
+    "q2_est_ml_min",
+    "q1_std_ml_min",
+    "q2_std_ml_min",
+    "starved1",
+    "starved2",
+    "nis",
+    "n_channels",
+    "converged",
+    "measurement_ok",
+    "x1_um",
+    "y1_um",
+    "x2_um",
+    "y2_um",
+    "speed_hz",
+    "oil_temperature_c",
+)
+"""The first columns of every estimates.csv (the extra fields and the nuisances follow)."""
 FLAG_COLUMNS = ("starved1", "starved2", "n_channels", "converged", "measurement_ok")
 DECIMALS, UNITLESS_DECIMALS = 6, 9
 """estimates.csv decimals: 6 (1e-6 ml/min, 1 pm, 1 us), 9 for dimensionless nuisances (unbalance, viscosity
@@ -55,25 +75,7 @@ def _labels(size: int) -> list[str]:
 def estimate_columns(report: StepReport) -> tuple[list[str], list[tuple[str, float, int]]]:
     """The estimates.csv header for an estimator whose step report looks like ``report``, and the extra
     fields to copy (name, unit factor, size)."""
-    columns = [
-        "time_s",
-        "q1_est_ml_min",
-        "q2_est_ml_min",
-        "q1_std_ml_min",
-        "q2_std_ml_min",
-        "starved1",
-        "starved2",
-        "nis",
-        "n_channels",
-        "converged",
-        "measurement_ok",
-        "x1_um",
-        "y1_um",
-        "x2_um",
-        "y2_um",
-        "speed_hz",
-        "oil_temperature_c",
-    ]
+    columns = list(BASE_COLUMNS)
     extras = []
     covered = {name for row in NUISANCE_OUTPUTS for name in (row.estimate, row.std)}
     for item in dataclasses.fields(report):
@@ -87,33 +89,78 @@ def estimate_columns(report: StepReport) -> tuple[list[str], list[tuple[str, flo
     return columns, extras
 
 
+class TraceRows:
+    """estimates.csv rows of a block from the estimator's per-sample arrays (an
+    :class:`estimator.ekf.EstimateTrace`: fields named as the step report's and the nuisance properties
+    :data:`estimator.config.NUISANCE_OUTPUTS`), column block by column block: a few numpy copies per block,
+    nothing per sample."""
+
+    def __init__(self, columns: list[str], extras: list[tuple[str, float, int]]) -> None:
+        self.width = len(columns)
+        plan: list[tuple[slice, str, float]] = []  # columns, trace field, unit factor
+        column = len(BASE_COLUMNS)
+        for name, factor, size in extras:
+            plan.append((slice(column, column + size), name, factor))
+            column += size
+        for row in NUISANCE_OUTPUTS:
+            count = len(row.labels)
+            plan.append((slice(column, column + 2 * count, 2), row.estimate, row.scale))
+            plan.append((slice(column + 1, column + 2 * count, 2), row.std, row.scale))
+            column += 2 * count
+        if column != self.width:
+            raise ValueError(f"internal: {column} trace columns for a header of {self.width}")
+        self._plan = plan
+
+    def rows(self, block, trace, count: int) -> np.ndarray:
+        """(count, width) rows of ``block``'s samples from the first ``count`` rows of ``trace``."""
+        rows = np.empty((count, self.width))
+        scale = 1.0 / ML_MIN
+        rows[:, 0] = block.time_s
+        np.multiply(trace.q_m3_s[:count], scale, out=rows[:, 1:3])
+        np.multiply(trace.q_std_m3_s[:count], scale, out=rows[:, 3:5])
+        rows[:, 5:7] = trace.starved[:count]
+        rows[:, 7] = trace.nis[:count]
+        rows[:, 8] = trace.n_measurements[:count]
+        rows[:, 9] = trace.converged[:count]
+        rows[:, 10] = trace.measurement_ok[:count]
+        np.multiply(block.position_m, 1e6, out=rows[:, 11:15])
+        rows[:, 15] = block.speed_hz
+        rows[:, 16] = block.oil_temperature_c
+        for columns, name, factor in self._plan:
+            values = getattr(trace, name)[:count].reshape(count, -1)
+            if factor == 1.0:
+                rows[:, columns] = values
+            else:
+                np.multiply(values, factor, out=rows[:, columns])
+        return rows
+
+
 class NuisanceColumns:
-    """The nuisance columns of estimates.csv (:func:`estimator.config.nuisance_names` order): the nuisances
-    the filter estimates are read after every step, the known ones (zero std at the start: a zero prior)
-    written as their constant values, so that a step costs only what changes."""
+    """The nuisance properties of a filter sampled after each step: those it estimates are read, the known
+    ones (zero std at the start: a zero prior) repeated as their constant values, so that a step costs only
+    what changes."""
 
     def __init__(self, ekf: OilFlowEKF) -> None:
         self.ekf = ekf
-        self.template = np.array(nuisance_values(ekf))
-        self.varying: list[tuple[str, list[int], float]] = []  # property, its columns, unit factor
-        column = 0
-        for row in NUISANCE_OUTPUTS:
-            count = len(row.labels)
-            if np.any(np.asarray(getattr(ekf, row.std)) > 0.0):
-                estimates = [column + 2 * i for i in range(count)]
-                self.varying.append((row.estimate, estimates, row.scale))
-                self.varying.append((row.std, [c + 1 for c in estimates], row.scale))
-            column += 2 * count
-        self._names = tuple(name for name, _, _ in self.varying)
+        names = [name for row in NUISANCE_OUTPUTS for name in (row.estimate, row.std)]
+        self._constant = {name: np.asarray(getattr(ekf, name), dtype=np.float64) for name in names}
+        self._names = tuple(
+            name
+            for row in NUISANCE_OUTPUTS
+            if np.any(np.asarray(getattr(ekf, row.std)) > 0.0)
+            for name in (row.estimate, row.std)
+        )
 
     def snapshot(self) -> tuple:
         ekf = self.ekf
         return tuple(getattr(ekf, name) for name in self._names)
 
-    def table(self, snapshots: list[tuple]) -> np.ndarray:
-        out = np.tile(self.template, (len(snapshots), 1))
-        for j, (_, columns, scale) in enumerate(self.varying):
-            out[:, columns] = np.array([s[j] for s in snapshots], dtype=np.float64) * scale
+    def arrays(self, snapshots: list[tuple]) -> dict[str, np.ndarray]:
+        """The (n, ...) SI arrays of every nuisance property over ``snapshots``."""
+        n = len(snapshots)
+        out = {name: np.tile(value, (n, 1)) for name, value in self._constant.items()}
+        for j, name in enumerate(self._names):
+            out[name] = np.array([s[j] for s in snapshots], dtype=np.float64)
         return out
 
 

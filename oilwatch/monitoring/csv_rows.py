@@ -18,6 +18,8 @@ import numpy as np
 
 LARGEST_SCALED = 9.2e18
 """|value| x 10^decimals must stay below this for the int64 digit loop."""
+PAIRS = np.frombuffer("".join(f"{i:02d}" for i in range(100)).encode(), dtype=np.uint8)
+"""The ASCII digits of 00 ... 99, two bytes each: the digit loop writes two digits per division."""
 
 
 @numba.njit(cache=True)
@@ -27,6 +29,9 @@ def _format_block(rows, decimals, out):  # pragma: no cover - compiled; covered 
     n, m = rows.shape
     pos = 0
     digits = np.empty(20, dtype=np.uint8)
+    powers = np.empty(m, dtype=np.int64)
+    for j in range(m):
+        powers[j] = 10 ** decimals[j]
     for i in range(n):
         for j in range(m):
             if j > 0:
@@ -50,9 +55,7 @@ def _format_block(rows, decimals, out):  # pragma: no cover - compiled; covered 
                 pos += 3
                 continue
             d = decimals[j]
-            power = 1
-            for _ in range(d):
-                power *= 10
+            power = powers[j]
             scaled_f = v * power + 0.5
             if scaled_f >= LARGEST_SCALED:
                 return -1
@@ -65,22 +68,35 @@ def _format_block(rows, decimals, out):  # pragma: no cover - compiled; covered 
             if negative and scaled != 0:
                 out[pos] = 45  # -
                 pos += 1
-            count = 0
-            while True:
-                digits[count] = 48 + whole % 10
-                whole //= 10
+            count = 0  # the whole part's digits, last first, two at a time
+            while whole >= 100:
+                pair = 2 * (whole % 100)
+                whole //= 100
+                digits[count] = PAIRS[pair + 1]
+                digits[count + 1] = PAIRS[pair]
+                count += 2
+            if whole >= 10:
+                digits[count] = PAIRS[2 * whole + 1]
+                digits[count + 1] = PAIRS[2 * whole]
+                count += 2
+            else:
+                digits[count] = 48 + whole
                 count += 1
-                if whole == 0:
-                    break
             for c in range(count - 1, -1, -1):
                 out[pos] = digits[c]
                 pos += 1
             if d > 0:
                 out[pos] = 46  # .
                 pos += 1
-                for c in range(d - 1, -1, -1):
-                    out[pos + c] = 48 + fraction % 10
-                    fraction //= 10
+                c = d - 1
+                while c >= 1:
+                    pair = 2 * (fraction % 100)
+                    fraction //= 100
+                    out[pos + c] = PAIRS[pair + 1]
+                    out[pos + c - 1] = PAIRS[pair]
+                    c -= 2
+                if c == 0:
+                    out[pos] = 48 + fraction
                 pos += d
         out[pos] = 10  # newline
         pos += 1

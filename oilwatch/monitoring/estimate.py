@@ -5,7 +5,10 @@ The estimator is the one the OilFlowEKF FMU wraps, in-process and configured as 
 initial states, the first sample at the record's first grid time), except that a record's probes have unknown
 zero offsets: their prior is the machine file's ``[probes] offset_prior_std_um`` (the FMU's
 ``offset_prior_std_um``, default 0 there) or a commissioning baseline (``--baseline``, the FMU's
-``baseline_file``). Fed the same samples with the same settings, it gives the co-simulated FMU's estimates.
+``baseline_file``). The probes' slow-roll runout, the baseline's when it has one, else the machine file's
+``[probes]`` ``runout_*`` keys (``--probe`` overrides them as every probe key), is subtracted from each
+sample at its rotor angle (``EKFConfig.runout``, as the FMU does). Fed the same samples with the same
+settings, it gives the co-simulated FMU's estimates.
 The model is the machine file's reduced rotor-bearing system with the machine file's unbalance, sampled at
 1 kHz (:data:`ESTIMATOR_DT_S`): at the nominal speed and viscosity (the FMU's ``bearing_table = 0``), or, when
 the record gives a speed (a ``speed_hz`` column or the keyphasor) or an oil temperature, its operating model,
@@ -32,6 +35,7 @@ import functools
 import gc
 import itertools
 import time
+import types
 from collections.abc import Callable
 from contextlib import contextmanager
 from pathlib import Path
@@ -40,19 +44,20 @@ from typing import TextIO
 import numpy as np
 
 from estimator.config import (
-    ML_MIN,
     EKFConfig,
     OffsetBaseline,
 )
 from estimator.ekf import OilFlowEKF
+from estimator.runout import SlowRollVectors, runout_of_probes
 from models.machine import Machine, load_machine
 from models.probes import Probes, read_probes
 from models.validation import InputError
 from oilwatch.records import RecordStream, probe_setup
+from oilwatch.records.probes import merged_section
 from oilwatch.records.readers import STDIN
 from oilwatch.study.storage import write_json_atomic
 
-from .columns import NuisanceColumns, column_decimals, estimate_columns
+from .columns import NuisanceColumns, TraceRows, column_decimals, estimate_columns
 from .csv_rows import RowWriter
 from .history import History
 
@@ -61,6 +66,9 @@ ESTIMATOR_DT_S = 1e-3
 OPERATING_POINTS = ("auto", "follow", "nominal")
 _MODELS: dict[tuple, object] = {}
 GC_BLOCKS = 64
+MAX_CPU_MARKS = 1024
+"""Marks of the CPU time spent so far (the summary's cost per sample along the record) kept at most: at
+uniform sample counts, twice as far apart whenever there would be more."""
 """Blocks between the collections of young objects while the automatic collector is off (below)."""
 
 
@@ -117,6 +125,11 @@ def estimator_model(machine_file: str | None, dt_s: float = ESTIMATOR_DT_S, foll
     return _MODELS[key]
 
 
+def _is_angle_key(override: str) -> bool:
+    key = override.partition("=")[0].strip()
+    return key == "layout" or key.endswith(".angle_deg")
+
+
 @functools.lru_cache(maxsize=4)
 def _reduced_system(machine_file: str | None):
     from models.system.factory import load_system
@@ -131,13 +144,15 @@ def estimator_config(
     probes: Probes | None = None,
     baseline: OffsetBaseline | None = None,
     probe_angle_deg: float = 0.0,
+    runout: SlowRollVectors | None = None,
 ) -> EKFConfig:
     """The OilFlowEKF FMU's default configuration with the machine's probe nuisances (module docstring).
 
     ``probes``: the machine file's ``[probes]`` offsets prior and drift (None: offsets known, the FMU's
     default); ``baseline``: a commissioning baseline's offsets prior (the FMU's ``baseline_file``);
     ``probe_angle_deg``: the probe pairs' mounting angle when the samples are along the probes' axes (the
-    FMU's ``probe_angle_deg``; 0: (x, y) positions)."""
+    FMU's ``probe_angle_deg``; 0: (x, y) positions); ``runout``: the probes' slow-roll vectors, subtracted
+    from each sample at its rotor angle (the samples must then be along the probes' axes)."""
     nuisance = {}
     if probes is not None:
         nuisance = {
@@ -150,6 +165,7 @@ def estimator_config(
         first_sample_time_s=first_sample_time_s,
         offset_baseline=baseline,
         probe_angle_deg=probe_angle_deg,
+        runout=runout,
         **nuisance,
     )
 
@@ -177,7 +193,14 @@ class EstimateRun:
         self.machine: Machine = load_machine(options.machine_file)
         self.setup = probe_setup(self.machine.raw.get("probes"), options.probe_overrides)
         self.speed_hz = self.machine.nominal_speed_hz  # the model's reference speed
-        self.probes = read_probes(self.machine)
+        # the estimator's probe model reads the same overridden section (offsets prior, runout_* keys) but
+        # the machine file's angles: it takes the stream's pair angle, and probes overridden off square pairs
+        # are read as (x, y) positions (models.probes refuses such angles in a machine file)
+        kept = [item for item in options.probe_overrides if not _is_angle_key(item)]
+        section = merged_section(self.machine.raw.get("probes") or {}, kept)
+        self.probes = read_probes(
+            dataclasses.replace(self.machine, raw={**self.machine.raw, "probes": section})
+        )
         if options.offset_prior_std_um is not None:
             self.probes = dataclasses.replace(
                 self.probes, offset_prior_std_m=options.offset_prior_std_um * 1e-6
@@ -206,14 +229,43 @@ class EstimateRun:
         self.filter: OilFlowEKF | None = None
         # the estimator takes the readings along the probes' axes when it can (the FMU's probe_angle_deg)
         self.probe_angle_deg = self.stream.probe_angle_deg or 0.0
+        self.runout, self.runout_source = self._runout()
         self.history = History(
             ESTIMATOR_DT_S, self.speed_hz, self.machine.bearing.clearance_m, self.probe_angle_deg
         )
         self.latency_s: list[float] = []
-        self.estimator_s = 0.0  # time in the estimator's steps (the rest: reading, conditioning, writing)
+        self.estimator_s = 0.0  # CPU time in the estimator's steps (the rest: reading, conditioning, writing)
+        self.cpu_s = 0.0  # this process's CPU time over the same span as the summary's wall_s
+        self.cpu_marks: list[tuple[int, float]] = [(0, 0.0)]
+        """(samples estimated, CPU time since the first block), about every :attr:`_mark_spacing` samples:
+        does the cost per sample change along the record (summary ``cpu_us_per_sample_by_tenth``)?"""
+        self._mark_spacing = options.chunk_rows
+        self._next_mark = self._mark_spacing
         self.stages_s = dict.fromkeys(("read_condition", "rows", "write", "history"), 0.0)
-        """Where the rest of the time goes, after the first block: reading and conditioning the record,
+        """Where the rest of the CPU time goes, after the first block: reading and conditioning the record,
         building the rows from the step reports, formatting and writing them, the views' history."""
+
+    def _runout(self) -> tuple[SlowRollVectors | None, str | None]:
+        """The probes' slow-roll vectors and where they come from: the baseline's when it has them (a
+        slow-roll record, ``oilwatch baseline --slow-roll-record``), else the machine file's ``[probes]``
+        ``runout_*`` keys, else none. They are per probe, along its axis: the estimator must take the
+        readings along the probes' axes (square pairs at one angle)."""
+        runout, source = None, None
+        if self.options.baseline_file is not None:
+            from estimator.baseline import load_runout
+
+            runout, source = load_runout(self.options.baseline_file), "baseline file"
+        if runout is None:
+            runout, source = runout_of_probes(self.probes), "machine file [probes] runout_* keys"
+        if runout is None:
+            return None, None
+        if self.stream.probe_angle_deg is None:
+            raise InputError(
+                f"{source}: runout compensation needs the readings along the probes' axes: each bearing's Y "
+                "probe 90 deg counter-clockwise of its X probe and both X probes at one angle (probes.*."
+                "angle_deg)"
+            )
+        return runout, source
 
     def _operating_choice(self) -> tuple[bool, str]:
         """(follow the record's speed and oil temperature?, why), from ``operating_point`` (see
@@ -246,11 +298,12 @@ class EstimateRun:
     def run(self) -> dict:
         """Process the record; write estimates.csv (and, unless ``views`` is off, the views and report)."""
         self.out.mkdir(parents=True, exist_ok=True)
-        started = None
+        started, started_cpu, done = None, 0.0, 0
         csv_path = self.out / "estimates.csv"
         with open(csv_path, "w", encoding="utf-8", newline="") as csv_file, _young_collections_only():
             writer = RowWriter(csv_file, self.live_stream, self.options.output_every)
-            clock, spent = time.perf_counter, self.stages_s
+            clock, spent = time.process_time, self.stages_s  # CPU time: preemption by a shared machine's load
+            # would land in whichever stage it interrupts
             blocks = self.stream.blocks()
             for count in itertools.count(1):
                 if count % GC_BLOCKS == 0:
@@ -263,23 +316,30 @@ class EstimateRun:
                 first = self.filter is None
                 if first:
                     self._start(block, writer)
-                    started = t1 = clock()
+                    started, started_cpu = time.perf_counter(), clock()
+                    t1 = started_cpu
                 else:
                     spent["read_condition"] += t1 - t0
                 steps = self.estimator_s
                 rows = self._estimate(block)
+                done += rows.shape[0]
+                if done >= self._next_mark:
+                    self._mark(done, clock() - started_cpu)
                 t2 = clock()
                 spent["rows"] += t2 - t1 - (self.estimator_s - steps)
                 writer.write(rows)
                 t3 = clock()
                 spent["write"] += t3 - t2
                 if self.options.live and not first:  # from the arrival of the line to its estimate written
-                    self.latency_s.append(t3 - self.stream.reader.received_s)
+                    self.latency_s.append(time.perf_counter() - self.stream.reader.received_s)
                 self.history.add(block, rows, self._columns)
                 spent["history"] += clock() - t3
         if self.filter is None:
             raise InputError(f"{self.stream.reader.name}: no sample to estimate from (record too short)")
         wall = time.perf_counter() - started
+        self.cpu_s = clock() - started_cpu
+        if done > self.cpu_marks[-1][0]:
+            self._mark(done, self.cpu_s)
         from .summary import summarize
 
         summary = summarize(self, wall, csv_path)
@@ -294,6 +354,13 @@ class EstimateRun:
             summary["report_html"] = str(write_report(summary, self.out))
             self._write_summary(summary)
         return summary
+
+    def _mark(self, done: int, cpu_s: float) -> None:
+        self.cpu_marks.append((done, cpu_s))
+        self._next_mark = done + self._mark_spacing
+        if len(self.cpu_marks) > MAX_CPU_MARKS:
+            self.cpu_marks = self.cpu_marks[::2]
+            self._mark_spacing *= 2
 
     def _write_summary(self, summary: dict) -> None:
         write_json_atomic(self.out / "summary.json", summary)
@@ -322,6 +389,7 @@ class EstimateRun:
             self.probes,
             self.baseline,
             self.probe_angle_deg,
+            self.runout,
         )
         self.filter = OilFlowEKF(self.model, config)
         missing = np.full(4, np.nan)
@@ -336,7 +404,8 @@ class EstimateRun:
             self.filter.step(missing, *operating)
         self._first_k = first_k - lead
         report = self.filter.current_report()
-        self._columns, self._extras = estimate_columns(report)
+        self._columns, extras = estimate_columns(report)
+        self._rows = TraceRows(self._columns, extras)
         self._nuisances = NuisanceColumns(self.filter)
         writer.header(self._columns, column_decimals(self._columns, report))
 
@@ -345,37 +414,30 @@ class EstimateRun:
         expected = self._first_k + ekf.step_count
         if int(block.k[0]) != expected:
             raise InputError(f"internal: grid index {int(block.k[0])} after {expected - 1}")  # bridged, never
+        count = block.k.size
+        started = time.process_time()
+        trace = self._steps(block)
+        self.estimator_s += time.process_time() - started
+        return self._rows.rows(block, trace, count)
+
+    def _steps(self, block):
+        """The estimator's per-sample outputs over a block (the fields of :class:`estimator.ekf.EstimateTrace`
+        and the nuisances'), step by step (until the library's batch entry is there)."""
+        ekf = self.filter
         step, snapshot = ekf.step, self._nuisances.snapshot
         reports, nuisances = [], []
-        started = time.perf_counter()
         if self.follow:
             operating = map(self._operating, block.speed_hz.tolist(), block.oil_temperature_c.tolist())
             for position, (speed, temperature) in zip(block.measurement_m, operating, strict=True):
                 reports.append(step(position, speed, temperature))
                 nuisances.append(snapshot())
         else:
-            for position in block.measurement_m:  # only the steps here: the rows are built per block below
+            for position in block.measurement_m:
                 reports.append(step(position))
                 nuisances.append(snapshot())
-        self.estimator_s += time.perf_counter() - started
-        scale = 1.0 / ML_MIN
-        columns = [
-            np.array([r.q_m3_s for r in reports]) * scale,
-            np.array([r.q_std_m3_s for r in reports]) * scale,
-            np.array([r.starved for r in reports]),
-            np.array([(r.nis, r.n_measurements, r.converged, r.measurement_ok) for r in reports]),
-        ]
-        for name, factor, size in self._extras:
-            values = np.array([getattr(r, name) for r in reports], dtype=np.float64)
-            values = values.reshape(len(reports), size)
-            columns.append(values * factor)
-        columns.append(self._nuisances.table(nuisances))
-        table = np.column_stack(columns)
-        rows = np.empty((table.shape[0], len(self._columns)))
-        rows[:, 0] = block.time_s
-        rows[:, 1:11] = table[:, :10]
-        rows[:, 11:15] = block.position_m * 1e6
-        rows[:, 15] = block.speed_hz
-        rows[:, 16] = block.oil_temperature_c
-        rows[:, 17:] = table[:, 10:]
-        return rows
+        fields = {
+            item.name: np.array([getattr(r, item.name) for r in reports])
+            for item in dataclasses.fields(reports[0])
+        }
+        fields.update(self._nuisances.arrays(nuisances))
+        return types.SimpleNamespace(**fields)

@@ -1,7 +1,7 @@
-"""What a run keeps of its estimates for the summary and the views, in memory bounded by the record's
-length only through fixed-size bins: a ring of the last 30 s at full rate (the final window), 10 ms bins of
-the trends, 0.5 s bins of the shaft centreline and probe health, the first and last second of positions
-(the orbits), and the alarm events."""
+"""What a run keeps of its estimates for the summary and the views, in memory bounded whatever the record's
+length: a ring of the last 30 s at full rate (the final window), 10 ms bins of the trends, 0.5 s bins of the
+shaft centreline and probe health (both at most :data:`MAX_TREND_BINS` / :data:`MAX_SLOW_BINS` bins: wider on
+a long record), the first and last second of positions (the orbits), and the alarm events."""
 
 from __future__ import annotations
 
@@ -11,6 +11,10 @@ import numpy as np
 
 TREND_BIN_S = 0.01
 SLOW_BIN_S = 0.5
+MAX_TREND_BINS = 4096
+MAX_SLOW_BINS = 8192
+"""Bins kept at most (then twice as wide): a view of 4096 points is finer than its pixels; 0.5 s centreline
+bins up to 68 min of record."""
 ORBIT_S = 1.0
 FINAL_RING_S = 30.0
 BATCH_ROWS = 1024
@@ -21,13 +25,16 @@ TIME, Q, STD, STARVED, NIS, CONVERGED, OK, POSITION, SPEED, TEMPERATURE = (
 
 
 class _Bins:
-    """Running means of a (n, m) series over fixed bins of ``size`` samples (NaN ignored)."""
+    """Running means of a (n, m) series over fixed bins of ``size`` samples (NaN ignored), at most
+    ``max_bins`` of them: past that, adjacent pairs are merged and the bins made twice as wide, so that memory
+    and the views' drawing stay bounded whatever the record's length (a bin's time is its first sample's)."""
 
-    def __init__(self, size: int, width: int) -> None:
-        self.size, self.width = size, width
+    def __init__(self, size: int, width: int, max_bins: int) -> None:
+        self.size, self.width, self.max_bins = size, width, max_bins
         self._sums: list[np.ndarray] = []
         self._counts: list[np.ndarray] = []
         self._times: list[np.ndarray] = []
+        self._bins = 0
         self._open: int | None = None
 
     def add(self, index: np.ndarray, times: np.ndarray, values: np.ndarray) -> None:
@@ -45,7 +52,21 @@ class _Bins:
             self._sums.append(sums)
             self._counts.append(counts)
             self._times.append(times[starts])
+            self._bins += starts.size
         self._open = int(bins[-1])
+        while self._bins > self.max_bins:
+            self._coarsen()
+
+    def _coarsen(self) -> None:
+        """Merge bins 2j and 2j + 1 (bins are numbered from the record's first sample, all present)."""
+        sums, counts, times = np.vstack(self._sums), np.vstack(self._counts), np.concatenate(self._times)
+        pairs = np.arange(0, times.size, 2)
+        self._sums = [np.add.reduceat(sums, pairs, axis=0)]
+        self._counts = [np.add.reduceat(counts, pairs, axis=0)]
+        self._times = [times[pairs]]
+        self._bins = pairs.size
+        self.size *= 2
+        self._open //= 2
 
     def arrays(self) -> tuple[np.ndarray, np.ndarray]:
         if not self._times:
@@ -91,8 +112,9 @@ class History:
         """The estimator's probe frame: its offsets are along probe axes at this angle (0: x and y)."""
         self.samples = 0
         self.first_k: int | None = None
-        self.trend = _Bins(max(1, round(TREND_BIN_S / dt_s)), 6)  # q1 q2 std1 std2 starved1 starved2
-        self.slow = _Bins(max(1, round(SLOW_BIN_S / dt_s)), 4 + 4 + 2)  # positions, valid, ok, nis
+        # q1 q2 std1 std2 starved1 starved2; positions, valid, ok, nis
+        self.trend = _Bins(max(1, round(TREND_BIN_S / dt_s)), 6, MAX_TREND_BINS)
+        self.slow = _Bins(max(1, round(SLOW_BIN_S / dt_s)), 4 + 4 + 2, MAX_SLOW_BINS)
         self.extra_bins: _Bins | None = None
         self.extra_names: list[str] = []
         self.flagged_samples = np.zeros(4, dtype=np.int64)
@@ -145,7 +167,7 @@ class History:
             self.first_time_s = float(rows[0, TIME])
             self.extra_names = [name for name in columns[17:] if _is_health(name)]
             if self.extra_names:
-                self.extra_bins = _Bins(self.slow.size, len(self.extra_names))
+                self.extra_bins = _Bins(self.slow.size, len(self.extra_names), MAX_SLOW_BINS)
             self._extra_index = [columns.index(name) for name in self.extra_names]
             self._flag_columns = [name.startswith(STATUS_PREFIX) for name in self.extra_names]
             status = [f"{STATUS_PREFIX}{name}" for name in ("x1", "y1", "x2", "y2")]

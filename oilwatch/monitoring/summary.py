@@ -47,6 +47,7 @@ def summarize(run, wall_s: float, csv_path: Path) -> dict:
             "offset_prior_std_um": round(run.filter.config.offset_prior_std_m * 1e6, 9),
             "probe_angle_deg": run.probe_angle_deg,
             "baseline_file": run.options.baseline_file,
+            "runout": run.runout_source,
         },
         "q_nominal_ml_min": nominal,
         "samples": history.samples,
@@ -60,6 +61,9 @@ def summarize(run, wall_s: float, csv_path: Path) -> dict:
         "estimator_s": round(run.estimator_s, 3),
         "stages_s": {name: round(value, 3) for name, value in run.stages_s.items()},
         "realtime_factor": round(duration / wall_s, 2) if wall_s > 0 else None,
+        "cpu_s": round(run.cpu_s, 3),
+        "realtime_factor_cpu": round(duration / run.cpu_s, 2) if run.cpu_s > 0 else None,
+        "cpu_us_per_sample_by_tenth": _cost_by_tenth(run.cpu_marks),
         "estimates_csv": str(csv_path),
     }
     summary["probes"] = _probe_summary(run)
@@ -91,6 +95,18 @@ def summarize(run, wall_s: float, csv_path: Path) -> dict:
             file=sys.stderr,
         )
     return summary
+
+
+def _cost_by_tenth(marks: list[tuple[int, float]]) -> list[float] | None:
+    """CPU time per sample [us] in each tenth of the samples estimated, from the run's (samples, CPU time)
+    marks (interpolated between them: a tenth shorter than the marks' spacing gets the mean around it); None
+    with fewer than 10 marks."""
+    if len(marks) < 10:
+        return None
+    samples, cpu = np.array(marks, dtype=float).T
+    edges = np.linspace(0.0, samples[-1], 11)
+    spent = np.diff(np.interp(edges, samples, cpu))
+    return [round(float(value), 2) for value in spent / np.diff(edges) * 1e6]
 
 
 def _probe_summary(run) -> dict:

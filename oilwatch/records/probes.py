@@ -127,8 +127,9 @@ def _text(value: object, key: str) -> str:
     return value
 
 
-def _merge(table: Mapping[str, object], overrides: Iterable[str]) -> dict:
-    """The [probes] table with the ``KEY=VALUE`` overrides applied (dotted keys reach the probe tables)."""
+def merged_section(table: Mapping[str, object], overrides: Iterable[str]) -> dict:
+    """The [probes] table with the ``KEY=VALUE`` overrides applied (dotted keys reach the probe tables): what
+    the reader and the estimator's probe model (``models.probes.read_probes``) both read."""
     merged = {key: (dict(value) if isinstance(value, Mapping) else value) for key, value in table.items()}
     for item in overrides:
         key, equals, text = item.partition("=")
@@ -154,7 +155,7 @@ def probe_setup(table: Mapping[str, object] | None = None, overrides: Iterable[s
     """The :class:`ProbeSetup` of a machine file's ``[probes]`` table and command-line overrides."""
     if table is not None and not isinstance(table, Mapping):
         raise InputError("[probes] must be a table")
-    data = _merge(table or {}, overrides)
+    data = merged_section(table or {}, overrides)
     for key, value in data.items():
         known = key in TOP_KEYS or key in PROBE_NAMES or key.startswith(FOREIGN_KEYS_PREFIX)
         if not known:

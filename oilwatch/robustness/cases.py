@@ -22,7 +22,12 @@ OFFSET_RANGE_M = 25e-6
 cold-rest position and a clearance with a tolerance)."""
 
 DRIFT_M = 3e-6
-"""Offset drift after the baseline: each probe's offset drifts linearly by 3 um (random sign) over the run."""
+"""Offset drift after the baseline: each probe's offset drifts linearly by 3 um (random sign) over the run,
+or (``offset_step``) has moved by 3 um since a baseline ``BASELINE_AGE_DAYS`` old."""
+
+BASELINE_AGE_DAYS = 30.0
+"""The age of the baseline in the offset-step case: at the turbine's ``[probes] offset_drift_um_per_day``
+of 0.1 the baseline's offsets are trusted to 3 um, the step the case makes."""
 
 RUNOUT_M = (2e-6, 1e-6)
 """Runout amplitudes at 1x and 2x on every probe (phases drawn per probe)."""
@@ -40,10 +45,13 @@ class Case:
     """One discrepancy (fields in the field's words; the module docstring says what each changes).
 
     offsets / drift : the run's probe zero offsets (:func:`probe_errors`), drifting by DRIFT_M over the
-        run after the baseline; baseline : the estimator is primed with ``oilwatch baseline`` on another
-        record at 100/100 % with the same probes (before the drift); runout : RUNOUT_M on every probe;
-        compensate_runout : the slow-roll vectors are subtracted; sensitivity : SENSITIVITY_ERROR on every
-        probe; fault : the y1 probe's fault (dead, stuck, glitch, huge); mounting_angle_deg : their angle
+        run after the baseline; offset_step : they moved by DRIFT_M between a baseline BASELINE_AGE_DAYS
+        old and the run (the estimator widens the baseline's offsets by its age times the machine file's
+        ``[probes] offset_drift_um_per_day``); baseline : the estimator is primed with ``oilwatch
+        baseline`` on another record at 100/100 % with the same probes (before the drift); runout :
+        RUNOUT_M on every probe; compensate_runout : the slow-roll vectors are subtracted; sensitivity :
+        SENSITIVITY_ERROR on every probe; fault : the y1 probe's fault (dead, stuck, glitch, huge);
+        mounting_angle_deg : their angle
         (told to the estimator; None: the machine file's [probes] layout);
         unbalance : (moment factor, phase shift [deg]); unbalance_change : the same at half the record;
         viscosity_factor : the film's viscosity over the oil law's; temperature_rise_c : a measured oil
@@ -59,6 +67,7 @@ class Case:
     description: str
     offsets: bool = False
     drift: bool = False
+    offset_step: bool = False
     baseline: bool = False
     runout: bool = False
     compensate_runout: bool = False
@@ -100,6 +109,8 @@ def probe_errors(case: Case, seed: int, duration_s: float, after_baseline: bool)
     sensitivity_signs = np.where(rng.uniform(size=4) < 0.5, -1.0, 1.0)
     offsets = probe_offsets(seed) if case.offsets else np.zeros(4)
     drift = DRIFT_M * signs / duration_s if case.drift and after_baseline else np.zeros(4)
+    if case.offset_step and after_baseline:
+        offsets = offsets + DRIFT_M * signs
     probes = []
     for k in range(4):
         values = {"zero_offset_m": float(offsets[k]), "zero_drift_m_s": float(drift[k])}
@@ -147,6 +158,14 @@ CASES: tuple[Case, ...] = (
         offsets=True,
         drift=True,
         baseline=True,
+    ),
+    Case(
+        "offsets-step",
+        "the same offsets, each moved by 3 um since a baseline 30 days old",
+        offsets=True,
+        offset_step=True,
+        baseline=True,
+        listed=False,
     ),
     Case("unbalance-x0.5", "unbalance moment x0.5", unbalance=(0.5, 0.0)),
     Case("unbalance-x3", "unbalance moment x3", unbalance=(3.0, 0.0)),

@@ -44,7 +44,7 @@ from models.system.operating_point import operating_system
 from models.system.plant import RotorBearingPlant
 from models.validation import InputError
 
-from .cases import Case, case_by_name, probe_errors
+from .cases import BASELINE_AGE_DAYS, Case, case_by_name, probe_errors
 from .slow_roll import slow_roll_vectors
 
 DT_S = 1e-3
@@ -225,8 +225,10 @@ class RobustnessRun:
                 else self.model
             )
             document = estimate_baseline(model, record, q, config)
-            # the baseline record ends where the run's begins: no time for drift beyond the run's own
-            prior = baseline_prior(document, 0.0, self.probes.offset_drift_m_per_day)
+            # the baseline record ends where the run's begins (no drift beyond the run's own), or is
+            # BASELINE_AGE_DAYS old in the offset-step case
+            age_s = BASELINE_AGE_DAYS * 86400.0 if case.offset_step else 0.0
+            prior = baseline_prior(document, age_s, self.probes.offset_drift_m_per_day)
             config = dataclasses.replace(config, offset_baseline=prior)
         return config
 

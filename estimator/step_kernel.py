@@ -1,0 +1,293 @@
+"""The whole filter step after the model's transition in one compiled call: update, summary, alarm.
+
+:func:`ekf_step` runs :func:`estimator.kernels.filter_step` (predict, screen, gate, Joseph update,
+projection), then what :mod:`estimator.ekf` reports of the sample (:func:`step_summary`: the windowed NIS
+test, the convergence rule, the SI estimates and the nuisances' estimates and stds), the unbalance's
+process noise of the next prediction (wider while the model is inconsistent) and the starvation alarm
+(:func:`estimator.alarm.update_alarm`). Everything the step reports lands in one float array laid out by
+the ``REPORT_*`` slices below, so that the per-sample Python work is one call and one copy, and a batch of
+samples (:meth:`estimator.ekf.OilFlowEKF.run_batch`) stores a row per sample. For a model on a flowrate
+grid at one speed (``GridAugmentedModel.batch_transition``) :func:`grid_batch` runs a whole record in one
+call: the grid's compiled transition, then :func:`ekf_step`, sample after sample.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from models.system.flowrate_grid import interpolate_map
+
+from .alarm import RAISED_CONSISTENT, STARVED, update_alarm
+from .channels import STATUS
+from .kernels import UPDATE_ACCEPTED, filter_step
+
+# the report array (REPORT_SIZE,): flowrates [m^3/s] clipped to the table, their stds, the viscosity
+# factors and stds (1 and 0 if not estimated), offsets [m] and stds, unbalance and stds (0 if not
+# estimated), then the sample's scalars and flags as floats
+REPORT_FLOWRATE, REPORT_STD, REPORT_VISCOSITY, REPORT_VISCOSITY_STD = 0, 2, 4, 6
+REPORT_OFFSET, REPORT_OFFSET_STD, REPORT_UNBALANCE, REPORT_UNBALANCE_STD = 8, 12, 16, 18
+REPORT_NIS, REPORT_ROWS, REPORT_OK, REPORT_CONVERGED, REPORT_CONSISTENT = 20, 21, 22, 23, 24
+REPORT_STARVED, REPORT_STARVED_CONSISTENT, REPORT_CHANGING, REPORT_STATUS = 25, 27, 29, 31
+REPORT_SIZE = 35
+# the int64 counters array: advanced in place (step, since_update) and the state's layout
+COUNT_STEP, COUNT_SINCE_UPDATE, COUNT_FIRST, COUNT_VISCOSITY, COUNT_UNBALANCE, COUNT_OFFSETS = range(6)
+N_COUNTERS = 6
+ARRAY_COUNTERS = 17
+"""Index of ``counters`` in the filter's arrays (:func:`ekf_step`'s arguments after the sample's)."""
+# the settings array of :func:`step_summary` and :func:`ekf_step`
+(
+    SUMMARY_Q_NOMINAL,
+    SUMMARY_Q_LOW,
+    SUMMARY_Q_HIGH,
+    SUMMARY_CONSISTENCY_Z,
+    SUMMARY_CONVERGED_STD,
+    SUMMARY_CONVERGED_DRIFT,
+    SUMMARY_UNBALANCE_WALK,
+    SUMMARY_UNBALANCE_EXTRA,
+) = range(8)
+N_SUMMARY_SETTINGS = 8
+
+
+@njit(cache=True)
+def _nuisance(state, covariance, first, count, out, out_std, absent):
+    for b in range(count):
+        if first >= 0:
+            out[b] = state[first + b]
+            out_std[b] = np.sqrt(covariance[first + b, first + b])
+        else:
+            out[b] = absent[b]
+            out_std[b] = 0.0
+
+
+@njit(cache=True)
+def step_summary(
+    state: np.ndarray,
+    covariance: np.ndarray,
+    counters: np.ndarray,
+    nis: float,
+    rows: int,
+    nis_window: np.ndarray,
+    nis_sums: np.ndarray,
+    history: np.ndarray,
+    settings: np.ndarray,
+    report: np.ndarray,
+) -> tuple[bool, bool]:
+    """What the filter reports after the update of sample ``counters[COUNT_STEP]``, in place: the windowed
+    NIS test and the convergence rule of :mod:`estimator.ekf`, and the SI estimates.
+
+    counters : COUNT_* (the state's layout: index of q1 / q_nominal, first viscosity factor, unbalance and
+    offset, -1 when not estimated; since_update: samples since the last accepted update, this one
+    included). nis, rows : of this sample (0 when it made no update). nis_window (C, 2), nis_sums (2,),
+    history (W, 2) : the ring buffers, advanced here. settings : the SUMMARY_* values. report : the
+    REPORT_* estimates written (flowrates clipped to the table [m^3/s], stds, nuisances: their known
+    values and std 0 when not estimated). Returns
+    ``(model_consistent, converged)``.
+    """
+    step = counters[COUNT_STEP]
+    first = counters[COUNT_FIRST]
+    slot = step % nis_window.shape[0]
+    nis_sums[0] += nis - nis_window[slot, 0]
+    nis_sums[1] += rows - nis_window[slot, 1]
+    nis_window[slot, 0] = nis
+    nis_window[slot, 1] = rows
+    dof = nis_sums[1]
+    consistent = True
+    if not (step + 1 < nis_window.shape[0] or dof < 1.0):
+        # Wilson-Hilferty: chi2 quantile ~ dof (1 - 2/(9 dof) + z sqrt(2/(9 dof)))^3
+        c = 2.0 / (9.0 * dof)
+        consistent = nis_sums[0] <= dof * (1.0 - c + settings[SUMMARY_CONSISTENCY_Z] * np.sqrt(c)) ** 3.0
+    scale = settings[SUMMARY_Q_NOMINAL]
+    low, high = settings[SUMMARY_Q_LOW], settings[SUMMARY_Q_HIGH]
+    window = history.shape[0]
+    slot = step % window
+    drift = 0.0
+    largest = 0.0
+    for b in range(2):
+        scaled = state[first + b]
+        deviation = np.sqrt(covariance[first + b, first + b])
+        drift = max(drift, abs(scaled - history[slot, b]))
+        history[slot, b] = scaled
+        largest = max(largest, deviation)
+        # clipped in SI as well: the round trip through the scaled unit may leave a bound by one ulp
+        report[REPORT_FLOWRATE + b] = min(max(scaled * scale, low), high)
+        report[REPORT_STD + b] = deviation * scale
+    ones = np.ones(2)
+    zeros = np.zeros(4)
+    unit = np.array([1.0, 0.0])  # the machine file's unbalance
+    _nuisance(
+        state,
+        covariance,
+        counters[COUNT_VISCOSITY],
+        2,
+        report[REPORT_VISCOSITY : REPORT_VISCOSITY + 2],
+        report[REPORT_VISCOSITY_STD : REPORT_VISCOSITY_STD + 2],
+        ones,
+    )
+    _nuisance(
+        state,
+        covariance,
+        counters[COUNT_OFFSETS],
+        4,
+        report[REPORT_OFFSET : REPORT_OFFSET + 4],
+        report[REPORT_OFFSET_STD : REPORT_OFFSET_STD + 4],
+        zeros,
+    )
+    _nuisance(
+        state,
+        covariance,
+        counters[COUNT_UNBALANCE],
+        2,
+        report[REPORT_UNBALANCE : REPORT_UNBALANCE + 2],
+        report[REPORT_UNBALANCE_STD : REPORT_UNBALANCE_STD + 2],
+        unit,
+    )
+    converged = (
+        step >= window
+        and counters[COUNT_SINCE_UPDATE] < window
+        and largest < settings[SUMMARY_CONVERGED_STD]
+        and drift < settings[SUMMARY_CONVERGED_DRIFT]
+    )
+    return consistent, converged
+
+
+@njit(cache=True)
+def ekf_step(
+    predict: bool,
+    next_state: np.ndarray,
+    state_jacobian: np.ndarray,
+    flowrate_jacobian: np.ndarray,
+    displacement: np.ndarray,
+    state: np.ndarray,
+    covariance: np.ndarray,
+    trailing_jacobian: np.ndarray,
+    process_noise: np.ndarray,
+    augmented_jacobian: np.ndarray,
+    work: np.ndarray,
+    stacked: np.ndarray,
+    observation4: np.ndarray,
+    noise4: np.ndarray,
+    observation8: np.ndarray,
+    noise8: np.ndarray,
+    settings: np.ndarray,
+    health: np.ndarray,
+    health_values: np.ndarray,
+    channel_settings: np.ndarray,
+    accepted: np.ndarray,
+    changing: np.ndarray,
+    counters: np.ndarray,
+    nis_window: np.ndarray,
+    nis_sums: np.ndarray,
+    history: np.ndarray,
+    summary_settings: np.ndarray,
+    alarm_record: np.ndarray,
+    alarm_settings: np.ndarray,
+    report: np.ndarray,
+) -> None:
+    """One sample after the model's transition (module docstring), in place; advances
+    ``counters[COUNT_STEP]`` and ``counters[COUNT_SINCE_UPDATE]``. The first five arguments are the sample's
+    (the transition and the measured displacements), the filter's arrays follow in the order of
+    ``OilFlowEKF._arrays``; those up to ``changing`` are :func:`estimator.kernels.filter_step`'s (its
+    flowrate scale is ``summary_settings[SUMMARY_Q_NOMINAL]``),
+    the ring buffers and settings :func:`step_summary`'s, ``alarm_record`` and ``alarm_settings`` the
+    alarm's (:class:`estimator.alarm.StarvationAlarm`); ``report`` (REPORT_SIZE,) out."""
+    status, nis, rows, _ = filter_step(
+        state,
+        covariance,
+        predict,
+        next_state,
+        state_jacobian,
+        flowrate_jacobian,
+        summary_settings[SUMMARY_Q_NOMINAL],
+        trailing_jacobian,
+        process_noise,
+        augmented_jacobian,
+        work,
+        displacement,
+        stacked,
+        observation4,
+        noise4,
+        observation8,
+        noise8,
+        settings,
+        health,
+        health_values,
+        channel_settings,
+        accepted,
+        changing,
+    )
+    ok = status == UPDATE_ACCEPTED
+    if not (ok and np.isfinite(nis)):
+        nis, rows = 0.0, 0
+    counters[COUNT_SINCE_UPDATE] = 0 if ok else counters[COUNT_SINCE_UPDATE] + 1
+    consistent, converged = step_summary(
+        state, covariance, counters, nis, rows, nis_window, nis_sums, history, summary_settings, report
+    )
+    unbalance = counters[COUNT_UNBALANCE]
+    if unbalance >= 0:
+        variance = summary_settings[SUMMARY_UNBALANCE_WALK]
+        if not consistent:
+            variance += summary_settings[SUMMARY_UNBALANCE_EXTRA]
+        process_noise[unbalance, unbalance] = variance
+        process_noise[unbalance + 1, unbalance + 1] = variance
+    update_alarm(
+        report[REPORT_FLOWRATE : REPORT_FLOWRATE + 2],
+        report[REPORT_STD : REPORT_STD + 2],
+        consistent,
+        alarm_record,
+        alarm_settings,
+    )
+    report[REPORT_NIS] = nis
+    report[REPORT_ROWS] = rows
+    report[REPORT_OK] = 1.0 if ok else 0.0
+    report[REPORT_CONVERGED] = 1.0 if converged else 0.0
+    report[REPORT_CONSISTENT] = 1.0 if consistent else 0.0
+    for b in range(2):
+        starved = alarm_record[STARVED, b] != 0
+        report[REPORT_STARVED + b] = 1.0 if starved else 0.0
+        both = starved and alarm_record[RAISED_CONSISTENT, b] != 0
+        report[REPORT_STARVED_CONSISTENT + b] = 1.0 if both else 0.0
+        report[REPORT_CHANGING + b] = 1.0 if changing[b] else 0.0
+    for i in range(4):
+        report[REPORT_STATUS + i] = health[i, STATUS]
+    counters[COUNT_STEP] += 1
+
+
+@njit(cache=True)
+def grid_batch(
+    grid_transition: np.ndarray,
+    grid_forcing: np.ndarray,
+    axes: np.ndarray,
+    omega_rad_s: float,
+    dt_s: float,
+    first_step: int,
+    record: np.ndarray,
+    table: np.ndarray,
+    next_state: np.ndarray,
+    state_jacobian: np.ndarray,
+    flowrate_jacobian: np.ndarray,
+    exogenous: np.ndarray,
+    arrays: tuple,
+) -> None:
+    """:func:`ekf_step` for every sample of ``record`` (K, 4), each report into ``table[k]``, with the grid
+    model's transition (:func:`models.system.flowrate_grid.interpolate_map` from the current estimate at
+    ``w = [1, cos(Omega t), sin(Omega t)]``, ``t = (first_step + k - 1) dt``, as
+    ``GridAugmentedModel.transition``) before every sample but the filter's first. ``arrays``: the
+    filter's arrays, :func:`ekf_step`'s arguments after the sample's (state first, report last)."""
+    state, counters, report = arrays[0], arrays[ARRAY_COUNTERS], arrays[-1]
+    n = next_state.shape[0]
+    for k in range(record.shape[0]):
+        predict = counters[COUNT_STEP] > 0
+        if predict:
+            time_s = (first_step + counters[COUNT_STEP] - 1) * dt_s
+            phase = omega_rad_s * time_s
+            exogenous[0] = 1.0
+            exogenous[1] = np.cos(phase)
+            exogenous[2] = np.sin(phase)
+            q1, q2 = report[REPORT_FLOWRATE], report[REPORT_FLOWRATE + 1]
+            next_, jacobian, flow = next_state, state_jacobian, flowrate_jacobian
+            interpolate_map(
+                grid_transition, grid_forcing, axes, state[:n], exogenous, q1, q2, next_, jacobian, flow
+            )
+        ekf_step(predict, next_state, state_jacobian, flowrate_jacobian, record[k], *arrays)
+        table[k, :] = report

@@ -1,0 +1,71 @@
+"""The bins behind estimate's views (oilwatch.monitoring.history): running means over fixed bins that widen
+(pairs merged) past a cap, the same whatever the block sizes, equal to the direct means over the final bins;
+the trend of a long record stays within its cap; the summary's CPU cost per tenth of the record."""
+
+from __future__ import annotations
+
+import types
+
+import numpy as np
+
+from oilwatch.monitoring.history import MAX_TREND_BINS, History, _Bins
+from oilwatch.monitoring.summary import _cost_by_tenth
+
+
+def _direct(values: np.ndarray, times: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
+    starts = np.arange(0, values.shape[0], size)
+    finite = np.isfinite(values)
+    sums = np.add.reduceat(np.where(finite, values, 0.0), starts, axis=0)
+    counts = np.add.reduceat(finite.astype(float), starts, axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return times[starts], np.where(counts > 0, sums / counts, np.nan)
+
+
+def test_bins_widen_past_their_cap_and_equal_the_direct_means_whatever_the_blocks():
+    rng = np.random.default_rng(3)
+    n = 10_007
+    values = rng.normal(size=(n, 3))
+    values[rng.random((n, 3)) < 0.05] = np.nan
+    values[2000:2300, 1] = np.nan  # whole bins without a finite value stay NaN
+    times = 1e-3 * np.arange(n) + 0.5
+    results = []
+    for cuts in (np.array([n]), np.sort(rng.choice(np.arange(1, n), 40, replace=False)), np.arange(1, n, 7)):
+        bins = _Bins(5, 3, max_bins=300)
+        for start, stop in zip(np.r_[0, cuts], np.r_[cuts, n], strict=True):
+            if stop > start:
+                bins.add(np.arange(start, stop), times[start:stop], values[start:stop])
+        assert bins.size == 5 * 2**3  # 10 007 / 5 = 2002 bins -> 1001, 501, 251 <= 300
+        results.append(bins.arrays())
+    expected_t, expected = _direct(values, times, 40)
+    for t, means in results:
+        np.testing.assert_array_equal(t, expected_t)
+        np.testing.assert_allclose(means, expected, rtol=1e-12, equal_nan=True)
+
+
+def test_the_trend_of_a_long_record_stays_within_its_cap():
+    columns = ["time_s", "q1", "q2", "s1", "s2", "starved1", "starved2", "nis", "n", "converged", "ok"]
+    columns += ["x1_um", "y1_um", "x2_um", "y2_um", "speed_hz", "oil_temperature_c"]
+    history = History(1e-3, 75.0, 1e-4)
+    block_rows = 8192
+    total = 600 * 1000  # 10 min at 1 kHz: 60 000 trend bins of 10 ms before the cap
+    for start in range(0, total, block_rows):
+        k = np.arange(start, min(total, start + block_rows)) + 1
+        rows = np.zeros((k.size, len(columns)))
+        rows[:, 0], rows[:, 1:3], rows[:, 3:5] = k * 1e-3, 600.0, 3.0
+        history.add(types.SimpleNamespace(k=k), rows, columns)
+    history.flush()
+    times, values = history.trend.arrays()
+    assert MAX_TREND_BINS // 2 < times.size <= MAX_TREND_BINS
+    np.testing.assert_allclose(values[:, :2], 600.0)
+    assert history.samples == total
+
+
+def test_the_cost_per_tenth_of_the_record_follows_the_cpu_marks():
+    samples = np.arange(0, 100_001, 4096)
+    samples[-1] = 100_000
+    cpu = np.where(samples <= 50_000, 40e-6 * samples, 40e-6 * 50_000 + 60e-6 * (samples - 50_000))
+    tenths = _cost_by_tenth(list(zip(samples.tolist(), cpu.tolist(), strict=True)))
+    np.testing.assert_allclose(tenths[:4], 40.0, rtol=1e-9)
+    np.testing.assert_allclose(tenths[6:], 60.0, rtol=1e-9)
+    assert 40.0 < tenths[4] <= 60.0 and 40.0 <= tenths[5] <= 60.0  # the marks straddle the change
+    assert _cost_by_tenth([(0, 0.0), (8192, 0.3)]) is None
