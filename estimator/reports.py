@@ -81,6 +81,12 @@ class ReportView(StepReport):
         self._values = values
 
     @property
+    def values(self) -> np.ndarray:
+        """The report array this view reads (``estimator.step_kernel``'s ``REPORT_*`` layout), for a reader
+        that takes many fields at once (the EKF FMU: one ``tolist()``); not to be written."""
+        return self._values
+
+    @property
     def q_m3_s(self) -> np.ndarray:
         return self._values[REPORT_FLOWRATE : REPORT_FLOWRATE + 2]
 

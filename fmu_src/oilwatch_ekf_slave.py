@@ -59,8 +59,19 @@ from estimator.config import (
     nuisance_values,
 )
 from estimator.ekf import OilFlowEKF as FlowFilter
-from estimator.ekf import StepReport
+from estimator.reports import ReportView
 from estimator.runout import runout_of_probes
+from estimator.step_kernel import (
+    REPORT_CONSISTENT,
+    REPORT_CONVERGED,
+    REPORT_FLOWRATE,
+    REPORT_NIS,
+    REPORT_OK,
+    REPORT_ROWS,
+    REPORT_STARVED,
+    REPORT_STATUS,
+    REPORT_STD,
+)
 from fmu_src.blas_threads import limit_blas_threads
 from fmu_src.machine_parameters import (
     declare_machine_parameters,
@@ -120,7 +131,7 @@ class OilFlowEKF(OilwatchSlave):
         self._missing = np.full(4, np.nan)
         self._warned_off_grid = False
         self._nuisance_names = [row[0] for row in nuisance_names()]
-        self._report: StepReport | None = None
+        self._report: ReportView | None = None
         self._core_stale = self._nuisances_stale = False
         self._previous_angle_rad: float | None = None
         self._declare_parameters()
@@ -483,7 +494,7 @@ class OilFlowEKF(OilwatchSlave):
         self._previous_angle_rad = math.radians(keyphasor) if connected else None
         return True
 
-    def _publish(self, report: StepReport | None = None) -> None:
+    def _publish(self, report: ReportView | None = None) -> None:
         """Copy a step report (default: the last one, rebuilt from the state) to all outputs now."""
         self._publish_core(report if report is not None else self.filter.current_report())
         self._publish_nuisances()
@@ -493,22 +504,24 @@ class OilFlowEKF(OilwatchSlave):
         for name, value in zip(self._nuisance_names, nuisance_values(self.filter), strict=True):
             setattr(self, name, value)
 
-    def _publish_core(self, report: StepReport) -> None:
-        # tolist(): Python numbers in one call per array, not a numpy scalar per output
-        q1, q2 = report.q_m3_s.tolist()
-        std1, std2 = report.q_std_m3_s.tolist()
-        self.q1_est_ml_min, self.q2_est_ml_min = q1 / ML_MIN, q2 / ML_MIN
-        self.q1_std_ml_min, self.q2_std_ml_min = std1 / ML_MIN, std2 / ML_MIN
-        self.nis = float(report.nis)
-        self.n_channels = int(report.n_measurements)
-        self.converged = bool(report.converged)
-        self.starved1, self.starved2 = report.starved.tolist()  # a bool array: Python bools
-        self.measurement_ok = bool(report.measurement_ok)
-        self.model_consistent = bool(report.model_consistent)
-        (self.probe_status_x1, self.probe_status_y1, self.probe_status_x2, self.probe_status_y2) = (
-            report.probe_status.tolist()
+    def _publish_core(self, report: ReportView) -> None:
+        # one tolist() of the report array (REPORT_* layout), not a ReportView field per output
+        v = report.values.tolist()
+        self.q1_est_ml_min = v[REPORT_FLOWRATE] / ML_MIN
+        self.q2_est_ml_min = v[REPORT_FLOWRATE + 1] / ML_MIN
+        self.q1_std_ml_min = v[REPORT_STD] / ML_MIN
+        self.q2_std_ml_min = v[REPORT_STD + 1] / ML_MIN
+        self.nis = v[REPORT_NIS]
+        self.n_channels = int(v[REPORT_ROWS])
+        self.converged = v[REPORT_CONVERGED] != 0.0
+        self.starved1 = v[REPORT_STARVED] != 0.0
+        self.starved2 = v[REPORT_STARVED + 1] != 0.0
+        self.measurement_ok = v[REPORT_OK] != 0.0
+        self.model_consistent = v[REPORT_CONSISTENT] != 0.0
+        self.probe_status_x1, self.probe_status_y1, self.probe_status_x2, self.probe_status_y2 = (
+            int(code) for code in v[REPORT_STATUS : REPORT_STATUS + 4]
         )
-        steps = self.filter.step_count
+        steps = report.step + 1
         self.t_estimate_s = (
             -1.0 if steps == 0 else self._first_sample_time_s + (steps - 1) * self.sample_period_s
         )
