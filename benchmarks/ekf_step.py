@@ -18,7 +18,8 @@ Two model families, each at the reduced and the full size; both filters only see
   machine file). Here the model's own evaluation is part of each step, as it would be in the estimator.
 
 The FMU is ``--fmu`` (default: built into a temporary folder with ``build.build_fmus``); its line needs the
-system family, whose reduced-model response feeds it.
+system family, whose reduced-model response feeds it. ``benchmarks/ekf_fmu_step.py`` splits the FMU's step
+into the library step, the shell's Python and the FMI floor (its :class:`FmuLoop` is the loop timed here).
 
 Under ramps (issue 13): the estimator on ``models.system.operating_model.OperatingAugmentedModel`` (reduced,
 following the measured speed and oil temperature) on the plant's record (full-order Newmark plant on the
