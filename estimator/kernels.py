@@ -1,8 +1,10 @@
 """Numba kernels of the EKF hot path: covariance propagation and the Joseph-form measurement update.
 
-One compiled call per half-step keeps the Python overhead at a few microseconds; the large products go to BLAS
-through ``np.dot`` inside the kernels. No matrix is ever inverted: the gain comes from a hand-written Cholesky
-factorization of the (at most 8 x 8) innovation covariance and triangular solves.
+:func:`filter_step` is one sample's predict and update in place; :mod:`estimator.step_kernel` wraps it
+with the summary and the alarm into the one compiled call per sample. The covariance prediction's two large
+products go to BLAS through ``np.dot``; the update's thin (m <= 8) products are loops. No matrix is ever
+inverted: the gain comes from a hand-written Cholesky factorization of the (at most 8 x 8) innovation
+covariance and triangular solves.
 
 Reference: Y. Bar-Shalom, X. R. Li, T. Kirubarajan, "Estimation with Applications to Tracking and Navigation",
 Wiley 2001, sections 5.2 (Joseph form) and 5.4 (NIS consistency test).

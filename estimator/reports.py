@@ -82,9 +82,11 @@ class ReportView(StepReport):
 
     @property
     def values(self) -> np.ndarray:
-        """The report array this view reads (``estimator.step_kernel``'s ``REPORT_*`` layout), for a reader
-        that takes many fields at once (the EKF FMU: one ``tolist()``); not to be written."""
-        return self._values
+        """The whole report (REPORT_SIZE,) in the ``REPORT_*`` layout of :mod:`estimator.step_kernel`, read
+        only (e.g. for publishing every output from one ``tolist()``)."""
+        view = self._values.view()
+        view.flags.writeable = False
+        return view
 
     @property
     def q_m3_s(self) -> np.ndarray:

@@ -103,3 +103,18 @@ def test_an_operating_model_s_batches_equal_its_steps_with_nan_as_not_given(oper
     trace = _blocks(OilFlowEKF(operating, config), record, speed, temperature)
     reports, offsets = _steps(OilFlowEKF(operating, config), record, speed, temperature)
     _same(trace, reports, offsets)
+
+
+def test_a_step_report_s_values_are_its_fields_in_the_report_layout(operating, record):
+    from estimator import step_kernel as layout
+
+    ekf = OilFlowEKF(operating.reference, EKFConfig.recommended(offset_prior_std_m=10e-6))
+    for z in record[:50]:
+        report = ekf.step(z)
+    values = report.values
+    assert not values.flags.writeable
+    np.testing.assert_array_equal(values[layout.REPORT_FLOWRATE : layout.REPORT_FLOWRATE + 2], report.q_m3_s)
+    assert values[layout.REPORT_NIS] == report.nis and values[layout.REPORT_ROWS] == report.n_measurements
+    np.testing.assert_array_equal(values[layout.REPORT_OFFSET : layout.REPORT_OFFSET + 4], ekf.offset_m)
+    ekf.step(record[50])
+    assert values[layout.REPORT_NIS] == report.nis  # a copy: the next step leaves it alone
