@@ -228,6 +228,15 @@ class EKFConfig:
             adds two random-walk states (needs a model with ``transition_full``, e.g.
             ``models.system.operating_model.OperatingAugmentedModel``).
         viscosity_factor_random_walk_sqrt_s : their random-walk intensity [1 / sqrt(s)].
+    Consistency with free viscosity factors (:mod:`estimator.nuisance_start`; only while the factors are
+    estimated without a baseline's prior for them)
+        nuisance_shadow : the flowrate and nuisance Jacobian of each prediction is taken at a noise-free
+            shadow of the dynamic state (the model run at the current estimates), not at the state
+            estimate: the instrumental-variable remedy for the information a noisy state estimate fakes
+            along the nearly unobservable direction of (flowrates, offsets, unbalance, factors).
+        nuisance_settling_time_constants : for this many time constants of the model's least damped mode
+            the flowrates and nuisances stay out of the Jacobian while the dynamic states settle, then start
+            from their prior (0: off).
     Innovation gate and probe health (see :mod:`estimator.channels`)
         gate_tail_probability : a channel whose squared standardized innovation exceeds the chi-square(1)
             quantile ``1 - p`` times its recent innovation power is rejected (0 disables the gate).
@@ -270,6 +279,8 @@ class EKFConfig:
     runout: SlowRollVectors | None = None
     viscosity_factor_prior_std: float = 0.0
     viscosity_factor_random_walk_sqrt_s: float = 0.002
+    nuisance_shadow: bool = True
+    nuisance_settling_time_constants: float = 5.0
     unbalance_prior_std: float = 0.0
     unbalance_random_walk_sqrt_s: float = 0.02
     unbalance_inconsistent_std: float = 0.01
@@ -338,6 +349,7 @@ class EKFConfig:
             "unbalance_random_walk_sqrt_s",
             "unbalance_inconsistent_std",
             "viscosity_factor_random_walk_sqrt_s",
+            "nuisance_settling_time_constants",
         ):
             require_non_negative(f"EKFConfig.{name}", getattr(self, name))
         for name in (

@@ -62,6 +62,7 @@ from .alarm import StarvationAlarm
 from .config import EKFConfig
 from .measurement import displacement_channels, velocity_channels
 from .model import AugmentedModel, has_static_state
+from .nuisance_start import ShadowJacobian, restart_parameters, settling_steps
 from .reports import EstimateTrace, ReportView, StepReport
 from .runout import RunoutCompensation
 from .state import export_state, import_state
@@ -234,6 +235,15 @@ class OilFlowEKF:
         self._accepted = np.zeros(4, dtype=bool)
         self._window = max(1, round(cfg.converged_window_s / self._dt))
         self.alarm = StarvationAlarm(cfg.alarm, self._dt, self._q_nominal)
+        # shadow Jacobian and settling start while the flowrates are estimated beside viscosity factors
+        # that no baseline primed: the nearly unobservable direction (estimator/nuisance_start.py)
+        baseline = cfg.offset_baseline
+        free = self._n_viscosity > 0 and (baseline is None or baseline.viscosity_factor is None)
+        free = free and cfg.flowrate_process_std_m3_s > 0.0  # a baseline's run holds the flowrates
+        constants = cfg.nuisance_settling_time_constants if free else 0.0
+        self._settling = settling_steps(model, cfg.q_initial_pair(), constants)
+        self._no_flow_jacobian = np.zeros((n, 2))
+        self._shadow = ShadowJacobian(n, self._n_trailing) if free and cfg.nuisance_shadow else None
         self.reset()
 
     def _check_model(self) -> None:
@@ -367,6 +377,9 @@ class OilFlowEKF:
             self.alarm.settings,
             self._report,
         )
+        self._prior = (self._x.copy(), self._P.copy())
+        if self._shadow is not None:
+            self._shadow.reset()
 
     @property
     def flowrate_m3_s(self) -> np.ndarray:
@@ -496,7 +509,18 @@ class OilFlowEKF:
             displacement = self._runout.compensate(displacement, step, angle)
         predict = step > 0
         if predict:
-            next_state, state_jac, flow_jac = self._predict_with_model(self._first_step + step - 1)
+            model_step = self._first_step + step - 1
+            if self._shadow is not None:
+                shadow = self._shadow.jacobians(
+                    self._predict_with_model, self._x[: self._n], self._trailing_jacobian, model_step
+                )
+            next_state, state_jac, flow_jac = self._predict_with_model(model_step)
+            if step <= self._settling:  # settling start: the parameters out of the Jacobian
+                flow_jac = self._no_flow_jacobian
+                self._trailing_jacobian[:] = 0.0
+            elif self._shadow is not None:
+                flow_jac = shadow[0]
+                self._trailing_jacobian[:] = shadow[1]
             next_state = np.ascontiguousarray(next_state, dtype=np.float64)
             state_jac = np.ascontiguousarray(state_jac, dtype=np.float64)
             flow_jac = np.ascontiguousarray(flow_jac, dtype=np.float64)
@@ -504,18 +528,25 @@ class OilFlowEKF:
             n = self._n
             next_state, state_jac, flow_jac = self._x[:n], self._work[:n, :n], self._work[:n, :2]
         ekf_step(predict, next_state, state_jac, flow_jac, displacement, *self._arrays)
+        if step == self._settling and step > 0:
+            restart_parameters(self._x, self._P, *self._prior, self._n)
+            self._refresh_report()
 
-    def _predict_with_model(self, model_step: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The model's transition from the current estimate to the next sample: ``(s_next, df/ds, df/dq)``,
-        with the nuisance columns of the Jacobian (viscosity factors, unbalance) put into place."""
+    def _predict_with_model(
+        self, model_step: int, state: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The model's transition from the current estimate (or from ``state`` at the current flowrates and
+        nuisances) to the next sample: ``(s_next, df/ds, df/dq)``, with the nuisance columns of the Jacobian
+        (viscosity factors, unbalance) put into place."""
         n = self._n
+        s = self._x[:n] if state is None else state
         flowrate = self._report[REPORT_FLOWRATE : REPORT_FLOWRATE + 2]
         trailing = self._trailing_jacobian
         if self._n_viscosity:
             factors = np.maximum(self._x[self._viscosity], MIN_VISCOSITY_FACTOR)
             unbalance = self._x[self._unbalance] if self._n_unbalance else None
             next_state, state_jac, flow_jac, viscosity_jac, unbalance_jac = self.model.transition_full(
-                self._x[:n], flowrate, model_step, factors, unbalance
+                s, flowrate, model_step, factors, unbalance
             )
             trailing[:, :2] = viscosity_jac
             if self._n_unbalance:
@@ -523,11 +554,11 @@ class OilFlowEKF:
             return next_state, state_jac, flow_jac
         if self._n_unbalance:
             next_state, state_jac, flow_jac, unbalance_jac = self.model.transition_with_unbalance(
-                self._x[:n], flowrate, model_step, self._x[self._unbalance]
+                s, flowrate, model_step, self._x[self._unbalance]
             )
             trailing[:, :] = unbalance_jac
             return next_state, state_jac, flow_jac
-        return self.model.transition(self._x[:n], flowrate, model_step)
+        return self.model.transition(s, flowrate, model_step)
 
     def _refresh_report(self) -> None:
         """The report array from the state as it is (after a reset or a restored state): the flowrates the
@@ -699,8 +730,14 @@ class OilFlowEKF:
 
     def get_state(self) -> dict[str, np.ndarray]:
         """The complete filter state as copies of numpy arrays (restoring it continues bit-identically)."""
-        return export_state(self)
+        state = export_state(self)
+        if self._shadow is not None and self._shadow.state is not None:
+            state["nuisance_shadow"] = self._shadow.state.copy()
+        return state
 
     def set_state(self, state: dict[str, np.ndarray]) -> None:
         """Restore a state from :meth:`get_state` exactly (same model and configuration)."""
         import_state(self, state)
+        if self._shadow is not None:
+            shadow = state.get("nuisance_shadow")
+            self._shadow.state = None if shadow is None else np.array(shadow, dtype=float)

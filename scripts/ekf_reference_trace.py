@@ -60,7 +60,9 @@ def cases(with_records: bool = True) -> dict[str, tuple]:
     machine = load_machine()
     grid = GridAugmentedModel(load_system(reduced=True))
     constant = record(grid) if with_records else None
-    nuisances = EKFConfig.recommended(offset_prior_std_m=5e-6, unbalance_prior_std=0.3)
+    # the reference filter had no shadow Jacobian or settling start (estimator/nuisance_start.py)
+    reference = {"nuisance_shadow": False, "nuisance_settling_time_constants": 0.0}
+    nuisances = EKFConfig.recommended(offset_prior_std_m=5e-6, unbalance_prior_std=0.3, **reference)
     operating = build_operating_model(load_system(reduced=True), machine)
     speed, temperature = operating_inputs(machine.nominal_oil_temperature_c)
     return {
@@ -68,7 +70,7 @@ def cases(with_records: bool = True) -> dict[str, tuple]:
         "nuisances": (grid, nuisances, constant, None, None),
         "ramps": (
             operating,
-            EKFConfig.recommended(viscosity_factor_prior_std=0.05),
+            EKFConfig.recommended(viscosity_factor_prior_std=0.05, **reference),
             record(operating.reference) if with_records else None,
             speed,
             temperature,
