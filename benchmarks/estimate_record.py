@@ -6,13 +6,13 @@
 2. ``oilwatch estimate RECORD`` in a subprocess: wall time (whole command, and the summary's estimation time
    after set-up), real-time factor, the child's CPU time (user + system: the real-time factor per core, what
    a shared machine's load does not inflate) and its peak resident memory (``ru_maxrss``).
-3. Baseline in the same run: the bare estimator loop (``OilFlowEKF.run``, the command's configuration: the
-   machine file's probe offsets prior) on the first 60 s of the same data in this process, CPU time per
-   sample, and the ratio of the command's CPU time per sample to it; the summary's ``estimator_s`` (the
-   steps alone, CPU time measured in the command) against its whole estimation CPU time, and its
-   ``stages_s``: where the rest goes (reading and conditioning the record, building the rows, formatting and
-   writing them, the views' history). CPU time, because on a shared machine the load's preemption lands in
-   whichever stage it interrupts.
+3. Baseline in the same run: the bare estimator loop (``OilFlowEKF.run_batch`` block by block, the command's
+   configuration: the machine file's probe offsets prior) on the first 60 s of the same data in this
+   process, CPU time per sample, and the ratio of the command's CPU time per sample to it; the summary's
+   ``estimator_s`` (the steps alone, CPU time measured in the command) against its whole estimation CPU
+   time, and its ``stages_s``: where the rest goes (reading and conditioning the record, building the rows,
+   formatting and writing them, the views' history). CPU time, because on a shared machine the load's
+   preemption lands in whichever stage it interrupts.
 4. Live: ``oilwatch estimate -`` fed ``--live-s`` seconds of the record line by line at 1 kHz (real-time
    pacing) through a pipe; per-sample latency from writing a line to reading its estimate line back.
 
@@ -40,6 +40,8 @@ sys.path.insert(0, str(ROOT / "tests"))
 
 PERIOD_S = 10.0
 DT_S = 1e-3
+BLOCK_ROWS = 8192
+"""The command's chunk of rows (``EstimateOptions.chunk_rows``)."""
 
 
 def write_long_record(path: Path, hours: float, noise_um: float = 1.0) -> int:
@@ -69,10 +71,13 @@ def bare_estimator_us_per_sample(path: Path, samples: int = 60000) -> float:
     data = np.loadtxt(path, delimiter=",", skiprows=1, max_rows=samples)
     probes = read_probes(load_machine(None))
     ekf = OilFlowEKF(estimator_model(None), estimator_config(75.0, 1.0, 0.0, probes))
-    ekf.run(data[:100, 1:] * 1e-6)  # compile
+    ekf.run_batch(data[:100, 1:] * 1e-6)  # compile
     ekf.reset()
+    measured = data[:, 1:] * 1e-6
+    trace = None
     started = time.process_time()
-    ekf.run(data[:, 1:] * 1e-6)
+    for first in range(0, samples, BLOCK_ROWS):  # as the command: blocks into one reused trace
+        trace = ekf.run_batch(measured[first : first + BLOCK_ROWS], out=trace)
     return (time.process_time() - started) / samples * 1e6
 
 
@@ -171,7 +176,7 @@ def main() -> None:
         size_mb = record.stat().st_size / 1e6
         print(f"record: {rows} rows ({size_mb:.0f} MB) written in {time.perf_counter() - started:.0f} s")
         bare = bare_estimator_us_per_sample(record)
-        print(f"baseline: bare estimator loop (OilFlowEKF.run, 60 s of the record) {bare:.1f} us/sample CPU")
+        print(f"baseline: bare estimator loop (OilFlowEKF.run_batch, 60 s) {bare:.1f} us/sample CPU")
         result = run_command(record, work / "out")
         summary = result["summary"]
         duration, wall = summary["duration_s"], result["wall_s"]

@@ -9,7 +9,7 @@ import types
 import numpy as np
 
 from oilwatch.monitoring.history import MAX_TREND_BINS, History, _Bins
-from oilwatch.monitoring.summary import _cost_by_tenth
+from oilwatch.monitoring.timing import CpuMarks, LatencyHistogram
 
 
 def _direct(values: np.ndarray, times: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
@@ -60,12 +60,28 @@ def test_the_trend_of_a_long_record_stays_within_its_cap():
     assert history.samples == total
 
 
-def test_the_cost_per_tenth_of_the_record_follows_the_cpu_marks():
-    samples = np.arange(0, 100_001, 4096)
-    samples[-1] = 100_000
-    cpu = np.where(samples <= 50_000, 40e-6 * samples, 40e-6 * 50_000 + 60e-6 * (samples - 50_000))
-    tenths = _cost_by_tenth(list(zip(samples.tolist(), cpu.tolist(), strict=True)))
-    np.testing.assert_allclose(tenths[:4], 40.0, rtol=1e-9)
-    np.testing.assert_allclose(tenths[6:], 60.0, rtol=1e-9)
-    assert 40.0 < tenths[4] <= 60.0 and 40.0 <= tenths[5] <= 60.0  # the marks straddle the change
-    assert _cost_by_tenth([(0, 0.0), (8192, 0.3)]) is None
+def test_the_cost_per_tenth_of_the_record_follows_the_cpu_marks_whose_spacing_doubles():
+    marks = CpuMarks(10)
+    done, cpu = 0, 0.0
+    while done < 100_000:  # 40 us per sample in the first half, 60 in the second
+        done += 7
+        cpu += 7 * (40e-6 if done <= 50_000 else 60e-6)
+        marks.add(done, cpu)
+    marks.add(done, cpu, last=True)
+    assert len(marks.marks) <= 1024 and marks.spacing > 10
+    tenths = marks.by_tenth_us()
+    np.testing.assert_allclose(tenths[:4], 40.0, rtol=1e-3)
+    np.testing.assert_allclose(tenths[6:], 60.0, rtol=1e-3)
+    assert CpuMarks(8192).by_tenth_us() is None
+
+
+def test_the_latency_histogram_gives_quantiles_to_its_bin_width_and_the_exact_maximum():
+    rng = np.random.default_rng(5)
+    latencies = rng.lognormal(np.log(6e-4), 0.8, 20_000)
+    histogram = LatencyHistogram()
+    for value in latencies:
+        histogram.add(float(value))
+    summary = histogram.summary_ms()
+    assert summary["blocks"] == latencies.size and summary["max"] == round(latencies.max() * 1e3, 4)
+    for key, q in (("median", 0.5), ("p99", 0.99)):
+        assert abs(summary[key] / (np.quantile(latencies, q) * 1e3) - 1.0) < 0.015

@@ -48,10 +48,11 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import LinearOperator, gmres, splu
 
 from ..validation import InputError, require_non_negative, require_positive
-from .discretization import film_operator, force_weights
-from .film import FilmSolution, side_leakage, validate_state
+from .discretization import force_weights
+from .film import FilmSolution, validate_state
 from .geometry import JournalBearing
 from .grid import PRODUCTION_MESH, FilmGrid, Mesh, film_grid
+from .transient_kernels import StepArrays, StepAssembly
 from .transient_multigrid import CoarseCorrection, multigrid_solve
 from .transient_sweep import sor_sweeps
 
@@ -178,10 +179,11 @@ class TransientFilm:
         area = (bearing.radius_m * grid.dpsi)[:, None] * grid.dz[None, :]
         self.area_m2 = np.bincount(grid.node_of_cell.ravel(), weights=area.ravel(), minlength=grid.n_nodes)
         self.p_ref = bearing.viscosity_pa_s * self.omega_rad_s * bearing.radius_m**2 / bearing.clearance_m**2
-        self._rows = grid.slots["rows"]
-        self._cols = grid.slots["columns"]
-        self._diag = grid.slots["diag"]
-        self._indptr = grid.pattern.indptr.astype(np.int64)
+        self._assembly = StepAssembly(grid, bearing.viscosity_pa_s, self.omega_rad_s, self.p_ref)
+        self.couette_scale_m3_s = (
+            0.5 * self.omega_rad_s * bearing.radius_m * bearing.clearance_m * bearing.length_m
+        )
+        """The whole bearing's Couette flow U c L / 2 [m^3/s]: the residuals' scale."""
         self._lu = None
         self.factorizations = 0
         self.relaxation = 2.0 / (1.0 + SWEEP_RELAXATION_SCALE / self.mesh.n_axial)
@@ -261,19 +263,19 @@ class TransientFilm:
         dt = require_positive("dt_s", dt_s, "s")
         q = require_non_negative("supply_flow_m3_s", supply_flow_m3_s, "m^3/s")
         e = np.asarray(eccentricity_m, dtype=float)
-        omega, ex, ey, _ = validate_state(self.bearing, self.speed_hz, (e[0], e[1]), (0.0, 0.0), "full-film")
+        _, ex, ey, _ = validate_state(self.bearing, self.speed_hz, (e[0], e[1]), (0.0, 0.0), "full-film")
         grid = self.grid
-        op = film_operator(grid, (ex, ey), (0.0, 0.0), omega)
+        arrays = self._assembly.fill(ex, ey)
         order = self.order if state.previous_content_m3 is not None else 1
         beta, history = BDF[order]
         old = history[0] * state.content_m3
         if order == 2:
             old = old + history[1] * state.previous_content_m3
-        storage = beta * self.gap_volume_m3(e) / dt
-        source = -old / dt
-        source[grid.groove_node] += q / self.mirror
+        np.multiply(self.gap_volume_m3(e), beta / dt, out=arrays.storage)
+        np.multiply(old, -1.0 / dt, out=arrays.rhs)
+        arrays.rhs[grid.groove_node] += q / self.mirror
         start = _extrapolated(state) if guess is None else guess
-        sweep = self._sweeps(op, storage, source, start, q / self.mirror) if self.sweep_limit > 0 else None
+        sweep = self._sweeps(arrays, start, q / self.mirror) if self.sweep_limit > 0 else None
         if sweep is not None and sweep[3]:
             p, theta, full = sweep[0], sweep[1], sweep[2]
             iteration, linear = 0, 0
@@ -281,7 +283,7 @@ class TransientFilm:
             if sweep is not None:
                 self.fallbacks += 1
                 start = _Start(sweep[0], sweep[1], sweep[2])
-            p, theta, full, iteration, linear = self._active_set(op, storage, source, start, max_iterations)
+            p, theta, full, iteration, linear = self._active_set(arrays, start, max_iterations)
         # Volumes within the tolerance of a switch keep their (unclipped) solution: the balance stays exact.
         content = theta * self.gap_volume_m3(e)
         return TransientFilmState(
@@ -291,8 +293,8 @@ class TransientFilm:
             content_m3=content,
             previous_content_m3=state.content_m3,
             eccentricity_m=e.copy(),
-            force_n=self.mirror * np.array([p @ op.wx, p @ op.wy]),
-            side_leakage_m3_s=self.mirror * side_leakage(op, p),
+            force_n=self.mirror * np.array([p @ self.wx, p @ self.wy]),
+            side_leakage_m3_s=self.mirror * self._assembly.side_leakage(p) / self.p_ref,
             supply_flow_m3_s=q,
             time_s=state.time_s + dt,
             iterations=iteration,
@@ -304,31 +306,30 @@ class TransientFilm:
             mirror=self.mirror,
         )
 
-    def _sweeps(self, op, storage, source, start, q: float):
-        """Projected SOR from ``start`` (:mod:`models.bearing.transient_sweep`): (p [Pa], theta, full,
-        converged, sweeps, max |residual| / (U c L / 2))."""
+    def _sweeps(self, arrays: StepArrays, start, q: float):
+        """Projected SOR or multigrid from ``start`` (:mod:`models.bearing.transient_sweep`): (p [Pa],
+        theta, full, converged, sweeps, max |residual| / (U c L / 2))."""
         p = np.where(start.full, np.maximum(start.pressure_pa, 0.0) / self.p_ref, 0.0)
         theta = np.where(start.full, 1.0, np.minimum(start.fill_fraction, 1.0))
-        scale = op.couette_scale_m3_s / self.mirror  # the grid's own Couette flow (half the bearing's)
-        common = (self._indptr, self._cols, self._diag, op.ap_data * self.p_ref, op.at_data, storage, source)
+        scale = self.couette_scale_m3_s / self.mirror  # the grid's own Couette flow (half the bearing's)
         limits = (self.residual_tolerance * scale, self.mass_tolerance * max(q, scale * 1e-3))
         if self._coarse is not None:
             sweeps, worst, _, converged = multigrid_solve(
-                self._coarse, *common, p, theta, *limits, self.sweep_limit
+                self._coarse, arrays, p, theta, *limits, self.sweep_limit
             )
         else:
             sweeps, worst, _, converged = sor_sweeps(
-                *common, p, theta, self.relaxation, *limits, self.sweep_limit, SWEEP_CHECK_EVERY
+                arrays, p, theta, self.relaxation, *limits, self.sweep_limit, SWEEP_CHECK_EVERY
             )
         self.sweep_count += sweeps
         full = theta >= 1.0
         return p * self.p_ref, theta, full, converged, sweeps, worst / scale
 
-    def _active_set(self, op, storage, source, start, max_iterations: int):
+    def _active_set(self, arrays: StepArrays, start, max_iterations: int):
         """The primal-dual active-set solve of the step's complementarity problem from ``start``."""
         grid = self.grid
-        rows, cols, diag = self._rows, self._cols, self._diag
-        ap_scaled = op.ap_data * self.p_ref
+        rows, cols, diag = arrays.rows, arrays.indices, arrays.diag
+        ap_scaled, at, storage, source = arrays.ap, arrays.at, arrays.storage, arrays.rhs
         full = start.full.copy()
         u = np.where(full, start.pressure_pa / self.p_ref, start.fill_fraction)
         tol_p = 1e-10 * self.p_ref
@@ -336,11 +337,11 @@ class TransientFilm:
         linear = 0
         for iteration in range(1, max_iterations + 1):  # noqa: B007 (the count is returned)
             cav = ~full
-            data = np.where(full[cols], ap_scaled, op.at_data)
+            data = np.where(full[cols], ap_scaled, at)
             data[diag] += storage * cav
-            rhs = source - np.bincount(rows, weights=op.at_data * full[cols], minlength=grid.n_nodes)
+            rhs = source - np.bincount(rows, weights=at * full[cols], minlength=grid.n_nodes)
             rhs -= storage * full
-            u, its = self._linear_solve(data, rhs, u, LINEAR_TOLERANCE * op.couette_scale_m3_s)
+            u, its = self._linear_solve(data, rhs, u, LINEAR_TOLERANCE * self.couette_scale_m3_s)
             linear += its
             p = np.where(full, u * self.p_ref, 0.0)
             theta = np.where(full, 1.0, u)

@@ -9,7 +9,7 @@ import dataclasses
 import numpy as np
 
 from estimator.config import ML_MIN, NUISANCE_OUTPUTS, nuisance_names
-from estimator.ekf import OilFlowEKF, StepReport
+from estimator.ekf import StepReport
 
 BASE_FIELDS = (
     "step",
@@ -133,35 +133,6 @@ class TraceRows:
             else:
                 np.multiply(values, factor, out=rows[:, columns])
         return rows
-
-
-class NuisanceColumns:
-    """The nuisance properties of a filter sampled after each step: those it estimates are read, the known
-    ones (zero std at the start: a zero prior) repeated as their constant values, so that a step costs only
-    what changes."""
-
-    def __init__(self, ekf: OilFlowEKF) -> None:
-        self.ekf = ekf
-        names = [name for row in NUISANCE_OUTPUTS for name in (row.estimate, row.std)]
-        self._constant = {name: np.asarray(getattr(ekf, name), dtype=np.float64) for name in names}
-        self._names = tuple(
-            name
-            for row in NUISANCE_OUTPUTS
-            if np.any(np.asarray(getattr(ekf, row.std)) > 0.0)
-            for name in (row.estimate, row.std)
-        )
-
-    def snapshot(self) -> tuple:
-        ekf = self.ekf
-        return tuple(getattr(ekf, name) for name in self._names)
-
-    def arrays(self, snapshots: list[tuple]) -> dict[str, np.ndarray]:
-        """The (n, ...) SI arrays of every nuisance property over ``snapshots``."""
-        n = len(snapshots)
-        out = {name: np.tile(value, (n, 1)) for name, value in self._constant.items()}
-        for j, name in enumerate(self._names):
-            out[name] = np.array([s[j] for s in snapshots], dtype=np.float64)
-        return out
 
 
 def column_decimals(columns: list[str], report: StepReport) -> np.ndarray:

@@ -35,7 +35,6 @@ import functools
 import gc
 import itertools
 import time
-import types
 from collections.abc import Callable
 from contextlib import contextmanager
 from pathlib import Path
@@ -57,18 +56,16 @@ from oilwatch.records.probes import merged_section
 from oilwatch.records.readers import STDIN
 from oilwatch.study.storage import write_json_atomic
 
-from .columns import NuisanceColumns, TraceRows, column_decimals, estimate_columns
+from .columns import TraceRows, column_decimals, estimate_columns
 from .csv_rows import RowWriter
 from .history import History
+from .timing import CpuMarks, LatencyHistogram
 
 ESTIMATOR_DT_S = 1e-3
 """The estimator's sampling period (its discrete model's step, as the FMU's default)."""
 OPERATING_POINTS = ("auto", "follow", "nominal")
 _MODELS: dict[tuple, object] = {}
 GC_BLOCKS = 64
-MAX_CPU_MARKS = 1024
-"""Marks of the CPU time spent so far (the summary's cost per sample along the record) kept at most: at
-uniform sample counts, twice as far apart whenever there would be more."""
 """Blocks between the collections of young objects while the automatic collector is off (below)."""
 
 
@@ -233,14 +230,10 @@ class EstimateRun:
         self.history = History(
             ESTIMATOR_DT_S, self.speed_hz, self.machine.bearing.clearance_m, self.probe_angle_deg
         )
-        self.latency_s: list[float] = []
+        self.latency = LatencyHistogram()  # from standard input: a line's arrival to its estimate written
         self.estimator_s = 0.0  # CPU time in the estimator's steps (the rest: reading, conditioning, writing)
         self.cpu_s = 0.0  # this process's CPU time over the same span as the summary's wall_s
-        self.cpu_marks: list[tuple[int, float]] = [(0, 0.0)]
-        """(samples estimated, CPU time since the first block), about every :attr:`_mark_spacing` samples:
-        does the cost per sample change along the record (summary ``cpu_us_per_sample_by_tenth``)?"""
-        self._mark_spacing = options.chunk_rows
-        self._next_mark = self._mark_spacing
+        self.cpu_marks = CpuMarks(options.chunk_rows)  # along the record (summary cpu_us_per_sample_by_tenth)
         self.stages_s = dict.fromkeys(("read_condition", "rows", "write", "history"), 0.0)
         """Where the rest of the CPU time goes, after the first block: reading and conditioning the record,
         building the rows from the step reports, formatting and writing them, the views' history."""
@@ -323,23 +316,21 @@ class EstimateRun:
                 steps = self.estimator_s
                 rows = self._estimate(block)
                 done += rows.shape[0]
-                if done >= self._next_mark:
-                    self._mark(done, clock() - started_cpu)
+                self.cpu_marks.add(done, clock() - started_cpu)
                 t2 = clock()
                 spent["rows"] += t2 - t1 - (self.estimator_s - steps)
                 writer.write(rows)
                 t3 = clock()
                 spent["write"] += t3 - t2
                 if self.options.live and not first:  # from the arrival of the line to its estimate written
-                    self.latency_s.append(time.perf_counter() - self.stream.reader.received_s)
+                    self.latency.add(time.perf_counter() - self.stream.reader.received_s)
                 self.history.add(block, rows, self._columns)
                 spent["history"] += clock() - t3
         if self.filter is None:
             raise InputError(f"{self.stream.reader.name}: no sample to estimate from (record too short)")
         wall = time.perf_counter() - started
         self.cpu_s = clock() - started_cpu
-        if done > self.cpu_marks[-1][0]:
-            self._mark(done, self.cpu_s)
+        self.cpu_marks.add(done, self.cpu_s, last=True)
         from .summary import summarize
 
         summary = summarize(self, wall, csv_path)
@@ -354,13 +345,6 @@ class EstimateRun:
             summary["report_html"] = str(write_report(summary, self.out))
             self._write_summary(summary)
         return summary
-
-    def _mark(self, done: int, cpu_s: float) -> None:
-        self.cpu_marks.append((done, cpu_s))
-        self._next_mark = done + self._mark_spacing
-        if len(self.cpu_marks) > MAX_CPU_MARKS:
-            self.cpu_marks = self.cpu_marks[::2]
-            self._mark_spacing *= 2
 
     def _write_summary(self, summary: dict) -> None:
         write_json_atomic(self.out / "summary.json", summary)
@@ -406,7 +390,7 @@ class EstimateRun:
         report = self.filter.current_report()
         self._columns, extras = estimate_columns(report)
         self._rows = TraceRows(self._columns, extras)
-        self._nuisances = NuisanceColumns(self.filter)
+        self._trace = None
         writer.header(self._columns, column_decimals(self._columns, report))
 
     def _estimate(self, block) -> np.ndarray:
@@ -421,23 +405,10 @@ class EstimateRun:
         return self._rows.rows(block, trace, count)
 
     def _steps(self, block):
-        """The estimator's per-sample outputs over a block (the fields of :class:`estimator.ekf.EstimateTrace`
-        and the nuisances'), step by step (until the library's batch entry is there)."""
-        ekf = self.filter
-        step, snapshot = ekf.step, self._nuisances.snapshot
-        reports, nuisances = [], []
-        if self.follow:
-            operating = map(self._operating, block.speed_hz.tolist(), block.oil_temperature_c.tolist())
-            for position, (speed, temperature) in zip(block.measurement_m, operating, strict=True):
-                reports.append(step(position, speed, temperature))
-                nuisances.append(snapshot())
-        else:
-            for position in block.measurement_m:
-                reports.append(step(position))
-                nuisances.append(snapshot())
-        fields = {
-            item.name: np.array([getattr(r, item.name) for r in reports])
-            for item in dataclasses.fields(reports[0])
-        }
-        fields.update(self._nuisances.arrays(nuisances))
-        return types.SimpleNamespace(**fields)
+        """The estimator's per-sample outputs over a block (:meth:`estimator.ekf.OilFlowEKF.run_batch`, into
+        the previous block's trace when it has the rows)."""
+        count = block.k.size
+        reuse = self._trace if self._trace is not None and self._trace.nis.shape[0] >= count else None
+        speed, temperature = (block.speed_hz, block.oil_temperature_c) if self.follow else (None, None)
+        self._trace = self.filter.run_batch(block.measurement_m, speed, temperature, out=reuse)
+        return self._trace

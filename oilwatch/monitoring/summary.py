@@ -7,8 +7,6 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-import numpy as np
-
 from estimator.config import ML_MIN, nuisance_names, nuisance_values
 
 SPEED_MISMATCH_FRACTION = 0.01
@@ -63,18 +61,12 @@ def summarize(run, wall_s: float, csv_path: Path) -> dict:
         "realtime_factor": round(duration / wall_s, 2) if wall_s > 0 else None,
         "cpu_s": round(run.cpu_s, 3),
         "realtime_factor_cpu": round(duration / run.cpu_s, 2) if run.cpu_s > 0 else None,
-        "cpu_us_per_sample_by_tenth": _cost_by_tenth(run.cpu_marks),
+        "cpu_us_per_sample_by_tenth": run.cpu_marks.by_tenth_us(),
         "estimates_csv": str(csv_path),
     }
     summary["probes"] = _probe_summary(run)
-    if run.latency_s:
-        latency = np.asarray(run.latency_s)
-        summary["live_latency_ms"] = {
-            "median": round(float(np.median(latency)) * 1e3, 4),
-            "p99": round(float(np.quantile(latency, 0.99)) * 1e3, 4),
-            "max": round(float(latency.max()) * 1e3, 4),
-            "blocks": int(latency.size),
-        }
+    if run.latency.count:
+        summary["live_latency_ms"] = run.latency.summary_ms()
     for b in (1, 2):
         q = summary[f"q{b}_final_ml_min"]
         alarmed = any(a["bearing"] == b for a in history.alarms)
@@ -95,18 +87,6 @@ def summarize(run, wall_s: float, csv_path: Path) -> dict:
             file=sys.stderr,
         )
     return summary
-
-
-def _cost_by_tenth(marks: list[tuple[int, float]]) -> list[float] | None:
-    """CPU time per sample [us] in each tenth of the samples estimated, from the run's (samples, CPU time)
-    marks (interpolated between them: a tenth shorter than the marks' spacing gets the mean around it); None
-    with fewer than 10 marks."""
-    if len(marks) < 10:
-        return None
-    samples, cpu = np.array(marks, dtype=float).T
-    edges = np.linspace(0.0, samples[-1], 11)
-    spent = np.diff(np.interp(edges, samples, cpu))
-    return [round(float(value), 2) for value in spent / np.diff(edges) * 1e6]
 
 
 def _probe_summary(run) -> dict:

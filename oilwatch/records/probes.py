@@ -31,6 +31,7 @@ import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field, replace
 
+import numba
 import numpy as np
 
 from models.probes import LAYOUTS  # one key for the reader, the estimator and the plant
@@ -243,6 +244,22 @@ def with_overrides(setup: ProbeSetup, **changes) -> ProbeSetup:
     return replace(setup, **changes)
 
 
+@numba.njit(cache=True)
+def _combine(along, inverse, out):  # pragma: no cover - compiled; covered through positions_m
+    """out[k, i] = sum of inverse[i, j] along[k, j] over the nonzero inverse[i, j] only (a missing reading
+    reaches only the coordinates it enters), summed in j order from 0.0. Compiled: a live record comes one
+    line at a time, where a numpy call per term cost more than the line's estimate."""
+    n, m = along.shape
+    for k in range(n):
+        for i in range(m):
+            total = 0.0
+            for j in range(m):
+                if inverse[i, j] != 0.0:
+                    total += inverse[i, j] * along[k, j]
+            out[k, i] = total
+    return out
+
+
 class PositionConverter:
     """Probe readings (one column per probe, in its unit) -> the shaft's (x1, y1, x2, y2) [m] in the model
     frame from each bearing centre, for a machine of radial clearance ``clearance_m``."""
@@ -286,11 +303,8 @@ class PositionConverter:
     def positions_from_axes_m(self, along_m: np.ndarray) -> np.ndarray:
         """(k, 4) displacements along the probes' axes [m] -> (x1, y1, x2, y2) [m] (NaN as in
         :meth:`positions_m`)."""
-        out = np.zeros_like(along_m)
-        for i, row in enumerate(self._inverse):
-            for j in np.flatnonzero(row):
-                out[:, i] += row[j] * along_m[:, j]
-        return out
+        along = np.ascontiguousarray(along_m, dtype=np.float64)
+        return _combine(along, self._inverse, np.empty_like(along))
 
     def positions_m(self, readings: np.ndarray) -> np.ndarray:
         """(k, 4) readings -> (k, 4) (x1, y1, x2, y2) [m]. A missing (NaN) reading makes missing only the

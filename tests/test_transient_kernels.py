@@ -1,0 +1,66 @@
+"""The transient step's shared arrays: compiled assembly against the discretization, the sweep's residual."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from models.bearing.discretization import film_operator
+from models.bearing.film import side_leakage
+from models.bearing.geometry import JournalBearing
+from models.bearing.grid import Mesh, film_grid
+from models.bearing.transient_kernels import StepAssembly
+from models.bearing.transient_sweep import projected_sweep_residual, step_residual, sweep_factors
+
+BEARING = JournalBearing(0.045, 0.070, 120e-6, 0.094, 0.0, 16.2e-3, 35e-3)
+OMEGA = 2.0 * math.pi * 75.0
+P_REF = 3.0e6
+
+
+@pytest.mark.parametrize("half", [False, True], ids=["whole", "half"])
+def test_assembly_is_the_discretization(half):
+    """Ap, At and the end leakage filled in place equal film_operator's at two journal positions."""
+    grid = film_grid(BEARING, Mesh(60, 16), half=half)
+    assembly = StepAssembly(grid, BEARING.viscosity_pa_s, OMEGA, P_REF)
+    rng = np.random.default_rng(3)
+    for e in ((30e-6, -70e-6), (-5e-6, -95e-6)):
+        arrays = assembly.fill(*e)
+        op = film_operator(grid, e, (0.0, 0.0), OMEGA)
+        np.testing.assert_allclose(
+            arrays.ap, op.ap_data * P_REF, rtol=1e-12, atol=1e-14 * np.abs(arrays.ap).max()
+        )
+        np.testing.assert_allclose(arrays.at, op.at_data, rtol=1e-12, atol=1e-14 * np.abs(arrays.at).max())
+        p = rng.random(grid.n_nodes)
+        assert assembly.side_leakage(p) == pytest.approx(side_leakage(op, p * P_REF), rel=1e-12)
+    nnz = grid.pattern.nnz
+    slots = np.arange(nnz)
+    assert np.array_equal(arrays.transpose[arrays.transpose], slots)
+    rows = arrays.rows
+    assert np.array_equal(rows[arrays.transpose], arrays.indices)
+
+
+def test_sweep_leaves_the_true_residual():
+    """The residual the fused sweep keeps is the residual of its result, to rounding, over a mixed
+    partition (full and cavitated volumes, some switching in the sweep)."""
+    grid = film_grid(BEARING, Mesh(60, 16), half=True)
+    assembly = StepAssembly(grid, BEARING.viscosity_pa_s, OMEGA, P_REF)
+    arrays = assembly.fill(20e-6, -80e-6)
+    rng = np.random.default_rng(7)
+    n = grid.n_nodes
+    arrays.storage[:] = 1e-7 * (1.0 + rng.random(n))
+    arrays.rhs[:] = 1e-6 * (rng.random(n) - 0.3)
+    p = rng.random(n)
+    theta = np.where(p > 0.5, 1.0, rng.random(n))
+    p[theta < 1.0] = 0.0
+    factors = sweep_factors(arrays)
+    kept = np.empty(n)
+    fresh = np.empty(n)
+    for relaxation in (1.0, 1.5):
+        worst, total = projected_sweep_residual(arrays, factors, p, theta, relaxation, kept)
+        worst_fresh, total_fresh = step_residual(arrays, p, theta, fresh)
+        scale = np.abs(fresh).max()
+        np.testing.assert_allclose(kept, fresh, rtol=0.0, atol=1e-12 * scale)
+        assert worst == pytest.approx(worst_fresh, rel=1e-10)
+        assert total == pytest.approx(total_fresh, rel=1e-9, abs=1e-12 * scale)
