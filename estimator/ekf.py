@@ -242,7 +242,7 @@ class OilFlowEKF:
         free = free and cfg.flowrate_process_std_m3_s > 0.0  # a baseline's run holds the flowrates
         constants = cfg.nuisance_settling_time_constants if free else 0.0
         if constants and callable(getattr(model, "reset_operating_state", None)):
-            model.reset_operating_state()  # the settling time at the model's reference, not where it last ran
+            model.reset_operating_state()  # the least damped mode at the model's reference point
         self._settling = settling_steps(model, cfg.q_initial_pair(), constants)
         self._no_flow_jacobian = np.zeros((n, 2))
         self._shadow = ShadowJacobian(n, self._n_trailing) if free and cfg.nuisance_shadow else None

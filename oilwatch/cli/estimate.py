@@ -10,7 +10,7 @@ from pathlib import Path
 
 def register(subparsers) -> None:
     """Add the ``estimate`` subcommand."""
-    from oilwatch.monitoring.estimate import OPERATING_POINTS
+    from oilwatch.monitoring import OPERATING_POINTS
 
     from .machine_option import add_machine_option
 

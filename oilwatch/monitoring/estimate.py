@@ -56,6 +56,7 @@ from oilwatch.records.probes import merged_section
 from oilwatch.records.readers import STDIN
 from oilwatch.study.storage import write_json_atomic
 
+from . import OPERATING_POINTS
 from .columns import TraceRows, column_decimals, estimate_columns
 from .csv_rows import RowWriter
 from .history import History
@@ -63,7 +64,6 @@ from .timing import CpuMarks, LatencyHistogram
 
 ESTIMATOR_DT_S = 1e-3
 """The estimator's sampling period (its discrete model's step, as the FMU's default)."""
-OPERATING_POINTS = ("auto", "follow", "nominal")
 _MODELS: dict[tuple, object] = {}
 GC_BLOCKS = 64
 """Blocks between the collections of young objects while the automatic collector is off (below)."""
