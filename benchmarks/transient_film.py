@@ -3,7 +3,7 @@
 The journals follow a 3 um circular whirl at the machine's nominal speed (64 steps per revolution) about
 the equilibrium at its nominal flowrate; after a warm-up (one revolution unless ``--warmup-steps``) the
 wall time of each step of both bearings is recorded (warm: partitions, LU preconditioners and numba
-caches in place), for the default stepper (projected multigrid on meshes above 5000 volumes, projected
+caches in place), for the default stepper (projected multigrid on meshes above 1000 volumes, projected
 SOR sweeps below; the active set as the fallback; the mid-plane symmetric half unless ``--whole``) at
 the film tolerances given (default: the studies' 1e-11 residual and 1e-10 mass balance; the plant's are
 1e-8 and 1e-7), and for the active set alone. Beside them the warm-started steady solve (``solve_film``

@@ -32,10 +32,13 @@ from functools import lru_cache
 from typing import NamedTuple
 
 import numpy as np
+import scipy.sparse as sp
 from numba import njit
 
 from .grid import FilmGrid
-from .transient_kernels import StepArrays
+from .transient_galerkin import build as build_coarse
+from .transient_galerkin import update as update_coarse
+from .transient_kernels import StepArrays, transpose_slots
 from .transient_sweep import projected_sweep_residual, step_residual, sweep_factors
 
 COARSE_SCALE = 1.7
@@ -52,8 +55,11 @@ COARSEST_NODES = 80
 
 @dataclass(frozen=True, eq=False)
 class Level:
-    """One coarse level: CSR pattern (indptr, indices, diag slots), the aggregate of every node of the
-    level above (``parent``) and the coarse slot of every entry of the level above (``slot_of``)."""
+    """One coarse level: CSR pattern (indptr, indices, diag slots, row and transpose slot of every
+    entry), the aggregate of every node of the level above (``parent``), the coarse slot of every
+    entry of the level above (``slot_of``) and, per coarse slot, the entries of the level above that
+    sum into it (``member_slots[member_ptr[s]:member_ptr[s + 1]]``, ascending: a slot recomputed
+    from them is bitwise the full Galerkin product's)."""
 
     n: int
     indptr: np.ndarray
@@ -62,6 +68,10 @@ class Level:
     parent: np.ndarray
     slot_of: np.ndarray
     scale: np.ndarray
+    rows: np.ndarray
+    transpose: np.ndarray
+    member_ptr: np.ndarray
+    member_slots: np.ndarray
 
 
 def _coarsen(indptr, indices, coords, groove: int):
@@ -84,14 +94,21 @@ def _coarsen(indptr, indices, coords, groove: int):
     # The groove is a single volume on every level: its correction is exact, not over-relaxed.
     scale = np.full(n_coarse, COARSE_SCALE)
     scale[c_groove] = 1.0
+    c_cols = c_cols.astype(np.int64)
+    pattern = sp.csr_matrix((np.ones(c_cols.size), c_cols, c_indptr), shape=(n_coarse, n_coarse))
+    slot_of = slot_of.astype(np.int64).ravel()
     level = Level(
         n_coarse,
         c_indptr,
-        c_cols.astype(np.int64),
+        c_cols,
         diag.astype(np.int64),
         parent.astype(np.int64),
-        slot_of.astype(np.int64),
+        slot_of,
         scale,
+        c_rows.astype(np.int64),
+        transpose_slots(pattern),
+        np.concatenate([[0], np.cumsum(np.bincount(slot_of, minlength=c_cols.size))]).astype(np.int64),
+        np.argsort(slot_of, kind="stable").astype(np.int64),
     )
     return level, c_coords, c_groove
 
@@ -113,24 +130,6 @@ def hierarchy(grid: FilmGrid) -> tuple[Level, ...]:
         levels.append(level)
         indptr, indices = level.indptr, level.indices
     return tuple(levels)
-
-
-@njit(cache=True)
-def _galerkin(indptr, indices, data, mask, slot_of, parent, coarse_data, coarse_mask, coarse_diag):
-    """coarse = P^T A[mask, mask] P for piecewise-constant P on the masked nodes; coarse nodes
-    without a masked member get a unit diagonal (their correction is zero)."""
-    coarse_data[:] = 0.0
-    coarse_mask[:] = False
-    for k in range(indptr.size - 1):
-        if not mask[k]:
-            continue
-        coarse_mask[parent[k]] = True
-        for s in range(indptr[k], indptr[k + 1]):
-            if mask[indices[s]]:
-                coarse_data[slot_of[s]] += data[s]
-    for c in range(coarse_mask.size):
-        if not coarse_mask[c]:
-            coarse_data[coarse_diag[c]] = 1.0
 
 
 @njit(cache=True)
@@ -182,7 +181,10 @@ class LevelArrays(NamedTuple):
     """The coarse levels of a :class:`CoarseCorrection` for the compiled cycle: per level (finest
     first) its pattern, ``parent`` and ``slot_of`` maps and over-correction ``scale``, and the work
     arrays (Galerkin ``data``, ``mask`` of levels with a full member, ``x``, ``b``, ``r``);
-    ``coarsest`` the inverse of the last level's operator."""
+    ``coarsest`` the inverse of the last level's operator. For the incremental update of
+    :mod:`models.bearing.transient_galerkin`: per level its entries' ``rows`` and ``transpose``
+    slots, the ``member_ptr`` / ``member_slots`` of every entry, the full-member ``count`` of every
+    node, and work arrays (``flag`` and ``affected`` entries, ``switched`` nodes)."""
 
     indptr: tuple
     indices: tuple
@@ -196,6 +198,14 @@ class LevelArrays(NamedTuple):
     b: tuple
     r: tuple
     coarsest: np.ndarray
+    rows: tuple
+    transpose: tuple
+    member_ptr: tuple
+    member_slots: tuple
+    count: tuple
+    flag: tuple
+    affected: tuple
+    switched: tuple
 
 
 class CoarseCorrection:
@@ -221,24 +231,15 @@ class CoarseCorrection:
             b=each(lambda lv: np.zeros(lv.n)),
             r=each(lambda lv: np.zeros(lv.n)),
             coarsest=np.zeros((levels[-1].n, levels[-1].n)),
+            rows=each(lambda lv: lv.rows),
+            transpose=each(lambda lv: lv.transpose),
+            member_ptr=each(lambda lv: lv.member_ptr),
+            member_slots=each(lambda lv: lv.member_slots),
+            count=each(lambda lv: np.zeros(lv.n, dtype=np.int64)),
+            flag=each(lambda lv: np.zeros(lv.indices.size, dtype=np.bool_)),
+            affected=each(lambda lv: np.zeros(lv.indices.size, dtype=np.int64)),
+            switched=each(lambda lv: np.zeros(lv.n, dtype=np.int64)),
         )
-
-
-@njit(cache=True)
-def _build(h: LevelArrays, k: StepArrays, full) -> None:
-    """The coarse operators of the step's Poiseuille matrix on the volumes ``full``."""
-    indptr, indices, data, mask = k.indptr, k.indices, k.ap, full
-    depth = len(h.data)
-    for i in range(depth):
-        _galerkin(indptr, indices, data, mask, h.slot_of[i], h.parent[i], h.data[i], h.mask[i], h.diag[i])
-        indptr, indices, data, mask = h.indptr[i], h.indices[i], h.data[i], h.mask[i]
-    last = depth - 1
-    n = h.x[last].size
-    dense = np.zeros((n, n))
-    for row in range(n):
-        for s in range(h.indptr[last][row], h.indptr[last][row + 1]):
-            dense[row, h.indices[last][s]] = h.data[last][s]
-    h.coarsest[:, :] = np.linalg.inv(dense)
 
 
 @njit(cache=True)
@@ -298,6 +299,7 @@ def _cycles(h, k, p, theta, residual_limit, mass_limit, max_cycles, relaxation, 
         return 0, worst, total, True
     factors = sweep_factors(k)
     mask = np.zeros(n, dtype=np.bool_)
+    switched = np.empty(n, dtype=np.int64)
     built = False
     for cycle in range(1, max_cycles + 1):
         worst, total = projected_sweep_residual(k, factors, p, theta, relaxation, work)
@@ -305,14 +307,17 @@ def _cycles(h, k, p, theta, residual_limit, mass_limit, max_cycles, relaxation, 
             worst, total = step_residual(k, p, theta, work)
             if worst <= residual_limit and abs(total) <= mass_limit:
                 return cycle, worst, total, True
-        changed = not built
+        n_switched = 0
         for i in range(n):
             full = theta[i] >= 1.0
             if full != mask[i]:
                 mask[i] = full
-                changed = True
-        if changed:
-            _build(h, k, mask)
+                switched[n_switched] = i
+                n_switched += 1
+        if not built:
+            build_coarse(h, k, mask)
             built = True
+        elif n_switched > 0:
+            update_coarse(h, k, mask, switched, n_switched)
         _correct(h, p, work, mask, smoothing)
     return max_cycles, worst, total, False
