@@ -18,7 +18,8 @@ Two model families, each at the reduced and the full size; both filters only see
   machine file). Here the model's own evaluation is part of each step, as it would be in the estimator.
 
 The FMU is ``--fmu`` (default: built into a temporary folder with ``build.build_fmus``); its line needs the
-system family, whose reduced-model response feeds it.
+system family, whose reduced-model response feeds it. ``benchmarks/ekf_fmu_step.py`` splits the FMU's step
+into the library step, the shell's Python and the FMI floor (its :class:`FmuLoop` is the loop timed here).
 
 Under ramps (issue 13): the estimator on ``models.system.operating_model.OperatingAugmentedModel`` (reduced,
 following the measured speed and oil temperature) on the plant's record (full-order Newmark plant on the
@@ -244,62 +245,85 @@ class _RampFilter:
         self.k += 1
 
 
-def time_fmu(
-    fmu_path: Path,
-    record: np.ndarray,
-    repeats: int,
-    ramps: tuple[np.ndarray, np.ndarray] | None = None,
-) -> tuple[float, float]:
-    """Median and minimum over ``repeats`` passes of ``record`` of the cost per FMU step [us], including
-    setReal of the four positions, doStep, getReal of four outputs and getBoolean of four flags.
+class FmuLoop:
+    """One instance of an EKF-like FMU (or the bare one) under fmpy's ``FMU2Slave``, initialized, and the
+    benchmark's loop over a record: setReal of the four positions (and, with ``ramps``, speed_hz and
+    oil_temperature_c), doStep, getReal of the estimates and stds, getBoolean of four flags.
 
     ``record[k]`` is the model's output at t_k = k dt; doStep(t, dt) gets the sample of t + dt (the FMU's
-    unconnected ``t_sample_s``), so the filter sees aligned data. One instance runs on through the passes.
+    unconnected ``t_sample_s``), so the filter sees aligned data. The instance runs on through the passes.
     ``ramps``: the record's speed [Hz] and oil temperature [degC] (K,) each; the FMU then runs with
-    ``bearing_table = 1`` and gets them on its ``speed_hz`` and ``oil_temperature_c`` inputs with every step
-    (setReal included in the cost).
+    ``bearing_table = 1`` and gets them on its inputs with every step (setReal included in the cost).
     """
-    from fmpy import extract, read_model_description
-    from fmpy.fmi2 import FMU2Slave
 
-    md = read_model_description(str(fmu_path))
-    bare = md.coSimulation.modelIdentifier == "BareFilter"
-    fmu = FMU2Slave(
-        guid=md.guid,
-        unzipDirectory=extract(str(fmu_path)),
-        modelIdentifier=md.coSimulation.modelIdentifier,
-        instanceName="ekf",
-    )
-    vr = {v.name: v.valueReference for v in md.modelVariables}
-    names = ["x1_um", "y1_um", "x2_um", "y2_um"] + (["speed_hz", "oil_temperature_c"] if ramps else [])
-    inputs = [vr[n] for n in names]
-    reals = [vr[n] for n in ("q1_est_ml_min", "q2_est_ml_min", "q1_std_ml_min", "q2_std_ml_min")]
-    flags = [vr[n] for n in ("starved1", "starved2", "converged", "measurement_ok")]
-    fmu.instantiate()
-    fmu.setupExperiment(startTime=0.0)
-    fmu.enterInitializationMode()
-    if ramps is not None and not bare:
-        fmu.setInteger([vr["bearing_table"]], [1])
-        fmu.setReal([vr["speed_hz"], vr["oil_temperature_c"]], [float(ramps[0][0]), float(ramps[1][0])])
-    fmu.exitInitializationMode()  # builds the model and compiles (or loads) the numba kernels
-    dt = 1.0e-3
-    samples = (record * 1e6).tolist()
-    if ramps is not None:
-        operating = zip(ramps[0].tolist(), ramps[1].tolist(), strict=True)
-        samples = [[*row, *point] for row, point in zip(samples, operating, strict=True)]
-    steps = len(samples) - 1
-    samples_us, k = [], 0
-    for _ in range(repeats):
-        start = time.perf_counter()
+    def __init__(self, fmu_path: Path, record: np.ndarray, ramps=None, dt: float = 1.0e-3) -> None:
+        from fmpy import extract, read_model_description
+        from fmpy.fmi2 import FMU2Slave
+
+        md = read_model_description(str(fmu_path))
+        bare = md.coSimulation.modelIdentifier == "BareFilter"
+        self.fmu = fmu = FMU2Slave(
+            guid=md.guid,
+            unzipDirectory=extract(str(fmu_path)),
+            modelIdentifier=md.coSimulation.modelIdentifier,
+            instanceName="ekf",
+        )
+        vr = {v.name: v.valueReference for v in md.modelVariables}
+        names = ["x1_um", "y1_um", "x2_um", "y2_um"] + (["speed_hz", "oil_temperature_c"] if ramps else [])
+        self.inputs = [vr[n] for n in names]
+        self.reals = [vr[n] for n in ("q1_est_ml_min", "q2_est_ml_min", "q1_std_ml_min", "q2_std_ml_min")]
+        self.flags = [vr[n] for n in ("starved1", "starved2", "converged", "measurement_ok")]
+        fmu.instantiate()
+        fmu.setupExperiment(startTime=0.0)
+        fmu.enterInitializationMode()
+        if ramps is not None and not bare:
+            fmu.setInteger([vr["bearing_table"]], [1])
+            fmu.setReal([vr["speed_hz"], vr["oil_temperature_c"]], [float(ramps[0][0]), float(ramps[1][0])])
+        fmu.exitInitializationMode()  # builds the model and compiles (or loads) the numba kernels
+        samples = (record * 1e6).tolist()
+        if ramps is not None:
+            operating = zip(ramps[0].tolist(), ramps[1].tolist(), strict=True)
+            samples = [[*row, *point] for row, point in zip(samples, operating, strict=True)]
+        self.samples, self.dt, self.k = samples, dt, 0
+
+    def run_pass(self) -> tuple[float, float]:
+        """One pass over the record: (wall, CPU) time per step [us]."""
+        fmu, inputs, reals, flags, samples, dt = (
+            self.fmu,
+            self.inputs,
+            self.reals,
+            self.flags,
+            self.samples,
+            self.dt,
+        )
+        steps, k = len(samples) - 1, self.k
+        start, cpu = time.perf_counter(), time.process_time()
         for j in range(steps):
             fmu.setReal(inputs, samples[j + 1])
             fmu.doStep(k * dt, dt)
             fmu.getReal(reals)
             fmu.getBoolean(flags)
             k += 1
-        samples_us.append((time.perf_counter() - start) / steps * 1e6)
-    fmu.terminate()
-    fmu.freeInstance()
+        wall, cpu = time.perf_counter() - start, time.process_time() - cpu
+        self.k = k
+        return wall / steps * 1e6, cpu / steps * 1e6
+
+    def close(self) -> None:
+        self.fmu.terminate()
+        self.fmu.freeInstance()
+
+
+def time_fmu(
+    fmu_path: Path,
+    record: np.ndarray,
+    repeats: int,
+    ramps: tuple[np.ndarray, np.ndarray] | None = None,
+) -> tuple[float, float]:
+    """Median and minimum over ``repeats`` passes of ``record`` of the wall time per FMU step [us] of
+    :class:`FmuLoop`'s loop (setReal, doStep, getReal, getBoolean)."""
+    loop = FmuLoop(fmu_path, record, ramps)
+    samples_us = [loop.run_pass()[0] for _ in range(repeats)]
+    loop.close()
     return float(np.median(samples_us)), float(np.min(samples_us))
 
 

@@ -17,6 +17,10 @@ What pythonfmu3 0.3.4 cannot carry over, and what this does about it:
 - Its ``fmi3EnterInitializationMode`` passes only the start time to Python (``setup_experiment(start)``);
   the stop time is dropped. The oilwatch slaves use only the start time.
 - Its ``fmi3DoStep`` reports no early return or event; the slaves need neither.
+- Any Python exception is fmi3Fatal. The FMU's binary is a layer over pythonfmu3's
+  (``oilwatch/cosim/native/fmi3_refusal.c``) that returns fmi3Error when the slave refused the user's input
+  (a parameter out of range at fmi3ExitInitializationMode, a fixed parameter set after it: refused here as
+  in FMI 2.0), as ``fmu_src/slave_base.py`` does with the FMI 2.0 loader.
 """
 
 from __future__ import annotations
@@ -65,15 +69,18 @@ class RangedInt32(RangeMixin, Int32):
 
 def _fmi3_variable(variable, owner: OilwatchSlave):
     """The FMI 3.0 twin of one declared FMI 2.0 variable, reading and writing ``owner``'s attribute."""
-    name = variable.local_name
+    name, reference = variable.local_name, (variable.value_reference,)
+
+    def getter():
+        owner.refresh_outputs(reference)  # the EKF's lazy outputs publish the last step's report when read
+        return getattr(owner, name)
+
     common = {
         "causality": Fmi3Causality[variable.causality.name],
         "variability": Fmi3Variability[variable.variability.name],
         "initial": Fmi3Initial[variable.initial.name] if variable.initial is not None else None,
         "description": variable.description,
-        # the FMI 2.0 variable's own getter where it has one: the EKF's lazy outputs publish the last step's
-        # report when first read
-        "getter": variable.getter if variable.getter is not None else (lambda: getattr(owner, name)),
+        "getter": getter,
         "setter": lambda value: setattr(owner, name, value),
     }
     start = getattr(owner, name)
@@ -112,6 +119,8 @@ class Fmi3Shell(Fmi3Slave):
             visible=kwargs.get("visible", False),
         )
         self.slave.log = self._log_from_fmi2_slave
+        self.slave.initialization_end_call = "fmi3ExitInitializationMode"
+        self.slave.fmi_facade = self
         self.author = slave_class.author
         self.description = slave_class.description
         experiment = slave_class.default_experiment
@@ -164,6 +173,24 @@ class Fmi3Shell(Fmi3Slave):
 
     def terminate(self):
         self.slave.terminate()
+
+    # a fixed parameter set after initialization is refused as in FMI 2.0 (fmi3Error through the binary's
+    # layer, oilwatch/cosim/native/fmi3_refusal.c)
+    def set_float64(self, vrs, values):
+        self.slave.refuse_fixed_after_initialization(vrs, values, "fmi3SetFloat64")
+        super().set_float64(vrs, values)
+
+    def set_int32(self, vrs, values):
+        self.slave.refuse_fixed_after_initialization(vrs, values, "fmi3SetInt32")
+        super().set_int32(vrs, values)
+
+    def set_boolean(self, vrs, values):
+        self.slave.refuse_fixed_after_initialization(vrs, values, "fmi3SetBoolean")
+        super().set_boolean(vrs, values)
+
+    def set_string(self, vrs, values):
+        self.slave.refuse_fixed_after_initialization(vrs, values, "fmi3SetString")
+        super().set_string(vrs, values)
 
     # ---------------------------------------------------------------------- state
     def _get_fmu_state(self) -> dict[str, Any]:

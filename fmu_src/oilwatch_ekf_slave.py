@@ -39,7 +39,6 @@ from __future__ import annotations
 
 import math
 import time
-from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -60,7 +59,19 @@ from estimator.config import (
     nuisance_values,
 )
 from estimator.ekf import OilFlowEKF as FlowFilter
-from estimator.ekf import StepReport
+from estimator.reports import ReportView
+from estimator.runout import runout_of_probes
+from estimator.step_kernel import (
+    REPORT_CONSISTENT,
+    REPORT_CONVERGED,
+    REPORT_FLOWRATE,
+    REPORT_NIS,
+    REPORT_OK,
+    REPORT_ROWS,
+    REPORT_STARVED,
+    REPORT_STATUS,
+    REPORT_STD,
+)
 from fmu_src.blas_threads import limit_blas_threads
 from fmu_src.machine_parameters import (
     declare_machine_parameters,
@@ -83,8 +94,6 @@ VELOCITY_MODES = ("displacement-only", "paper", "correlated")
 GRID_TOLERANCE = 1e-3
 """A sample time within this fraction of a period of the grid is on the grid."""
 KEYPHASOR_UNCONNECTED = -1.0
-CORE_OUTPUTS, NUISANCE_OUTPUTS = "core", "nuisances"
-"""The two groups of outputs published together when the host reads one of them."""
 OWN_REALS = (
     ("sample_period_s", SAMPLING_PERIOD_S, "s", 1e-5, 0.01,
      "Sampling period of the filter's discrete model; its samples lie on t = k period"),
@@ -122,12 +131,12 @@ class OilFlowEKF(OilwatchSlave):
         self._missing = np.full(4, np.nan)
         self._warned_off_grid = False
         self._nuisance_names = [row[0] for row in nuisance_names()]
-        self._report: StepReport | None = None
-        self._stale = {CORE_OUTPUTS: False, NUISANCE_OUTPUTS: False}
+        self._report: ReportView | None = None
+        self._core_stale = self._nuisances_stale = False
         self._previous_angle_rad: float | None = None
         self._declare_parameters()
         self._declare_inputs_outputs()
-        self._read_outputs_when_asked()
+        self._core_outputs, self._nuisance_outputs = self._output_groups()
 
     def _declare_parameters(self) -> None:
         declare_machine_parameters(self)
@@ -284,7 +293,7 @@ class OilFlowEKF(OilwatchSlave):
             self.filter.set_state(state)
             # the outputs were restored with the state; a later step's report must not overwrite them
             self._report = None
-            self._stale = {CORE_OUTPUTS: False, NUISANCE_OUTPUTS: False}
+            self._core_stale = self._nuisances_stale = False
 
     @property
     def keyphasor_state(self) -> float | None:
@@ -295,23 +304,25 @@ class OilFlowEKF(OilwatchSlave):
     def keyphasor_state(self, angle: float | None) -> None:
         self._previous_angle_rad = angle
 
-    def _read_outputs_when_asked(self) -> None:
-        """Give every output a getter that publishes the last step's report when the host first reads one
-        (module docstring: lazy outputs), the nuisance outputs apart from the others."""
+    def _output_groups(self) -> tuple[frozenset[int], frozenset[int]]:
+        """Value references of the outputs published together when the host reads one of them (module
+        docstring: lazy outputs): the nuisance estimates, and all the others."""
         nuisances = set(self._nuisance_names)
-        for variable in self.vars.values():
-            if variable.causality == Fmi2Causality.output:
-                group = NUISANCE_OUTPUTS if variable.local_name in nuisances else CORE_OUTPUTS
-                variable.getter = partial(self._output, variable.local_name, group)
+        outputs = [v for v in self.vars.values() if v.causality == Fmi2Causality.output]
+        return (
+            frozenset(v.value_reference for v in outputs if v.local_name not in nuisances),
+            frozenset(v.value_reference for v in outputs if v.local_name in nuisances),
+        )
 
-    def _output(self, name: str, group: str):
-        if self._stale[group]:
-            self._stale[group] = False
-            if group == CORE_OUTPUTS:
-                self._publish_core(self._report if self._report is not None else self.filter.current_report())
-            else:
-                self._publish_nuisances()
-        return getattr(self, name)
+    def refresh_outputs(self, vrs) -> None:
+        """Publish the last step's report to the outputs among ``vrs`` if they are stale (the nuisance
+        estimates apart: they cost a covariance read)."""
+        if self._core_stale and not self._core_outputs.isdisjoint(vrs):
+            self._core_stale = False
+            self._publish_core(self._report if self._report is not None else self.filter.current_report())
+        if self._nuisances_stale and not self._nuisance_outputs.isdisjoint(vrs):
+            self._nuisances_stale = False
+            self._publish_nuisances()
 
     def validate_parameters(self) -> None:
         if self.q_std_velocity_um_s < 0.0 and self.q_std_velocity_um_s != -1.0:
@@ -360,6 +371,7 @@ class OilFlowEKF(OilwatchSlave):
         machine = machine_of(self.machine_file, self.resources)
         self._machine = machine
         self._start_conditions = operating_conditions(self, machine)
+        self._start_inputs = (self.speed_hz, self.oil_temperature_c)
         require_oil(self, machine)
         if self.bearing_table == 1:
             model = build_operating_model(system, machine, self.sample_period_s)
@@ -370,6 +382,7 @@ class OilFlowEKF(OilwatchSlave):
         self.filter = FlowFilter(
             model, self._config(machine, nominal, initial, system.speed_hz, self._baseline())
         )
+        self._first_sample_time_s = self.filter.config.first_sample_time_s
         built = time.perf_counter()
         self._warm_up()
         self.log(
@@ -397,7 +410,8 @@ class OilFlowEKF(OilwatchSlave):
         self, machine, nominal_ml_min: float, initial_ml_min: float, speed_hz: float, baseline
     ) -> EKFConfig:
         """The estimator's configuration from the parameters (field units -> SI) and the machine file's
-        ``[probes]`` (mounting angle and offset prior for the sentinels, the offsets' drift always)."""
+        ``[probes]`` (mounting angle and offset prior for the sentinels; the offsets' drift and the runout
+        vectors of its ``runout_*`` keys, which the filter subtracts at the model's rotor angle, always)."""
         omega = 2.0 * math.pi * speed_hz
         velocity_std = (
             RECOMMENDED_DISPLACEMENT_PROCESS_STD_M * omega
@@ -419,6 +433,7 @@ class OilFlowEKF(OilwatchSlave):
             first_sample_time_s=round(self.start_time / self.sample_period_s) * self.sample_period_s,
             initial_flowrate_std_m3_s=INITIAL_FLOWRATE_STD_FRACTION * nominal_ml_min * ML_MIN,
             offset_baseline=baseline,
+            runout=runout_of_probes(probes),
         )
 
     def _warm_up(self) -> None:
@@ -430,8 +445,11 @@ class OilFlowEKF(OilwatchSlave):
     def _operating_point(self) -> tuple[float | None, float | None]:
         """(speed [Hz], oil temperature [degC]) for the filter from the inputs (bearing_table = 0: None, and
         InputError when they left their start values)."""
-        conditions = held_operating_point(self, self._machine, self._start_conditions)
-        return conditions if self.bearing_table == 1 else (None, None)
+        if self.bearing_table == 1:
+            return operating_conditions(self, self._machine)
+        if (self.speed_hz, self.oil_temperature_c) != self._start_inputs:  # the check costs only then
+            held_operating_point(self, self._machine, self._start_conditions)
+        return None, None
 
     # ------------------------------------------------------------------------------- step
     def step(self, current_time: float, step_size: float) -> bool:
@@ -445,7 +463,7 @@ class OilFlowEKF(OilwatchSlave):
                 f"t_sample_s = {sample_time:.9g} s lies after the end of the communication step "
                 f"({end:.9g} s): connect it to the plant's t_sample_s"
             )
-        position = (sample_time - self.filter.config.first_sample_time_s) / period
+        position = (sample_time - self._first_sample_time_s) / period
         index = round(position)
         if abs(position - index) > GRID_TOLERANCE:
             if not self._warned_off_grid:
@@ -470,41 +488,40 @@ class OilFlowEKF(OilwatchSlave):
             measurement[:] = np.nan
         angle = self._previous_angle_rad if self.bearing_table == 1 else None
         self._report = self.filter.step(measurement, *operating, angle)
-        self._stale[CORE_OUTPUTS] = self._stale[NUISANCE_OUTPUTS] = True
+        self._core_stale = self._nuisances_stale = True
         keyphasor = self.rotor_angle_deg
         connected = math.isfinite(keyphasor) and keyphasor >= 0.0 and not bad_stamp
         self._previous_angle_rad = math.radians(keyphasor) if connected else None
         return True
 
-    def _publish(self, report: StepReport | None = None) -> None:
+    def _publish(self, report: ReportView | None = None) -> None:
         """Copy a step report (default: the last one, rebuilt from the state) to all outputs now."""
         self._publish_core(report if report is not None else self.filter.current_report())
         self._publish_nuisances()
-        self._stale = {CORE_OUTPUTS: False, NUISANCE_OUTPUTS: False}
+        self._core_stale = self._nuisances_stale = False
 
     def _publish_nuisances(self) -> None:
         for name, value in zip(self._nuisance_names, nuisance_values(self.filter), strict=True):
             setattr(self, name, value)
 
-    def _publish_core(self, report: StepReport) -> None:
-        q, std, starved = report.q_m3_s, report.q_std_m3_s, report.starved
-        self.q1_est_ml_min = float(q[0]) / ML_MIN
-        self.q2_est_ml_min = float(q[1]) / ML_MIN
-        self.q1_std_ml_min = float(std[0]) / ML_MIN
-        self.q2_std_ml_min = float(std[1]) / ML_MIN
-        self.nis = float(report.nis)
-        self.n_channels = int(report.n_measurements)
-        self.converged = bool(report.converged)
-        self.starved1 = bool(starved[0])
-        self.starved2 = bool(starved[1])
-        self.measurement_ok = bool(report.measurement_ok)
-        self.model_consistent = bool(report.model_consistent)
-        status = report.probe_status
-        self.probe_status_x1, self.probe_status_y1 = int(status[0]), int(status[1])
-        self.probe_status_x2, self.probe_status_y2 = int(status[2]), int(status[3])
-        steps = self.filter.step_count
+    def _publish_core(self, report: ReportView) -> None:
+        # one tolist() of the report array (REPORT_* layout), not a ReportView field per output
+        v = report.values.tolist()
+        self.q1_est_ml_min = v[REPORT_FLOWRATE] / ML_MIN
+        self.q2_est_ml_min = v[REPORT_FLOWRATE + 1] / ML_MIN
+        self.q1_std_ml_min = v[REPORT_STD] / ML_MIN
+        self.q2_std_ml_min = v[REPORT_STD + 1] / ML_MIN
+        self.nis = v[REPORT_NIS]
+        self.n_channels = int(v[REPORT_ROWS])
+        self.converged = v[REPORT_CONVERGED] != 0.0
+        self.starved1 = v[REPORT_STARVED] != 0.0
+        self.starved2 = v[REPORT_STARVED + 1] != 0.0
+        self.measurement_ok = v[REPORT_OK] != 0.0
+        self.model_consistent = v[REPORT_CONSISTENT] != 0.0
+        self.probe_status_x1, self.probe_status_y1, self.probe_status_x2, self.probe_status_y2 = (
+            int(code) for code in v[REPORT_STATUS : REPORT_STATUS + 4]
+        )
+        steps = report.step + 1
         self.t_estimate_s = (
-            -1.0
-            if steps == 0
-            else self.filter.config.first_sample_time_s + (steps - 1) * self.sample_period_s
+            -1.0 if steps == 0 else self._first_sample_time_s + (steps - 1) * self.sample_period_s
         )

@@ -22,9 +22,14 @@ What pythonfmu 0.7.0 does, and what this class does about it (verified with fmpy
   values, so ``fmi2Error`` cannot be returned from Python. Before raising, the slave therefore flags the
   refusal to oilwatch's FMI 2.0 loader, the FMU's own binary (``oilwatch/cosim/native/fmi2_loader.c``,
   entry point ``oilwatch_loader_refused_call``): the loader returns ``fmi2Error`` for that call (a
-  refused set: the instance keeps stepping). Any other exception (an internal error) stays fatal. Without
-  the loader (the FMI 3.0 shells, a plain pythonfmu build) the host still sees ``fmi2Fatal`` with the
-  logged reason.
+  refused set: the instance keeps stepping). Any other exception (an internal error) stays fatal. The FMI
+  3.0 shells' binary has the same entry point (``native/fmi3_refusal.c``: fmi3Error). Without either (a
+  plain pythonfmu build) the host still sees ``fmi2Fatal`` with the logged reason.
+- The Get/Set calls are the per-step cost of a host (issue 14: the estimator FMU's step within 50 us), so they
+  avoid pythonfmu's per-variable work: each type's variables sit in a dict by value reference (pythonfmu
+  checks ``isinstance`` per variable and call), a declared variable's default getter and setter are
+  ``functools.partial(getattr/setattr, self, name)`` (no Python frame), and the fixed parameters are one set
+  checked only after initialization (``isdisjoint``, not a scan of the call's variables).
 - ``fmi2GetFMUstate`` returns whatever ``_get_fmu_state`` returns (a Python object held by
   reference; the default saves registered variables only). Here the state also holds deep copies of
   the attributes named in :attr:`OilwatchSlave.state_attributes` (numpy arrays, a
@@ -43,12 +48,14 @@ import ctypes
 import math
 import pickle
 import traceback
+from functools import partial
 from pathlib import Path
 from typing import Any, ClassVar
 from xml.etree.ElementTree import Element
 
 from pythonfmu import Fmi2Slave
 from pythonfmu.enums import Fmi2Causality, Fmi2Status, Fmi2Variability
+from pythonfmu.variables import Boolean, Integer, Real, String
 
 from models.validation import InputError
 
@@ -77,12 +84,13 @@ def flag_refused_call_to_loader(resources: str | None) -> bool:
     ``ctypes`` opens the same copy; nothing new is loaded)."""
     if not resources:
         return False
-    folder = Path(resources).parent / "binaries" / "linux64"
+    binaries = Path(resources).parent / "binaries"
     try:
         mapped = Path("/proc/self/maps").read_text(encoding="utf-8", errors="replace")
     except OSError:
         return False
-    for binary in sorted(folder.glob("*.so")):
+    # FMI 2.0's folder and FMI 3.0's (its layer over pythonfmu3, oilwatch/cosim/native/fmi3_refusal.c)
+    for binary in sorted([*binaries.glob("linux64/*.so"), *binaries.glob("x86_64-linux/*.so")]):
         if str(binary.resolve()) not in mapped:
             continue
         entry = getattr(ctypes.CDLL(str(binary)), REFUSED_CALL_ENTRY, None)
@@ -93,15 +101,38 @@ def flag_refused_call_to_loader(resources: str | None) -> bool:
     return False
 
 
+def outlive_the_wrappers_cleanup(facade) -> None:
+    """Take one more reference to the object pythonfmu's (or pythonfmu3's) C++ wrapper holds, its class and
+    its log queue, before an exception the host will see as fmi2Error / fmi3Error.
+
+    On every Python exception the wrapper's ``handle_py_exception`` calls ``cleanPyObject``, which releases
+    its references to the instance, the class and the log queue (``Py_XDECREF`` of ``pInstance_``,
+    ``pClass_``, ``pMessages_``) but keeps the pointers and uses them in the next call and again when the
+    instance is freed. After fmi2Fatal nothing more is called; after a refused input the host steps on, and
+    without these references the instance would be used after its release (a crash at the next garbage
+    collection or at exit)."""
+    for held in (facade, type(facade), facade._get_log_queue()):
+        ctypes.pythonapi.Py_IncRef(ctypes.py_object(held))
+
+
+VARIABLE_TYPES = (Real, Integer, Boolean, String)
+"""pythonfmu's variable types, each with its Get/Set calls."""
+
+
 class OilwatchSlave(Fmi2Slave):
     """Base class of the oilwatch FMI 2.0 co-simulation slaves (see the module docstring)."""
 
     #: Names of attributes (beyond registered variables) saved by fmi2GetFMUstate.
     state_attributes: ClassVar[tuple[str, ...]] = ()
+    #: The FMI call that ends initialization, in messages (the FMI 3.0 shell names its own).
+    initialization_end_call = "fmi2ExitInitializationMode"
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
+        self.fmi_facade = self  # the object the FMI wrapper holds (the FMI 3.0 shell when it wraps it)
         self._declared: list = []
+        self._by_type: dict[type, dict[int, Any]] = {kind: {} for kind in VARIABLE_TYPES}
+        self._fixed_references: set[int] = set()
         self._initialized = False
         self.start_time = 0.0
         self.stop_time: float | None = None
@@ -112,8 +143,23 @@ class OilwatchSlave(Fmi2Slave):
         if (low is not None and start < low) or (high is not None and start > high):
             raise ValueError(f"variable {variable.name}: start {start} outside [{low}, {high}]")
         setattr(self, variable.local_name, start)
+        # builtins bound to the name (pythonfmu's default lambdas cost a Python frame per value)
+        variable.getter = partial(getattr, self, variable.local_name)
+        if variable.variability != Fmi2Variability.constant:
+            variable.setter = partial(setattr, self, variable.local_name)
         self.register_variable(variable)
         self._declared.append(variable)
+
+    def register_variable(self, var, nested: bool = True) -> None:
+        """pythonfmu's registration, plus the lookup tables of the Get/Set calls (module docstring)."""
+        super().register_variable(var, nested)
+        kind = next(k for k in VARIABLE_TYPES if isinstance(var, k))
+        self._by_type[kind][var.value_reference] = var
+        if var.causality == Fmi2Causality.parameter and var.variability in (
+            Fmi2Variability.fixed,
+            Fmi2Variability.constant,
+        ):
+            self._fixed_references.add(var.value_reference)
 
     def declare_real(
         self,
@@ -256,41 +302,77 @@ class OilwatchSlave(Fmi2Slave):
                 self.log(traceback.format_exc(), Fmi2Status.error)
         if problems:
             if refused:
-                flag_refused_call_to_loader(self.resources)
+                self._flag_refused_call()
             self.fail(problems, "initialization")
         self._initialized = True
 
-    # ----------------------------------------------------- setters after initialization
-    def _refuse_fixed_after_initialization(self, vrs, values, call: str) -> None:
-        """Fail (module docstring) when a call after initialization sets a fixed parameter."""
-        if not self._initialized:
+    # ------------------------------------------------------------------ get and set
+    def refuse_fixed_after_initialization(self, vrs, values, call: str) -> None:
+        """Fail (module docstring) when ``call``, made after initialization, sets a fixed parameter among the
+        value references ``vrs``; nothing is set then."""
+        if not self._initialized or self._fixed_references.isdisjoint(vrs):
             return
+        fixed = self._fixed_references
         problems = [
             f"{self.vars[vr].name} is a fixed parameter: it can be set only before "
-            f"fmi2ExitInitializationMode; {value!r} was not applied (reset the instance to change it)"
+            f"{self.initialization_end_call}; {value!r} was not applied (reset the instance to change it)"
             for vr, value in zip(vrs, values, strict=True)
-            if self.vars[vr].causality == Fmi2Causality.parameter
-            and self.vars[vr].variability in (Fmi2Variability.fixed, Fmi2Variability.constant)
+            if vr in fixed
         ]
-        if problems:
-            flag_refused_call_to_loader(self.resources)
-            self.fail(problems, call)
+        self._flag_refused_call()
+        self.fail(problems, call)
+
+    def _flag_refused_call(self) -> None:
+        """The current call refuses the user's input: fmi2Error / fmi3Error through the FMU's binary (module
+        docstring), the instance kept alive through the wrapper's cleanup."""
+        if flag_refused_call_to_loader(self.resources):
+            outlive_the_wrappers_cleanup(self.fmi_facade)
+
+    def _set(self, kind: type, call: str, vrs, values) -> None:
+        self.refuse_fixed_after_initialization(vrs, values, call)
+        table = self._by_type[kind]
+        try:  # the setters are setattr (no KeyError of their own)
+            for vr, value in zip(vrs, values, strict=True):
+                table[vr].setter(value)
+        except KeyError as error:
+            raise TypeError(f"Variable with valueReference={error} is not of type {kind.__name__}!") from None
+
+    def refresh_outputs(self, vrs) -> None:
+        """Bring the outputs among the value references ``vrs`` up to date before they are read: a slave that
+        computes its outputs only when asked overrides this. Every read goes through it: the Get calls, the
+        FMU state and the FMI 3.0 shell (:mod:`fmu_src.fmi3_shell`)."""
+
+    def _get(self, kind: type, convert, vrs) -> list:
+        self.refresh_outputs(vrs)
+        table = self._by_type[kind]
+        try:  # the getters are getattr (no KeyError of their own)
+            return [convert(table[vr].getter()) for vr in vrs]
+        except KeyError as error:
+            raise TypeError(f"Variable with valueReference={error} is not of type {kind.__name__}!") from None
 
     def set_real(self, vrs, values):
-        self._refuse_fixed_after_initialization(vrs, values, "fmi2SetReal")
-        super().set_real(vrs, values)
+        self._set(Real, "fmi2SetReal", vrs, values)
 
     def set_integer(self, vrs, values):
-        self._refuse_fixed_after_initialization(vrs, values, "fmi2SetInteger")
-        super().set_integer(vrs, values)
+        self._set(Integer, "fmi2SetInteger", vrs, values)
 
     def set_boolean(self, vrs, values):
-        self._refuse_fixed_after_initialization(vrs, values, "fmi2SetBoolean")
-        super().set_boolean(vrs, values)
+        self._set(Boolean, "fmi2SetBoolean", vrs, values)
 
     def set_string(self, vrs, values):
-        self._refuse_fixed_after_initialization(vrs, values, "fmi2SetString")
-        super().set_string(vrs, values)
+        self._set(String, "fmi2SetString", vrs, values)
+
+    def get_real(self, vrs):
+        return self._get(Real, float, vrs)
+
+    def get_integer(self, vrs):
+        return self._get(Integer, int, vrs)
+
+    def get_boolean(self, vrs):
+        return self._get(Boolean, bool, vrs)
+
+    def get_string(self, vrs):
+        return self._get(String, str, vrs)
 
     def do_step(self, current_time: float, step_size: float) -> bool:
         """Advance by ``step_size`` [s]; exceptions of :meth:`step` are logged, then re-raised."""
@@ -310,6 +392,7 @@ class OilwatchSlave(Fmi2Slave):
 
     # ------------------------------------------------------------------------ state
     def _get_fmu_state(self) -> dict[str, Any]:
+        self.refresh_outputs(self.vars.keys())
         state = super()._get_fmu_state()
         state["__attributes__"] = {name: copy.deepcopy(getattr(self, name)) for name in self.state_attributes}
         return state

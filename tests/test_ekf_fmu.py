@@ -122,6 +122,20 @@ def load(path, name, reals=None, integers=None, strings=None):
         slave.setString([vr[key]], [value])
     slave.exitInitializationMode()
     return slave, vr
+
+PORTS = ["x1_um", "y1_um", "x2_um", "y2_um", "t_sample_s"]
+
+def cosimulate(plant, pv, filters, steps, outputs, h=1e-3):
+    # step the plant and each filter {name: (slave, vr)} fed its PORTS; per filter the rows of outputs
+    rows = {name: [] for name in filters}
+    for k in range(steps):
+        plant.doStep(k * h, h)
+        values = plant.getReal([pv[n] for n in PORTS])
+        for name, (ekf, ev) in filters.items():
+            ekf.setReal([ev[n] for n in PORTS], values)
+            ekf.doStep(k * h, h)
+            rows[name].append(ekf.getReal([ev[n] for n in outputs]))
+    return rows
 """
 
 DIRECT = """

@@ -3,7 +3,9 @@
 Same variables (names, value references, causality, variability, units, ranges, starts, descriptions),
 same unit definitions and documentation; state get/set/serialize through fmpy.fmi3; the sudden-drop scenario
 through oilwatch's master with the FMI 3.0 SSP gives the FMI 2.0 SSP's results for the same seed; the FMI 3.0
-SSP loads. Runs happen in fresh subprocesses (the FMUs share the host interpreter).
+SSP loads; a refused input (a bad parameter, a fixed parameter set after initialization) is fmi3Error, as
+in FMI 2.0, not pythonfmu3's fmi3Fatal. Runs happen in fresh subprocesses (the FMUs share the host
+interpreter).
 """
 
 from __future__ import annotations
@@ -200,3 +202,88 @@ result = summary
     assert len(result["fmi3"]["connections"]) == 6  # four probes, the sample time, the keyphasor
     assert result["fmi3"]["kinds"] == ["Slave3", "Slave3"]
     assert result["fmi2"]["kinds"] == ["Slave", "Slave"]
+
+
+REFUSALS = """
+from fmpy import extract, read_model_description
+from fmpy.fmi1 import FMICallException
+from fmpy.fmi3 import FMU3Slave
+LOG = []
+
+def log(environment, status, category, message):
+    LOG.append((int(status), message.decode()))
+
+def load(path, name):
+    md = read_model_description(path)
+    fmu = FMU3Slave(guid=md.guid, unzipDirectory=extract(path),
+                    modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name)
+    fmu.instantiate(loggingOn=True, logMessage=log)
+    fmu.enterInitializationMode(startTime=0.0)
+    return fmu, {v.name: v.valueReference for v in md.modelVariables}
+
+def status_of(call):
+    try:
+        call()
+        return 0
+    except FMICallException as error:
+        return int(error.status)
+
+result = {}
+ekf, ev = load(EKF, "ekf_bad")
+ekf.setFloat64([ev["q_std_velocity_um_s"]], [-5.0])  # neither >= 0 nor -1: refused at initialization
+result["bad_parameter"] = status_of(ekf.exitInitializationMode)
+result["bad_parameter_log"], LOG[:] = list(LOG), []
+plant, pv = load(PLANT, "plant")
+plant.setFloat64([pv["noise_um"]], [0.0])
+plant.exitInitializationMode()
+plant.doStep(0.0, 1e-3)
+result["late_fixed"] = status_of(lambda: plant.setFloat64([pv["noise_um"]], [3.0]))
+result["late_fixed_log"] = list(LOG)
+# the wrapper released its references on the refusal's exception (fmu_src/slave_base.py): the instance must
+# outlive a garbage collection, step on and free cleanly
+import gc
+gc.collect()
+result["step_after"] = status_of(lambda: plant.doStep(1e-3, 1e-3))
+y, y_true = plant.getFloat64([pv["x1_um"], pv["x1_true_um"]])
+result["noise_free"] = y == y_true
+plant.terminate()
+plant.freeInstance()
+ekf.freeInstance()
+gc.collect()
+"""
+
+INTERNAL = """
+from fmpy import extract, read_model_description
+from fmpy.fmi1 import FMICallException
+from fmpy.fmi3 import FMU3Slave
+md = read_model_description(PLANT)
+plant = FMU3Slave(guid=md.guid, unzipDirectory=extract(PLANT),
+                  modelIdentifier=md.coSimulation.modelIdentifier, instanceName="plant")
+plant.instantiate()
+plant.enterInitializationMode(startTime=0.0)
+plant.exitInitializationMode()
+try:
+    plant.setFloat64([987654], [1.0])  # no such variable: an internal error, not the user's input
+    result = 0
+except FMICallException as error:
+    result = int(error.status)
+"""
+
+
+def test_fmi3_user_errors_are_fmi3error_with_one_line_and_internal_errors_stay_fatal(built_fmi3_fmus):
+    head = (
+        f"EKF = {str(built_fmi3_fmus / 'OilFlowEKF.fmu')!r}\n"
+        f"PLANT = {str(built_fmi3_fmus / 'RotorBearingPlant.fmu')!r}\n"
+    )
+    result = run_json(head + REFUSALS, timeout=300)
+    fmi3_error, fmi3_fatal = 3, 4
+    assert result["bad_parameter"] == fmi3_error, result
+    errors = [m for s, m in result["bad_parameter_log"] if s == fmi3_error]
+    assert any("q_std_velocity_um_s must lie in [-1, inf] um/s, got -5" in m for m in errors), result
+    assert not [m for s, m in result["bad_parameter_log"] if s == fmi3_fatal], result
+    # a fixed parameter after initialization: refused, not applied, and the instance steps on
+    assert result["late_fixed"] == fmi3_error, result
+    message = "noise_um is a fixed parameter: it can be set only before fmi3ExitInitializationMode"
+    assert any(message in m for s, m in result["late_fixed_log"] if s == fmi3_error), result
+    assert result["step_after"] == 0 and result["noise_free"], result
+    assert run_json(head + INTERNAL, timeout=300) == fmi3_fatal

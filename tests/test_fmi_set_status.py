@@ -36,6 +36,9 @@ try:
     status = 0
 except FMICallException as error:
     status = error.status
+if status == 3:  # pythonfmu's wrapper released its references on the exception: the instance must outlive it
+    import gc
+    gc.collect()
 try:
     plant.doStep(1e-3, 1e-3)
     step = 0

@@ -37,15 +37,8 @@ for name, reals, strings in (("prior_machine", {"offset_prior_std_um": -1.0}, ap
 plant, pv = load(PLANT, "plant", {"noise_um": 1.0}, {"seed": 3}, api)
 filters = {name: load(EKF, name, reals, strings=api)
            for name, reals in (("ekf_layout", {}), ("ekf_zero", {"probe_angle_deg": 0.0}))}
-PORTS = ["x1_um", "y1_um", "x2_um", "y2_um", "t_sample_s"]
-nis = {name: [] for name in filters}
-for k in range(STEPS):
-    plant.doStep(k * h, h)
-    values = plant.getReal([pv[n] for n in PORTS])
-    for name, (ekf, ev) in filters.items():
-        ekf.setReal([ev[n] for n in PORTS], values)
-        ekf.doStep(k * h, h)
-        nis[name].append(ekf.getReal([ev["nis"]])[0])
+rows = cosimulate(plant, pv, filters, STEPS, ["nis"])
+nis = {name: [row[0] for row in table] for name, table in rows.items()}
 for name, (ekf, ev) in filters.items():
     result[name] = {"q": ekf.getReal([ev["q1_est_ml_min"], ev["q2_est_ml_min"]]),
                     "nis": float(np.mean(nis[name][len(nis[name]) // 2:]))}

@@ -7,10 +7,12 @@ inside the relocated ``fmu_src`` with its imports rewritten, together with pytho
 slave's base class). pythonfmu3 writes the model description; ``documentation/index.html`` is added and
 ``fmpy validate`` must pass, as for FMI 2.0.
 
-The binaries are pythonfmu3's own: they need a host that already runs Python (fmpy, libcosimpy); the
-self-sufficient loader exists for FMI 2.0 only (``native/fmi2_loader.c``). pythonfmu3's export binary has
-pythonfmu's teardown defect too; :class:`oilwatch.cosim.fmi3_loading.Slave3` releases its interpreter
-guard when it frees the instance.
+The binaries are pythonfmu3's own, behind a thin layer (``native/fmi3_refusal.c``) that answers a refused
+input (a parameter out of range at initialization, a fixed parameter set after it) with fmi3Error instead of
+pythonfmu3's fmi3Fatal, as the FMI 2.0 loader does. They need a host that already runs Python (fmpy,
+libcosimpy); the self-sufficient loader exists for FMI 2.0 only (``native/fmi2_loader.c``). pythonfmu3's
+export binary has pythonfmu's teardown defect too; :class:`oilwatch.cosim.fmi3_loading.Slave3` releases its
+interpreter guard when it frees the instance.
 """
 
 from __future__ import annotations
@@ -25,6 +27,7 @@ from pathlib import Path
 from models.validation import InputError
 
 from .fmu_build import REGISTRY, FmuEntry
+from .native_loader import install_fmi3_refusal
 from .packaging import relocated_name, rewrite_imports, stage_sources
 
 FMI3_OPTIONS = {"canGetAndSetFMUState": True, "canSerializeFMUState": True}
@@ -103,6 +106,7 @@ def build_fmi3_fmu(entry: Fmi3Entry, out_dir: Path, machine=None) -> Path:
         if BINARY.format(name=entry.name) not in archive.namelist():
             built.unlink()
             raise InputError(f"{entry.name}: the class in {script.name} must be named {entry.name}")
+    install_fmi3_refusal(built, entry.name)  # refused input: fmi3Error (oilwatch/cosim/native_loader.py)
     return document_and_validate(built, f"{entry.name} (FMI 3.0)")
 
 

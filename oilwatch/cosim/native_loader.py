@@ -13,6 +13,12 @@ The loader starts that Python in a host that has none, checks that numpy, scipy 
 and forwards every fmi2 call; see the comment at the top of ``native/fmi2_loader.c`` (also for the
 teardown fix). The environment variables ``OILWATCH_PYTHON_LIB``, ``OILWATCH_PYTHONHOME`` and
 ``OILWATCH_PYTHON_ENV`` override the record.
+
+FMI 3.0 (:func:`install_fmi3_refusal`): ``binaries/x86_64-linux/<modelIdentifier>.so`` becomes the thin layer
+of ``native/fmi3_refusal.c``, which returns fmi3Error, not pythonfmu3's fmi3Fatal, when the slave refuses the
+user's input; pythonfmu3's binary sits beside it as ``<modelIdentifier>_pythonfmu3.so``, a dependency of the
+layer under that name (pythonfmu3's binaries all have the soname ``libpythonfmu-export.so``: depending on it
+by soname would bind every oilwatch FMI 3.0 FMU in a process to the first one's copy).
 """
 
 from __future__ import annotations
@@ -30,6 +36,8 @@ from pathlib import Path
 from models.validation import InputError
 
 LOADER_SOURCE = Path(__file__).resolve().parent / "native" / "fmi2_loader.c"
+FMI3_SOURCE = Path(__file__).resolve().parent / "native" / "fmi3_refusal.c"
+FMI3_PLATFORM = "x86_64-linux"
 RECORD_NAME = "resources/oilwatch_python.txt"
 INNER_BINARY = "pythonfmu_export.so"
 PLATFORM = "linux64"
@@ -68,38 +76,85 @@ def python_record() -> str:
     return "".join(f"{key}={value}\n" for key, value in lines.items())
 
 
-def compile_loader(destination: Path, compiler: str | None = None) -> Path:
-    """Compile ``native/fmi2_loader.c`` into the shared library ``destination``; return it."""
-    compiler = compiler or os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc")
+def _compile(command: list[str], what: str) -> None:
+    compiler = os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc")
     if not compiler:
-        raise InputError("no C compiler found (cc, gcc or $CC): it is needed to build the FMUs' loader")
-    command = [compiler, *COMPILE_FLAGS, "-o", str(destination), str(LOADER_SOURCE), "-ldl", "-lpthread"]
-    process = subprocess.run(command, capture_output=True, text=True)
+        raise InputError(f"no C compiler found (cc, gcc or $CC): it is needed to build {what}")
+    process = subprocess.run([compiler, *command], capture_output=True, text=True)
     if process.returncode != 0:
-        raise InputError(f"compiling the FMU loader failed ({' '.join(command)}):\n{process.stderr}")
+        raise InputError(f"compiling {what} failed ({' '.join([compiler, *command])}):\n{process.stderr}")
+
+
+def compile_loader(destination: Path) -> Path:
+    """Compile ``native/fmi2_loader.c`` into the shared library ``destination``; return it."""
+    _compile(
+        [*COMPILE_FLAGS, "-o", str(destination), str(LOADER_SOURCE), "-ldl", "-lpthread"], "the FMU loader"
+    )
     return destination
+
+
+def _replace_binary(fmu: Path, binary: str, inner: str, replacement: Path, extra: dict[str, str]) -> None:
+    """Rewrite ``fmu`` with ``replacement`` as ``binary``, the original binary as ``inner`` and the files
+    ``extra`` (archive name: text)."""
+    rewritten = replacement.parent / f"rewritten_{fmu.name}"
+    with zipfile.ZipFile(fmu) as source, zipfile.ZipFile(rewritten, "w", zipfile.ZIP_DEFLATED) as target:
+        if binary not in source.namelist():
+            raise InputError(f"{fmu}: no {binary} to wrap")
+        for info in source.infolist():
+            if info.filename in (*extra, inner):
+                continue
+            data = source.read(info)
+            if info.filename == binary:
+                target.writestr(inner, data)
+                target.write(replacement, binary)
+            else:
+                target.writestr(info, data)
+        for name, text in extra.items():
+            target.writestr(name, text)
+    shutil.move(rewritten, fmu)
 
 
 def install_loader(fmu: Path, model_identifier: str) -> Path:
     """Put the loader into the built ``fmu`` in place of pythonfmu's binary (see the module docstring)."""
     fmu = Path(fmu)
-    binary = f"binaries/{PLATFORM}/{model_identifier}.so"
     with tempfile.TemporaryDirectory(prefix="oilwatch_loader_") as tmp:
         loader = compile_loader(Path(tmp) / "loader.so")
-        rewritten = Path(tmp) / fmu.name
-        with zipfile.ZipFile(fmu) as source, zipfile.ZipFile(rewritten, "w", zipfile.ZIP_DEFLATED) as target:
-            names = source.namelist()
-            if binary not in names:
-                raise InputError(f"{fmu}: no {binary} to wrap")
-            for info in source.infolist():
-                if info.filename in (RECORD_NAME, f"binaries/{PLATFORM}/{INNER_BINARY}"):
-                    continue
-                data = source.read(info)
-                if info.filename == binary:
-                    target.writestr(f"binaries/{PLATFORM}/{INNER_BINARY}", data)
-                    target.write(loader, binary)
-                else:
-                    target.writestr(info, data)
-            target.writestr(RECORD_NAME, python_record())
-        shutil.move(rewritten, fmu)
+        binary = f"binaries/{PLATFORM}/{model_identifier}.so"
+        _replace_binary(
+            fmu, binary, f"binaries/{PLATFORM}/{INNER_BINARY}", loader, {RECORD_NAME: python_record()}
+        )
+    return fmu
+
+
+def install_fmi3_refusal(fmu: Path, model_identifier: str) -> Path:
+    """Put ``native/fmi3_refusal.c``'s layer into the built FMI 3.0 ``fmu`` in front of pythonfmu3's binary
+    (see the module docstring)."""
+    fmu = Path(fmu)
+    inner = f"{model_identifier}_pythonfmu3.so"
+    with tempfile.TemporaryDirectory(prefix="oilwatch_fmi3_layer_") as tmp:
+        stub, layer = Path(tmp) / inner, Path(tmp) / "layer.so"
+        empty = Path(tmp) / "empty.c"
+        empty.write_text("", encoding="utf-8")
+        # a stub with the inner binary's new name as its soname: the layer's DT_NEEDED entry
+        _compile(
+            ["-shared", "-fPIC", f"-Wl,-soname,{inner}", "-o", str(stub), str(empty)], "the FMI 3.0 layer"
+        )
+        _compile(
+            [
+                *COMPILE_FLAGS,
+                f'-DINNER_NAME="{inner}"',
+                "-o",
+                str(layer),
+                str(FMI3_SOURCE),
+                "-Wl,--no-as-needed",
+                f"-L{tmp}",
+                f"-l:{inner}",
+                "-Wl,-rpath,$ORIGIN",
+                "-ldl",
+                "-lpthread",
+            ],
+            "the FMI 3.0 layer",
+        )
+        binary = f"binaries/{FMI3_PLATFORM}/{model_identifier}.so"
+        _replace_binary(fmu, binary, f"binaries/{FMI3_PLATFORM}/{inner}", layer, {})
     return fmu

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..cosim import CsvRecorder, Master, SystemDescription
+from ..cosim import CsvRecorder, Master
 from ..cosim.errors import SystemDescriptionError
 from ..cosim.ssp import open_ssp
 from . import SAMPLE_PERIOD_S, ScenarioRun
@@ -100,13 +100,12 @@ def _deferred_sigint(recorder: _StopBetweenSteps):
 
 @contextmanager
 def scenario_system(fmu_dir: Path | None = None, ssp: Path | None = None):
-    """Yield ``(system, roles)``: the two-FMU system (from ``fmu_dir`` or an .ssp) and the instance names
-    ``{"plant": ..., "ekf": ...}``."""
+    """Yield the two-FMU system, from ``fmu_dir`` or an .ssp (its FMUs valid inside the ``with``)."""
     if ssp is not None:
         with open_ssp(ssp) as system:
-            yield system, _roles(system, str(ssp))
+            yield system
         return
-    yield plant_and_estimator(fmu_dir), {"plant": "plant", "ekf": "ekf"}
+    yield plant_and_estimator(fmu_dir)
 
 
 def _operating_columns(plant, machine_file: str) -> dict[str, tuple[str, float]]:
@@ -150,15 +149,15 @@ class _Sentinels:
         self.inner.close()
 
 
-def _roles(system: SystemDescription, origin: str) -> dict[str, str]:
-    from fmpy import read_model_description
-
+def _roles(slaves: dict, origin: str) -> dict[str, str]:
+    """``{"plant": instance, "ekf": instance}`` from the outputs of the FMUs the master loaded (their model
+    descriptions are read once, by the master)."""
     roles = {}
-    for spec in system.fmus:
-        outputs = {v.name for v in read_model_description(str(spec.path), validate=False).modelVariables}
+    for name, slave in slaves.items():
+        outputs = {n for n, v in slave.variables.items() if v.causality == "output"}
         for role, marker in ROLES.items():
             if marker in outputs:
-                roles[role] = spec.name
+                roles[role] = name
     missing = sorted(set(ROLES) - set(roles))
     if missing:
         raise SystemDescriptionError(
@@ -185,11 +184,12 @@ def run_scenario(
     out.mkdir(parents=True, exist_ok=True)
     csv_path = out / "result.csv"
     wall_start = wallclock.perf_counter()
-    with scenario_system(fmu_dir, ssp) as (system, roles):
-        parameters = {roles["plant"]: run.plant_parameters(), roles["ekf"]: run.ekf_parameters()}
+    with scenario_system(fmu_dir, ssp) as system:
         recorder = _StopBetweenSteps(None, tuple(out / name for name in OUTPUT_FILES))
         # SIGINT deferred from before loading: an interrupt inside an FMU call would surface as an FMU error.
         with _deferred_sigint(recorder), Master(system) as master:
+            roles = _roles(master.slaves, str(ssp if ssp is not None else fmu_dir))
+            parameters = {roles["plant"]: run.plant_parameters(), roles["ekf"]: run.ekf_parameters()}
             # the plant's inputs from the FMU the master loaded (a file it refuses never gets here)
             operating = _operating_columns(master.slaves[roles["plant"]], run.machine_file)
             columns = {**COLUMNS, **{name: column for name, (column, _) in operating.items()}}

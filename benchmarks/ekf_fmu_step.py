@@ -1,0 +1,194 @@
+"""Where the estimator FMU's step goes under fmpy (issue 14: "the estimator FMU's step stays within 50 us").
+
+One run, the same records, these rows (median over ``--repeats`` passes of the mean cost per step; wall time
+and, beside it, the process's CPU time, which a shared machine inflates less):
+
+* the OilFlowEKF FMU under fmpy (``benchmarks/ekf_step.py``'s loop: setReal of the inputs, doStep, getReal of
+  four outputs, getBoolean of four flags), ``bearing_table`` 0 on the constant record and 1 on the 60 s plant
+  ramp record (speed_hz and oil_temperature_c set with every step);
+* the same slave class in this process, its Python methods called directly (no FMI, no pythonfmu C++): the
+  shell's Python;
+* the library step inside it alone (``OilFlowEKF.step`` with the slave's own filter and arguments);
+* the bare FMU (``benchmarks/fmus/bare_filter_slave.py``: the same variables, a doStep that does nothing)
+  under fmpy and in process: the floor that fmpy, ctypes and pythonfmu's C++ put under any pythonfmu FMU.
+
+So: FMU under fmpy = library step + the shell's own Python (in process minus library) + the FMI floor (bare
+under fmpy minus bare in process), each measured here.
+
+Two builds of the same FMU cannot be timed in one process (their relocated packages have the same module
+names, so the second would run the first's code): compare another build (e.g. main's) with ``--fmu`` in
+alternating runs.
+
+Usage: ``OPENBLAS_NUM_THREADS=1 python benchmarks/ekf_fmu_step.py [--steps 3000] [--repeats 3] [--ramp-s 60]
+[--fmu OilFlowEKF.fmu]``
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+import numpy as np
+from ekf_step import FmuLoop, bare_fmu, ekf_fmu, measurements, plant_ramp_record
+
+from models.system.augmented import GridAugmentedModel
+from models.system.factory import load_system
+
+OUTPUT_REALS = ("q1_est_ml_min", "q2_est_ml_min", "q1_std_ml_min", "q2_std_ml_min")
+OUTPUT_FLAGS = ("starved1", "starved2", "converged", "measurement_ok")
+DT = 1.0e-3
+
+
+def _inputs(record: np.ndarray, ramps) -> tuple[list[str], list[list[float]]]:
+    """Input names and per-step values [um, Hz, degC] as the FMU loop sets them."""
+    samples = (record * 1e6).tolist()
+    names = ["x1_um", "y1_um", "x2_um", "y2_um"]
+    if ramps is None:
+        return names, samples
+    rows = [[*row, s, t] for row, s, t in zip(samples, ramps[0].tolist(), ramps[1].tolist(), strict=True)]
+    return [*names, "speed_hz", "oil_temperature_c"], rows
+
+
+def _slave(slave_class, ramps):
+    """An initialized slave object of ``slave_class`` (bearing_table 1 at the ramp's start with ``ramps``)."""
+    slave = slave_class(instance_name="ekf", resources=None)
+    vr = {v.name: v.value_reference for v in slave.vars.values()}
+    slave.setup_experiment(0.0, None, None)
+    if ramps is not None and "bearing_table" in vr:
+        slave.set_integer([vr["bearing_table"]], [1])
+        slave.set_real([vr["speed_hz"], vr["oil_temperature_c"]], [float(ramps[0][0]), float(ramps[1][0])])
+    slave.exit_initialization_mode()
+    return slave, vr
+
+
+class InProcess:
+    """A slave object called as the FMU loop calls it (``part="slave"``: setReal, doStep, getReal,
+    getBoolean through its Python methods) or its filter's library step alone (``part="library"``: the same
+    samples and operating point as the slave hands them to ``OilFlowEKF.step``), fresh and initialized."""
+
+    def __init__(self, slave_class, record: np.ndarray, ramps=None, part: str = "slave") -> None:
+        names, self.rows = _inputs(record, ramps)
+        self.slave, vr = _slave(slave_class, ramps)
+        self.inputs = [vr[n] for n in names]
+        self.reals, self.flags = [vr[n] for n in OUTPUT_REALS], [vr[n] for n in OUTPUT_FLAGS]
+        self.part, self.k = part, 0
+        self.samples = np.ascontiguousarray(record)  # [m], as the slave hands them to the filter
+        self.operating = (
+            [(None, None)] * len(record)
+            if ramps is None
+            else list(zip(ramps[0].tolist(), ramps[1].tolist(), strict=True))
+        )
+
+    def run_pass(self) -> tuple[float, float]:
+        """One pass over the record: (wall, CPU) time per step [us]."""
+        steps = len(self.rows) - 1
+        start, cpu = time.perf_counter(), time.process_time()
+        if self.part == "library":
+            step, samples, operating = self.slave.filter.step, self.samples, self.operating
+            for j in range(steps):
+                step(samples[j + 1], *operating[j + 1], None)
+        else:
+            slave, inputs, reals, flags, rows, k = (
+                self.slave,
+                self.inputs,
+                self.reals,
+                self.flags,
+                self.rows,
+                self.k,
+            )
+            for j in range(steps):
+                slave.set_real(inputs, rows[j + 1])
+                slave.do_step(k * DT, DT)
+                slave.get_real(reals)
+                slave.get_boolean(flags)
+                k += 1
+            self.k = k
+        return (time.perf_counter() - start) / steps * 1e6, (time.process_time() - cpu) / steps * 1e6
+
+    def close(self) -> None:
+        pass
+
+
+def interleaved(runners: dict, repeats: int) -> dict[str, dict[str, float]]:
+    """Passes of every runner in turn, ``repeats`` rounds (load changes hit all alike): per runner the
+    median and minimum wall and CPU time per step [us]."""
+    passes = {name: [] for name in runners}
+    for _ in range(repeats):
+        for name, runner in runners.items():
+            passes[name].append(runner.run_pass())
+    for runner in runners.values():
+        runner.close()
+    result = {}
+    for name, values in passes.items():
+        wall, cpu = np.array(values).T
+        result[name] = {
+            "wall": np.median(wall),
+            "wall_min": wall.min(),
+            "cpu": np.median(cpu),
+            "cpu_min": cpu.min(),
+        }
+    return result
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--steps", type=int, default=2000)
+    parser.add_argument("--repeats", type=int, default=7)
+    parser.add_argument("--ramp-s", type=float, default=60.0, help="length of the plant's ramp record [s]")
+    parser.add_argument("--fmu", default=None, help="OilFlowEKF.fmu to time (default: build one)")
+    args = parser.parse_args()
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent / "fmus"))
+    from bare_filter_slave import BareFilter
+
+    from fmu_src.oilwatch_ekf_slave import OilFlowEKF
+
+    constant = measurements(GridAugmentedModel(load_system(reduced=True)), args.steps)
+    ramp, speed, temperature = plant_ramp_record(args.ramp_s)
+    ramp, ramps = ramp[: args.steps], (speed[: args.steps], temperature[: args.steps])
+    cases = (("bearing_table 0, constant", constant, None), ("bearing_table 1, plant ramps", ramp, ramps))
+    load = [os.getloadavg()[0]]
+    rows = []
+    with tempfile.TemporaryDirectory(prefix="oilwatch_bench_") as folder:
+        ekf_path, bare_path = ekf_fmu(args.fmu, folder), bare_fmu(folder)
+        for label, record, inputs in cases:
+            runners = {"fmu": FmuLoop(ekf_path, record, inputs)}
+            runners["slave"] = InProcess(OilFlowEKF, record, inputs)
+            runners["library"] = InProcess(OilFlowEKF, record, inputs, part="library")
+            runners["bare"] = FmuLoop(bare_path, record, inputs)
+            runners["bare_slave"] = InProcess(BareFilter, record, inputs)
+            t = interleaved(runners, args.repeats)
+            load.append(os.getloadavg()[0])
+            rows += [
+                (f"EKF FMU under fmpy, {label}", t["fmu"]),
+                ("  the same slave in process (its Python methods, no FMI)", t["slave"]),
+                ("  its library step alone (OilFlowEKF.step)", t["library"]),
+                ("  bare FMU under fmpy, the same calls", t["bare"]),
+                ("  bare slave in process", t["bare_slave"]),
+                ("  => shell's own Python (slave - library)", _difference(t["slave"], t["library"])),
+                (
+                    "  => FMI floor (bare under fmpy - bare in process)",
+                    _difference(t["bare"], t["bare_slave"]),
+                ),
+            ]
+    header = f"per step [us], {args.repeats} interleaved passes of {args.steps} steps"
+    print(f"{header:<78} {'wall':>7} {'min':>7} {'CPU':>7} {'min':>7}")
+    for label, c in rows:
+        print(f"{label:<78} {c['wall']:7.1f} {c['wall_min']:7.1f} {c['cpu']:7.1f} {c['cpu_min']:7.1f}")
+    print(f"(medians and minima over the passes; 1-min load average {min(load):.1f}-{max(load):.1f})")
+
+
+def _difference(a: dict[str, float], b: dict[str, float]) -> dict[str, float]:
+    return {key: a[key] - b[key] for key in a}
+
+
+if __name__ == "__main__":
+    main()
