@@ -167,6 +167,10 @@ def main() -> None:
     parser.add_argument("--live-s", type=float, default=20.0)
     parser.add_argument("--workdir", help="where the record goes (default: a temporary folder)")
     args = parser.parse_args()
+    if args.hours <= 0 or args.live_s < 0:
+        parser.error(f"--hours must be > 0 and --live-s >= 0, got {args.hours:g} and {args.live_s:g}")
+    if args.workdir is not None and not Path(args.workdir).is_dir():
+        parser.error(f"--workdir {args.workdir}: no such folder (create it, or leave the option out)")
     print(f"load average at the start: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
     with tempfile.TemporaryDirectory(dir=args.workdir) as folder:
         work = Path(folder)
