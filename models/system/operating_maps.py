@@ -73,6 +73,7 @@ class OperatingMaps:
         self._minv_gravity = lu_solve(mass_lu, system.gravity_force)
         self._minv_map_stack = np.array([lu_solve(mass_lu, p.T) for p in system.bearing_maps])
         self._minv = lu_solve(mass_lu, np.eye(n))
+        self._select = system.bearing_maps.reshape(-1, n)
 
     def _slice(self, speed_hz: float, viscosity_pa_s: float, load_n: float, synchronous: bool = False):
         key = (speed_hz, viscosity_pa_s, load_n, synchronous)
@@ -163,26 +164,39 @@ class OperatingMaps:
 
     def _unbalance_forces(self, points, omega: np.ndarray, k: np.ndarray, c: np.ndarray) -> np.ndarray:
         """The 1x load (P, n) complex at each point: the system's unbalance force, or with synchronous
-        tables the effective load of the synchronous orbit (module docstring), times (Omega / Omega_0)^2."""
+        tables the effective load of the synchronous orbit (module docstring), times (Omega / Omega_0)^2.
+
+        The orbit is one stacked direct solve of ``(K - w^2 M + i w (C_s + w G) + P^T Z_s P) x = F_1`` for
+        all points (the orbit ``RotorBearingSystem.synchronous_unit_load`` finds through its reference
+        response, exact for any reference), then ``F_eff = F_1 - P^T (Z_s - Z_qs) P x``."""
         sys = self.system
         scale = (omega / self._reference_omega) ** 2
         if self.synchronous_table is None:
             return scale[:, None] * sys.unbalance_force[None, :]
-        nb = len(self._loads)
         synchronous = self._rows(points, synchronous=True)
-        k_s = synchronous[..., 2:6].reshape(-1, nb, 2, 2)
-        c_s = synchronous[..., 6:10].reshape(-1, nb, 2, 2)
+        count, nb = synchronous.shape[0], synchronous.shape[1]
+        k_s = synchronous[..., 2:6].reshape(count, nb, 2, 2)
+        c_s = synchronous[..., 6:10].reshape(count, nb, 2, 2)
+        whirl = omega[:, None, None]
+        z_dynamics = np.zeros((count, 2 * nb, 2 * nb), dtype=complex)
+        z_synchronous = np.zeros((count, 2 * nb, 2 * nb), dtype=complex)
+        for b in range(nb):
+            pair = slice(2 * b, 2 * b + 2)
+            z_dynamics[:, pair, pair] = k[:, b] + 1j * whirl * c[:, b]
+            z_synchronous[:, pair, pair] = k_s[:, b] + 1j * whirl * c_s[:, b]
+        select = self._select  # (2 nb, n)
+        matrix = (
+            sys.stiffness
+            - whirl**2 * sys.mass
+            + 1j * whirl * (self._structural_damping + whirl * sys.gyroscopic)
+            + select.T @ z_synchronous @ select
+        )
+        force = sys.unit_unbalance_force
+        orbit = np.linalg.solve(matrix, np.broadcast_to(force[:, None], (count, self._n, 1)))[..., 0]
+        bearings = orbit @ select.T  # (P, 2 nb)
+        difference = ((z_synchronous - z_dynamics) @ bearings[..., None])[..., 0]
         moment = sys.unbalance_moment_kg_m * np.exp(1j * sys.unbalance_phase_rad)
-        forces = np.empty((len(points), self._n), dtype=complex)
-        z_dynamics = np.zeros((2 * nb, 2 * nb), dtype=complex)
-        z_synchronous = np.zeros((2 * nb, 2 * nb), dtype=complex)
-        for p, w in enumerate(omega):
-            for b in range(nb):
-                pair = slice(2 * b, 2 * b + 2)
-                z_dynamics[pair, pair] = k[p, b] + 1j * w * c[p, b]
-                z_synchronous[pair, pair] = k_s[p, b] + 1j * w * c_s[p, b]
-            forces[p] = moment * sys.synchronous_unit_load(z_synchronous, z_dynamics, w)
-        return scale[:, None] * forces
+        return (scale * moment)[:, None] * (force[None, :] - difference @ select)
 
     def discrete_map(
         self, flowrates_m3_s, speed_hz: float, viscosities_pa_s
