@@ -11,9 +11,10 @@ with ``D_c = A(q_c, p_c) - A(q_c, p0)`` and the derivatives of the exact maps (:
 dimensionless bearing table: each bearing at its own Sommerfeld number and flowrate over its Couette flow,
 gyroscopics, unbalance ~ speed^2 and the exosystem at the speed) at a centre ``(q_c, p_c)``. The centre
 moves to the current (estimate, operating point) when either has left it by more than the thresholds of
-:class:`Recentring`, at most every 0.2 s unless it is four thresholds away (a re-centring costs 7 Frechet
-derivatives of a (2n + 3) block exponential, about 3 ms on a free core for the turbine's 26 states, so the
-average cost stays below about 15 us per step even while a flowrate drops fast). A -40 % viscosity change is
+:class:`Recentring`, at most every 0.2 s unless it is four thresholds away (a re-centring is 16 stacked
+block assemblies and 7 Frechet derivatives of the (2n + 3) block exponential that share two exponentials,
+:mod:`operating_maps` and :mod:`frechet`: about 3 ms of CPU for the turbine's 26 states, so the average cost
+stays below a few us per step even while a flowrate drops fast). A -40 % viscosity change is
 thus followed by re-centring, never by a first-order step from p0. At p = p0 the correction is not applied at
 all: at constant nominal conditions this is today's model, bit for bit.
 
