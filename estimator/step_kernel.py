@@ -166,7 +166,8 @@ def ekf_step(
     sample_step(FilterArrays(*packed), predict, next_state, state_jacobian, flowrate_jacobian, displacement)
 
 
-@njit(cache=True)
+# inlined into its two callers: called with the struct by value it cost 1.5 us per sample more (measured)
+@njit(cache=True, inline="always")
 def sample_step(
     a: FilterArrays,
     predict: bool,
