@@ -471,7 +471,8 @@ def format_table(rows: Sequence[dict]) -> list[str]:
             detected,
             flagged,
             f"{r['consistent_fraction']:.2f}",
-            f"{ratio[0]:.1f} / {ratio[1]:.1f} ({r['bound_pct'][0]:.2f} / {r['bound_pct'][1]:.2f})",
+            f"{ratio[0]:.1f} / {ratio[1]:.1f}"
+            + (f" ({r['bound_pct'][0]:.2f} / {r['bound_pct'][1]:.2f})" if "bound_pct" in r else ""),
         ]
         lines.append("| " + " | ".join(cells) + " |")
     lines += ["", coverage_line(rows)]
