@@ -106,19 +106,21 @@ class EstimateOptions:
 
 def estimator_model(machine_file: str | None, dt_s: float = ESTIMATOR_DT_S, follow: bool = False):
     """The estimator's model of a machine file: the reduced system at the nominal point (the estimator FMU's
-    ``bearing_table = 0``), built once per process (a Dask worker keeps it), or, with ``follow``, its
-    operating model on the dimensionless tables (``bearing_table = 1``), built afresh on every call: its
-    correction centre is state the filter's reset does not clear (as in the FMU, which builds one per
-    instance), so a cached one would make a record's estimates depend on what ran before it."""
-    from models.system.augmented import GridAugmentedModel
-
-    if follow:
-        from models.system.operating_model import build_operating_model
-
-        return build_operating_model(_reduced_system(machine_file), load_machine(machine_file), dt_s)
-    key = (machine_file, dt_s)
+    ``bearing_table = 0``) or, with ``follow``, its operating model on the dimensionless tables
+    (``bearing_table = 1``); each built once per process (a Dask worker keeps it). A filter built on the
+    operating model resets it to its just-built state (``OilFlowEKF.reset``: no correction centre survives),
+    so a record's estimates do not depend on what ran on it before (tests/test_estimate_model_cache.py)."""
+    key = (machine_file, dt_s, follow)
     if key not in _MODELS:
-        _MODELS[key] = GridAugmentedModel(_reduced_system(machine_file), dt_s)
+        if follow:
+            from models.system.operating_model import build_operating_model
+
+            model = build_operating_model(_reduced_system(machine_file), load_machine(machine_file), dt_s)
+        else:
+            from models.system.augmented import GridAugmentedModel
+
+            model = GridAugmentedModel(_reduced_system(machine_file), dt_s)
+        _MODELS[key] = model
     return _MODELS[key]
 
 
