@@ -97,6 +97,9 @@ class EstimateOptions:
     chunk_rows: int = 8192
     views: bool = True
     live: bool = False
+    record_start: str | None = None
+    """When the record started (ISO 8601, UTC): with a baseline file that records its own start, the
+    baseline's age, which widens its offsets prior (:mod:`oilwatch.monitoring.baseline_age`)."""
     operating_point: str = "auto"
     """``follow``: the estimator's operating model follows the record's speed and oil temperature (the
     estimator FMU's ``bearing_table = 1``); ``nominal``: the model at the machine's nominal speed and
@@ -204,11 +207,16 @@ class EstimateRun:
             self.probes = dataclasses.replace(
                 self.probes, offset_prior_std_m=options.offset_prior_std_um * 1e-6
             )
-        self.baseline = None
+        self.baseline, self.baseline_age_days = None, None
         if options.baseline_file is not None:
             from estimator.baseline import load_baseline
 
-            self.baseline = load_baseline(options.baseline_file)
+            from .baseline_age import baseline_age_days
+
+            self.baseline_age_days = baseline_age_days(options.baseline_file, options.record_start)
+            age_s = 0.0 if self.baseline_age_days is None else 86400.0 * self.baseline_age_days
+            drift = self.probes.offset_drift_m_per_day
+            self.baseline = load_baseline(options.baseline_file, age_s, drift)
         chunk_rows = 1 if source == STDIN and options.live else options.chunk_rows
         self.stream = RecordStream(
             source,
