@@ -1,7 +1,7 @@
-"""The baseline's age in ``oilwatch estimate`` (``--record-start`` against the baseline file's
-``record_start_utc``): the offsets' prior widens by the machine file's ``[probes] offset_drift_um_per_day``
-over it (0.1 um/day for the turbine: 10 um after 100 days, beside the baseline's 0.5 um), and either time
-unknown leaves the prior as the baseline gives it."""
+"""The baseline's age in ``oilwatch estimate``: ``--record-start`` against the baseline file's
+``record_start_utc`` (which ``oilwatch baseline --record-start`` stores). The offsets' prior widens by the
+machine file's ``[probes] offset_drift_um_per_day`` over it (0.1 um/day for the turbine: 10 um after 100
+days, beside the baseline's 0.5 um), and either time unknown leaves the prior as the baseline gives it."""
 
 from __future__ import annotations
 
@@ -67,6 +67,10 @@ def test_estimate_widens_the_offsets_prior_by_the_drift_over_the_baseline_s_age(
     for n in PROBES:
         aged, unknown = runs["aged"][1][f"offset_{n}_std_um"][0], runs["unknown"][1][f"offset_{n}_std_um"][0]
         assert unknown == pytest.approx(0.5, rel=0.05) and aged > 5.0 * unknown, (n, aged, unknown)
+    written = tmp_path / "written.json"  # oilwatch baseline stores its record's start
+    dated = ["--record-start", COMMISSIONED, "--out", str(written)]
+    assert main(["baseline", "--record", str(record), *dated]) == 0
+    assert json.loads(written.read_text())["record_start_utc"] == "2026-08-23T08:00:00+00:00"
     line = one_line_error(capsys, [*argv, "--record-start", "yesterday"])
     assert "--record-start" in line and "ISO 8601" in line
     line = one_line_error(capsys, [*argv, "--record-start", "2026-08-01T00:00:00Z"])
