@@ -30,9 +30,10 @@ def model():
     return build_operating_model(build_system(machine, reduced=True), machine, DT)
 
 
-def _record(model, steps: int) -> np.ndarray:
-    """(steps, 4) the model's own steady motion at nominal flow, factors 1, the machine file's unbalance."""
-    q = np.full(2, model.nominal_flowrate_m3_s)
+def _record(model, steps: int, fraction: float = 1.0) -> np.ndarray:
+    """(steps, 4) the model's own steady motion at ``fraction`` of nominal flow, factors 1, the machine
+    file's unbalance."""
+    q = np.full(2, fraction * model.nominal_flowrate_m3_s)
     ones, unbalance = np.ones(2), np.array([1.0, 0.0])
     state = np.zeros(model.n_states)
     for k in range(-3000, 1):  # settle into the periodic motion before the first sample (model step 1)
