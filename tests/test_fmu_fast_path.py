@@ -1,0 +1,121 @@
+"""The estimator FMU's fast path (issue 14: its step within 50 us): the FMU's loader serves the per-step
+inputs and outputs in C and calls the slave's step directly (``oilwatch/cosim/native/fmi2_loader.c``,
+``fmu_src/slave_base.py``). It must change nothing a host can see.
+
+One fresh process runs the plant FMU and two instances of the estimator FMU fed the same plant outputs: one
+with the fast path, one initialized with ``OILWATCH_FMU_FAST_PATH=0`` (pythonfmu's path for every call).
+Over the run some probes read NaN or infinity, one time stamp is infinite, one sample is off the filter's
+grid (a logged warning: the step is replayed through pythonfmu), one sample repeats, both instances save and
+restore their state, and both get a fixed parameter set after initialization. Every output (reals, integers,
+booleans, the nuisance estimates) must be bit-identical between the two, the refused set must be fmi2Error
+on both with the same message, and a step that fails (a time stamp after the step's end) must be fmi2Fatal
+with the slave's message on both. ``fmi2Reset`` drops the binding; the next initialization binds again.
+"""
+
+from __future__ import annotations
+
+from fixtures.fmu_subprocess import run_json
+from test_ekf_fmu import FMPY_PRELUDE, TIMEOUT_S
+
+RUN = """
+import ctypes, math, os
+from pathlib import Path
+q = 0.85 * 596.3
+flow = {f"q{b}_{s}_ml_min": q for b in (1, 2) for s in ("initial", "final")}
+plant, pv = load(PLANT, "plant", {"noise_um": 1.0, **flow}, {"seed": 3})
+
+def loader_bound(slave):
+    binary = Path(slave.unzipDirectory) / "binaries" / "linux64" / (slave.modelIdentifier + ".so")
+    return ctypes.CDLL(str(binary)).oilwatch_loader_fast_path(ctypes.c_void_p(slave.component))
+
+os.environ["OILWATCH_FMU_FAST_PATH"] = "0"
+slow, ev = load(EKF, "slow", {"noise_um": 1.0})
+del os.environ["OILWATCH_FMU_FAST_PATH"]
+fast, _ = load(EKF, "fast", {"noise_um": 1.0})
+result = {"bound": [loader_bound(fast), loader_bound(slow)]}
+PORTS = ["x1_um", "y1_um", "x2_um", "y2_um", "t_sample_s"]
+src, dst = [pv[n] for n in PORTS], [ev[n] for n in PORTS]
+md = read_model_description(EKF)
+outputs = [v for v in md.modelVariables if v.causality == "output"]
+by_type = {t: [ev[v.name] for v in outputs if v.type == t] for t in ("Real", "Integer", "Boolean")}
+CORE = [ev[n] for n in ("q1_est_ml_min", "q2_est_ml_min", "nis", "t_estimate_s")]
+h = 1e-3
+BAD = {300 + i: (i % 4, (math.nan, math.inf, -math.inf, math.nan)[i % 4]) for i in range(40)}
+BAD.update({500: (4, math.inf), 700: (4, 0.7003)})  # a non-finite and an off-grid time stamp
+
+def row(ekf, k):
+    values = ekf.getReal(CORE) + ekf.getReal(by_type["Real"]) if k % 50 == 0 else ekf.getReal(CORE)
+    return values + ekf.getInteger(by_type["Integer"]) + [int(b) for b in ekf.getBoolean(by_type["Boolean"])]
+
+def run(k0, k1):
+    rows = {"fast": [], "slow": []}
+    for k in range(k0, k1):
+        plant.doStep(k * h, h)
+        values = plant.getReal(src)
+        if k in BAD:
+            values[BAD[k][0]] = BAD[k][1]
+        for name, ekf in (("fast", fast), ("slow", slow)):
+            ekf.setReal(dst, values)
+            ekf.doStep(k * h, h)
+            if k == 900:
+                ekf.doStep(k * h + h, h)  # no new sample: a repeated one, not used twice
+            rows[name].append(row(ekf, k))
+    return rows
+
+first = run(0, 1000)
+states = {"fast": fast.getFMUstate(), "slow": slow.getFMUstate(), "plant": plant.getFMUstate()}
+second = run(1000, 1200)
+for name, slave in (("fast", fast), ("slow", slow), ("plant", plant)):
+    slave.setFMUstate(states[name])
+again = run(1000, 1200)
+refused = {}
+for name, ekf in (("fast", fast), ("slow", slow)):
+    try:
+        ekf.setReal([ev["noise_um"], ev["x1_um"]], [3.0, 0.0])
+        refused[name] = 0
+    except FMICallException as error:
+        refused[name] = error.status
+third = run(1200, 1300)
+result.update(first=first, second=second, again=again, third=third, refused=refused)
+def messages(text):
+    return {n: [m for i, s, m in LOG if i == n and text in m] for n in ("fast", "slow")}
+
+result["refusal_log"] = messages("fixed parameter")
+result["off_grid_log"] = messages("off the filter's grid")
+fast.reset()
+result["bound_after_reset"] = loader_bound(fast)
+fast.setupExperiment(startTime=0.0)
+fast.enterInitializationMode()
+fast.setReal([ev["noise_um"]], [1.0])
+fast.exitInitializationMode()
+result["bound_after_reinitialization"] = loader_bound(fast)
+failed = {}
+for name, ekf in (("fast", fast), ("slow", slow)):
+    ekf.setReal([ev["t_sample_s"]], [99.0])  # after the end of the step: the slave raises
+    try:
+        ekf.doStep(5.0, h)
+        failed[name] = 0
+    except FMICallException as error:
+        failed[name] = error.status
+result["failed"] = failed
+result["failed_log"] = messages("t_sample_s = 99")
+"""
+
+
+def test_the_fast_path_changes_no_output_status_or_message(built_fmus):
+    plant, ekf = (str(built_fmus / name) for name in ("RotorBearingPlant.fmu", "OilFlowEKF.fmu"))
+    paths = f"PLANT, EKF = {plant!r}, {ekf!r}\n"
+    result = run_json(FMPY_PRELUDE + paths + RUN, timeout=TIMEOUT_S)
+    assert result["bound"] == [1, 0]  # the fast instance is served by the loader, the other by pythonfmu
+    for part in ("first", "second", "again", "third"):
+        assert result[part]["fast"] == result[part]["slow"], part  # bit for bit (JSON keeps every digit)
+    assert result["second"] == result["again"]  # the restored state runs on identically
+    assert len({r[0] for r in result["first"]["fast"]}) > 100  # the estimate really moves
+    assert result["refused"] == {"fast": 3, "slow": 3}  # fmi2Error, and both step on
+    assert all(len(messages) == 1 for messages in result["refusal_log"].values())
+    assert result["refusal_log"]["fast"] == [m.replace("slow", "fast") for m in result["refusal_log"]["slow"]]
+    assert all(len(messages) == 1 for messages in result["off_grid_log"].values())  # replayed, relayed
+    assert result["bound_after_reset"] == 0 and result["bound_after_reinitialization"] == 1
+    assert result["failed"] == {"fast": 4, "slow": 4}  # fmi2Fatal with the slave's reason on both
+    fast_failure, slow_failure = result["failed_log"]["fast"], result["failed_log"]["slow"]
+    assert fast_failure and fast_failure == [m.replace("slow", "fast") for m in slow_failure]
