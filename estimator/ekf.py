@@ -50,66 +50,41 @@ then update with the measured displacements (Eqs. 22-24, Joseph form, Cholesky s
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 
 import numpy as np
-from scipy.special import chdtri, ndtri
 
 from models.validation import InputError
 
 from . import channels
 from .alarm import StarvationAlarm
 from .config import EKFConfig
+from .ekf_batch import BatchRuns
+from .ekf_reporting import FilterReporting
+from .ekf_setup import (
+    StateLayout,
+    channel_settings,
+    check_model,
+    physical_covariance,
+    process_noise,
+    step_settings,
+    summary_settings,
+)
+from .filter_arrays import FilterArrays
 from .measurement import displacement_channels, velocity_channels
-from .model import AugmentedModel, has_static_state
+from .model import AugmentedModel
 from .nuisance_start import ShadowJacobian, restart_parameters, settling_steps
-from .reports import EstimateTrace, ReportView, StepReport
+from .reports import EstimateTrace, StepReport
 from .runout import RunoutCompensation
 from .state import export_state, import_state
-from .step_kernel import (
-    COUNT_FIRST,
-    COUNT_OFFSETS,
-    COUNT_SINCE_UPDATE,
-    COUNT_STEP,
-    COUNT_UNBALANCE,
-    COUNT_VISCOSITY,
-    N_COUNTERS,
-    N_SUMMARY_SETTINGS,
-    REPORT_CHANGING,
-    REPORT_CONSISTENT,
-    REPORT_CONVERGED,
-    REPORT_FLOWRATE,
-    REPORT_NIS,
-    REPORT_OFFSET,
-    REPORT_OFFSET_STD,
-    REPORT_OK,
-    REPORT_ROWS,
-    REPORT_SIZE,
-    REPORT_STARVED,
-    REPORT_STARVED_CONSISTENT,
-    REPORT_STATUS,
-    REPORT_STD,
-    REPORT_UNBALANCE,
-    REPORT_UNBALANCE_STD,
-    REPORT_VISCOSITY,
-    REPORT_VISCOSITY_STD,
-    SUMMARY_CONSISTENCY_Z,
-    SUMMARY_CONVERGED_DRIFT,
-    SUMMARY_CONVERGED_STD,
-    SUMMARY_Q_HIGH,
-    SUMMARY_Q_LOW,
-    SUMMARY_Q_NOMINAL,
-    SUMMARY_UNBALANCE_EXTRA,
-    SUMMARY_UNBALANCE_WALK,
-    ekf_step,
-    grid_batch,
-)
+from .step_kernel import COUNT_SINCE_UPDATE, COUNT_STEP, REPORT_FLOWRATE, REPORT_SIZE, ekf_step
+
+__all__ = ["MIN_VISCOSITY_FACTOR", "EstimateTrace", "OilFlowEKF", "StepReport"]
 
 MIN_VISCOSITY_FACTOR = 0.2
 """The model never sees a viscosity factor below this (a random walk kept physical)."""
 
 
-class OilFlowEKF:
+class OilFlowEKF(FilterReporting, BatchRuns):
     """Augmented-state EKF estimating (q1, q2) from the four measured bearing displacements.
 
     Parameters
@@ -117,40 +92,33 @@ class OilFlowEKF:
     model : any :class:`estimator.model.AugmentedModel`.
     config : :class:`estimator.config.EKFConfig` (paper defaults; what it leaves open, e.g. the nominal
         flowrate, comes from the model: :meth:`EKFConfig.for_model`).
+
+    The set-up is :mod:`estimator.ekf_setup`, the reported estimates :mod:`estimator.ekf_reporting`, the
+    record entries (:meth:`run`, :meth:`run_batch`) :mod:`estimator.ekf_batch`.
     """
 
     def __init__(self, model: AugmentedModel, config: EKFConfig | None = None) -> None:
         self.model = model
         self.config = (config if config is not None else EKFConfig()).for_model(model)
-        self._check_model()
+        check_model(model, self.config)
         cfg = self.config
-        n = int(model.n_states)
+        layout = StateLayout.for_config(model, cfg)
+        n = layout.n
         self._n = n
-        self._n_offsets = 4 if cfg.offset_prior_std_m > 0.0 or cfg.offset_baseline is not None else 0
-        self._n_unbalance = 2 if cfg.unbalance_prior_std > 0.0 else 0
-        if self._n_unbalance and not callable(getattr(model, "transition_with_unbalance", None)):
-            raise InputError(
-                "EKFConfig.unbalance_prior_std > 0 needs a model with transition_with_unbalance()"
-            )
-        self._n_viscosity = 2 if cfg.viscosity_factor_prior_std > 0.0 else 0
-        if self._n_viscosity and not callable(getattr(model, "transition_full", None)):
-            raise InputError(
-                "EKFConfig.viscosity_factor_prior_std > 0 needs a model with transition_full() (one that "
-                "follows the operating point: models.system.operating_model)"
-            )
-        self._offsets = slice(n + 2, n + 2 + self._n_offsets)
-        first = n + 2 + self._n_offsets
-        self._viscosity = slice(first, first + self._n_viscosity)
-        self._unbalance = slice(first + self._n_viscosity, first + self._n_viscosity + self._n_unbalance)
-        self._size = first + self._n_viscosity + self._n_unbalance
-        # the trailing nuisance columns of the Jacobian (viscosity factors, unbalance): see kernels
-        self._n_trailing = self._n_viscosity + self._n_unbalance
+        self._n_offsets, self._n_viscosity, self._n_unbalance = (
+            layout.n_offsets,
+            layout.n_viscosity,
+            layout.n_unbalance,
+        )
+        self._offsets, self._viscosity, self._unbalance = layout.offsets, layout.viscosity, layout.unbalance
+        self._size = layout.size
+        self._n_trailing = layout.n_trailing
         self._trailing_jacobian = np.zeros((n, self._n_trailing))
         self._follows = callable(getattr(model, "set_operating_point", None))
         self._q_nominal = cfg.q_nominal_m3_s
         low, high = model.flowrate_bounds_m3_s
         self._bounds = (float(low), float(high))
-        self._bounds_scaled = (low / self._q_nominal, high / self._q_nominal)
+        bounds_scaled = (low / self._q_nominal, high / self._q_nominal)
         self._dt = float(model.dt_s)
         self._first_step = round(cfg.first_sample_time_s / self._dt)
         if abs(self._first_step * self._dt - cfg.first_sample_time_s) > 1e-6 * self._dt:
@@ -175,26 +143,12 @@ class OilFlowEKF:
         self._obs8, self._noise8 = (
             channels8 if channels8 is not None else (np.zeros((0, self._size)), np.zeros((0, 0)))
         )
-        self._channel_settings = self._channel_settings_from(cfg)
-        change_alpha = min(1.0, self._dt / cfg.change_window_s)
+        self._channel_settings = channel_settings(cfg, model, self._dt)
         self._q_var = (cfg.flowrate_process_std_m3_s / self._q_nominal) ** 2
-        self._settings = np.array(
-            [
-                1.0 / self._dt,
-                *self._bounds_scaled,
-                change_alpha / (2.0 - change_alpha),  # null variance of the fading-memory mean
-                float(chdtri(2, cfg.change_tail_probability)),
-                self._q_var,
-                cfg.change_flowrate_std_fraction**2,  # internal unit: fractions of nominal
-            ]
-        )
+        self._settings = step_settings(cfg, self._dt, bounds_scaled, self._q_var)
         self._consistency_steps = max(1, round(cfg.consistency_window_s / self._dt))
-        self._summary_settings = np.zeros(N_SUMMARY_SETTINGS)
-        self._summary_settings[SUMMARY_Q_NOMINAL] = self._q_nominal
-        self._summary_settings[SUMMARY_Q_LOW], self._summary_settings[SUMMARY_Q_HIGH] = self._bounds
-        self._summary_settings[SUMMARY_CONSISTENCY_Z] = float(ndtri(1.0 - cfg.consistency_tail_probability))
-        self._summary_settings[SUMMARY_CONVERGED_STD] = cfg.converged_std_fraction
-        self._summary_settings[SUMMARY_CONVERGED_DRIFT] = cfg.converged_drift_fraction
+        unbalance_walk = cfg.unbalance_random_walk_sqrt_s**2 * self._dt
+        self._summary_settings = summary_settings(cfg, self._q_nominal, self._bounds, unbalance_walk)
         self._report = np.zeros(REPORT_SIZE)
         self._batch_table = np.empty((0, REPORT_SIZE))
         self._one_row = np.empty((1, REPORT_SIZE))
@@ -206,28 +160,8 @@ class OilFlowEKF:
         self._grid_batch = batch() if callable(batch) and plain else None
         self._batch_next, self._batch_exogenous = np.zeros(n), np.zeros(3)
         self._batch_transition, self._batch_flow_jacobian = np.zeros((n, n)), np.zeros((n, 2))
-        self._counters = np.zeros(N_COUNTERS, dtype=np.int64)
-        self._counters[COUNT_FIRST] = n
-        for index, block in ((COUNT_VISCOSITY, self._viscosity), (COUNT_UNBALANCE, self._unbalance)):
-            self._counters[index] = block.start if block.stop > block.start else -1
-        self._counters[COUNT_OFFSETS] = self._offsets.start if self._n_offsets else -1
-
-        self._process_noise = np.zeros((self._size, self._size))
-        self._process_noise[:n, :n] = self._physical(
-            cfg.displacement_process_std_m, cfg.velocity_process_std_m_s
-        )
-        self._process_noise[n : n + 2, n : n + 2] = self._q_var * np.eye(2)
-        if self._n_offsets:
-            walk = cfg.offset_random_walk_m_sqrt_s**2 * self._dt
-            self._process_noise[self._offsets, self._offsets] = walk * np.eye(self._n_offsets)
-        self._unbalance_walk = cfg.unbalance_random_walk_sqrt_s**2 * self._dt
-        self._summary_settings[SUMMARY_UNBALANCE_WALK] = self._unbalance_walk
-        self._summary_settings[SUMMARY_UNBALANCE_EXTRA] = cfg.unbalance_inconsistent_std**2
-        if self._n_unbalance:
-            self._process_noise[self._unbalance, self._unbalance] = self._unbalance_walk * np.eye(2)
-        if self._n_viscosity:
-            walk = cfg.viscosity_factor_random_walk_sqrt_s**2 * self._dt
-            self._process_noise[self._viscosity, self._viscosity] = walk * np.eye(2)
+        self._counters = layout.counters()
+        self._process_noise = process_noise(model, cfg, layout, self._dt, self._q_var, unbalance_walk)
 
         self._jacobian = np.zeros((self._size, self._size))
         self._work = np.zeros((self._size, self._size))
@@ -248,62 +182,6 @@ class OilFlowEKF:
         self._shadow = ShadowJacobian(n, self._n_trailing) if free and cfg.nuisance_shadow else None
         self.reset()
 
-    def _check_model(self) -> None:
-        model = self.model
-        n = model.n_states
-        if not isinstance(n, int | np.integer) or n < 1:
-            raise InputError(f"model.n_states must be a positive integer, got {n!r}")
-        for name in ("output_matrix", "velocity_output_matrix"):
-            shape = np.shape(getattr(model, name))
-            if shape != (4, n):
-                raise InputError(f"model.{name} must have shape (4, {n}), got {shape}")
-        if not float(model.dt_s) > 0.0:
-            raise InputError(f"model.dt_s must be > 0 s, got {model.dt_s!r}")
-        low, high = model.flowrate_bounds_m3_s
-        if not 0.0 < low < high:
-            raise InputError(f"model.flowrate_bounds_m3_s must satisfy 0 < low < high, got {low}, {high}")
-        for value in self.config.q_initial_pair():
-            if not low <= value <= high:
-                raise InputError(
-                    f"EKFConfig.q_initial_m3_s must lie in the model's table range "
-                    f"[{low:g}, {high:g}] m^3/s, got {value:g}"
-                )
-        if self.config.initial_state == "static" and not has_static_state(model):
-            raise InputError("EKFConfig.initial_state='static' needs a model with static_state()")
-
-    def _channel_settings_from(self, cfg: EKFConfig) -> np.ndarray:
-        """The settings array of :mod:`estimator.channels` from the configuration and the model."""
-        p = cfg.gate_tail_probability
-        gate = float(chdtri(1, p)) if p > 0.0 else np.inf
-        if cfg.probe_range_m is not None:
-            limit = cfg.probe_range_m
-        elif getattr(self.model, "clearance_m", None) is not None:
-            limit = float(self.model.clearance_m) + cfg.probe_range_margin_m
-        else:
-            limit = np.inf
-        values = np.zeros(channels.N_CHANNEL_SETTINGS)
-        values[channels.GATE] = gate
-        values[channels.RANGE] = limit
-        values[channels.DEAD_SAMPLES] = max(1, round(cfg.probe_dead_s / self._dt))
-        values[channels.STUCK_SAMPLES] = max(2, round(cfg.probe_stuck_s / self._dt))
-        values[channels.STUCK_TOLERANCE] = cfg.probe_stuck_tolerance_m
-        values[channels.REJECTED_SAMPLES] = max(1, round(cfg.probe_rejected_s / self._dt))
-        values[channels.RECOVER_SAMPLES] = max(1, round(cfg.probe_recover_s / self._dt))
-        values[channels.POWER_ALPHA] = min(1.0, self._dt / cfg.gate_scale_window_s)
-        values[channels.BIAS_ALPHA] = min(1.0, self._dt / cfg.change_window_s)
-        return values
-
-    def _physical(self, displacement_std: float, velocity_std: float) -> np.ndarray:
-        n = self._n
-        if displacement_std == 0.0 and velocity_std == 0.0:
-            return np.zeros((n, n))
-        covariance = np.asarray(self.model.physical_covariance(displacement_std, velocity_std))
-        if covariance.shape != (n, n):
-            raise InputError(
-                f"model.physical_covariance must return shape ({n}, {n}), got {covariance.shape}"
-            )
-        return 0.5 * (covariance + covariance.T)
-
     def reset(self) -> None:
         """Return to the initial estimate and covariance of the configuration (step 0)."""
         cfg = self.config
@@ -314,7 +192,9 @@ class OilFlowEKF:
             self._x[:n] = self.model.static_state(q0)
         self._x[n : n + 2] = q0 / self._q_nominal
         self._P = np.zeros((self._size, self._size))
-        self._P[:n, :n] = self._physical(cfg.initial_displacement_std_m, cfg.initial_velocity_std_m_s)
+        self._P[:n, :n] = physical_covariance(
+            self.model, n, cfg.initial_displacement_std_m, cfg.initial_velocity_std_m_s
+        )
         self._P[n : n + 2, n : n + 2] = (cfg.initial_flowrate_std_m3_s / self._q_nominal) ** 2 * np.eye(2)
         baseline = cfg.offset_baseline
         if baseline is not None:
@@ -351,8 +231,8 @@ class OilFlowEKF:
         self._process_noise[n : n + 2, n : n + 2] = self._q_var * np.eye(2)
         self.alarm.clear()
         self._set_last(0.0, 0, False, False, True)
-        # the compiled step's arguments after the sample's (estimator.step_kernel.ekf_step), in its order
-        self._arrays = (
+        # the compiled step's arrays (estimator.filter_arrays), renewed with the ones a reset replaces
+        self._arrays = FilterArrays(
             self._x,
             self._P,
             self._trailing_jacobian,
@@ -379,91 +259,10 @@ class OilFlowEKF:
             self.alarm.settings,
             self._report,
         )
+        self._packed = tuple(self._arrays)
         self._prior = (self._x.copy(), self._P.copy())
         if self._shadow is not None:
             self._shadow.reset()
-
-    @property
-    def flowrate_m3_s(self) -> np.ndarray:
-        """(2,) current flowrate estimates [m^3/s], inside the model's table range."""
-        return np.array(self._flowrate_si())
-
-    def _flowrate_si(self) -> tuple[float, float]:
-        # clipped in SI as well: the round trip through the scaled unit may leave a bound by one ulp
-        n, scale = self._n, self._q_nominal
-        low, high = self._bounds
-        return (
-            min(max(float(self._x[n]) * scale, low), high),
-            min(max(float(self._x[n + 1]) * scale, low), high),
-        )
-
-    @property
-    def flowrate_std_m3_s(self) -> np.ndarray:
-        """(2,) standard deviations of the flowrate estimates from P [m^3/s]."""
-        n = self._n
-        return np.sqrt(np.diag(self._P)[n : n + 2]) * self._q_nominal
-
-    def _nuisance(self, block: slice, known: tuple[float, ...]) -> tuple[np.ndarray, np.ndarray]:
-        """(estimate, std) copies of a nuisance block of the state; (the known value, zeros) when the block
-        is not estimated (an empty slice)."""
-        if block.stop > block.start:
-            return self._x[block].copy(), np.sqrt(np.diag(self._P)[block])
-        return np.array(known, dtype=float), np.zeros(len(known))
-
-    @property
-    def offset_m(self) -> np.ndarray:
-        """(4,) estimated probe zero offsets [m] (zeros when the offsets are not estimated)."""
-        return self._nuisance(self._offsets, (0.0,) * 4)[0]
-
-    @property
-    def offset_std_m(self) -> np.ndarray:
-        """(4,) their stds [m] (zeros when the offsets are not estimated)."""
-        return self._nuisance(self._offsets, (0.0,) * 4)[1]
-
-    @property
-    def unbalance(self) -> np.ndarray:
-        """(2,) the estimated unbalance (real, imaginary) relative to the machine file's ((1, 0) if fixed)."""
-        return self._nuisance(self._unbalance, (1.0, 0.0))[0]
-
-    @property
-    def unbalance_std(self) -> np.ndarray:
-        """(2,) its stds (zeros when the unbalance is not estimated)."""
-        return self._nuisance(self._unbalance, (1.0, 0.0))[1]
-
-    @property
-    def viscosity_factor(self) -> np.ndarray:
-        """(2,) each bearing's estimated viscosity factor (film over the oil law's; ones if not estimated)."""
-        return self._nuisance(self._viscosity, (1.0, 1.0))[0]
-
-    @property
-    def viscosity_factor_std(self) -> np.ndarray:
-        """(2,) their stds (zeros when the factors are not estimated)."""
-        return self._nuisance(self._viscosity, (1.0, 1.0))[1]
-
-    @property
-    def dynamic_state(self) -> np.ndarray:
-        """(n,) copy of the dynamic-state estimate s [SI]."""
-        return self._x[: self._n].copy()
-
-    @property
-    def covariance(self) -> np.ndarray:
-        """(N, N) copy of P, N = n + 2 (+ 4 with offset states); the flowrate block is in the internal unit
-        (fractions of nominal)^2, the offsets' in m^2."""
-        return self._P.copy()
-
-    def current_report(self) -> StepReport:
-        """The report of the last processed sample, rebuilt from the state (e.g. after :meth:`set_state`)."""
-        self._refresh_report()
-        return self._step_report(self.step_count - 1)
-
-    def _step_report(self, step: int) -> StepReport:
-        """The report of sample ``step``, on a copy of the report array (independent of the filter)."""
-        return ReportView(step, self._report.copy())
-
-    @property
-    def step_count(self) -> int:
-        """Number of samples processed."""
-        return int(self._counters[COUNT_STEP])
 
     def step(
         self,
@@ -529,7 +328,7 @@ class OilFlowEKF:
         else:
             n = self._n
             next_state, state_jac, flow_jac = self._x[:n], self._work[:n, :n], self._work[:n, :2]
-        ekf_step(predict, next_state, state_jac, flow_jac, displacement, *self._arrays)
+        ekf_step(predict, next_state, state_jac, flow_jac, displacement, self._packed)
         if step == self._settling and step > 0:
             restart_parameters(self._x, self._P, *self._prior, self._n)
             self._refresh_report()
@@ -562,42 +361,6 @@ class OilFlowEKF:
             return next_state, state_jac, flow_jac
         return self.model.transition(s, flowrate, model_step)
 
-    def _refresh_report(self) -> None:
-        """The report array from the state as it is (after a reset or a restored state): the flowrates the
-        next prediction starts from, the nuisances and the flags :meth:`current_report` reads."""
-        report = self._report
-        report[REPORT_FLOWRATE : REPORT_FLOWRATE + 2] = self._flowrate_si()
-        report[REPORT_STD : REPORT_STD + 2] = self.flowrate_std_m3_s
-        report[REPORT_VISCOSITY : REPORT_VISCOSITY + 2] = self.viscosity_factor
-        report[REPORT_VISCOSITY_STD : REPORT_VISCOSITY_STD + 2] = self.viscosity_factor_std
-        report[REPORT_OFFSET : REPORT_OFFSET + 4] = self.offset_m
-        report[REPORT_OFFSET_STD : REPORT_OFFSET_STD + 4] = self.offset_std_m
-        report[REPORT_UNBALANCE : REPORT_UNBALANCE + 2] = self.unbalance
-        report[REPORT_UNBALANCE_STD : REPORT_UNBALANCE_STD + 2] = self.unbalance_std
-        report[REPORT_STARVED : REPORT_STARVED + 2] = self.alarm.starved
-        report[REPORT_STARVED_CONSISTENT : REPORT_STARVED_CONSISTENT + 2] = self.alarm.starved_consistent
-        report[REPORT_CHANGING : REPORT_CHANGING + 2] = self._changing
-        report[REPORT_STATUS : REPORT_STATUS + 4] = self._health[:, channels.STATUS]
-
-    def _set_last(self, nis: float, rows: int, ok: bool, converged: bool, consistent: bool) -> None:
-        """The last sample's scalars (a reset, a restored state) and the rest of the report from the state."""
-        report = self._report
-        report[REPORT_NIS], report[REPORT_ROWS], report[REPORT_OK] = nis, rows, ok
-        report[REPORT_CONVERGED], report[REPORT_CONSISTENT] = converged, consistent
-        self._refresh_report()
-
-    @property
-    def _last(self) -> tuple[float, int, bool, bool, bool]:
-        """(nis, n_measurements, measurement_ok, converged, model_consistent) of the last sample."""
-        report = self._report
-        return (
-            float(report[REPORT_NIS]),
-            int(report[REPORT_ROWS]),
-            bool(report[REPORT_OK]),
-            bool(report[REPORT_CONVERGED]),
-            bool(report[REPORT_CONSISTENT]),
-        )
-
     def _set_operating_point(
         self, speed_hz: float | None, oil_temperature_c: float | None, rotor_angle_rad: float | None
     ) -> None:
@@ -618,117 +381,6 @@ class OilFlowEKF:
             )
         if rotor_angle_rad is not None:
             raise InputError("rotor_angle_rad needs a model that follows the operating point")
-
-    def run(
-        self,
-        displacements_m: np.ndarray,
-        progress: Callable[[int, int], None] | None = None,
-        speed_hz: np.ndarray | None = None,
-        oil_temperature_c: np.ndarray | None = None,
-    ) -> EstimateTrace:
-        """Process a record of K samples (K, 4) [m] as K :meth:`step` calls; return the per-step outputs.
-
-        ``speed_hz`` and ``oil_temperature_c`` (K,), when given, are each sample's measured operating point
-        (see :meth:`step`). ``progress(done, total)`` is called every 100 samples and at the end."""
-        record, operating = self._batch_inputs(displacements_m, speed_hz, oil_temperature_c)
-        count = record.shape[0]
-        trace = EstimateTrace.empty(count)
-        table = np.empty((count, REPORT_SIZE))
-        for start in range(0, count, 100):
-            if progress is not None:
-                progress(start, count)
-            stop = min(start + 100, count)
-            self._advance_rows(record, operating, start, stop, table)
-        if progress is not None:
-            progress(count, count)
-        trace.fill(table, count)
-        return trace
-
-    def run_batch(
-        self,
-        displacements_m: np.ndarray,
-        speed_hz: np.ndarray | None = None,
-        oil_temperature_c: np.ndarray | None = None,
-        out: EstimateTrace | None = None,
-    ) -> EstimateTrace:
-        """K samples (K, 4) [m] on from the filter's current state, bit-identical to K :meth:`step` calls,
-        without a StepReport per sample: the batch entry of ``oilwatch estimate``.
-
-        ``speed_hz`` [Hz] and ``oil_temperature_c`` [degC] (K,) as in :meth:`step`; a NaN entry means not
-        given for that sample (the model keeps the last value). ``out``: a trace of at least K rows whose
-        first K rows are filled and which is returned (no allocation per block); else a new trace."""
-        record, operating = self._batch_inputs(displacements_m, speed_hz, oil_temperature_c, missing=True)
-        count = record.shape[0]
-        if out is None:
-            out = EstimateTrace.empty(count)
-        elif out.q_m3_s.shape[0] < count:
-            raise InputError(f"out must have at least {count} rows, got {out.q_m3_s.shape[0]}")
-        table = self._batch_table
-        if table.shape[0] < count:
-            table = self._batch_table = np.empty((count, REPORT_SIZE))
-        self._advance_rows(record, operating, 0, count, table)
-        out.fill(table, count)
-        return out
-
-    def _run_grid_batch(self, record: np.ndarray, table: np.ndarray) -> None:
-        """:func:`estimator.step_kernel.grid_batch` on the record's rows (K, 4), reports into ``table``."""
-        transition, forcing, axes, omega, dt = self._grid_batch
-        grid_batch(
-            transition,
-            forcing,
-            axes,
-            omega,
-            dt,
-            self._first_step,
-            record,
-            table,
-            self._batch_next,
-            self._batch_transition,
-            self._batch_flow_jacobian,
-            self._batch_exogenous,
-            self._arrays,
-        )
-
-    def _batch_inputs(self, displacements_m, speed_hz, oil_temperature_c, missing: bool = False):
-        """The record (K, 4) and the per-sample operating point as lists of Python floats or None (or None
-        for a column not given); ``missing``: NaN entries are None."""
-        record = np.asarray(displacements_m, dtype=np.float64)
-        if record.ndim != 2 or record.shape[1] != 4:
-            raise InputError(f"displacements_m must have shape (K, 4), got {record.shape}")
-        count = record.shape[0]
-        operating = []
-        for name, values in (("speed_hz", speed_hz), ("oil_temperature_c", oil_temperature_c)):
-            if values is not None:
-                values = np.asarray(values, dtype=float)
-                if values.shape != (count,):
-                    raise InputError(f"{name} must have shape ({count},), got {values.shape}")
-                values = values.tolist()
-                if missing:
-                    values = [None if v != v else v for v in values]
-            operating.append(values)
-        return record, operating
-
-    def _advance_rows(self, record, operating, start: int, stop: int, table: np.ndarray) -> None:
-        """Samples ``start:stop`` of the record through :meth:`_advance`, each report into ``table``'s row
-        (all in one compiled call for a grid model at one speed with no operating point given)."""
-        advance, report = self._advance, self._report
-        speed, temperature = operating
-        if speed is None and temperature is None and self._grid_batch is not None:
-            self._run_grid_batch(np.ascontiguousarray(record[start:stop]), table[start:stop])
-            return
-        if speed is None and temperature is None:
-            for k in range(start, stop):
-                advance(record[k], None, None, None)
-                table[k] = report
-            return
-        for k in range(start, stop):
-            advance(
-                record[k],
-                None if speed is None else speed[k],
-                None if temperature is None else temperature[k],
-                None,
-            )
-            table[k] = report
 
     def get_state(self) -> dict[str, np.ndarray]:
         """The complete filter state as copies of numpy arrays (restoring it continues bit-identically)."""

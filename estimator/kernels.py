@@ -16,6 +16,7 @@ import numpy as np
 from numba import njit
 
 from .channels import BIAS, LAST_ACCEPTED, POWER, PREVIOUS_ACCEPTED, gate_channels, screen_channels
+from .filter_arrays import FilterArrays
 
 UPDATE_ACCEPTED = 0
 UPDATE_GATED = 1
@@ -294,45 +295,33 @@ def project_flowrates(
 
 @njit(cache=True)
 def filter_step(
-    state: np.ndarray,
-    covariance: np.ndarray,
+    a: FilterArrays,
     predict: bool,
     next_state: np.ndarray,
     state_jacobian: np.ndarray,
     flowrate_jacobian: np.ndarray,
     flowrate_scale: float,
-    unbalance_jacobian: np.ndarray,
-    process_noise: np.ndarray,
-    augmented_jacobian: np.ndarray,
-    work: np.ndarray,
     displacement: np.ndarray,
-    stacked: np.ndarray,
-    observation4: np.ndarray,
-    noise4: np.ndarray,
-    observation8: np.ndarray,
-    noise8: np.ndarray,
-    settings: np.ndarray,
-    health: np.ndarray,
-    health_values: np.ndarray,
-    channel_settings: np.ndarray,
-    accepted: np.ndarray,
-    changing: np.ndarray,
 ) -> tuple[int, float, int, int]:
     """One complete EKF step after the model's transition, in place: the hot path in one compiled call.
 
-    predict : whether ``next_state`` and the Jacobians are to be applied (False on the first sample).
-    displacement : (4,) sample [m]; non-finite entries drop their channels. stacked : (8,) scratch.
-    observation8, noise8 : the eight-channel H_a and R, or (0, N) and (0, 0) arrays in displacement-only mode.
-    settings : [1/dt, flowrate low, flowrate high, change-test null variance, change-test threshold, flowrate
-    process variance, extra variance while changing] (filter units). health, health_values,
-    channel_settings : the probe records of :mod:`estimator.channels`. accepted : (4,) bool out, the
-    displacement channels used. changing : (2,) bool out, the change test of :func:`detect_change`.
+    a : the filter's arrays (:class:`estimator.filter_arrays.FilterArrays`; this step reads and advances
+    those up to ``changing``). predict : whether ``next_state`` and the Jacobians are to be applied (False
+    on the first sample); the flowrate columns of the Jacobian are per ``flowrate_scale`` [m^3/s].
+    displacement : (4,) sample [m]; non-finite entries drop their channels. ``a.settings`` : [1/dt, flowrate
+    low, flowrate high, change-test null variance, change-test threshold, flowrate process variance, extra
+    variance while changing] (filter units). ``a.accepted`` : (4,) bool out, the displacement channels
+    used. ``a.changing`` : (2,) bool out, the change test of :func:`detect_change`.
 
     Every screened channel that passes its own gate is used (:mod:`estimator.channels`); a differentiated
     velocity channel only when its displacement channel was accepted in this and the previous sample.
     Returns ``(status, nis, rows used, channels rejected by the gate)``; status is one of the UPDATE_*
     constants (UPDATE_SKIPPED when no channel was usable, UPDATE_GATED when all usable ones were rejected).
     """
+    state, covariance, process_noise, settings = a.state, a.covariance, a.process_noise, a.settings
+    health, health_values, channel_settings = a.health, a.health_values, a.channel_settings
+    observation4, noise4, observation8, noise8 = a.observation4, a.noise4, a.observation8, a.noise8
+    accepted, stacked = a.accepted, a.stacked
     n = state_jacobian.shape[0]
     if predict:
         for i in range(n):
@@ -342,10 +331,10 @@ def filter_step(
             state_jacobian,
             flowrate_jacobian,
             flowrate_scale,
-            unbalance_jacobian,
+            a.trailing_jacobian,
             process_noise,
-            augmented_jacobian,
-            work,
+            a.augmented_jacobian,
+            a.work,
         )
     usable = np.zeros(4, dtype=np.bool_)
     screen_channels(displacement, health, health_values, channel_settings, usable)
@@ -376,7 +365,7 @@ def filter_step(
         health[i, PREVIOUS_ACCEPTED] = 1 if accepted[i] else 0
         if accepted[i]:
             health_values[i, LAST_ACCEPTED] = displacement[i]
-    detect_change(state, n, health_values, process_noise, settings, changing)
+    detect_change(state, n, health_values, process_noise, settings, a.changing)
     if m == 0:
         return (UPDATE_GATED if rejected > 0 else UPDATE_SKIPPED), 0.0, 0, rejected
     index = rows[:m]

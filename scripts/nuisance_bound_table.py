@@ -44,13 +44,14 @@ def main() -> None:
     system = build_system(machine, reduced=False)
     nominal = machine.lubrication.nominal_flowrate_m3_s
     cache: dict[tuple[int, float], object] = {}
+    synchronous = system.synchronous_tables is not None
 
     def derivatives(flows):
         out = []
         for b, q in enumerate(flows):
             key = (b, round(float(q) * 6e7, 6))
             if key not in cache:
-                cache[key] = viscosity_derivative(system.tables[b], float(q))
+                cache[key] = viscosity_derivative(system.tables[b], float(q), synchronous=synchronous)
             out.append(cache[key])
         return out
 

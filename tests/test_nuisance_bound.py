@@ -137,3 +137,33 @@ def test_viscosity_derivative_obeys_the_sommerfeld_scaling():
         (derivative.damping, c0 - w_dc),
     ):
         np.testing.assert_allclose(actual, expected, rtol=0.0, atol=0.01 * np.abs(expected).max())
+
+
+def test_synchronous_viscosity_derivative_obeys_the_sommerfeld_scaling_too():
+    """At whirl = spin the film's K(Omega), C(Omega) scale with mu as the quasi-static ones (the whirl ratio
+    is fixed), so the synchronous part equals K - W dK/dW, C - W dC/dW from load re-solves; the quasi-static
+    part is the plain derivative's."""
+    from models.bearing.dynamic import synchronous_coefficients
+    from models.bearing.grid import Mesh
+
+    bearing = load_machine().bearing
+    load, speed, q, mesh = 3272.8, 75.0, 0.9 * Q_NOMINAL, {"n_circ": 60, "n_axial": 12}
+    table = SimpleNamespace(
+        metadata={"bearing": dataclasses.asdict(bearing), "mesh": mesh}, load_n=load, speed_hz=speed
+    )
+    quasi_static, synchronous = viscosity_derivative(table, q, synchronous=True)
+    plain = viscosity_derivative(table, q)
+    np.testing.assert_array_equal(quasi_static.stiffness, plain.stiffness)
+    supply = SupplyFlow(q)
+    values = []
+    for factor in (1.01, 0.99, 1.0):
+        eq = static_equilibrium(bearing, load * factor, speed, supply, Mesh(**mesh))
+        values.append(synchronous_coefficients(eq.film, eq.eccentricity_m, speed, supply))
+    (k_up, c_up), (k_down, c_down), (k0, c0) = values
+    for actual, expected in (
+        (synchronous.stiffness, k0 - (k_up - k_down) / 0.02),
+        (synchronous.damping, c0 - (c_up - c_down) / 0.02),
+    ):
+        np.testing.assert_allclose(actual, expected, rtol=0.0, atol=0.02 * np.abs(expected).max())
+    # and it is not the quasi-static derivative (which a synchronous system's orbit does not follow)
+    assert np.abs(synchronous.damping - quasi_static.damping).max() > 0.05 * np.abs(synchronous.damping).max()

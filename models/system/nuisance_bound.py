@@ -25,7 +25,11 @@ The viscosity sensitivity needs the film coefficients at ``mu (1 +- d)``: they a
 table's own bearing, load and mesh (:func:`viscosity_derivative`, two steady solves per flowrate) and
 added to the interpolated table values as a first-order shift, so ``r_s`` and ``X`` keep the table's
 interpolation in q. A dimensionless table (Sommerfeld scaling) can supply the same derivative without
-re-solving.
+re-solving. A system whose 1x orbit comes from synchronous tables (K, C at whirl = spin) needs the
+derivative of those too (``synchronous=True``): the quasi-static derivative alone moves the free dynamics'
+coefficients but not the synchronous ones that set the orbit, and so gives the orbit a viscosity
+sensitivity of the wrong size and direction (on the turbine about a third of it; the bound with offsets,
+unbalance and factors unknown then read 0.25 % of q for 60 s instead of 3.0 %: README bound section).
 """
 
 from __future__ import annotations
@@ -36,6 +40,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..bearing.dynamic import synchronous_coefficients
 from ..bearing.equilibrium import coefficients_at, static_equilibrium
 from ..bearing.geometry import JournalBearing
 from ..bearing.grid import Mesh
@@ -55,11 +60,15 @@ VISCOSITY_RELATIVE_STEP = 0.01
 keeps the partition switches of the cavitation boundary (cell-scale ripple) out of the difference."""
 
 
-def viscosity_derivative(table, flowrate_m3_s: float, relative_step: float = VISCOSITY_RELATIVE_STEP):
+def viscosity_derivative(
+    table, flowrate_m3_s: float, relative_step: float = VISCOSITY_RELATIVE_STEP, synchronous: bool = False
+):
     """d(e0, K, C)/d f at flowrate q for mu_eff = f mu, f = 1, by central differences of two film solves.
 
     ``table`` is a :class:`models.bearing.table.CoefficientTable`: its metadata gives the bearing, mesh and
-    load it was computed for. Returns a :class:`BearingCoefficients` of derivatives (per unit of f).
+    load it was computed for. Returns a :class:`BearingCoefficients` of derivatives (per unit of f); with
+    ``synchronous`` a pair ``(quasi-static, synchronous)`` of them, K and C of the second at whirl = spin
+    (from the same two equilibria).
     """
     require_in_range("relative_step", relative_step, 1e-4, 0.1)
     meta = table.metadata
@@ -76,10 +85,15 @@ def viscosity_derivative(table, flowrate_m3_s: float, relative_step: float = VIS
         )
         eq = static_equilibrium(scaled, table.load_n, table.speed_hz, supply, mesh)
         stiffness, damping = coefficients_at(scaled, eq, table.speed_hz, supply, mesh)
-        values.append((np.asarray(eq.eccentricity_m), stiffness, damping))
-    (e_up, k_up, c_up), (e_down, k_down, c_down) = values
+        row = [np.asarray(eq.eccentricity_m), stiffness, damping]
+        if synchronous:
+            row += synchronous_coefficients(eq.film, eq.eccentricity_m, table.speed_hz, supply)
+        values.append(row)
+    up, down = values
     step = 2.0 * relative_step
-    return BearingCoefficients((e_up - e_down) / step, (k_up - k_down) / step, (c_up - c_down) / step)
+    d = [(a - b) / step for a, b in zip(up, down, strict=True)]
+    quasi_static = BearingCoefficients(d[0], d[1], d[2])
+    return (quasi_static, BearingCoefficients(d[0], d[3], d[4])) if synchronous else quasi_static
 
 
 class _ShiftedTable:
@@ -108,7 +122,7 @@ def _orbit(system: RotorBearingSystem, q: np.ndarray) -> tuple[np.ndarray, np.nd
     return static, amplitude
 
 
-def _with_tables(system: RotorBearingSystem, tables) -> RotorBearingSystem:
+def _with_tables(system: RotorBearingSystem, tables, synchronous_tables=None) -> RotorBearingSystem:
     return RotorBearingSystem(
         system.rotor,
         tables,
@@ -116,6 +130,8 @@ def _with_tables(system: RotorBearingSystem, tables) -> RotorBearingSystem:
         system.basis,
         system.unbalance_moment_kg_m,
         system.unbalance_phase_rad,
+        system.nominal_flowrate_m3_s,
+        synchronous_tables,
     )
 
 
@@ -141,7 +157,9 @@ def harmonic_sensitivity(
     """Columns for q1, q2 (per unit of q / q_true) and for each nuisance group asked for.
 
     ``viscosity_derivatives``: one d(e0, K, C)/d f per bearing at its flowrate (from
-    :func:`viscosity_derivative`), needed only for the ``"viscosity"`` group.
+    :func:`viscosity_derivative`), needed only for the ``"viscosity"`` group; for a system with synchronous
+    tables a ``(quasi-static, synchronous)`` pair per bearing (``viscosity_derivative(...,
+    synchronous=True)``).
     """
     q = np.asarray(flowrates_m3_s, dtype=float)
     unknown = [g for g in groups if g not in NUISANCE_GROUPS]
@@ -163,14 +181,27 @@ def harmonic_sensitivity(
     if "viscosity" in groups:
         if viscosity_derivatives is None or len(viscosity_derivatives) != len(system.tables):
             raise InputError("the viscosity group needs one viscosity derivative per bearing")
+        synchronous = system.synchronous_tables
         for b, derivative in enumerate(viscosity_derivatives):
+            if synchronous is not None and not isinstance(derivative, tuple):
+                raise InputError(
+                    "the system's 1x orbit comes from synchronous tables: the viscosity derivative needs "
+                    "their part too (viscosity_derivative(..., synchronous=True))"
+                )
+            dynamics, of_orbit = derivative if isinstance(derivative, tuple) else (derivative, None)
             ends = []
             for sign in (1.0, -1.0):
+                scale = sign * VISCOSITY_RELATIVE_STEP
                 tables = [
-                    _ShiftedTable(t, derivative if i == b else None, sign * VISCOSITY_RELATIVE_STEP)
-                    for i, t in enumerate(system.tables)
+                    _ShiftedTable(t, dynamics if i == b else None, scale) for i, t in enumerate(system.tables)
                 ]
-                ends.append(_orbit(_with_tables(system, tables), q))
+                shifted = None
+                if synchronous is not None:
+                    shifted = [
+                        _ShiftedTable(t, of_orbit if i == b else None, scale)
+                        for i, t in enumerate(synchronous)
+                    ]
+                ends.append(_orbit(_with_tables(system, tables, shifted), q))
             step = 2.0 * VISCOSITY_RELATIVE_STEP
             names.append(f"viscosity_{b + 1}")
             static.append(((ends[0][0] - ends[1][0]) / step)[:, None])

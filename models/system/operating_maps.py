@@ -26,9 +26,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.linalg import expm, expm_frechet, lu_factor, lu_solve
+from scipy.linalg import expm, lu_factor, lu_solve
 
 from ..bearing.operating_table import OperatingTable
+from .frechet import expm_frechet_many
 from .rotor_bearing import RotorBearingSystem
 
 AXES = ("q1", "q2", "speed", "ln_mu1", "ln_mu2")
@@ -70,14 +71,19 @@ class OperatingMaps:
         self._minv_damping = lu_solve(mass_lu, self._structural_damping)
         self._minv_gyroscopic = lu_solve(mass_lu, system.gyroscopic)
         self._minv_gravity = lu_solve(mass_lu, system.gravity_force)
-        self._minv_maps = [lu_solve(mass_lu, p.T) for p in system.bearing_maps]
+        self._minv_map_stack = np.array([lu_solve(mass_lu, p.T) for p in system.bearing_maps])
+        self._minv = lu_solve(mass_lu, np.eye(n))
+        self._select = system.bearing_maps.reshape(-1, n)
 
     def _slice(self, speed_hz: float, viscosity_pa_s: float, load_n: float, synchronous: bool = False):
         key = (speed_hz, viscosity_pa_s, load_n, synchronous)
         found = self._slices.get(key)
         if found is None:
             if len(self._slices) > 64:
-                self._slices.clear()
+                # a re-centring brings about 20 new slices; the reference speed's stay (every re-centring
+                # asks for them again)
+                reference = self.system.speed_hz
+                self._slices = {k: v for k, v in self._slices.items() if k[0] == reference}
             table = self.synchronous_table if synchronous else self.table
             found = self._slices[key] = table.at(speed_hz, viscosity_pa_s, load_n)
         return found
@@ -93,49 +99,104 @@ class OperatingMaps:
         return max(r[0] for r in ranges), min(r[1] for r in ranges)
 
     def block(self, flowrates_m3_s, speed_hz: float, viscosities_pa_s) -> np.ndarray:
-        """The continuous block (2n + 3, 2n + 3) of the exact map at the operating point.
+        """The continuous block (2n + 3, 2n + 3) of the exact map at the operating point (:meth:`blocks`)."""
+        return self.blocks([(flowrates_m3_s, speed_hz, viscosities_pa_s)])[0]
 
-        Its rows ``M^-1 [-K, -C, loads]`` are sums of the rotor's part (precomputed) and each bearing's
-        ``M^-1 P_b^T (k_b, c_b, load_b + k_b e_b)`` (``P_b`` its 2 x n map)."""
+    def blocks(self, points) -> np.ndarray:
+        """The continuous blocks (P, 2n + 3, 2n + 3) of the exact maps at the operating points
+        ``(flowrates (2,), speed [Hz], viscosities (2,))``.
+
+        Their rows ``M^-1 [-K, -C, loads]`` are sums of the rotor's part (precomputed) and each bearing's
+        ``M^-1 P_b^T (k_b, c_b, load_b + k_b e_b)`` (``P_b`` its 2 x n map); the points' table rows are read
+        one slice at a time (a re-centring's points share most slices), and the sums are stacked products."""
         sys = self.system
         n = self._n
-        omega = 2.0 * math.pi * speed_hz
-        minv_stiffness = self._minv_stiffness.copy()
-        minv_damping = self._minv_damping + omega * self._minv_gyroscopic
-        minv_force = self._minv_gravity.copy()
         nb = len(self._loads)
-        z_dynamics = np.zeros((2 * nb, 2 * nb), dtype=complex)
-        z_synchronous = np.zeros((2 * nb, 2 * nb), dtype=complex)
-        for b, (p, minv_p, q, mu, load) in enumerate(
-            zip(sys.bearing_maps, self._minv_maps, flowrates_m3_s, viscosities_pa_s, self._loads, strict=True)
-        ):
-            row = self._slice(speed_hz, mu, load).rows(np.array([q]))[0]
-            k, c = row[2:6].reshape(2, 2), row[6:10].reshape(2, 2)
-            minv_stiffness += (minv_p @ k) @ p
-            minv_damping += (minv_p @ c) @ p
-            minv_force += minv_p @ (np.array([0.0, load]) + k @ row[0:2])
-            if self.synchronous_table is not None:
-                pair = slice(2 * b, 2 * b + 2)
-                z_dynamics[pair, pair] = k + 1j * omega * c
-                s_row = self._slice(speed_hz, mu, load, True).rows(np.array([q]))[0]
-                z_synchronous[pair, pair] = s_row[2:6].reshape(2, 2) + 1j * omega * s_row[6:10].reshape(2, 2)
-        if self.synchronous_table is None:
-            unbalance = sys.unbalance_force
-        else:
-            moment = sys.unbalance_moment_kg_m * np.exp(1j * sys.unbalance_phase_rad)
-            unbalance = moment * sys.synchronous_unit_load(z_synchronous, z_dynamics, omega)
-        unbalance = unbalance * (omega / self._reference_omega) ** 2
-        block = np.zeros((2 * n + 3, 2 * n + 3))
-        block[:n, n : 2 * n] = np.eye(n)
-        block[n : 2 * n, :n] = -minv_stiffness
-        block[n : 2 * n, n : 2 * n] = -minv_damping
-        block[n : 2 * n, 2 * n] = minv_force
-        block[n : 2 * n, 2 * n + 1 :] = lu_solve(
-            self._mass_lu, np.column_stack([unbalance.real, -unbalance.imag])
+        count = len(points)
+        omega = np.array([2.0 * math.pi * float(speed) for _, speed, _ in points])
+        rows = self._rows(points, synchronous=False)  # (P, nb, 10)
+        e, k, c = (
+            rows[..., 0:2],
+            rows[..., 2:6].reshape(count, nb, 2, 2),
+            rows[..., 6:10].reshape(count, nb, 2, 2),
         )
-        block[2 * n + 1, 2 * n + 2] = -omega
-        block[2 * n + 2, 2 * n + 1] = omega
+        maps = sys.bearing_maps  # (nb, 2, n)
+        minv_maps = self._minv_map_stack  # (nb, n, 2)
+        stiffness = self._minv_stiffness + np.einsum("bia,pbac,bcj->pij", minv_maps, k, maps)
+        damping = (
+            self._minv_damping
+            + omega[:, None, None] * self._minv_gyroscopic
+            + np.einsum("bia,pbac,bcj->pij", minv_maps, c, maps)
+        )
+        loads = np.zeros((count, nb, 2))
+        loads[:, :, 1] = self._loads
+        loads += np.einsum("pbac,pbc->pba", k, e)
+        force = self._minv_gravity + np.einsum("bia,pba->pi", minv_maps, loads)
+        unbalance = self._unbalance_forces(points, omega, k, c)  # (P, n) complex
+        block = np.zeros((count, 2 * n + 3, 2 * n + 3))
+        block[:, :n, n : 2 * n] = np.eye(n)
+        block[:, n : 2 * n, :n] = -stiffness
+        block[:, n : 2 * n, n : 2 * n] = -damping
+        block[:, n : 2 * n, 2 * n] = force
+        harmonic = np.stack([unbalance.real, -unbalance.imag], axis=2)  # (P, n, 2)
+        block[:, n : 2 * n, 2 * n + 1 :] = (
+            (self._minv @ harmonic.transpose(1, 0, 2).reshape(n, 2 * count))
+            .reshape(n, count, 2)
+            .transpose(1, 0, 2)
+        )
+        block[:, 2 * n + 1, 2 * n + 2] = -omega
+        block[:, 2 * n + 2, 2 * n + 1] = omega
         return block
+
+    def _rows(self, points, synchronous: bool) -> np.ndarray:
+        """The table rows (P, nb, 10) of each bearing at each point, one ``rows`` call per table slice."""
+        wanted: dict[tuple, list[tuple[int, int, float]]] = {}
+        for p, (flowrates, speed, viscosities) in enumerate(points):
+            for b, (q, mu, load) in enumerate(zip(flowrates, viscosities, self._loads, strict=True)):
+                key = (float(speed), float(mu), load)
+                wanted.setdefault(key, []).append((p, b, float(q)))
+        rows = np.empty((len(points), len(self._loads), 10))
+        for (speed, mu, load), where in wanted.items():
+            values = self._slice(speed, mu, load, synchronous).rows(np.array([q for _, _, q in where]))
+            for (p, b, _), value in zip(where, values, strict=True):
+                rows[p, b] = value
+        return rows
+
+    def _unbalance_forces(self, points, omega: np.ndarray, k: np.ndarray, c: np.ndarray) -> np.ndarray:
+        """The 1x load (P, n) complex at each point: the system's unbalance force, or with synchronous
+        tables the effective load of the synchronous orbit (module docstring), times (Omega / Omega_0)^2.
+
+        The orbit is one stacked direct solve of ``(K - w^2 M + i w (C_s + w G) + P^T Z_s P) x = F_1`` for
+        all points (the orbit ``RotorBearingSystem.synchronous_unit_load`` finds through its reference
+        response, exact for any reference), then ``F_eff = F_1 - P^T (Z_s - Z_qs) P x``."""
+        sys = self.system
+        scale = (omega / self._reference_omega) ** 2
+        if self.synchronous_table is None:
+            return scale[:, None] * sys.unbalance_force[None, :]
+        synchronous = self._rows(points, synchronous=True)
+        count, nb = synchronous.shape[0], synchronous.shape[1]
+        k_s = synchronous[..., 2:6].reshape(count, nb, 2, 2)
+        c_s = synchronous[..., 6:10].reshape(count, nb, 2, 2)
+        whirl = omega[:, None, None]
+        z_dynamics = np.zeros((count, 2 * nb, 2 * nb), dtype=complex)
+        z_synchronous = np.zeros((count, 2 * nb, 2 * nb), dtype=complex)
+        for b in range(nb):
+            pair = slice(2 * b, 2 * b + 2)
+            z_dynamics[:, pair, pair] = k[:, b] + 1j * whirl * c[:, b]
+            z_synchronous[:, pair, pair] = k_s[:, b] + 1j * whirl * c_s[:, b]
+        select = self._select  # (2 nb, n)
+        matrix = (
+            sys.stiffness
+            - whirl**2 * sys.mass
+            + 1j * whirl * (self._structural_damping + whirl * sys.gyroscopic)
+            + select.T @ z_synchronous @ select
+        )
+        force = sys.unit_unbalance_force
+        orbit = np.linalg.solve(matrix, np.broadcast_to(force[:, None], (count, self._n, 1)))[..., 0]
+        bearings = orbit @ select.T  # (P, 2 nb)
+        difference = ((z_synchronous - z_dynamics) @ bearings[..., None])[..., 0]
+        moment = sys.unbalance_moment_kg_m * np.exp(1j * sys.unbalance_phase_rad)
+        return (scale * moment)[:, None] * (force[None, :] - difference @ select)
 
     def discrete_map(
         self, flowrates_m3_s, speed_hz: float, viscosities_pa_s
@@ -150,24 +211,19 @@ class OperatingMaps:
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """``(A_d, G, dA_d (len(axes), 2n, 2n), dG (len(axes), 2n, 3))`` at the operating point.
 
-        Derivatives are per m^3/s (q1, q2), per Hz (speed) and per unit of ln(mu_b).
+        Derivatives are per m^3/s (q1, q2), per Hz (speed) and per unit of ln(mu_b): the Frechet
+        derivatives of the exponential in the central differences of the block along each axis, all at once
+        (:func:`models.system.frechet.expm_frechet_many`).
         """
         q = np.array(flowrates_m3_s, dtype=float)
         mu = np.array(viscosities_pa_s, dtype=float)
-        base = self.block(q, speed_hz, mu) * self.dt_s
         m = 2 * self._n
-        d_ad = np.empty((len(axes), m, m))
-        d_g = np.empty((len(axes), m, 3))
-        exponential = None
-        for index, axis in enumerate(axes):
-            high, low = self._shifted(axis, q, speed_hz, mu, +1), self._shifted(axis, q, speed_hz, mu, -1)
-            width = high[3] - low[3]
-            direction = (self.block(*high[:3]) - self.block(*low[:3])) * (self.dt_s / width)
-            exponential, frechet = expm_frechet(base, direction)
-            d_ad[index], d_g[index] = frechet[:m, :m], frechet[:m, m:]
-        if exponential is None:
-            exponential = expm(base)
-        return exponential[:m, :m], exponential[:m, m:], d_ad, d_g
+        shifted = [self._shifted(axis, q, speed_hz, mu, sign) for axis in axes for sign in (+1, -1)]
+        blocks = self.blocks([(q, speed_hz, mu)] + [point[:3] for point in shifted])
+        widths = np.array([high[3] - low[3] for high, low in zip(shifted[0::2], shifted[1::2], strict=True)])
+        directions = (blocks[1::2] - blocks[2::2]) * (self.dt_s / widths)[:, None, None]
+        exponential, frechet = expm_frechet_many(blocks[0] * self.dt_s, directions)
+        return exponential[:m, :m], exponential[:m, m:], frechet[:, :m, :m], frechet[:, :m, m:]
 
     @staticmethod
     def _shifted(axis: str, q: np.ndarray, speed_hz: float, mu: np.ndarray, sign: int):

@@ -11,9 +11,10 @@ with ``D_c = A(q_c, p_c) - A(q_c, p0)`` and the derivatives of the exact maps (:
 dimensionless bearing table: each bearing at its own Sommerfeld number and flowrate over its Couette flow,
 gyroscopics, unbalance ~ speed^2 and the exosystem at the speed) at a centre ``(q_c, p_c)``. The centre
 moves to the current (estimate, operating point) when either has left it by more than the thresholds of
-:class:`Recentring`, at most every 0.2 s unless it is four thresholds away (a re-centring costs 7 Frechet
-derivatives of a (2n + 3) block exponential, about 3 ms on a free core for the turbine's 26 states, so the
-average cost stays below about 15 us per step even while a flowrate drops fast). A -40 % viscosity change is
+:class:`Recentring`, at most every 0.2 s unless it is four thresholds away (a re-centring is 16 stacked
+block assemblies and 7 Frechet derivatives of the (2n + 3) block exponential that share two exponentials,
+:mod:`operating_maps` and :mod:`frechet`: about 3 ms of CPU for the turbine's 26 states, so the average cost
+stays below a few us per step even while a flowrate drops fast). A -40 % viscosity change is
 thus followed by re-centring, never by a first-order step from p0. At p = p0 the correction is not applied at
 all: at constant nominal conditions this is today's model, bit for bit.
 
@@ -35,7 +36,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 
 from ..bearing.coefficient_kinds import QUASI_STATIC
@@ -44,7 +44,23 @@ from ..machine import Machine
 from ..oil import Oil
 from ..validation import InputError, require_positive
 from .augmented import GridAugmentedModel
-from .flowrate_grid import interpolate_map
+from .operating_kernels import (
+    GRID_ONLY,
+    HELD_CENTRE,
+    HELD_CENTRE_STEP,
+    HELD_HARD_FACTOR,
+    HELD_HAS_CENTRE,
+    HELD_LOG_MU,
+    HELD_MIN_INTERVAL,
+    HELD_POINT,
+    HELD_REFERENCE_LOG_MU,
+    HELD_REFERENCE_SPEED,
+    HELD_SCALES,
+    HELD_SPEED,
+    RECENTRE,
+    OperatingArrays,
+    operating_transition,
+)
 from .operating_maps import OperatingMaps
 from .operating_point import ConditionedTable, operating_table_of
 from .rotor_bearing import RotorBearingSystem
@@ -108,34 +124,27 @@ class OperatingAugmentedModel:
         mu0 = require_positive("reference viscosity", reference_viscosity_pa_s, "Pa s")
         self.reference_viscosity_pa_s = mu0
         self._log_mu0 = math.log(mu0)
-        n = self.n_states
-        self._corrections_a = np.zeros((6, n, n))
-        self._corrections_g = np.zeros((6, n, 3))
-        self._coefficients = np.zeros(6)
-        self._centre: np.ndarray | None = None  # (q1, q2, speed, ln mu1, ln mu2)
-        self._centre_values: tuple[float, ...] = ()  # the same as Python floats, for the per-step tests
         r = self.recentring
         q_scale = self.nominal_flowrate_m3_s or 0.5 * sum(self.flowrate_bounds_m3_s)
-        self._threshold_scales = (
+        self._grid = reference.grid
+        # the compiled transition's one struct (operating_kernels): built once, refilled in place
+        self._arrays = OperatingArrays.allocate(self._grid.kernel_arrays, self.n_states)
+        self._kernel_arrays = self._arrays.as_tuple()
+        held = self._held = self._arrays.held
+        held[HELD_REFERENCE_SPEED] = self.speed_hz
+        held[HELD_REFERENCE_LOG_MU] = self._log_mu0
+        held[HELD_SCALES : HELD_SCALES + 3] = (
             r.speed_fraction * self.speed_hz,
             r.log_viscosity,
             r.flowrate_fraction * q_scale,
         )
-        self._centre_step = NEVER
-        self._viscosity_jacobian = np.zeros((n, 2))
-        self._unbalance_jacobian = np.zeros((n, 2))
-        self._next = np.zeros(n)
-        self._transition = np.zeros((n, n))
-        self._flow_jacobian = np.zeros((n, 2))
+        held[HELD_HARD_FACTOR] = r.hard_factor
+        held[HELD_MIN_INTERVAL] = r.min_interval_steps
+        self._centre: np.ndarray | None = None  # (q1, q2, speed, ln mu1, ln mu2)
         self._w = np.zeros(3)
         self._no_unbalance = np.zeros(0)
-        self._grid = reference.grid
         self.recentre_count = 0
-        self._speed = float(self.speed_hz)
-        self._log_oil_viscosity = self._log_mu0
-        self._anchor = (0, 0.0)  # (step, phase there): the phase is the integral of the speed
-        self._last_step: int | None = None
-        self._keyphasor: float | None = None
+        self.reset_operating_state()
 
     # ------------------------------------------------------------------ operating point
     def set_operating_point(
@@ -159,22 +168,27 @@ class OperatingAugmentedModel:
             # the phase goes on from where the previous speed took it
             following = self._last_step + 1
             self._anchor = (following, self._phase_at(following))
-        self._speed = speed
-        self._log_oil_viscosity = log_viscosity
+        self._hold(speed, log_viscosity)
         self._keyphasor = None if rotor_angle_rad is None else float(rotor_angle_rad)
+
+    def _hold(self, speed_hz: float, log_viscosity: float) -> None:
+        """The operating point of the next transitions, for the Python side and the compiled one."""
+        self._speed = speed_hz
+        self._log_oil_viscosity = log_viscosity
+        self._held[HELD_SPEED] = speed_hz
+        self._held[HELD_LOG_MU] = log_viscosity
 
     def reset_operating_state(self) -> None:
         """Back to the state of a model just built (the filter's reset): the reference operating point, the
         phase at zero at step 0 and no correction centre, so that what ran before leaves no trace (the next
         transition away from the reference re-centres at its own point)."""
-        self._speed = float(self.speed_hz)
-        self._log_oil_viscosity = self._log_mu0
-        self._anchor = (0, 0.0)
-        self._last_step = None
-        self._keyphasor = None
-        self._centre_step = NEVER
+        self._hold(float(self.speed_hz), self._log_mu0)
+        self._anchor = (0, 0.0)  # (step, phase there): the phase is the integral of the speed
+        self._last_step: int | None = None
+        self._keyphasor: float | None = None
+        self._held[HELD_CENTRE_STEP] = NEVER
         self._centre = None
-        self._centre_values = ()
+        self._held[HELD_HAS_CENTRE] = 0.0
 
     def get_operating_state(self) -> dict[str, np.ndarray]:
         """What the next transitions depend on besides their arguments (for an FMU state): copies."""
@@ -184,7 +198,7 @@ class OperatingAugmentedModel:
         return {
             "operating": np.array([self._speed, self._log_oil_viscosity, *keyphasor]),
             "phase_anchor": np.array(
-                [float(self._anchor[0]), self._anchor[1], float(last), float(self._centre_step)]
+                [float(self._anchor[0]), self._anchor[1], float(last), self._held[HELD_CENTRE_STEP]]
             ),
             "centre": centre,
         }
@@ -193,14 +207,15 @@ class OperatingAugmentedModel:
         """Restore :meth:`get_operating_state` (the corrections are recomputed at the saved centre)."""
         operating = [float(v) for v in state["operating"]]
         anchor_step, anchor_phase, last, centre_step = (float(v) for v in state["phase_anchor"])
-        self._centre_step = int(centre_step)
-        self._speed, self._log_oil_viscosity = operating[0], operating[1]
+        self._held[HELD_CENTRE_STEP] = int(centre_step)
+        self._hold(operating[0], operating[1])
         self._keyphasor = operating[2] if len(operating) > 2 else None
         self._anchor = (int(anchor_step), anchor_phase)
         self._last_step = None if last < 0 else int(last)
         centre = np.asarray(state["centre"], dtype=float)
         if centre.size == 0:
             self._centre = None
+            self._held[HELD_HAS_CENTRE] = 0.0
         elif self._centre is None or not np.array_equal(centre, self._centre):
             self._recentre(centre)
 
@@ -263,12 +278,13 @@ class OperatingAugmentedModel:
         phase's (the phase is then left alone). The arrays are reused on the next call.
         """
         q1, q2 = float(flowrate_m3_s[0]), float(flowrate_m3_s[1])
-        if viscosity_factor is None:
-            f1 = f2 = 1.0
-        else:
+        with_factors = viscosity_factor is not None
+        if with_factors:
             f1, f2 = float(viscosity_factor[0]), float(viscosity_factor[1])
             if not (f1 > 0.0 and f2 > 0.0):
                 raise InputError(f"viscosity factors must be > 0, got ({f1:g}, {f2:g})")
+        else:
+            f1 = f2 = 1.0
         w = self._w
         if exogenous is None:
             phase = self._transition_phase(step)
@@ -276,60 +292,21 @@ class OperatingAugmentedModel:
         else:
             w[:] = exogenous
         self._grid.check_flowrates(q1, q2)
-        log_mu = self._log_oil_viscosity
-        point = (q1, q2, self._speed, log_mu + math.log(f1), log_mu + math.log(f2))
-        at_reference = point[2] == self.speed_hz and point[3] == self._log_mu0 and point[4] == self._log_mu0
-        coefficients = self._coefficients
-        correct = not (at_reference and viscosity_factor is None)  # else today's model exactly
-        if correct:
-            distance = self._distance(point)
-            if distance > self.recentring.hard_factor or (
-                distance > 1.0 and step - self._centre_step >= self.recentring.min_interval_steps
-            ):
-                self._recentre(np.array(point))
-                self._centre_step = step
-            if at_reference:
-                coefficients[:] = 0.0
-            else:
-                c0, c1, c2, c3, c4 = self._centre_values
-                coefficients[:] = (1.0, q1 - c0, q2 - c1, point[2] - c2, point[3] - c3, point[4] - c4)
-        transition, forcing, axes = self._grid.kernel_arrays
-        nxt, ad, jq = self._next, self._transition, self._flow_jacobian
-        jf, ju = self._viscosity_jacobian, self._unbalance_jacobian
-        _operating_transition(
-            transition,
-            forcing,
-            axes,
-            np.ascontiguousarray(state, dtype=np.float64),
-            w,
-            self._no_unbalance if unbalance is None else np.ascontiguousarray(unbalance, dtype=np.float64),
-            q1,
-            q2,
-            self._corrections_a,
-            self._corrections_g,
-            coefficients,
-            correct,
-            not at_reference,
-            nxt,
-            ad,
-            jq,
-            jf,
-            ju,
-            f1,
-            f2,
-        )
-        return nxt, ad, jq, (jf if correct else None), (None if unbalance is None else ju)
-
-    def _distance(self, point: tuple[float, ...]) -> float:
-        """How far ``point`` is from the centre, in thresholds (largest axis; inf without a centre)."""
-        if self._centre is None:
-            return math.inf
-        centre = self._centre_values
-        speed_scale, viscosity_scale, flowrate_scale = self._threshold_scales
-        return max(
-            abs(point[2] - centre[2]) / speed_scale,
-            max(abs(point[3] - centre[3]), abs(point[4] - centre[4])) / viscosity_scale,
-            max(abs(point[0] - centre[0]), abs(point[1] - centre[1])) / flowrate_scale,
+        state = np.ascontiguousarray(state, dtype=np.float64)
+        u = self._no_unbalance if unbalance is None else np.ascontiguousarray(unbalance, dtype=np.float64)
+        arrays = self._kernel_arrays
+        answer = operating_transition(arrays, state, w, u, q1, q2, f1, f2, with_factors, step)
+        if answer == RECENTRE:
+            self._recentre(self._held[HELD_POINT : HELD_POINT + 5].copy())
+            self._held[HELD_CENTRE_STEP] = step
+            answer = operating_transition(arrays, state, w, u, q1, q2, f1, f2, with_factors, step)
+        a = self._arrays
+        return (
+            a.next_state,
+            a.state_jacobian,
+            a.flow_jacobian,
+            a.viscosity_jacobian if answer != GRID_ONLY else None,
+            None if unbalance is None else a.unbalance_jacobian,
         )
 
     def _recentre(self, point: np.ndarray) -> None:
@@ -342,12 +319,13 @@ class OperatingAugmentedModel:
         q_0 = self._inside(point[0:2], self.speed_hz, mu0)
         a_c, g_c, da_c, dg_c = self.maps.derivatives(q_c, point[2], mu)
         a_0, g_0, da_0, dg_0 = self.maps.derivatives(q_0, self.speed_hz, mu0, axes=("q1", "q2"))
-        ca, cg = self._corrections_a, self._corrections_g
+        ca, cg = self._arrays.corrections_a, self._arrays.corrections_g
         ca[0], cg[0] = a_c - a_0, g_c - g_0
         ca[1:3], cg[1:3] = da_c[0:2] - da_0, dg_c[0:2] - dg_0
         ca[3:6], cg[3:6] = da_c[2:5], dg_c[2:5]
         self._centre = point.copy()
-        self._centre_values = tuple(float(v) for v in point)
+        self._held[HELD_CENTRE : HELD_CENTRE + 5] = point
+        self._held[HELD_HAS_CENTRE] = 1.0
         self.recentre_count += 1
 
     def place_centre(self, point) -> None:
@@ -375,107 +353,6 @@ class OperatingAugmentedModel:
         """The exact ``(A_d, G)`` on the dimensionless table at the current operating point (for tests)."""
         mu = math.exp(self._log_oil_viscosity) * np.asarray(viscosity_factor, dtype=float)
         return self.maps.discrete_map(np.asarray(flowrate_m3_s, dtype=float), self._speed, mu)
-
-
-# Reassociation lets the compiler vectorize the row sums (a few ulps from the sequential sums); no other
-# fast-math assumption.
-@numba.njit(cache=True, fastmath={"reassoc", "contract"})
-def _apply_correction(ca, cg, coefficients, state, w, nxt, ad, jq, jf, f1, f2):  # pragma: no cover
-    """Add ``sum_k c_k (A_k s + G_k w)`` to the map; the q and ln mu Jacobians from the derivative terms,
-    the latter divided by the viscosity factors (the Jacobian per unit of factor)."""
-    n = state.shape[0]
-    m = w.shape[0]
-    for r in range(n):
-        jf[r, 0] = 0.0
-        jf[r, 1] = 0.0
-    corrected = coefficients[0] != 0.0
-    for k in range(6):
-        c = coefficients[k]
-        a_k = ca[k]
-        g_k = cg[k]
-        if c != 0.0:
-            for r in range(n):
-                row = a_k[r]
-                out = ad[r]
-                for col in range(n):
-                    out[col] += c * row[col]
-        for r in range(n):
-            row = a_k[r]
-            y = 0.0
-            for col in range(n):
-                y += row[col] * state[col]
-            for col in range(m):
-                y += g_k[r, col] * w[col]
-            if c != 0.0:
-                nxt[r] += c * y
-            if k == 1 and corrected:
-                jq[r, 0] += y
-            elif k == 2 and corrected:
-                jq[r, 1] += y
-            elif k == 4:
-                jf[r, 0] = y / f1
-            elif k == 5:
-                jf[r, 1] = y / f2
-
-
-@numba.njit(cache=True)
-def _operating_transition(
-    transition,
-    forcing,
-    axes,
-    state,
-    w,
-    unbalance,
-    q1,
-    q2,
-    ca,
-    cg,
-    coefficients,
-    correct,
-    harmonic,
-    nxt,
-    ad,
-    jq,
-    jf,
-    ju,
-    f1,
-    f2,
-):  # pragma: no cover - compiled
-    """The whole transition in one call: the loaded input ``w`` (rotated by the unbalance (a, b) when it
-    has 2 entries), the reference grid's interpolation (:func:`interpolate_map`), the correction when
-    ``correct`` (:func:`_apply_correction`), and for an unbalance its Jacobian ``ju`` from the harmonic
-    columns of G at the nearest grid node, corrected when ``harmonic``."""
-    loaded = np.empty(3)
-    loaded[0] = w[0]
-    with_unbalance = unbalance.shape[0] == 2
-    if with_unbalance:
-        a, b = unbalance[0], unbalance[1]
-        loaded[1] = a * w[1] - b * w[2]
-        loaded[2] = a * w[2] + b * w[1]
-    else:
-        loaded[1] = w[1]
-        loaded[2] = w[2]
-    interpolate_map(transition, forcing, axes, state, loaded, q1, q2, nxt, ad, jq)
-    if correct:
-        _apply_correction(ca, cg, coefficients, state, loaded, nxt, ad, jq, jf, f1, f2)
-    if not with_unbalance:
-        return
-    # the harmonic input columns at the grid node nearest to the flowrates (ghost layer included)
-    i = 1 + min(max(round((q1 - axes[0]) / axes[1]), 0), int(axes[2]) - 1)
-    j = 1 + min(max(round((q2 - axes[3]) / axes[4]), 0), int(axes[5]) - 1)
-    cosine, sine = w[1], w[2]
-    for r in range(nxt.shape[0]):
-        g1, g2 = forcing[i, j, r, 1], forcing[i, j, r, 2]
-        if harmonic:
-            c1 = 0.0
-            c2 = 0.0
-            for k in range(coefficients.shape[0]):
-                c1 += coefficients[k] * cg[k, r, 1]
-                c2 += coefficients[k] * cg[k, r, 2]
-            g1 += c1
-            g2 += c2
-        ju[r, 0] = g1 * cosine + g2 * sine
-        ju[r, 1] = g2 * cosine - g1 * sine
 
 
 REFERENCE_TABLES = ("flowrate", "dimensionless")

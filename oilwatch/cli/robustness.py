@@ -96,7 +96,9 @@ def _rows_from_json(paths) -> list[dict]:
             found = document["rows"]
         except (OSError, ValueError, KeyError, TypeError) as error:
             raise InputError(f"--from-json {path}: not a robustness.json ({error})") from None
-        for row in found:
+        from oilwatch.robustness.runner import with_case_bounds
+
+        for row in with_case_bounds(found, document["settings"]):
             rows[(row["case"], row["q1_pct"], row["q2_pct"])] = row
     from oilwatch.robustness import CASES
 

@@ -1,0 +1,210 @@
+"""The operating model's compiled transition and the one struct of arrays it reads.
+
+:class:`models.system.operating_model.OperatingAugmentedModel` builds :class:`OperatingArrays` once: the
+reference grid's kernel arrays, the correction's six matrices (refilled in place at each re-centring), the
+output arrays and one float array ``held`` of what the transition depends on besides its arguments (the held
+operating point, the correction's centre and the re-centring thresholds; layout ``HELD_*``). A transition is
+then one compiled call, :func:`operating_transition`, which also makes the per-step decisions (whether the
+correction applies, whether the centre must move first) that used to be Python. It is a plain tuple, not a
+NamedTuple or a structref: numba types a tuple of arrays on its fast dispatch path and caches the functions
+that take it.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numba
+import numpy as np
+
+from .flowrate_grid import interpolate_map
+
+HELD_SPEED = 0
+"""The measured speed [Hz] held over the next transitions."""
+HELD_LOG_MU = 1
+"""ln of the oil law's viscosity [Pa s] at the measured temperature."""
+HELD_REFERENCE_SPEED = 2
+HELD_REFERENCE_LOG_MU = 3
+HELD_CENTRE = 4
+"""(q1, q2, speed, ln mu1, ln mu2) of the correction's centre: 5 entries."""
+HELD_HAS_CENTRE = 9
+HELD_CENTRE_STEP = 10
+HELD_SCALES = 11
+"""One re-centring threshold of speed [Hz], ln mu and flowrate [m^3/s]: 3 entries."""
+HELD_HARD_FACTOR = 14
+HELD_MIN_INTERVAL = 15
+HELD_POINT = 16
+"""The operating point (q1, q2, speed, ln mu1, ln mu2) of the last transition: 5 entries."""
+HELD_SIZE = 21
+
+RECENTRE = -1
+GRID_ONLY = 0
+CORRECTED = 1
+""":func:`operating_transition`'s answers: the centre must first move to the point in ``held[HELD_POINT:]``
+(nothing computed); or the transition is in the output arrays, today's grid map exactly (the reference
+point, no factors) or corrected."""
+
+
+class OperatingArrays(NamedTuple):
+    """The fields of the struct (:meth:`as_tuple` is what the compiled code gets)."""
+
+    transition: np.ndarray
+    forcing: np.ndarray
+    axes: np.ndarray
+    corrections_a: np.ndarray
+    corrections_g: np.ndarray
+    coefficients: np.ndarray
+    held: np.ndarray
+    next_state: np.ndarray
+    state_jacobian: np.ndarray
+    flow_jacobian: np.ndarray
+    viscosity_jacobian: np.ndarray
+    unbalance_jacobian: np.ndarray
+    loaded: np.ndarray
+
+    @classmethod
+    def allocate(cls, kernel_arrays, n_states: int) -> OperatingArrays:
+        """Zeroed arrays for a model of ``n_states`` on a grid's ``(transition, forcing, axes)``."""
+        n = n_states
+        return cls(
+            *kernel_arrays,
+            np.zeros((6, n, n)),
+            np.zeros((6, n, 3)),
+            np.zeros(6),
+            np.zeros(HELD_SIZE),
+            np.zeros(n),
+            np.zeros((n, n)),
+            np.zeros((n, 2)),
+            np.zeros((n, 2)),
+            np.zeros((n, 2)),
+            np.zeros(3),
+        )
+
+    def as_tuple(self) -> tuple[np.ndarray, ...]:
+        """The plain tuple of the fields, in order (numba's fast dispatch path)."""
+        return tuple(self)
+
+
+@numba.njit(cache=True)
+def operating_transition(arrays, state, w, unbalance, q1, q2, f1, f2, with_factors, step):  # pragma: no cover
+    """The model's transition from ``state`` at flowrates (q1, q2), viscosity factors (f1, f2) (exactly 1
+    unless ``with_factors``), exogenous input ``w`` (3,) and the unbalance (a, b) when ``unbalance`` has 2
+    entries, into the output arrays; :data:`GRID_ONLY` or :data:`CORRECTED`, or :data:`RECENTRE` (and nothing
+    computed) when the centre must move first.
+
+    As the model's docstring: at the reference point without factors today's grid map exactly; else the
+    correction ``sum_k c_k (A_k s + G_k w)`` with ``c = (1, q - q_c, p - p_c)`` (``c = 0`` at the reference
+    point: only the factor Jacobian), and the centre is due to move when the point is more than
+    ``hard_factor`` thresholds from it, or more than one threshold and ``min_interval`` steps after it moved.
+    """
+    transition, forcing, axes, ca, cg, coefficients, held, nxt, ad, jq, jf, ju, loaded = arrays
+    log_mu = held[HELD_LOG_MU]
+    point = held[HELD_POINT : HELD_POINT + 5]
+    point[0], point[1], point[2] = q1, q2, held[HELD_SPEED]
+    point[3] = log_mu + math.log(f1)
+    point[4] = log_mu + math.log(f2)
+    reference_log_mu = held[HELD_REFERENCE_LOG_MU]
+    at_reference = (
+        point[2] == held[HELD_REFERENCE_SPEED]
+        and point[3] == reference_log_mu
+        and point[4] == reference_log_mu
+    )
+    correct = with_factors or not at_reference
+    if correct:
+        centre = held[HELD_CENTRE : HELD_CENTRE + 5]
+        if held[HELD_HAS_CENTRE] == 0.0:
+            distance = math.inf
+        else:
+            distance = max(
+                abs(point[2] - centre[2]) / held[HELD_SCALES],
+                max(abs(point[3] - centre[3]), abs(point[4] - centre[4])) / held[HELD_SCALES + 1],
+                max(abs(point[0] - centre[0]), abs(point[1] - centre[1])) / held[HELD_SCALES + 2],
+            )
+        if distance > held[HELD_HARD_FACTOR] or (
+            distance > 1.0 and step - held[HELD_CENTRE_STEP] >= held[HELD_MIN_INTERVAL]
+        ):
+            return RECENTRE
+        if at_reference:
+            coefficients[:] = 0.0
+        else:
+            coefficients[0] = 1.0
+            for k in range(5):
+                coefficients[k + 1] = point[k] - centre[k]
+    loaded[0] = w[0]
+    with_unbalance = unbalance.shape[0] == 2
+    if with_unbalance:
+        a, b = unbalance[0], unbalance[1]
+        loaded[1] = a * w[1] - b * w[2]
+        loaded[2] = a * w[2] + b * w[1]
+    else:
+        loaded[1] = w[1]
+        loaded[2] = w[2]
+    interpolate_map(transition, forcing, axes, state, loaded, q1, q2, nxt, ad, jq)
+    if correct:
+        _apply_correction(ca, cg, coefficients, state, loaded, nxt, ad, jq, jf, f1, f2)
+    if with_unbalance:
+        _unbalance_jacobian(forcing, axes, ca.shape[0], cg, coefficients, not at_reference, w, q1, q2, ju)
+    return CORRECTED if correct else GRID_ONLY
+
+
+# Reassociation lets the compiler vectorize the row sums (a few ulps from the sequential sums); no other
+# fast-math assumption.
+@numba.njit(cache=True, fastmath={"reassoc", "contract"})
+def _apply_correction(ca, cg, coefficients, state, w, nxt, ad, jq, jf, f1, f2):  # pragma: no cover
+    """Add ``sum_k c_k (A_k s + G_k w)`` to the map; the q and ln mu Jacobians from the derivative terms,
+    the latter divided by the viscosity factors (the Jacobian per unit of factor)."""
+    n = state.shape[0]
+    m = w.shape[0]
+    for r in range(n):
+        jf[r, 0] = 0.0
+        jf[r, 1] = 0.0
+    corrected = coefficients[0] != 0.0
+    for k in range(6):
+        c = coefficients[k]
+        a_k = ca[k]
+        g_k = cg[k]
+        if c != 0.0:
+            for r in range(n):
+                row = a_k[r]
+                out = ad[r]
+                for col in range(n):
+                    out[col] += c * row[col]
+        for r in range(n):
+            row = a_k[r]
+            y = 0.0
+            for col in range(n):
+                y += row[col] * state[col]
+            for col in range(m):
+                y += g_k[r, col] * w[col]
+            if c != 0.0:
+                nxt[r] += c * y
+            if k == 1 and corrected:
+                jq[r, 0] += y
+            elif k == 2 and corrected:
+                jq[r, 1] += y
+            elif k == 4:
+                jf[r, 0] = y / f1
+            elif k == 5:
+                jf[r, 1] = y / f2
+
+
+@numba.njit(cache=True)
+def _unbalance_jacobian(forcing, axes, count, cg, coefficients, harmonic, w, q1, q2, ju):  # pragma: no cover
+    """``ju`` (n, 2): the unbalance Jacobian from the harmonic columns of G at the grid node nearest to the
+    flowrates (ghost layer included), corrected when ``harmonic``."""
+    i = 1 + min(max(round((q1 - axes[0]) / axes[1]), 0), int(axes[2]) - 1)
+    j = 1 + min(max(round((q2 - axes[3]) / axes[4]), 0), int(axes[5]) - 1)
+    cosine, sine = w[1], w[2]
+    for r in range(ju.shape[0]):
+        g1, g2 = forcing[i, j, r, 1], forcing[i, j, r, 2]
+        if harmonic:
+            c1 = 0.0
+            c2 = 0.0
+            for k in range(count):
+                c1 += coefficients[k] * cg[k, r, 1]
+                c2 += coefficients[k] * cg[k, r, 2]
+            g1 += c1
+            g2 += c2
+        ju[r, 0] = g1 * cosine + g2 * sine
+        ju[r, 1] = g2 * cosine - g1 * sine

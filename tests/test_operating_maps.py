@@ -1,0 +1,44 @@
+"""models.system.operating_maps: a re-centring's stacked blocks and derivatives against direct evaluations."""
+
+import numpy as np
+import pytest
+
+from models.machine import load_machine
+from models.system.factory import load_system
+from models.system.operating_maps import AXES
+from models.system.operating_model import build_operating_model
+
+MACHINE = load_machine()
+
+
+@pytest.fixture(scope="module")
+def maps():
+    return build_operating_model(load_system(reduced=True), MACHINE).maps
+
+
+def test_stacked_blocks_are_the_single_point_blocks(maps):
+    q = np.array([0.8, 0.9]) * MACHINE.lubrication.nominal_flowrate_m3_s
+    points = [(q, 74.0, np.array([0.07, 0.08])), (1.01 * q, 77.5, np.array([0.09, 0.06]))]
+    stacked = maps.blocks(points)
+    for block, point in zip(stacked, points, strict=True):
+        single = maps.blocks([point])[0]
+        np.testing.assert_allclose(block, single, rtol=0.0, atol=1e-14 * np.abs(single).max())
+
+
+def test_derivatives_are_the_exact_map_s_along_every_axis(maps):
+    """Each axis' Frechet derivative against the central difference of the exact map (expm) itself over the
+    same step (the difference's own truncation error grows as the step squared: 1e-7 here, 1e-5 at 10x)."""
+    q = np.array([0.85, 0.95]) * MACHINE.lubrication.nominal_flowrate_m3_s
+    speed, mu = 76.0, np.array([0.075, 0.08])
+    a_d, g, d_ad, d_g = maps.derivatives(q, speed, mu)
+    exact = maps.discrete_map(q, speed, mu)
+    # scipy's expm and expm_frechet scale the block differently (17 squarings here): ~1e-9 apart
+    np.testing.assert_allclose(a_d, exact[0], rtol=0.0, atol=1e-8 * np.abs(exact[0]).max())
+    np.testing.assert_allclose(g, exact[1], rtol=0.0, atol=1e-8 * np.abs(exact[1]).max())
+    for index, axis in enumerate(AXES):
+        high, low = (maps._shifted(axis, q, speed, mu, sign) for sign in (+1, -1))
+        width = high[3] - low[3]
+        numeric_a = (maps.discrete_map(*high[:3])[0] - maps.discrete_map(*low[:3])[0]) / width
+        numeric_g = (maps.discrete_map(*high[:3])[1] - maps.discrete_map(*low[:3])[1]) / width
+        assert np.abs(d_ad[index] - numeric_a).max() < 1e-6 * np.abs(numeric_a).max(), axis
+        assert np.abs(d_g[index] - numeric_g).max() < 1e-6 * np.abs(numeric_g).max(), axis
