@@ -95,6 +95,7 @@ from models.system.operating_model import build_operating_model
 from models.validation import InputError
 
 SAMPLING_PERIOD_S = 1e-3
+SECONDS_PER_DAY = 86400.0
 POSITIONS = ("x1", "y1", "x2", "y2")
 VELOCITY_MODES = ("displacement-only", "paper", "correlated")
 GRID_TOLERANCE = 1e-3
@@ -136,6 +137,9 @@ OWN_REALS = (
      "Initial flowrate estimate of both bearings (within the coefficient table's range); 0: the nominal"),
     ("q_nominal_ml_min", 0.0, "ml/min", 0.0, None,
      "Nominal flowrate, the alarm thresholds' reference; 0: the machine file's nominal flowrate"),
+    ("baseline_age_days", 0.0, "d", 0.0, None,
+     "Time from the baseline_file's record to this run's start: the offsets' prior std grows by the machine "
+     "file's [probes] offset_drift_um_per_day per day (in quadrature); 0: just commissioned"),
     ("q_std_velocity_um_s", -1.0, "um/s", -1.0, None,
      f"Process-noise std per step of every velocity state; -1: the recommended "
      f"{RECOMMENDED_DISPLACEMENT_PROCESS_STD_M * 1e6:g} um x 2 pi speed_hz; the paper's 10 um/s makes the "
@@ -411,7 +415,7 @@ class OilFlowEKF(OilwatchSlave):
         else:
             model = GridAugmentedModel(system, self.sample_period_s)
         self.filter = FlowFilter(
-            model, self._config(machine, nominal, initial, system.speed_hz, self._baseline())
+            model, self._config(machine, nominal, initial, system.speed_hz, self._baseline(machine))
         )
         self._first_sample_time_s = self.filter.config.first_sample_time_s
         built = time.perf_counter()
@@ -424,15 +428,17 @@ class OilFlowEKF(OilwatchSlave):
         )
         self._publish()
 
-    def _baseline(self):
-        """The ``baseline_file`` parameter's offsets prior (None when empty); relative to the resources."""
+    def _baseline(self, machine):
+        """The ``baseline_file`` parameter's offsets prior (None when empty; a relative path is relative to
+        the resources), ``baseline_age_days`` after its record with ``machine``'s offset drift bound."""
         if not self.baseline_file:
             return None
         path = Path(self.baseline_file)
         if not path.is_absolute() and self.resources:
             path = Path(self.resources) / path
         try:
-            return load_baseline(path)
+            drift = read_probes(machine).offset_drift_m_per_day
+            return load_baseline(path, SECONDS_PER_DAY * self.baseline_age_days, drift)
         except (InputError, OSError, UnicodeDecodeError) as error:
             reason = error if isinstance(error, InputError) else f"cannot read {path}: {error}"
             raise InputError(f"baseline_file {self.baseline_file!r}: {reason}") from None
@@ -538,7 +544,7 @@ class OilFlowEKF(OilwatchSlave):
 
     def _publish_core(self, report: ReportView) -> None:
         """Write a step report into the output array (:data:`STEP_OUTPUTS`): one division of its columns."""
-        np.divide(report.values.take(REPORT_COLUMNS), REPORT_DIVISORS, out=self._report_outputs)
+        np.divide(report.values[REPORT_COLUMNS], REPORT_DIVISORS, out=self._report_outputs)
         steps = report.step + 1
         self._outputs[T_ESTIMATE_INDEX] = (
             -1.0 if steps == 0 else self._first_sample_time_s + (steps - 1) * self.sample_period_s

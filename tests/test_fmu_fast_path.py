@@ -10,10 +10,16 @@ restore their state, and both get a fixed parameter set after initialization. Ev
 booleans, the nuisance estimates) must be bit-identical between the two, the refused set must be fmi2Error
 on both with the same message, and a step that fails (a time stamp after the step's end) must be fmi2Fatal
 with the slave's message on both. ``fmi2Reset`` drops the binding; the next initialization binds again.
+
+Also here, because it is the same slave's parameter handling: ``baseline_age_days`` widens the baseline's
+offsets prior by the machine file's ``[probes] offset_drift_um_per_day``.
 """
 
 from __future__ import annotations
 
+import math
+
+import pytest
 from fixtures.fmu_subprocess import run_json
 from test_ekf_fmu import FMPY_PRELUDE, TIMEOUT_S
 
@@ -119,3 +125,34 @@ def test_the_fast_path_changes_no_output_status_or_message(built_fmus):
     assert result["failed"] == {"fast": 4, "slow": 4}  # fmi2Fatal with the slave's reason on both
     fast_failure, slow_failure = result["failed_log"]["fast"], result["failed_log"]["slow"]
     assert fast_failure and fast_failure == [m.replace("slow", "fast") for m in slow_failure]
+
+
+AGED_BASELINE = """
+import json, math
+from fmu_src.oilwatch_ekf_slave import OilFlowEKF
+from models.machine import load_machine
+from models.probes import read_probes
+BASELINE = {"format": "oilwatch commissioning baseline", "format_version": 1,
+            "offsets_um": [1.0, -2.0, 3.0, -4.0], "offset_std_um": [0.5, 0.5, 0.5, 0.5]}
+open(PATH, "w").write(json.dumps(BASELINE))
+result = {"drift_um_per_day": read_probes(load_machine()).offset_drift_m_per_day * 1e6}
+for days in (0.0, 100.0):
+    slave = OilFlowEKF(instance_name=f"aged{days:g}", resources=None)
+    vr = {v.name: v.value_reference for v in slave.vars.values()}
+    slave.setup_experiment(0.0, None, None)
+    slave.set_string([vr["baseline_file"]], [PATH])
+    slave.set_real([vr["baseline_age_days"]], [days])
+    slave.exit_initialization_mode()
+    result[str(days)] = slave.get_real([vr["offset_y1_um"], vr["offset_y1_std_um"]])
+"""
+
+
+def test_the_baseline_age_widens_the_offsets_prior_by_the_machine_files_drift(tmp_path):
+    # the slave class in a fresh process, without FMI: the parameter's effect, not the loader
+    result = run_json(f"PATH = {str(tmp_path / 'baseline.json')!r}\n" + AGED_BASELINE, timeout=TIMEOUT_S)
+    drift = result["drift_um_per_day"]
+    assert drift > 0.0
+    (offset_new, std_new), (offset_old, std_old) = result["0.0"], result["100.0"]
+    assert offset_new == offset_old == -2.0  # the baseline's offset is the prior's mean either way
+    assert std_new == pytest.approx(0.5, rel=1e-9)
+    assert std_old == pytest.approx(math.hypot(0.5, 100.0 * drift), rel=1e-9)
