@@ -51,7 +51,7 @@ import numpy as np
 from pythonfmu import DefaultExperiment
 from pythonfmu.enums import Fmi2Causality
 
-from estimator.baseline import load_baseline
+from estimator.baseline import load_baseline, load_runout
 from estimator.channels import STATUS_NAMES
 from estimator.config import (
     ESTIMATOR_PARAMETERS,
@@ -200,7 +200,8 @@ class OilFlowEKF(OilwatchSlave):
             "parameter",
             start="",
             description="Commissioning baseline (JSON written by 'oilwatch baseline'): the probe offsets' "
-            "prior; an absolute path or one relative to this FMU's resources folder; empty: none",
+            "prior and, when it has them, the runout vectors (they replace the machine file's [probes] "
+            "runout_* keys); an absolute path or one relative to this FMU's resources folder; empty: none",
         )
         self.declare_integer(
             "velocity_channels",
@@ -415,7 +416,7 @@ class OilFlowEKF(OilwatchSlave):
         else:
             model = GridAugmentedModel(system, self.sample_period_s)
         self.filter = FlowFilter(
-            model, self._config(machine, nominal, initial, system.speed_hz, self._baseline(machine))
+            model, self._config(machine, nominal, initial, system.speed_hz, *self._baseline(machine))
         )
         self._first_sample_time_s = self.filter.config.first_sample_time_s
         built = time.perf_counter()
@@ -429,26 +430,35 @@ class OilFlowEKF(OilwatchSlave):
         self._publish()
 
     def _baseline(self, machine):
-        """The ``baseline_file`` parameter's offsets prior (None when empty; a relative path is relative to
-        the resources), ``baseline_age_days`` after its record with ``machine``'s offset drift bound."""
+        """(offsets prior, runout vectors) of the ``baseline_file`` parameter ((None, None) when empty; a
+        relative path is relative to the resources): the prior ``baseline_age_days`` after its record with
+        ``machine``'s offset drift bound, the runout None when the baseline has none."""
         if not self.baseline_file:
-            return None
+            return None, None
         path = Path(self.baseline_file)
         if not path.is_absolute() and self.resources:
             path = Path(self.resources) / path
         try:
             drift = read_probes(machine).offset_drift_m_per_day
-            return load_baseline(path, SECONDS_PER_DAY * self.baseline_age_days, drift)
+            prior = load_baseline(path, SECONDS_PER_DAY * self.baseline_age_days, drift)
+            return prior, load_runout(path)
         except (InputError, OSError, UnicodeDecodeError) as error:
             reason = error if isinstance(error, InputError) else f"cannot read {path}: {error}"
             raise InputError(f"baseline_file {self.baseline_file!r}: {reason}") from None
 
     def _config(
-        self, machine, nominal_ml_min: float, initial_ml_min: float, speed_hz: float, baseline
+        self,
+        machine,
+        nominal_ml_min: float,
+        initial_ml_min: float,
+        speed_hz: float,
+        baseline,
+        baseline_runout,
     ) -> EKFConfig:
         """The estimator's configuration from the parameters (field units -> SI) and the machine file's
-        ``[probes]`` (mounting angle and offset prior for the sentinels; the offsets' drift and the runout
-        vectors of its ``runout_*`` keys, which the filter subtracts at the model's rotor angle, always)."""
+        ``[probes]`` (mounting angle and offset prior for the sentinels; the offsets' drift, always). The
+        runout vectors the filter subtracts at the model's rotor angle are the baseline's when it has them,
+        else those of the ``[probes]`` ``runout_*`` keys (as ``oilwatch estimate`` chooses)."""
         omega = 2.0 * math.pi * speed_hz
         velocity_std = (
             RECOMMENDED_DISPLACEMENT_PROCESS_STD_M * omega
@@ -470,7 +480,7 @@ class OilFlowEKF(OilwatchSlave):
             first_sample_time_s=round(self.start_time / self.sample_period_s) * self.sample_period_s,
             initial_flowrate_std_m3_s=INITIAL_FLOWRATE_STD_FRACTION * nominal_ml_min * ML_MIN,
             offset_baseline=baseline,
-            runout=runout_of_probes(probes),
+            runout=runout_of_probes(probes) if baseline_runout is None else baseline_runout,
         )
 
     def _warm_up(self) -> None:

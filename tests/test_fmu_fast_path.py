@@ -11,8 +11,9 @@ booleans, the nuisance estimates) must be bit-identical between the two, the ref
 on both with the same message, and a step that fails (a time stamp after the step's end) must be fmi2Fatal
 with the slave's message on both. ``fmi2Reset`` drops the binding; the next initialization binds again.
 
-Also here, because it is the same slave's parameter handling: ``baseline_age_days`` widens the baseline's
-offsets prior by the machine file's ``[probes] offset_drift_um_per_day``.
+Also here (the same slave's parameters, in process): ``baseline_age_days`` widens the baseline's offsets prior
+by the machine file's ``[probes] offset_drift_um_per_day``, and the runout the filter subtracts is the
+``baseline_file``'s when it has one, else the machine file's ``[probes]`` keys (as ``oilwatch estimate``).
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from __future__ import annotations
 import math
 
 import pytest
-from fixtures.fmu_subprocess import run_json
+from fixtures.fmu_subprocess import REPO_ROOT, run_json
 from test_ekf_fmu import FMPY_PRELUDE, TIMEOUT_S
 
 RUN = """
@@ -127,32 +128,64 @@ def test_the_fast_path_changes_no_output_status_or_message(built_fmus):
     assert fast_failure and fast_failure == [m.replace("slow", "fast") for m in slow_failure]
 
 
-AGED_BASELINE = """
+BASELINE = """
 import json, math
 from fmu_src.oilwatch_ekf_slave import OilFlowEKF
+from estimator.runout import SlowRollVectors, runout_of_probes
 from models.machine import load_machine
 from models.probes import read_probes
-BASELINE = {"format": "oilwatch commissioning baseline", "format_version": 1,
-            "offsets_um": [1.0, -2.0, 3.0, -4.0], "offset_std_um": [0.5, 0.5, 0.5, 0.5]}
-open(PATH, "w").write(json.dumps(BASELINE))
+ONE = {"format": "oilwatch commissioning baseline", "format_version": 1,
+       "offsets_um": [1.0, -2.0, 3.0, -4.0], "offset_std_um": [0.5, 0.5, 0.5, 0.5]}
+RUNOUT = {f"runout_{n}_{key}": [value] * 4
+          for n, (um, deg) in {"1x": (1.5, 40.0), "2x": (0.5, -60.0)}.items()
+          for key, value in (("um", um), ("phase_deg", deg), ("std_um", 0.05))}
+open(PLAIN, "w").write(json.dumps(ONE))
+open(WITH_RUNOUT, "w").write(json.dumps({**ONE, "runout": RUNOUT}))
 result = {"drift_um_per_day": read_probes(load_machine()).offset_drift_m_per_day * 1e6}
-for days in (0.0, 100.0):
-    slave = OilFlowEKF(instance_name=f"aged{days:g}", resources=None)
+
+def slave(name, days=0.0, baseline=PLAIN, machine=""):
+    slave = OilFlowEKF(instance_name=name, resources=None)
     vr = {v.name: v.value_reference for v in slave.vars.values()}
     slave.setup_experiment(0.0, None, None)
-    slave.set_string([vr["baseline_file"]], [PATH])
+    slave.set_string([vr["baseline_file"], vr["machine_file"]], [baseline, machine])
     slave.set_real([vr["baseline_age_days"]], [days])
     slave.exit_initialization_mode()
-    result[str(days)] = slave.get_real([vr["offset_y1_um"], vr["offset_y1_std_um"]])
+    return slave, vr
+
+for days in (0.0, 100.0):
+    aged, vr = slave(f"aged{days:g}", days)
+    result[str(days)] = aged.get_real([vr["offset_y1_um"], vr["offset_y1_std_um"]])
+baseline_runout = SlowRollVectors.from_document(RUNOUT, "test")
+machine_runout = runout_of_probes(read_probes(load_machine(MACHINE)))
+result["machine_file_has_runout"] = machine_runout is not None
+result["runout"] = {}
+for name, baseline, machine in (("plain_bundled", PLAIN, ""), ("plain_machine", PLAIN, MACHINE),
+                                ("baseline_machine", WITH_RUNOUT, MACHINE)):
+    runout = slave(name, baseline=baseline, machine=machine)[0].filter.config.runout
+    result["runout"][name] = ("none" if runout is None else "baseline" if runout == baseline_runout
+                              else "machine" if runout == machine_runout else "other")
 """
 
 
-def test_the_baseline_age_widens_the_offsets_prior_by_the_machine_files_drift(tmp_path):
-    # the slave class in a fresh process, without FMI: the parameter's effect, not the loader
-    result = run_json(f"PATH = {str(tmp_path / 'baseline.json')!r}\n" + AGED_BASELINE, timeout=TIMEOUT_S)
+def test_the_baseline_age_and_runout_reach_the_estimator(tmp_path):
+    # the slave class in a fresh process, without FMI: the parameters' effect, not the loader
+    text = (REPO_ROOT / "models" / "turbine.toml").read_text(encoding="utf-8")
+    keys = "runout_1x_um = 2.0\nrunout_1x_phase_deg = 30.0\nrunout_1x_std_um = 0.05\n"
+    keys += "runout_2x_um = 1.0\nrunout_2x_phase_deg = -100.0\nrunout_2x_std_um = 0.05\n"
+    text += "".join(f"\n[probes.{probe}]\n{keys}" for probe in ("x1", "y1", "x2", "y2"))
+    (tmp_path / "turbine.toml").write_text(text, encoding="utf-8")
+    (tmp_path / "tables").symlink_to(REPO_ROOT / "models" / "tables")
+    files = {name: str(tmp_path / f"{name}.json") for name in ("PLAIN", "WITH_RUNOUT")}
+    files["MACHINE"] = str(tmp_path / "turbine.toml")
+    head = "".join(f"{name} = {path!r}\n" for name, path in files.items())
+    result = run_json(head + BASELINE, timeout=TIMEOUT_S)
     drift = result["drift_um_per_day"]
     assert drift > 0.0
     (offset_new, std_new), (offset_old, std_old) = result["0.0"], result["100.0"]
     assert offset_new == offset_old == -2.0  # the baseline's offset is the prior's mean either way
     assert std_new == pytest.approx(0.5, rel=1e-9)
     assert std_old == pytest.approx(math.hypot(0.5, 100.0 * drift), rel=1e-9)
+    # runout: the baseline's when it has one, else the machine file's [probes] keys (as oilwatch estimate)
+    assert result["machine_file_has_runout"]
+    expected = {"plain_bundled": "none", "plain_machine": "machine", "baseline_machine": "baseline"}
+    assert result["runout"] == expected
