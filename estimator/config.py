@@ -237,6 +237,9 @@ class EKFConfig:
         nuisance_settling_time_constants : for this many time constants of the model's least damped mode
             the flowrates and nuisances stay out of the Jacobian while the dynamic states settle, then start
             from their prior (0: off).
+        nuisance_information_floor : (with the shadow Jacobian) the flowrates' std is kept at or above the
+            posterior Cramer-Rao bound of the filter's own configuration, evaluated along the record at the
+            estimates (:class:`estimator.nuisance_start.InformationFloor`).
     Innovation gate and probe health (see :mod:`estimator.channels`)
         gate_tail_probability : a channel whose squared standardized innovation exceeds the chi-square(1)
             quantile ``1 - p`` times its recent innovation power is rejected (0 disables the gate).
@@ -281,6 +284,7 @@ class EKFConfig:
     viscosity_factor_random_walk_sqrt_s: float = 0.002
     nuisance_shadow: bool = True
     nuisance_settling_time_constants: float = 5.0
+    nuisance_information_floor: bool = True
     unbalance_prior_std: float = 0.0
     unbalance_random_walk_sqrt_s: float = 0.02
     unbalance_inconsistent_std: float = 0.01

@@ -72,11 +72,11 @@ from .ekf_setup import (
 from .filter_arrays import FilterArrays
 from .measurement import displacement_channels, velocity_channels
 from .model import AugmentedModel
-from .nuisance_start import ShadowJacobian, restart_parameters, settling_steps
+from .nuisance_start import InformationFloor, ShadowJacobian, restart_parameters, settling_steps
 from .reports import EstimateTrace, StepReport
 from .runout import RunoutCompensation
 from .state import export_state, import_state
-from .step_kernel import COUNT_SINCE_UPDATE, COUNT_STEP, REPORT_FLOWRATE, REPORT_SIZE, ekf_step
+from .step_kernel import COUNT_SINCE_UPDATE, COUNT_STEP, REPORT_FLOWRATE, REPORT_SIZE, REPORT_STD, ekf_step
 
 __all__ = ["MIN_VISCOSITY_FACTOR", "EstimateTrace", "OilFlowEKF", "StepReport"]
 
@@ -180,6 +180,8 @@ class OilFlowEKF(FilterReporting, BatchRuns):
         self._settling = settling_steps(model, cfg.q_initial_pair(), constants)
         self._no_flow_jacobian = np.zeros((n, 2))
         self._shadow = ShadowJacobian(n, self._n_trailing) if free and cfg.nuisance_shadow else None
+        floor = self._shadow is not None and cfg.nuisance_information_floor and hasattr(model, "maps")
+        self._floor = InformationFloor(model, cfg, n, self._n_offsets, self._n_unbalance) if floor else None
         self.reset()
 
     def reset(self) -> None:
@@ -263,6 +265,8 @@ class OilFlowEKF(FilterReporting, BatchRuns):
         self._prior = (self._x.copy(), self._P.copy())
         if self._shadow is not None:
             self._shadow.reset()
+        if self._floor is not None:
+            self._floor.reset()
 
     def step(
         self,
@@ -331,7 +335,15 @@ class OilFlowEKF(FilterReporting, BatchRuns):
         ekf_step(predict, next_state, state_jac, flow_jac, displacement, self._packed)
         if step == self._settling and step > 0:
             restart_parameters(self._x, self._P, *self._prior, self._n)
+            if self._floor is not None:
+                self._floor.reset()
             self._refresh_report()
+        elif self._floor is not None and step > self._settling:  # estimator/nuisance_start.py
+            if self._floor.due():
+                unbalance = self.unbalance if self._n_unbalance else (1.0, 0.0)
+                self._floor.advance(self._flowrate_si(), self.viscosity_factor, unbalance)
+            reported = self._report[REPORT_STD : REPORT_STD + 2]
+            np.maximum(reported, self._floor.std, out=reported)
 
     def _predict_with_model(
         self, model_step: int, state: np.ndarray | None = None
@@ -387,6 +399,8 @@ class OilFlowEKF(FilterReporting, BatchRuns):
         state = export_state(self)
         if self._shadow is not None and self._shadow.state is not None:
             state["nuisance_shadow"] = self._shadow.state.copy()
+        if self._floor is not None:
+            state["nuisance_floor"] = self._floor.get_state()
         return state
 
     def set_state(self, state: dict[str, np.ndarray]) -> None:
@@ -395,3 +409,5 @@ class OilFlowEKF(FilterReporting, BatchRuns):
         if self._shadow is not None:
             shadow = state.get("nuisance_shadow")
             self._shadow.state = None if shadow is None else np.array(shadow, dtype=float)
+        if self._floor is not None and "nuisance_floor" in state:
+            self._floor.set_state(state["nuisance_floor"])

@@ -126,13 +126,18 @@ def load(path, name, reals=None, integers=None, strings=None):
 PORTS = ["x1_um", "y1_um", "x2_um", "y2_um", "t_sample_s"]
 
 def cosimulate(plant, pv, filters, steps, outputs, h=1e-3):
-    # step the plant and each filter {name: (slave, vr)} fed its PORTS; per filter the rows of outputs
+    # step the plant and each filter {name: (slave, vr)} or {name: (slave, vr, ports)} fed its ports (default
+    # PORTS) from the plant's outputs of the same names; per filter the rows of outputs
+    ports = {name: (f[2] if len(f) > 2 else PORTS) for name, f in filters.items()}
+    names = list(dict.fromkeys(n for p in ports.values() for n in p))
+    src = [pv[n] for n in names]
+    picks = {name: [names.index(n) for n in p] for name, p in ports.items()}
     rows = {name: [] for name in filters}
     for k in range(steps):
         plant.doStep(k * h, h)
-        values = plant.getReal([pv[n] for n in PORTS])
-        for name, (ekf, ev) in filters.items():
-            ekf.setReal([ev[n] for n in PORTS], values)
+        values = plant.getReal(src)
+        for name, (ekf, ev, *_) in filters.items():
+            ekf.setReal([ev[n] for n in ports[name]], [values[i] for i in picks[name]])
             ekf.doStep(k * h, h)
             rows[name].append(ekf.getReal([ev[n] for n in outputs]))
     return rows

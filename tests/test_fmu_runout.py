@@ -5,39 +5,41 @@ parameters, phases 30 and -100 deg from the keyphasor). The same runout is writt
 machine file's ``[probes]``. An estimator FMU given that machine file subtracts it at the model's rotor angle
 (``estimator.runout.runout_of_probes``, as ``oilwatch robustness`` does); one on the bundled machine, which
 knows no runout, takes the 1x and 2x lines for the shaft's motion. Noise 1 um, 100 / 100 % flow, 3 s; the
-FMUs run in a fresh process.
+FMUs run in a fresh process shared with ``tests/test_fmu_keyphasor.py``'s co-simulation (the
+``probe_nuisance_cosims`` fixture of tests/conftest.py).
 """
 
 from __future__ import annotations
 
 import pytest
-from fixtures.fmu_subprocess import REPO_ROOT, run_json
-from test_ekf_fmu import FMPY_PRELUDE
+from fixtures.fmu_subprocess import REPO_ROOT
 
 NOMINAL_ML_MIN = 596.3
 RUNOUT = {"1x": (2.0, 30.0), "2x": (1.0, -100.0)}
 """Per harmonic: amplitude [um], phase [deg], the same on every probe."""
 STEPS = 3000
 
-BODY = """
-import numpy as np
-runout = {f"{p}_runout_{n}_{key}": value for p in ("x1", "y1", "x2", "y2")
-          for n, (um, deg) in RUNOUT.items() for key, value in (("um", um), ("phase_deg", deg))}
-plant, pv = load(PLANT, "plant", {"noise_um": 1.0, **runout}, {"seed": 7}, {"machine_file": MACHINE})
-filters = {"compensated": load(EKF, "compensated", {"noise_um": 1.0}, strings={"machine_file": MACHINE}),
-           "uncompensated": load(EKF, "uncompensated", {"noise_um": 1.0})}
-result = {}
-for name, table in cosimulate(plant, pv, filters, STEPS, ["nis", "q1_est_ml_min", "q2_est_ml_min"]).items():
-    table = np.array(table)
-    late = table[STEPS // 2:]
-    result[name] = {"nis": float(late[:, 0].mean()),
-                    "error_pct": (100.0 * (late[:, 1:].mean(axis=0) - NOMINAL) / NOMINAL).tolist()}
+CODE = """
+def runout_cosim(plant_fmu, ekf_fmu, machine, runout, steps, nominal):
+    runout = {f"{p}_runout_{n}_{key}": value for p in ("x1", "y1", "x2", "y2")
+              for n, (um, deg) in runout.items() for key, value in (("um", um), ("phase_deg", deg))}
+    machine = {"machine_file": machine}
+    plant, pv = load(plant_fmu, "plant_runout", {"noise_um": 1.0, **runout}, {"seed": 7}, machine)
+    filters = {"compensated": load(ekf_fmu, "compensated", {"noise_um": 1.0}, strings=machine),
+               "uncompensated": load(ekf_fmu, "uncompensated", {"noise_um": 1.0})}
+    result = {}
+    outputs = ["nis", "q1_est_ml_min", "q2_est_ml_min"]
+    for name, table in cosimulate(plant, pv, filters, steps, outputs).items():
+        late = np.array(table)[steps // 2:]
+        result[name] = {"nis": float(late[:, 0].mean()),
+                        "error_pct": (100.0 * (late[:, 1:].mean(axis=0) - nominal) / nominal).tolist()}
+    return result
 """
 
 
-@pytest.fixture(scope="module")
-def runout_run(built_fmus, tmp_path_factory):
-    folder = tmp_path_factory.mktemp("runout_machine")
+def call(built_fmus, folder) -> str:
+    """The line of the shared process's code that runs this co-simulation, its machine file written into
+    ``folder``: the bundled turbine's with the same runout in every probe's ``[probes]`` section."""
     text = (REPO_ROOT / "models" / "turbine.toml").read_text(encoding="utf-8")
     keys = "".join(
         f"runout_{n}_um = {um}\nrunout_{n}_phase_deg = {deg}\nrunout_{n}_std_um = 0.05\n"
@@ -46,16 +48,18 @@ def runout_run(built_fmus, tmp_path_factory):
     text += "".join(f"\n[probes.{probe}]\n{keys}" for probe in ("x1", "y1", "x2", "y2"))
     (folder / "turbine.toml").write_text(text, encoding="utf-8")
     (folder / "tables").symlink_to(REPO_ROOT / "models" / "tables")
-    head = (
-        f"PLANT = {str(built_fmus / 'RotorBearingPlant.fmu')!r}\n"
-        f"EKF = {str(built_fmus / 'OilFlowEKF.fmu')!r}\n"
-        f"MACHINE = {str(folder / 'turbine.toml')!r}\nRUNOUT = {RUNOUT!r}\nSTEPS = {STEPS}\n"
-        f"NOMINAL = {NOMINAL_ML_MIN}\n"
-    )
-    return run_json(FMPY_PRELUDE + head + BODY, timeout=600)
+    plant, ekf = str(built_fmus / "RotorBearingPlant.fmu"), str(built_fmus / "OilFlowEKF.fmu")
+    machine = str(folder / "turbine.toml")
+    return f"runout = runout_cosim({plant!r}, {ekf!r}, {machine!r}, {RUNOUT!r}, {STEPS}, {NOMINAL_ML_MIN})\n"
+
+
+@pytest.fixture(scope="module")
+def runout_run(probe_nuisance_cosims):
+    return probe_nuisance_cosims["runout"]
 
 
 @pytest.mark.slow
+@pytest.mark.xdist_group("probe_nuisance_cosims")
 def test_the_machine_files_runout_is_compensated_by_the_estimator_fmu(runout_run):
     compensated = runout_run["compensated"]
     assert compensated["nis"] == pytest.approx(4.0, rel=0.15), compensated
@@ -63,6 +67,7 @@ def test_the_machine_files_runout_is_compensated_by_the_estimator_fmu(runout_run
 
 
 @pytest.mark.slow
+@pytest.mark.xdist_group("probe_nuisance_cosims")
 def test_without_the_runout_keys_the_same_record_misleads_the_estimator_fmu(runout_run):
     uncompensated = runout_run["uncompensated"]
     assert uncompensated["nis"] > 2.0 * runout_run["compensated"]["nis"], uncompensated

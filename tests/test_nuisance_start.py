@@ -64,3 +64,24 @@ def test_free_viscosity_factors_stay_within_their_std_with_the_remedies_and_walk
     assert (np.abs(error) < 2.0 * std).all() and (np.abs(error) < 0.02).all(), (error, std)
     error, std = _error_and_std(model, record, nuisance_shadow=False, nuisance_settling_time_constants=0.0)
     assert (np.abs(error) > 2.0 * std).any() and (error < -0.05).any(), (error, std)
+
+
+def test_the_information_floor_widens_the_reported_std_only(model):
+    """The floor (estimator.nuisance_start.InformationFloor) changes no estimate, and the reported std is
+    never below the filter's own nor below the bound at the end (2.6 s: the settling start, then one
+    2 s update of the bound)."""
+    record = _record(model, 2600)
+    config = EKFConfig.recommended(
+        first_sample_time_s=DT,
+        offset_prior_std_m=25e-6,
+        unbalance_prior_std=2.0,
+        viscosity_factor_prior_std=0.1,
+    )
+    floored = OilFlowEKF(model, config)
+    with_floor = floored.run(record)
+    plain = OilFlowEKF(model, dataclasses.replace(config, nuisance_information_floor=False)).run(record)
+    np.testing.assert_array_equal(with_floor.q_m3_s, plain.q_m3_s)
+    assert (with_floor.q_std_m3_s >= plain.q_std_m3_s).all()
+    assert (with_floor.q_std_m3_s[-1] >= floored._floor.std_m3_s() * (1.0 - 1e-12)).all()
+    # the floor is the filter's own configuration's bound: it starts at the prior and falls with the record
+    assert (floored._floor.std_m3_s() < 0.25 * model.nominal_flowrate_m3_s).all()

@@ -12,7 +12,12 @@ from models.bearing.film import side_leakage
 from models.bearing.geometry import JournalBearing
 from models.bearing.grid import Mesh, film_grid
 from models.bearing.transient_kernels import StepAssembly
-from models.bearing.transient_sweep import projected_sweep_residual, step_residual, sweep_factors
+from models.bearing.transient_sweep import (
+    conserve_mass,
+    projected_sweep_residual,
+    step_residual,
+    sweep_factors,
+)
 
 BEARING = JournalBearing(0.045, 0.070, 120e-6, 0.094, 0.0, 16.2e-3, 35e-3)
 OMEGA = 2.0 * math.pi * 75.0
@@ -64,6 +69,45 @@ def test_sweep_leaves_the_true_residual():
         np.testing.assert_allclose(kept, fresh, rtol=0.0, atol=1e-12 * scale)
         assert worst == pytest.approx(worst_fresh, rel=1e-10)
         assert total == pytest.approx(total_fresh, rel=1e-9, abs=1e-12 * scale)
+
+
+def test_mass_correction_zeroes_the_residual_sum():
+    """conserve_mass shifts the fill of the cavitated volumes (only those, all by the same amount) so
+    that the step's residuals sum to zero; each volume's residual moves by at most the shift times its
+    row's fill coefficients (storage and Couette), a share of the sum."""
+    grid = film_grid(BEARING, Mesh(60, 16), half=True)
+    arrays = StepAssembly(grid, BEARING.viscosity_pa_s, OMEGA, P_REF).fill(20e-6, -80e-6)
+    rng = np.random.default_rng(5)
+    n = grid.n_nodes
+    arrays.storage[:] = 1e-7 * (1.0 + rng.random(n))
+    p = rng.random(n)
+    theta = np.where(p > 0.5, 1.0, 0.2 + 0.6 * rng.random(n))
+    p[theta < 1.0] = 0.0
+    residual = np.empty(n)
+    step_residual(arrays, np.zeros(n), np.zeros(n), residual)
+    arrays.rhs[:] = -residual  # b = A u at u = (p, theta) plus what is added below
+    flow = np.empty(n)
+    step_residual(arrays, p, theta, flow)
+    arrays.rhs[:] -= flow + rng.normal(0.0, 1e-12, n) + 3e-12  # residual: small noise and a common bias
+    before = np.empty(n)
+    _, total_before = step_residual(arrays, p, theta, before)
+    moved = theta.copy()
+    out = before.copy()
+    worst, total, accepted = conserve_mass(arrays, p, moved, out, 1.0, 1e-9 * abs(total_before))
+    cavitated = theta < 1.0
+    shift = moved - theta
+    assert np.all(shift[~cavitated] == 0.0)
+    np.testing.assert_allclose(shift[cavitated], shift[cavitated][0], rtol=1e-9)
+    assert shift[cavitated][0] == pytest.approx(total_before / arrays.storage[cavitated].sum(), rel=1e-9)
+    assert abs(total) < 1e-9 * abs(total_before) and accepted
+    fresh = np.empty(n)
+    assert worst == pytest.approx(step_residual(arrays, p, moved, fresh)[0])
+    # Each residual moves by at most delta times its row's fill-fraction coefficients (storage, Couette).
+    rows = np.repeat(np.arange(n), np.diff(arrays.indptr))
+    couette = np.bincount(rows, weights=np.abs(arrays.at), minlength=n)
+    bound = abs(shift[cavitated][0]) * (arrays.storage * cavitated + couette)
+    assert np.all(np.abs(fresh - before) <= 1.001 * bound + 1e-25)
+    assert np.abs(fresh - before).max() < 0.5 * abs(total_before)
 
 
 def test_incremental_coarse_operators_are_the_full_build():

@@ -52,7 +52,7 @@ from .discretization import force_weights
 from .film import FilmSolution, validate_state
 from .geometry import JournalBearing
 from .grid import PRODUCTION_MESH, FilmGrid, Mesh, film_grid
-from .transient_kernels import StepArrays, StepAssembly
+from .transient_kernels import StepArrays, StepAssembly, step_source, sweep_start
 from .transient_multigrid import CoarseCorrection, multigrid_solve
 from .transient_sweep import sor_sweeps
 
@@ -178,6 +178,7 @@ class TransientFilm:
         self.wx, self.wy = force_weights(grid)
         area = (bearing.radius_m * grid.dpsi)[:, None] * grid.dz[None, :]
         self.area_m2 = np.bincount(grid.node_of_cell.ravel(), weights=area.ravel(), minlength=grid.n_nodes)
+        self._gap_m3 = self.area_m2 * bearing.clearance_m
         self.p_ref = bearing.viscosity_pa_s * self.omega_rad_s * bearing.radius_m**2 / bearing.clearance_m**2
         self._assembly = StepAssembly(grid, bearing.viscosity_pa_s, self.omega_rad_s, self.p_ref)
         self.couette_scale_m3_s = (
@@ -209,7 +210,7 @@ class TransientFilm:
     def gap_volume_m3(self, eccentricity_m) -> np.ndarray:
         """V_k = integral(h dA) over every control volume [m^3] for the journal at ``eccentricity_m``."""
         ex, ey = eccentricity_m
-        return self.area_m2 * self.bearing.clearance_m + ex * self.wx + ey * self.wy
+        return self._gap_m3 + ex * self.wx + ey * self.wy
 
     def from_steady(self, film: FilmSolution, eccentricity_m, time_s: float = 0.0) -> TransientFilmState:
         """The transient state of a steady film solution (same bearing, speed and mesh)."""
@@ -264,18 +265,18 @@ class TransientFilm:
         q = require_non_negative("supply_flow_m3_s", supply_flow_m3_s, "m^3/s")
         e = np.asarray(eccentricity_m, dtype=float)
         _, ex, ey, _ = validate_state(self.bearing, self.speed_hz, (e[0], e[1]), (0.0, 0.0), "full-film")
-        grid = self.grid
         arrays = self._assembly.fill(ex, ey)
         order = self.order if state.previous_content_m3 is not None else 1
         beta, history = BDF[order]
-        old = history[0] * state.content_m3
-        if order == 2:
-            old = old + history[1] * state.previous_content_m3
-        np.multiply(self.gap_volume_m3(e), beta / dt, out=arrays.storage)
-        np.multiply(old, -1.0 / dt, out=arrays.rhs)
-        arrays.rhs[grid.groove_node] += q / self.mirror
-        start = _extrapolated(state) if guess is None else guess
-        sweep = self._sweeps(arrays, start, q / self.mirror) if self.sweep_limit > 0 else None
+        previous = state.previous_content_m3 if order == 2 else state.content_m3
+        weights = (history[0], history[1] if order == 2 else 0.0)
+        volume = np.empty(self.grid.n_nodes)
+        step_source(
+            self._gap_m3, self.wx, self.wy, ex, ey, beta / dt, 1.0 / dt, weights, state.content_m3, previous,
+            arrays, volume,
+        )  # fmt: skip
+        arrays.rhs[self.grid.groove_node] += q / self.mirror
+        sweep = self._sweeps(arrays, state, guess, q / self.mirror) if self.sweep_limit > 0 else None
         if sweep is not None and sweep[3]:
             p, theta, full = sweep[0], sweep[1], sweep[2]
             iteration, linear = 0, 0
@@ -283,9 +284,11 @@ class TransientFilm:
             if sweep is not None:
                 self.fallbacks += 1
                 start = _Start(sweep[0], sweep[1], sweep[2])
+            else:
+                start = _extrapolated(state) if guess is None else guess
             p, theta, full, iteration, linear = self._active_set(arrays, start, max_iterations)
         # Volumes within the tolerance of a switch keep their (unclipped) solution: the balance stays exact.
-        content = theta * self.gap_volume_m3(e)
+        content = theta * volume
         return TransientFilmState(
             pressure_pa=p,
             fill_fraction=theta,
@@ -306,11 +309,25 @@ class TransientFilm:
             mirror=self.mirror,
         )
 
-    def _sweeps(self, arrays: StepArrays, start, q: float):
-        """Projected SOR or multigrid from ``start`` (:mod:`models.bearing.transient_sweep`): (p [Pa],
+    def _sweeps(self, arrays: StepArrays, state: TransientFilmState, guess, q: float):
+        """Projected SOR or multigrid (:mod:`models.bearing.transient_sweep`) from ``guess``, else from
+        ``state`` extrapolated in time (as :func:`_extrapolated`, compiled: ``sweep_start``): (p [Pa],
         theta, full, converged, sweeps, max |residual| / (U c L / 2))."""
-        p = np.where(start.full, np.maximum(start.pressure_pa, 0.0) / self.p_ref, 0.0)
-        theta = np.where(start.full, 1.0, np.minimum(start.fill_fraction, 1.0))
+        n = self.grid.n_nodes
+        p, theta = np.empty(n), np.empty(n)
+        start = state if guess is None else guess
+        extrapolate = guess is None and state.previous_pressure_pa is not None
+        sweep_start(
+            start.pressure_pa,
+            start.fill_fraction,
+            start.full,
+            state.previous_pressure_pa if extrapolate else start.pressure_pa,
+            state.previous_fill_fraction if extrapolate else start.fill_fraction,
+            extrapolate,
+            self.p_ref,
+            p,
+            theta,
+        )
         scale = self.couette_scale_m3_s / self.mirror  # the grid's own Couette flow (half the bearing's)
         limits = (self.residual_tolerance * scale, self.mass_tolerance * max(q, scale * 1e-3))
         if self._coarse is not None:

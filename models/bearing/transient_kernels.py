@@ -168,3 +168,41 @@ def _fill(clearance, ex, ey, circ, axial, ends, ap, at, end_conductance):
         g = h[f] * h[f] * h[f] * poiseuille_e[f]
         ap[diag_end[f]] += g
         end_conductance[f] = g
+
+
+@njit(cache=True)
+def step_source(gap_m3, wx, wy, ex, ey, storage_rate, inverse_dt, weights, content, previous, k, volume):
+    """A step's storage S_k = beta V_k / dt and right-hand side b_k = -(sum_i a_i m_k^{n-i}) / dt into
+    ``k`` (groove supply not added), and the gap volume V_k = A_k c + e_x wx_k + e_y wy_k into
+    ``volume``, in one pass. ``weights`` (a_0, a_1) are the BDF history weights (a_1 = 0: Euler, then
+    ``previous`` is not read); ``storage_rate`` = beta / dt."""
+    a0, a1 = weights
+    for i in range(volume.size):
+        v = gap_m3[i] + ex * wx[i] + ey * wy[i]
+        volume[i] = v
+        k.storage[i] = v * storage_rate
+        old = a0 * content[i] + a1 * previous[i] if a1 != 0.0 else a0 * content[i]
+        k.rhs[i] = old * -inverse_dt
+
+
+@njit(cache=True)
+def sweep_start(pressure, fill, full, previous_pressure, previous_fill, extrapolate, p_ref, p, theta):
+    """The sweeps' start (scaled pressure ``p``, ``theta``) from a film state: with ``extrapolate``, the
+    film extrapolated linearly in time from its last two steps (the partition following the
+    extrapolated pressure, theta kept in [0, 1 - 1e-12] where it is cavitated); else the state's own
+    unknowns on its partition ``full``."""
+    for i in range(p.size):
+        if extrapolate:
+            extrapolated = 2.0 * pressure[i] - previous_pressure[i]
+            if extrapolated > 0.0:
+                p[i] = extrapolated / p_ref
+                theta[i] = 1.0
+            else:
+                p[i] = 0.0
+                theta[i] = min(min(max(2.0 * fill[i] - previous_fill[i], 0.0), 1.0), 1.0 - 1e-12)
+        elif full[i]:
+            p[i] = max(pressure[i], 0.0) / p_ref
+            theta[i] = 1.0
+        else:
+            p[i] = 0.0
+            theta[i] = min(fill[i], 1.0)

@@ -40,7 +40,7 @@ from .transient_galerkin import build as build_coarse
 from .transient_galerkin import coarsest_solve
 from .transient_galerkin import update as update_coarse
 from .transient_kernels import StepArrays, transpose_slots
-from .transient_sweep import projected_sweep_residual, step_residual, sweep_factors
+from .transient_sweep import conserve_mass, projected_sweep_residual, step_residual, sweep_factors
 
 COARSE_SCALE = 1.7
 """Over-correction of every piecewise-constant coarse correction (1 would be the plain Galerkin one)."""
@@ -285,8 +285,9 @@ def multigrid_solve(
 
     Same acceptance as :func:`models.bearing.transient_sweep.sor_sweeps`, judged on the residual the
     sweep leaves (:func:`~models.bearing.transient_sweep.projected_sweep_residual`) and confirmed by
-    a fresh residual pass. Returns (cycles, max |r|, sum r, converged); a converged warm start costs
-    one residual pass."""
+    a fresh residual pass; when only the mass balance fails, the mass correction
+    (:func:`~models.bearing.transient_sweep.conserve_mass`) is tried. Returns (cycles, max |r|, sum r,
+    converged); a converged warm start costs one residual pass."""
     h = correction.arrays
     return _cycles(h, k, p, theta, residual_limit, mass_limit, max_cycles, relaxation, correction.smoothing)
 
@@ -307,6 +308,10 @@ def _cycles(h, k, p, theta, residual_limit, mass_limit, max_cycles, relaxation, 
         if worst <= residual_limit and abs(total) <= mass_limit:
             worst, total = step_residual(k, p, theta, work)
             if worst <= residual_limit and abs(total) <= mass_limit:
+                return cycle, worst, total, True
+        elif worst <= residual_limit:
+            worst, total, accepted = conserve_mass(k, p, theta, work, residual_limit, mass_limit)
+            if accepted:
                 return cycle, worst, total, True
         n_switched = 0
         for i in range(n):

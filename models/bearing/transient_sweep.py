@@ -19,6 +19,16 @@ times the Couette flow U c L / 2 AND |sum_k r_k| <= ``mass_tolerance`` times the
 sum is exactly the step's mass-balance error (the fluxes telescope), so the accepted step meets the
 same mass balance as the direct solve. The caller falls back to the active-set solve otherwise.
 
+Mass correction (:func:`conserve_mass`): once every volume meets its tolerance, what is left of the
+step's mass-balance error is removed by one uniform shift of the fill fraction of the cavitated
+volumes. Their theta columns sum to S_k (the Couette fluxes telescope), so the shift
+delta = sum r / sum S zeroes the error; a volume's residual moves by at most delta times its row's
+fill coefficients (S_k and its Couette inflow and outflow, all of the order of S_k on the production
+mesh), the error spread over thousands of volumes (tested). This is a one-dimensional coarse space
+of the oil content, applied where it pays: on 240 x 72 at the plant's tolerances the residual sum
+met its tolerance 1-3 cycles after the volumes met theirs (each cycle cutting the residuals about
+3-fold once the partition settled, by cycle 4). The step is accepted only on a fresh residual pass.
+
 The kernels take the step's arrays as one :class:`models.bearing.transient_kernels.StepArrays`.
 """
 
@@ -52,34 +62,54 @@ def step_residual(k: StepArrays, p, theta, out):
 
 @njit(cache=True)
 def sweep_factors(k: StepArrays):
-    """Per volume: 1 / Ap[k, k], the outflow At[k, k] + S_k of a full volume and its inverse."""
+    """Per volume: 1 / Ap[k, k], the outflow At[k, k] + S_k of a full volume, its inverse, and the
+    pressure that outflow needs, (At[k, k] + S_k) / Ap[k, k]."""
     diag, ap, at, storage = k.diag, k.ap, k.at, k.storage
     n = storage.size
     inverse_conductance = np.empty(n)
     outflow = np.empty(n)
     inverse_outflow = np.empty(n)
+    outflow_pressure = np.empty(n)
     for i in range(n):
         d = diag[i]
         inverse_conductance[i] = 1.0 / ap[d]
         outflow[i] = at[d] + storage[i]
         inverse_outflow[i] = 1.0 / outflow[i]
-    return inverse_conductance, outflow, inverse_outflow
+        outflow_pressure[i] = outflow[i] * inverse_conductance[i]
+    return inverse_conductance, outflow, inverse_outflow, outflow_pressure
 
 
 @njit(cache=True, inline="always")
 def _relax(i, k: StepArrays, factors, p, theta, relaxation):
     """Ausas' projected update of volume ``i``; returns b, the balance's right-hand side less the
-    neighbours' flows (the own terms added back)."""
-    inverse_conductance, outflow, inverse_outflow = factors
+    neighbours' flows.
+
+    The flows of the neighbours that are settled are summed first; the neighbour updated just before
+    ``i`` (the slot left of the diagonal in the node order) enters last, and the pressure follows from
+    it by one multiply-add (p_new = base + gain b, base and gain set before it is read, the division a
+    precomputed inverse): the sweep waits on that chain at every volume. Selects rather than branches
+    keep numba's inlined code as fast as a hand-inlined loop. The update of the textbook form, to
+    rounding."""
+    inverse_conductance, inverse_outflow, outflow_pressure = factors[0], factors[2], factors[3]
     indptr, indices, ap, at = k.indptr, k.indices, k.ap, k.at
     d = k.diag[i]
-    flow = 0.0
-    for s in range(indptr[i], indptr[i + 1]):
+    first = indptr[i]
+    rest = k.rhs[i]
+    for s in range(first, d - 1):
         j = indices[s]
-        flow += ap[s] * p[j] + at[s] * theta[j]
-    b = k.rhs[i] - flow + ap[d] * p[i] + at[d] * theta[i]
-    p_full = (b - outflow[i]) * inverse_conductance[i]
-    p_new = p[i] + relaxation * (p_full - p[i]) if theta[i] >= 1.0 else p_full
+        rest -= ap[s] * p[j] + at[s] * theta[j]
+    for s in range(d + 1, indptr[i + 1]):
+        j = indices[s]
+        rest -= ap[s] * p[j] + at[s] * theta[j]
+    # A full volume's pressure is over-relaxed: p + w (p_full - p), p_full = b / Ap[k, k] - outflow pressure.
+    factor = relaxation if theta[i] >= 1.0 else 1.0
+    gain = factor * inverse_conductance[i]
+    base = (1.0 - factor) * p[i] - factor * outflow_pressure[i]
+    t = d - 1 if d > first else d
+    j = indices[t]
+    latest = (ap[t] * p[j] + at[t] * theta[j]) if t != d else 0.0
+    b = rest - latest
+    p_new = (base + gain * rest) - gain * latest
     if p_new > 0.0:
         p[i] = p_new
         theta[i] = 1.0
@@ -134,12 +164,34 @@ def projected_sweep_residual(k: StepArrays, factors, p, theta, relaxation, out):
 
 
 @njit(cache=True)
+def conserve_mass(k: StepArrays, p, theta, out, residual_limit, mass_limit):
+    """The mass correction (see the module docstring) of an iterate whose volumes all meet
+    ``residual_limit``: theta += sum r / sum S on the cavitated volumes (kept in [0, 1]), then a fresh
+    residual into ``out``. Returns (max |r|, sum r, accepted). ``out`` holds the iterate's residual
+    on entry."""
+    total = 0.0
+    storage = 0.0
+    for i in range(theta.size):
+        total += out[i]
+        if theta[i] < 1.0:
+            storage += k.storage[i]
+    if storage <= 0.0:
+        return np.abs(out).max(), total, False
+    delta = total / storage
+    for i in range(theta.size):
+        if theta[i] < 1.0:
+            theta[i] = min(max(theta[i] + delta, 0.0), 1.0)
+    worst, total = step_residual(k, p, theta, out)
+    return worst, total, worst <= residual_limit and abs(total) <= mass_limit
+
+
+@njit(cache=True)
 def sor_sweeps(k: StepArrays, p, theta, relaxation, residual_limit, mass_limit, max_sweeps, check_every):
     """Projected SOR on the step's balances, in place on ``p`` (scaled pressure) and ``theta``.
 
     residual_limit, mass_limit [m^3/s]. Returns (sweeps, max |r|, sum r, converged). The residual is
     checked before the first sweep (a converged warm start costs one residual pass) and then every
-    ``check_every`` sweeps.
+    ``check_every`` sweeps; when only the mass balance fails, :func:`conserve_mass` is tried.
     """
     work = np.empty(p.size)
     worst, total = step_residual(k, p, theta, work)
@@ -154,4 +206,8 @@ def sor_sweeps(k: StepArrays, p, theta, relaxation, residual_limit, mass_limit, 
         worst, total = step_residual(k, p, theta, work)
         if worst <= residual_limit and abs(total) <= mass_limit:
             return done, worst, total, True
+        if worst <= residual_limit:
+            worst, total, accepted = conserve_mass(k, p, theta, work, residual_limit, mass_limit)
+            if accepted:
+                return done, worst, total, True
     return max_sweeps, worst, total, False

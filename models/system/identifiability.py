@@ -352,7 +352,8 @@ def trajectory_information(
     return information
 
 
-def _columns(groups) -> list[int]:
+def parameter_columns(groups) -> list[int]:
+    """Columns of :data:`TRAJECTORY_PARAMETERS` of the flowrates and the nuisance ``groups``."""
     unknown = [g for g in groups if g not in _GROUP_COLUMNS]
     if unknown:
         raise InputError(f"nuisance groups must be among {tuple(_GROUP_COLUMNS)}, got {unknown}")
@@ -363,7 +364,7 @@ def nuisance_prior(information: np.ndarray, groups, drift_std: dict[str, float] 
     """(10, 10) prior information on the nuisances from a baseline record's ``information`` at known q: its
     nuisance block of the ``groups`` (other nuisances known), with ``drift_std`` (per parameter-name prefix,
     in the parameter's unit, e.g. ``{"offset": 3.0}`` um) added as variance since the baseline."""
-    columns = _columns(groups)[2:]
+    columns = parameter_columns(groups)[2:]
     covariance = np.linalg.inv(information[np.ix_(columns, columns)])
     for i, c in enumerate(columns):
         for prefix, std in (drift_std or {}).items():
@@ -377,7 +378,7 @@ def nuisance_prior(information: np.ndarray, groups, drift_std: dict[str, float] 
 def trajectory_bound_pct(information: np.ndarray, groups, prior: np.ndarray | None = None) -> np.ndarray:
     """(2,) bound on (q1, q2) [% of the true flowrates] with the nuisance ``groups`` unknown (the others
     known), from :func:`trajectory_information` plus an optional prior (:func:`nuisance_prior`)."""
-    columns = _columns(groups)
+    columns = parameter_columns(groups)
     total = information if prior is None else information + prior
     block = total[np.ix_(columns, columns)]
     if np.linalg.cond(block) > MAX_CONDITION:
@@ -403,7 +404,7 @@ def tracking_bound_pct(
     stds and random-walk intensities. The nuisances outside ``groups`` are known. The dynamic states are
     taken as determined by the parameters (quasi-steady: they settle in the least damped mode's 72 ms).
     """
-    columns = _columns(groups)
+    columns = parameter_columns(groups)
     covariance = np.diag(np.asarray(prior_std, dtype=float)[columns] ** 2)
     walk = np.diag(np.asarray(walk_std_per_sqrt_s, dtype=float)[columns] ** 2)
     for rate, seconds in segment_information:

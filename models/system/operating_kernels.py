@@ -87,11 +87,14 @@ class OperatingArrays(NamedTuple):
 
 
 @numba.njit(cache=True)
-def operating_transition(arrays, state, w, unbalance, q1, q2, f1, f2, with_factors, step):  # pragma: no cover
+def operating_transition(
+    arrays, state, w, phase, unbalance, q1, q2, f1, f2, with_factors, step
+):  # pragma: no cover - compiled
     """The model's transition from ``state`` at flowrates (q1, q2), viscosity factors (f1, f2) (exactly 1
-    unless ``with_factors``), exogenous input ``w`` (3,) and the unbalance (a, b) when ``unbalance`` has 2
-    entries, into the output arrays; :data:`GRID_ONLY` or :data:`CORRECTED`, or :data:`RECENTRE` (and nothing
-    computed) when the centre must move first.
+    unless ``with_factors``), exogenous input ``w`` (3,) (``[1, cos, sin]`` of ``phase`` written into it
+    unless ``phase`` is NaN) and the unbalance (a, b) when ``unbalance`` has 2 entries, into the output
+    arrays: :data:`GRID_ONLY` or :data:`CORRECTED`; or :data:`RECENTRE` (and nothing computed) when the
+    centre must move first.
 
     As the model's docstring: at the reference point without factors today's grid map exactly; else the
     correction ``sum_k c_k (A_k s + G_k w)`` with ``c = (1, q - q_c, p - p_c)`` (``c = 0`` at the reference
@@ -131,6 +134,8 @@ def operating_transition(arrays, state, w, unbalance, q1, q2, f1, f2, with_facto
             coefficients[0] = 1.0
             for k in range(5):
                 coefficients[k + 1] = point[k] - centre[k]
+    if not math.isnan(phase):
+        w[0], w[1], w[2] = 1.0, math.cos(phase), math.sin(phase)
     loaded[0] = w[0]
     with_unbalance = unbalance.shape[0] == 2
     if with_unbalance:

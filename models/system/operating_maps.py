@@ -114,7 +114,7 @@ class OperatingMaps:
         nb = len(self._loads)
         count = len(points)
         omega = np.array([2.0 * math.pi * float(speed) for _, speed, _ in points])
-        rows = self._rows(points, synchronous=False)  # (P, nb, 10)
+        rows, synchronous = self._table_rows(points)  # (P, nb, 10) each
         e, k, c = (
             rows[..., 0:2],
             rows[..., 2:6].reshape(count, nb, 2, 2),
@@ -132,7 +132,7 @@ class OperatingMaps:
         loads[:, :, 1] = self._loads
         loads += np.einsum("pbac,pbc->pba", k, e)
         force = self._minv_gravity + np.einsum("bia,pba->pi", minv_maps, loads)
-        unbalance = self._unbalance_forces(points, omega, k, c)  # (P, n) complex
+        unbalance = self._unbalance_forces(synchronous, omega, k, c)  # (P, n) complex
         block = np.zeros((count, 2 * n + 3, 2 * n + 3))
         block[:, :n, n : 2 * n] = np.eye(n)
         block[:, n : 2 * n, :n] = -stiffness
@@ -148,32 +148,36 @@ class OperatingMaps:
         block[:, 2 * n + 2, 2 * n + 1] = omega
         return block
 
-    def _rows(self, points, synchronous: bool) -> np.ndarray:
-        """The table rows (P, nb, 10) of each bearing at each point, one ``rows`` call per table slice."""
-        wanted: dict[tuple, list[tuple[int, int, float]]] = {}
+    def _table_rows(self, points) -> tuple[np.ndarray, np.ndarray | None]:
+        """The quasi-static and (with a synchronous table, else None) synchronous table rows (P, nb, 10) of
+        each bearing at each point, one ``rows`` call per table slice."""
+        wanted: dict[tuple, tuple[list[int], list[int], list[float]]] = {}
         for p, (flowrates, speed, viscosities) in enumerate(points):
             for b, (q, mu, load) in enumerate(zip(flowrates, viscosities, self._loads, strict=True)):
-                key = (float(speed), float(mu), load)
-                wanted.setdefault(key, []).append((p, b, float(q)))
-        rows = np.empty((len(points), len(self._loads), 10))
-        for (speed, mu, load), where in wanted.items():
-            values = self._slice(speed, mu, load, synchronous).rows(np.array([q for _, _, q in where]))
-            for (p, b, _), value in zip(where, values, strict=True):
-                rows[p, b] = value
-        return rows
+                where = wanted.setdefault((float(speed), float(mu), load), ([], [], []))
+                where[0].append(p)
+                where[1].append(b)
+                where[2].append(float(q))
+        kinds = (False,) if self.synchronous_table is None else (False, True)
+        rows = np.empty((len(kinds), len(points), len(self._loads), 10))
+        for (speed, mu, load), (ps, bs, qs) in wanted.items():
+            flowrates = np.array(qs)
+            for kind in kinds:
+                rows[int(kind), ps, bs] = self._slice(speed, mu, load, kind).rows(flowrates)
+        return rows[0], (rows[1] if len(kinds) == 2 else None)
 
-    def _unbalance_forces(self, points, omega: np.ndarray, k: np.ndarray, c: np.ndarray) -> np.ndarray:
-        """The 1x load (P, n) complex at each point: the system's unbalance force, or with synchronous
-        tables the effective load of the synchronous orbit (module docstring), times (Omega / Omega_0)^2.
+    def _unbalance_forces(self, synchronous, omega: np.ndarray, k: np.ndarray, c: np.ndarray) -> np.ndarray:
+        """The 1x load (P, n) complex at each point: the system's unbalance force, or with the synchronous
+        table's rows (P, nb, 10) the effective load of the synchronous orbit (module docstring), times
+        (Omega / Omega_0)^2.
 
         The orbit is one stacked direct solve of ``(K - w^2 M + i w (C_s + w G) + P^T Z_s P) x = F_1`` for
         all points (the orbit ``RotorBearingSystem.synchronous_unit_load`` finds through its reference
         response, exact for any reference), then ``F_eff = F_1 - P^T (Z_s - Z_qs) P x``."""
         sys = self.system
         scale = (omega / self._reference_omega) ** 2
-        if self.synchronous_table is None:
+        if synchronous is None:
             return scale[:, None] * sys.unbalance_force[None, :]
-        synchronous = self._rows(points, synchronous=True)
         count, nb = synchronous.shape[0], synchronous.shape[1]
         k_s = synchronous[..., 2:6].reshape(count, nb, 2, 2)
         c_s = synchronous[..., 6:10].reshape(count, nb, 2, 2)

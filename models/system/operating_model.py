@@ -287,19 +287,19 @@ class OperatingAugmentedModel:
             f1 = f2 = 1.0
         w = self._w
         if exogenous is None:
-            phase = self._transition_phase(step)
-            w[0], w[1], w[2] = 1.0, math.cos(phase), math.sin(phase)
+            phase = self._transition_phase(step)  # w from it in the compiled call
         else:
+            phase = math.nan
             w[:] = exogenous
         self._grid.check_flowrates(q1, q2)
         state = np.ascontiguousarray(state, dtype=np.float64)
         u = self._no_unbalance if unbalance is None else np.ascontiguousarray(unbalance, dtype=np.float64)
         arrays = self._kernel_arrays
-        answer = operating_transition(arrays, state, w, u, q1, q2, f1, f2, with_factors, step)
+        answer = operating_transition(arrays, state, w, phase, u, q1, q2, f1, f2, with_factors, step)
         if answer == RECENTRE:
             self._recentre(self._held[HELD_POINT : HELD_POINT + 5].copy())
             self._held[HELD_CENTRE_STEP] = step
-            answer = operating_transition(arrays, state, w, u, q1, q2, f1, f2, with_factors, step)
+            answer = operating_transition(arrays, state, w, phase, u, q1, q2, f1, f2, with_factors, step)
         a = self._arrays
         return (
             a.next_state,

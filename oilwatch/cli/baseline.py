@@ -60,6 +60,12 @@ def register(subparsers) -> None:
         help="prior std of each bearing's viscosity factor (film over the oil law at the measured "
         "temperature), e.g. 0.1: needs a record of tens of seconds (README); 0: not estimated (default: 0)",
     )
+    parser.add_argument(
+        "--record-start",
+        metavar="TIME",
+        help="when the commissioning record started, ISO 8601 in UTC: stored as record_start_utc, against "
+        "which 'oilwatch estimate --record-start' ages the baseline (default: not stored, age unknown)",
+    )
     parser.add_argument("--out", required=True, metavar="FILE", help="baseline JSON to write")
     parser.set_defaults(func=run)
 
@@ -214,6 +220,9 @@ def run(args: argparse.Namespace) -> int:
         unbalance_prior_std=args.unbalance_prior,
         viscosity_factor_prior_std=args.viscosity_prior,
     )
+    from oilwatch.monitoring.baseline_age import BASELINE_START_KEY, parse_utc
+
+    start = None if args.record_start is None else parse_utc(args.record_start, "--record-start")
     document = estimate_baseline(
         model,
         positions,
@@ -223,6 +232,8 @@ def run(args: argparse.Namespace) -> int:
         oil_temperature_c=operating.get("oil_temperature_c"),
     )
     document.update(record=str(args.record), machine_file=args.machine)
+    if start is not None:  # the baseline's age in estimate (oilwatch.monitoring.baseline_age)
+        document[BASELINE_START_KEY] = start.isoformat()
     if runout is not None:
         document.update(runout=runout.to_document(), slow_roll_record=str(args.slow_roll_record))
     save_baseline(document, args.out)

@@ -44,6 +44,13 @@ def register(subparsers) -> None:
         "machine file's [probes] offset_prior_std_um, 25 um for the turbine)",
     )
     parser.add_argument(
+        "--record-start",
+        metavar="TIME",
+        help="when the record started, ISO 8601 in UTC (e.g. 2026-12-01T08:00:00Z): with a --baseline that "
+        "records its own start, the baseline's age widens the offsets' prior by the machine file's [probes] "
+        "offset_drift_um_per_day (default: age unknown, not widened)",
+    )
+    parser.add_argument(
         "--offset-prior-um",
         type=float,
         metavar="STD",
@@ -110,6 +117,12 @@ def run(args: argparse.Namespace) -> int:
             load_baseline(args.baseline)  # a bad file fails here, before any record is read
         except InputError as error:
             raise InputError(f"--baseline: {error}") from None
+    if args.record_start is not None:
+        from oilwatch.monitoring.baseline_age import baseline_age_days, parse_utc
+
+        parse_utc(args.record_start, "--record-start")
+        if args.baseline is not None:
+            baseline_age_days(args.baseline, args.record_start)  # a baseline newer than the record fails here
     if args.offset_prior_um is not None:
         from models.validation import require_in_range
 
@@ -123,6 +136,7 @@ def run(args: argparse.Namespace) -> int:
         views=not args.no_views,
         live=live,
         operating_point=args.operating_point,
+        record_start=args.record_start,
     )
     if len(args.records) > 1:
         return _run_many(args, options)

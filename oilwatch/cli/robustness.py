@@ -98,7 +98,9 @@ def _rows_from_json(paths) -> list[dict]:
             raise InputError(f"--from-json {path}: not a robustness.json ({error})") from None
         from oilwatch.robustness.runner import with_case_bounds
 
-        for row in with_case_bounds(found, document["settings"]):
+        settings = document.get("settings") if isinstance(document, dict) else None
+        # the bound of each row's own configuration (a file without its run's settings keeps its own)
+        for row in found if settings is None else with_case_bounds(found, settings):
             rows[(row["case"], row["q1_pct"], row["q2_pct"])] = row
     from oilwatch.robustness import CASES
 

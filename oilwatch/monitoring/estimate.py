@@ -97,6 +97,9 @@ class EstimateOptions:
     chunk_rows: int = 8192
     views: bool = True
     live: bool = False
+    record_start: str | None = None
+    """When the record started (ISO 8601, UTC): with a baseline file that records its own start, the
+    baseline's age, which widens its offsets prior (:mod:`oilwatch.monitoring.baseline_age`)."""
     operating_point: str = "auto"
     """``follow``: the estimator's operating model follows the record's speed and oil temperature (the
     estimator FMU's ``bearing_table = 1``); ``nominal``: the model at the machine's nominal speed and
@@ -106,19 +109,21 @@ class EstimateOptions:
 
 def estimator_model(machine_file: str | None, dt_s: float = ESTIMATOR_DT_S, follow: bool = False):
     """The estimator's model of a machine file: the reduced system at the nominal point (the estimator FMU's
-    ``bearing_table = 0``), built once per process (a Dask worker keeps it), or, with ``follow``, its
-    operating model on the dimensionless tables (``bearing_table = 1``), built afresh on every call: its
-    correction centre is state the filter's reset does not clear (as in the FMU, which builds one per
-    instance), so a cached one would make a record's estimates depend on what ran before it."""
-    from models.system.augmented import GridAugmentedModel
-
-    if follow:
-        from models.system.operating_model import build_operating_model
-
-        return build_operating_model(_reduced_system(machine_file), load_machine(machine_file), dt_s)
-    key = (machine_file, dt_s)
+    ``bearing_table = 0``) or, with ``follow``, its operating model on the dimensionless tables
+    (``bearing_table = 1``); each built once per process (a Dask worker keeps it). A filter built on the
+    operating model resets it to its just-built state (``OilFlowEKF.reset``: no correction centre survives),
+    so a record's estimates do not depend on what ran on it before (tests/test_estimate_model_cache.py)."""
+    key = (machine_file, dt_s, follow)
     if key not in _MODELS:
-        _MODELS[key] = GridAugmentedModel(_reduced_system(machine_file), dt_s)
+        if follow:
+            from models.system.operating_model import build_operating_model
+
+            model = build_operating_model(_reduced_system(machine_file), load_machine(machine_file), dt_s)
+        else:
+            from models.system.augmented import GridAugmentedModel
+
+            model = GridAugmentedModel(_reduced_system(machine_file), dt_s)
+        _MODELS[key] = model
     return _MODELS[key]
 
 
@@ -202,11 +207,16 @@ class EstimateRun:
             self.probes = dataclasses.replace(
                 self.probes, offset_prior_std_m=options.offset_prior_std_um * 1e-6
             )
-        self.baseline = None
+        self.baseline, self.baseline_age_days = None, None
         if options.baseline_file is not None:
             from estimator.baseline import load_baseline
 
-            self.baseline = load_baseline(options.baseline_file)
+            from .baseline_age import baseline_age_days
+
+            self.baseline_age_days = baseline_age_days(options.baseline_file, options.record_start)
+            age_s = 0.0 if self.baseline_age_days is None else 86400.0 * self.baseline_age_days
+            drift = self.probes.offset_drift_m_per_day
+            self.baseline = load_baseline(options.baseline_file, age_s, drift)
         chunk_rows = 1 if source == STDIN and options.live else options.chunk_rows
         self.stream = RecordStream(
             source,

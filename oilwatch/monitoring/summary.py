@@ -45,6 +45,7 @@ def summarize(run, wall_s: float, csv_path: Path) -> dict:
             "offset_prior_std_um": round(run.filter.config.offset_prior_std_m * 1e6, 9),
             "probe_angle_deg": run.probe_angle_deg,
             "baseline_file": run.options.baseline_file,
+            "baseline_age_days": run.baseline_age_days,  # None: unknown, the prior not widened by drift
             "runout": run.runout_source,
         },
         "q_nominal_ml_min": nominal,

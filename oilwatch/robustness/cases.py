@@ -216,6 +216,22 @@ CASES: tuple[Case, ...] = (
         listed=False,
     ),
     Case(
+        "temperature-ramp-baseline",
+        "the same temperature ramp, baseline (factors, unbalance, offsets) at the ramp's start conditions",
+        temperature_rise_c=10.0,
+        operating_point=True,
+        baseline=True,
+        listed=False,
+    ),
+    Case(
+        "speed-ramp-baseline",
+        "the same speed ramp, baseline (factors, unbalance, offsets) at the ramp's start speed (72 Hz)",
+        speed_ramp_hz=(72.0, 78.0),
+        operating_point=True,
+        baseline=True,
+        listed=False,
+    ),
+    Case(
         "runout",
         "runout 2 um at 1x and 1 um at 2x on every probe, slow-roll compensation",
         runout=True,
