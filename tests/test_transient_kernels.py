@@ -44,6 +44,8 @@ def test_assembly_is_the_discretization(half):
     assert np.array_equal(arrays.transpose[arrays.transpose], slots)
     rows = arrays.rows
     assert np.array_equal(rows[arrays.transpose], arrays.indices)
+    assert np.array_equal(arrays.ap[arrays.transpose], arrays.ap)  # bitwise symmetric: the sweep relies on it
+    assert np.array_equal(arrays.at_transpose, arrays.at[arrays.transpose])
 
 
 def test_sweep_leaves_the_true_residual():

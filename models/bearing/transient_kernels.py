@@ -31,7 +31,9 @@ from .grid import FilmGrid
 class StepArrays(NamedTuple):
     """Pattern (indptr, indices, diag, rows, transpose: the slot of entry (j, k) for the slot of (k, j))
     and the step's coefficients: ap (nnz,) Poiseuille [m^3/s per scaled pressure], at (nnz,) Couette
-    [m^3/s], storage (n,) S_k [m^3/s] and rhs (n,) b_k [m^3/s]."""
+    [m^3/s], storage (n,) S_k [m^3/s] and rhs (n,) b_k [m^3/s]; at_transpose (nnz,) the Couette entry
+    of every slot's transpose, ``at[transpose]`` (Ap is symmetric, bitwise: each face adds the same
+    conductance to both of its slots), so the sweep that keeps its residual reads both row-wise."""
 
     indptr: np.ndarray
     indices: np.ndarray
@@ -42,6 +44,7 @@ class StepArrays(NamedTuple):
     at: np.ndarray
     storage: np.ndarray
     rhs: np.ndarray
+    at_transpose: np.ndarray
 
 
 def transpose_slots(pattern: sp.csr_matrix) -> np.ndarray:
@@ -115,12 +118,14 @@ class StepAssembly:
             at=np.zeros(pattern.nnz),
             storage=np.zeros(n),
             rhs=np.zeros(n),
+            at_transpose=np.zeros(pattern.nnz),
         )
 
     def fill(self, ex: float, ey: float) -> StepArrays:
         """Ap and At of :attr:`arrays` for the journal at (ex, ey) [m], in place; returns the arrays."""
         a = self.arrays
         _fill(self.clearance_m, ex, ey, self.circ, self.axial, self.ends, a.ap, a.at, self.end_conductance)
+        _gather(a.at, a.transpose, a.at_transpose)
         return a
 
     def side_leakage(self, p) -> float:
@@ -143,6 +148,12 @@ def _add_poiseuille(h, poiseuille, diag_a, diag_b, slot_ab, slot_ba, ap):
         ap[diag_b[f]] += g
         ap[slot_ab[f]] -= g
         ap[slot_ba[f]] -= g
+
+
+@njit(cache=True)
+def _gather(values, slots, out):
+    for s in range(out.size):
+        out[s] = values[slots[s]]
 
 
 @njit(cache=True)

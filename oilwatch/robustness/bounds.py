@@ -36,7 +36,7 @@ from models.system.nuisance_bound import nuisance_bound
 from .cases import DRIFT_M, Case
 
 SEGMENTS = 12
-"""Quasi-steady segments along a record (5 s each for 60 s): the bound moved by < 1 % from 6 to 24."""
+"""Quasi-steady segments along a record (5 s each for 60 s): 24 move the bound by < 1 % (a test)."""
 
 
 def free_groups(case: Case, settings: dict) -> tuple[str, ...]:
