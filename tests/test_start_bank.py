@@ -15,13 +15,13 @@ import dataclasses
 import numpy as np
 import pytest
 
-from estimator.config import EKFConfig, OffsetBaseline
+from estimator.config import OffsetBaseline
 from estimator.ekf import OilFlowEKF
 from estimator.start_bank import START_FRACTIONS, StartBank
 from models.machine import load_machine
 from models.system.factory import build_system
 from models.system.operating_model import build_operating_model
-from tests.test_nuisance_start import DT, _record
+from tests.test_nuisance_start import DT, _record, free_config
 
 
 @pytest.fixture(scope="module")
@@ -30,17 +30,8 @@ def model():
     return build_operating_model(build_system(machine, reduced=True), machine, DT)
 
 
-def _config():
-    return EKFConfig.recommended(
-        first_sample_time_s=DT,
-        offset_prior_std_m=25e-6,
-        unbalance_prior_std=2.0,
-        viscosity_factor_prior_std=0.1,
-    )
-
-
 def test_the_bank_applies_only_to_free_factors_without_a_baseline():
-    config = _config()
+    config = free_config()
     assert StartBank.applies(config)
     assert not StartBank.applies(dataclasses.replace(config, viscosity_factor_prior_std=0.0))
     assert not StartBank.applies(dataclasses.replace(config, flowrate_process_std_m3_s=0.0))
@@ -52,7 +43,7 @@ def test_the_bank_applies_only_to_free_factors_without_a_baseline():
 
 
 def test_the_bank_reports_the_nominal_start_then_continues_the_least_nis_start_exactly(model):
-    config = _config()
+    config = free_config()
     steps, select_s = 1400, 1.0
     record = _record(model, steps, 1.0)
     bank = StartBank(model, config, select_s=select_s)
@@ -66,7 +57,7 @@ def test_the_bank_reports_the_nominal_start_then_continues_the_least_nis_start_e
 
 
 def test_a_start_below_nominal_wins_on_a_low_flow_record_and_continues_as_that_filter_alone(model):
-    config = _config()
+    config = free_config()
     steps, select_s, fractions = 1400, 1.0, (1.0, 0.8)
     record = _record(model, steps, 0.8)
     bank = StartBank(model, config, fractions=fractions, select_s=select_s)
