@@ -11,7 +11,8 @@ q1/q2 estimate and std, four Booleans: starved1, starved2, converged, measuremen
 ``bearing_table`` 0, constant conditions (the plant at 80 % flow on both bearings from t = 0, 1 um noise).
 The plant's own step and the reads of the values the host carries are outside the timed span.
 
-Printed: median, p10 and p90 over the timed steps (after the warm-up), per host run, in us; with
+Printed: median, p10, p90 and mean over the timed steps (after the warm-up), per host run, in us (the mean
+is what fmpy's row is: time per pass / steps); with
 ``--fmpy`` then ``benchmarks/ekf_fmu_step.py --constant-only`` on the same EKF FMU in the same invocation
 (its fmpy row is the mean per step of each pass, median over passes), and the 1-min load average.
 
@@ -126,7 +127,10 @@ def main() -> None:
             plant, ekf = build(tmp / "fmus")
         host = compile_host(tmp)
         print(f"EKF FMU per step in the C host [us], {args.steps} steps after {args.warmup} of warm-up")
-        print(f"{'run':<6} {'CPU med':>8} {'p10':>7} {'p90':>7} {'wall med':>9} {'p10':>7} {'p90':>7}")
+        print(
+            f"{'run':<6} {'CPU med':>8} {'p10':>7} {'p90':>7} {'mean':>7}"
+            f" {'wall med':>9} {'p10':>7} {'p90':>7} {'mean':>7}"
+        )
         every = []
         for run in range(args.runs):
             folder = tmp / f"run{run}"
@@ -155,8 +159,10 @@ def main() -> None:
 
 def _row(label: str, timed: np.ndarray) -> str:
     cpu, wall = timed[:, 0], timed[:, 1]
-    q = lambda a: np.percentile(a, [50, 10, 90])  # noqa: E731
-    return f"{label:<6} " + "{:8.1f} {:7.1f} {:7.1f} {:9.1f} {:7.1f} {:7.1f}".format(*q(cpu), *q(wall))
+    q = lambda a: [*np.percentile(a, [50, 10, 90]), a.mean()]  # noqa: E731
+    return f"{label:<6} " + "{:8.1f} {:7.1f} {:7.1f} {:7.1f} {:9.1f} {:7.1f} {:7.1f} {:7.1f}".format(
+        *q(cpu), *q(wall)
+    )
 
 
 if __name__ == "__main__":
