@@ -76,7 +76,15 @@ from .nuisance_start import InformationFloor, ShadowJacobian, restart_parameters
 from .reports import EstimateTrace, StepReport
 from .runout import RunoutCompensation
 from .state import export_state, import_state
-from .step_kernel import COUNT_SINCE_UPDATE, COUNT_STEP, REPORT_FLOWRATE, REPORT_SIZE, REPORT_STD, ekf_step
+from .step_kernel import (
+    COUNT_SINCE_UPDATE,
+    COUNT_STEP,
+    REPORT_FLOWRATE,
+    REPORT_SIZE,
+    REPORT_STD,
+    SUMMARY_STD_FLOOR,
+    ekf_step,
+)
 
 __all__ = ["MIN_VISCOSITY_FACTOR", "EstimateTrace", "OilFlowEKF", "StepReport"]
 
@@ -231,6 +239,7 @@ class OilFlowEKF(FilterReporting, BatchRuns):
         self._nis_sums = np.zeros(2)
         self._changing = np.zeros(2, dtype=bool)
         self._process_noise[n : n + 2, n : n + 2] = self._q_var * np.eye(2)
+        self._summary_settings[SUMMARY_STD_FLOOR : SUMMARY_STD_FLOOR + 2] = 0.0  # the alarm's std floor
         self.alarm.clear()
         self._set_last(0.0, 0, False, False, True)
         # the compiled step's arrays (estimator.filter_arrays), renewed with the ones a reset replaces
@@ -344,6 +353,8 @@ class OilFlowEKF(FilterReporting, BatchRuns):
                 self._floor.advance(self._flowrate_si(), self.viscosity_factor, unbalance)
             reported = self._report[REPORT_STD : REPORT_STD + 2]
             np.maximum(reported, self._floor.std, out=reported)
+        if self._floor is not None and step >= self._settling:  # the alarm's floor from the next step
+            self._summary_settings[SUMMARY_STD_FLOOR : SUMMARY_STD_FLOOR + 2] = self._floor.std
 
     def _predict_with_model(
         self, model_step: int, state: np.ndarray | None = None
@@ -411,3 +422,7 @@ class OilFlowEKF(FilterReporting, BatchRuns):
             self._shadow.state = None if shadow is None else np.array(shadow, dtype=float)
         if self._floor is not None and "nuisance_floor" in state:
             self._floor.set_state(state["nuisance_floor"])
+            applied = int(self._counters[COUNT_STEP]) > self._settling
+            self._summary_settings[SUMMARY_STD_FLOOR : SUMMARY_STD_FLOOR + 2] = (
+                self._floor.std if applied else 0.0
+            )

@@ -46,8 +46,9 @@ N_COUNTERS = 6
     SUMMARY_CONVERGED_DRIFT,
     SUMMARY_UNBALANCE_WALK,
     SUMMARY_UNBALANCE_EXTRA,
-) = range(8)
-N_SUMMARY_SETTINGS = 8
+    SUMMARY_STD_FLOOR,  # and SUMMARY_STD_FLOOR + 1: the alarm's floor on each flowrate std [m^3/s] (0: none)
+) = range(9)
+N_SUMMARY_SETTINGS = 10
 
 
 @njit(cache=True)
@@ -216,6 +217,13 @@ def sample_step(
             variance += summary_settings[SUMMARY_UNBALANCE_EXTRA]
         process_noise[unbalance, unbalance] = variance
         process_noise[unbalance + 1, unbalance + 1] = variance
+    # the alarm judges each flowrate with its std floored (estimator.nuisance_start.InformationFloor, set
+    # by the filter; 0 otherwise); the report keeps the filter's own std (the filter floors it itself)
+    own_1, own_2 = report[REPORT_STD], report[REPORT_STD + 1]
+    if summary_settings[SUMMARY_STD_FLOOR] > own_1:
+        report[REPORT_STD] = summary_settings[SUMMARY_STD_FLOOR]
+    if summary_settings[SUMMARY_STD_FLOOR + 1] > own_2:
+        report[REPORT_STD + 1] = summary_settings[SUMMARY_STD_FLOOR + 1]
     update_alarm(
         report[REPORT_FLOWRATE : REPORT_FLOWRATE + 2],
         report[REPORT_STD : REPORT_STD + 2],
@@ -223,6 +231,7 @@ def sample_step(
         alarm_record,
         a.alarm_settings,
     )
+    report[REPORT_STD], report[REPORT_STD + 1] = own_1, own_2
     report[REPORT_NIS] = nis
     report[REPORT_ROWS] = rows
     report[REPORT_OK] = 1.0 if ok else 0.0

@@ -10,16 +10,9 @@ from models.machine import load_machine
 from models.system.identifiability import trajectory_bound_pct, trajectory_information
 from oilwatch.robustness import case_by_name
 from oilwatch.robustness.bounds import CaseBounds, configuration_label, free_groups
+from oilwatch.robustness.runner import REPORT_SETTINGS
 
-SETTINGS = {
-    "machine_file": None,
-    "duration_s": 60.0,
-    "noise_um": 1.0,
-    "seed": 1,
-    "offset_prior_um": 25.0,
-    "unbalance_prior": 2.0,
-    "viscosity_prior": 0.1,
-}
+SETTINGS = REPORT_SETTINGS
 
 
 def test_the_free_nuisances_baseline_drift_and_ramp_of_each_case_are_its_estimators():

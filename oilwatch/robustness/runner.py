@@ -10,7 +10,10 @@ Reported: error and the filter's own std (% of the true flowrate), their ratio, 
 detections (the alarm set at the end for a bearing below 90 %), the probes flagged faulty, the share of the
 second half with a consistent model, whether every alarm was raised under a consistent model, and the error
 over the nuisance Cramer-Rao bound of the case's own configuration (:mod:`.bounds`: the nuisances its
-estimator estimates, its baseline, its speed and temperature trajectory; the whole record).
+estimator estimates, its baseline, its speed and temperature trajectory; the whole record). With the
+viscosity factors free and no baseline for them the estimator is :class:`estimator.start_bank.StartBank`
+(several starts along the flowrates' prior, the record's NIS picks one); every other configuration runs
+one :class:`estimator.ekf.OilFlowEKF`.
 
 Cases run in worker processes (``workers``), each building the models once; each finished row is written at
 once to ``robustness.json``, so nothing is lost when the run is stopped.
@@ -34,6 +37,7 @@ from estimator.baseline import baseline_prior, estimate_baseline
 from estimator.config import EKFConfig
 from estimator.ekf import OilFlowEKF
 from estimator.runout import runout_of_probes
+from estimator.start_bank import StartBank
 from models.machine import load_machine
 from models.probes import read_probes
 from models.rotor.assembly import Rotor
@@ -50,6 +54,16 @@ from .slow_roll import slow_roll_vectors
 
 DT_S = 1e-3
 POINTS_PCT = ((100.0, 100.0), (80.0, 90.0))
+REPORT_SETTINGS = {
+    "machine_file": None,
+    "duration_s": 60.0,
+    "noise_um": 1.0,
+    "seed": 1,
+    "offset_prior_um": 25.0,
+    "unbalance_prior": 2.0,
+    "viscosity_prior": 0.1,
+}
+"""The settings of the README's robustness report (:func:`run_robustness`'s defaults)."""
 ALARM_LEVEL_PCT = 90.0
 HEALTHY_PCT = 95.0
 """A bearing at or above the alarm's clearing level (95 % of nominal) must never be alarmed; one at 90 %, the
@@ -252,7 +266,8 @@ class RobustnessRun:
         temperature (an estimator whose step takes them: issue 13's estimator side)."""
         if not (case.operating_point and self.follows_operating_point):
             return OilFlowEKF(self.model, config).run(signals), False
-        ekf = OilFlowEKF(self._operating_model(), config)
+        model = self._operating_model()
+        ekf = StartBank(model, config) if StartBank.applies(config) else OilFlowEKF(model, config)
         count = len(signals)
         trace = SimpleNamespace(
             q_m3_s=np.zeros((count, 2)),
