@@ -7,7 +7,9 @@ The host runs the plant and the estimator coupled (2 s at 1 ms) in a process sta
 measured signals bit for bit (same seed), the estimator's estimates within 1e-9 relative when fmpy
 feeds it the plant outputs the C host recorded. The host exits 0 only after freeing both instances
 and unloading both libraries. A missing environment must give fmi2Instantiate NULL and one logged
-message naming it, never a crash.
+message naming it, never a crash. The coupled run also times the estimator's steps (the host's
+``timing`` directive, used by benchmarks/ekf_fmu_c_host.py) and reads one Boolean output: the
+comparison with fmpy covers the host with both in use.
 """
 
 from __future__ import annotations
@@ -37,6 +39,7 @@ EKF_PARAMETERS = {"noise_um": 1.0}
 PLANT_OUTPUTS = ["x1_um", "y1_um", "x2_um", "y2_um", "t_sample_s", "q1_ml_min", "q2_ml_min"]
 CONNECTED = ["x1_um", "y1_um", "x2_um", "y2_um", "t_sample_s"]
 EKF_OUTPUTS = ["q1_est_ml_min", "q2_est_ml_min", "q1_std_ml_min", "q2_std_ml_min", "nis"]
+EKF_FLAGS = ["converged"]
 
 
 def _clean_environment(**extra) -> dict[str, str]:
@@ -103,10 +106,23 @@ def coupled(host, fmus, tmp_path_factory):
     spec += [f"connect plant {plant.vr(n)} ekf {ekf.vr(n)}" for n in CONNECTED]
     spec += [f"output plant {plant.vr(n)} {n}" for n in PLANT_OUTPUTS]
     spec += [f"output ekf {ekf.vr(n)} {n}" for n in EKF_OUTPUTS]
-    spec.append(f"run {STOP!r} {STEP!r}")
-    process, out = _run_host(host, spec, tmp_path_factory.mktemp("c_host_run"), _clean_environment())
+    spec += [f"boolean ekf {ekf.vr(n)} {n}" for n in EKF_FLAGS]
+    folder = tmp_path_factory.mktemp("c_host_run")
+    spec += [f"timing ekf {folder / 'timing.csv'}", f"run {STOP!r} {STEP!r}"]
+    process, out = _run_host(host, spec, folder, _clean_environment())
     print(process.stderr)
     return process, out
+
+
+def test_the_timing_directive_writes_one_positive_record_per_step(coupled):
+    process, out = coupled
+    assert process.returncode == 0, process.stderr
+    timing = np.genfromtxt(out.parent / "timing.csv", delimiter=",", names=True, dtype=np.int64)
+    assert list(timing.dtype.names) == ["step", "cpu_ns", "wall_ns"]
+    assert np.array_equal(timing["step"], np.arange(round(STOP / STEP)))
+    assert np.all(timing["cpu_ns"] > 0) and np.all(timing["wall_ns"] > 0)
+    flags = np.genfromtxt(out, delimiter=",", names=True)["converged"]
+    assert set(np.unique(flags)) <= {0.0, 1.0}
 
 
 def test_c_host_runs_both_fmus_without_python_and_exits_cleanly(coupled):

@@ -13,9 +13,15 @@
  *                                            fmi2OK, fmi2Warning or fmi2Error (only Fatal stops it)
  *   connect SRC VR DST VR                    before DST steps, its Real input VR takes SRC's output VR
  *   output NAME VR LABEL                     record a Real output after every step
+ *   boolean NAME VR LABEL                    record a Boolean output (0/1) after every step
+ *   timing NAME FILE                         time every step of instance NAME: its input sets, doStep
+ *                                            and output gets, as CPU time of this thread
+ *                                            (CLOCK_THREAD_CPUTIME_ID) and wall time (CLOCK_MONOTONIC);
+ *                                            FILE gets "step,cpu_ns,wall_ns" and one row per step
  *   run STOP STEP                            stop time and communication step [s]
  * The FMUs step in the order listed (Gauss-Seidel): step k of each FMU runs from k*STEP, after the
- * FMUs listed before it made that step. OUT.csv gets "time,LABEL..." and one row per step (%.17g:
+ * FMUs listed before it made that step; an FMU's outputs are read right after its doStep (the
+sources' values a connection carries are read before the timed sets begin). OUT.csv gets "time,LABEL..." and one row per step (%.17g:
  * every double round-trips exactly). The FMU logger writes to stderr.
  *
  * Exit codes: 0 every instance freed and every library unloaded after the run; 2 bad usage or spec;
@@ -27,6 +33,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 typedef void *fmi2Component;
 typedef enum { fmi2OK, fmi2Warning, fmi2Discard, fmi2Error, fmi2Fatal, fmi2Pending } fmi2Status;
@@ -52,12 +59,13 @@ typedef struct {
     fmi2Status (*get_real)(fmi2Component, const unsigned[], size_t, double[]);
     fmi2Status (*set_real)(fmi2Component, const unsigned[], size_t, const double[]);
     fmi2Status (*set_integer)(fmi2Component, const unsigned[], size_t, const int[]);
+    fmi2Status (*get_boolean)(fmi2Component, const unsigned[], size_t, int[]);
     fmi2Status (*do_step)(fmi2Component, double, double, int);
 } Fmu;
 
 typedef struct { int fmu; char kind; unsigned vr; double value; } Parameter;
 typedef struct { int src; unsigned src_vr; int dst; unsigned dst_vr; } Connection;
-typedef struct { int fmu; unsigned vr; char label[64]; } Output;
+typedef struct { int fmu; unsigned vr; char label[64]; char kind; } Output;
 
 #define MAX 64
 static Fmu fmus[8];
@@ -70,6 +78,15 @@ static Connection connections[MAX];
 static int n_connections;
 static Output outputs[MAX];
 static int n_outputs;
+static int timed_fmu = -1; /* the instance the timing directive names, or -1 */
+static char timing_path[4096];
+
+static long long nanoseconds(clockid_t clock)
+{
+    struct timespec t;
+    clock_gettime(clock, &t);
+    return (long long)t.tv_sec * 1000000000LL + t.tv_nsec;
+}
 
 static const char *STATUS[] = {"OK", "Warning", "Discard", "Error", "Fatal", "Pending"};
 
@@ -126,11 +143,15 @@ static int read_spec(const char *path, double *stop, double *step)
             k->src = find_fmu(a);
             k->dst = find_fmu(b);
             n_connections++;
-        } else if (!strcmp(kind, "output")) {
+        } else if (!strcmp(kind, "output") || !strcmp(kind, "boolean")) {
             Output *o = &outputs[n_outputs];
-            if (sscanf(line, "output %63s %u %63s", a, &o->vr, o->label) != 3) break;
+            if (sscanf(line, "%*s %63s %u %63s", a, &o->vr, o->label) != 3) break;
             o->fmu = find_fmu(a);
+            o->kind = kind[0];
             n_outputs++;
+        } else if (!strcmp(kind, "timing")) {
+            if (sscanf(line, "timing %63s %4095s", a, timing_path) != 2) break;
+            timed_fmu = find_fmu(a);
         } else if (!strcmp(kind, "run")) {
             if (sscanf(line, "run %lf %lf", stop, step) != 2) break;
         } else {
@@ -166,6 +187,7 @@ static int load(Fmu *fmu)
     SYM(get_real, "fmi2GetReal");
     SYM(set_real, "fmi2SetReal");
     SYM(set_integer, "fmi2SetInteger");
+    SYM(get_boolean, "fmi2GetBoolean");
     SYM(do_step, "fmi2DoStep");
 #undef SYM
     return 1;
@@ -260,29 +282,65 @@ int main(int argc, char **argv)
         fprintf(out, "\n");
     }
     long steps = (long)(stop / step + 0.5);
+    long long *cpu_ns = NULL, *wall_ns = NULL;
+    if (ok && timed_fmu >= 0) {
+        cpu_ns = calloc(steps > 0 ? steps : 1, sizeof *cpu_ns);
+        wall_ns = calloc(steps > 0 ? steps : 1, sizeof *wall_ns);
+        if (!cpu_ns || !wall_ns) ok = 0;
+    }
+    double carried[MAX], values[MAX];
+    long timed = 0;
     for (long k = 0; ok && k < steps; ++k) {
         double time = k * step;
         for (int i = 0; ok && i < n_fmus; ++i) {
             for (int c = 0; ok && c < n_connections; ++c) {
                 if (connections[c].dst != i) continue;
-                double value;
                 Fmu *src = &fmus[connections[c].src];
-                ok = check(src->get_real(src->instance, &connections[c].src_vr, 1, &value), src, "fmi2GetReal",
-                           time);
-                ok = ok && check(fmus[i].set_real(fmus[i].instance, &connections[c].dst_vr, 1, &value), &fmus[i],
-                                 "fmi2SetReal", time);
+                ok = check(src->get_real(src->instance, &connections[c].src_vr, 1, &carried[c]), src,
+                           "fmi2GetReal", time);
+            }
+            long long cpu0 = nanoseconds(CLOCK_THREAD_CPUTIME_ID), wall0 = nanoseconds(CLOCK_MONOTONIC);
+            for (int c = 0; ok && c < n_connections; ++c) {
+                if (connections[c].dst != i) continue;
+                ok = check(fmus[i].set_real(fmus[i].instance, &connections[c].dst_vr, 1, &carried[c]), &fmus[i],
+                           "fmi2SetReal", time);
             }
             ok = ok && check(fmus[i].do_step(fmus[i].instance, time, step, 1), &fmus[i], "fmi2DoStep", time);
+            for (int o = 0; ok && o < n_outputs; ++o) {
+                if (outputs[o].fmu != i) continue;
+                if (outputs[o].kind == 'b') {
+                    int flag;
+                    ok = check(fmus[i].get_boolean(fmus[i].instance, &outputs[o].vr, 1, &flag), &fmus[i],
+                               "fmi2GetBoolean", time);
+                    values[o] = flag;
+                } else {
+                    ok = check(fmus[i].get_real(fmus[i].instance, &outputs[o].vr, 1, &values[o]), &fmus[i],
+                               "fmi2GetReal", time);
+                }
+            }
+            if (ok && i == timed_fmu) {
+                cpu_ns[k] = nanoseconds(CLOCK_THREAD_CPUTIME_ID) - cpu0;
+                wall_ns[k] = nanoseconds(CLOCK_MONOTONIC) - wall0;
+                timed = k + 1;
+            }
         }
         if (!ok) break;
         fprintf(out, "%.17g", (k + 1) * step);
-        for (int o = 0; ok && o < n_outputs; ++o) {
-            double value;
-            Fmu *fmu = &fmus[outputs[o].fmu];
-            ok = check(fmu->get_real(fmu->instance, &outputs[o].vr, 1, &value), fmu, "fmi2GetReal", time);
-            fprintf(out, ",%.17g", value);
-        }
+        for (int o = 0; o < n_outputs; ++o) fprintf(out, ",%.17g", values[o]);
         fprintf(out, "\n");
+    }
+    if (cpu_ns) {
+        FILE *file = fopen(timing_path, "w");
+        if (file) {
+            fprintf(file, "step,cpu_ns,wall_ns\n");
+            for (long k = 0; k < timed; ++k) fprintf(file, "%ld,%lld,%lld\n", k, cpu_ns[k], wall_ns[k]);
+            fclose(file);
+        } else {
+            fprintf(stderr, "cannot write %s\n", timing_path);
+            ok = 0;
+        }
+        free(cpu_ns);
+        free(wall_ns);
     }
     for (int i = 0; ok && i < n_fmus; ++i) ok = check(fmus[i].terminate(fmus[i].instance), &fmus[i], "fmi2Terminate", stop);
     if (out) fclose(out);
