@@ -3,24 +3,30 @@
 One run, the same records, these rows (median over ``--repeats`` passes of the mean cost per step; wall time
 and, beside it, the process's CPU time, which a shared machine inflates less):
 
-* the OilFlowEKF FMU under fmpy (``benchmarks/ekf_step.py``'s loop: setReal of the inputs, doStep, getReal of
-  four outputs, getBoolean of four flags), ``bearing_table`` 0 on the constant record and 1 on the 60 s plant
-  ramp record (speed_hz and oil_temperature_c set with every step);
-* the same slave class in this process, its Python methods called directly (no FMI, no pythonfmu C++): the
-  shell's Python;
+* the OilFlowEKF FMU under fmpy (``benchmarks/ekf_step.py``'s :class:`FmuLoop`: setReal of the inputs, doStep,
+  getReal of four outputs, getBoolean of four flags), ``bearing_table`` 0 on the constant record and 1 on the
+  60 s plant ramp record (speed_hz and oil_temperature_c set with every step), with the loader's fast path
+  (``fmu_src/slave_base.py``: Get/Set served in C, doStep calls the slave's step) and, a second instance of
+  the same FMU, with ``OILWATCH_FMU_FAST_PATH=0`` (every call through pythonfmu, as before the fast path);
+* the same loop without the doStep on the fast instance: the host's own cost of its Get/Set calls (fmpy's
+  ctypes marshalling and status checks; the loader's C answer is well under 0.1 us);
+* the slave's step in this process as the loader calls it (``_fast_step``, after one copy of the inputs'
+  row into its input array, which the loader does in C): the shell's Python in doStep;
+* the slave's Python methods called as pythonfmu calls them (set_real, do_step, get_real, get_boolean);
 * the library step inside it alone (``OilFlowEKF.step`` with the slave's own filter and arguments);
 * the bare FMU (``benchmarks/fmus/bare_filter_slave.py``: the same variables, a doStep that does nothing)
   under fmpy and in process: the floor that fmpy, ctypes and pythonfmu's C++ put under any pythonfmu FMU.
 
-So: FMU under fmpy = library step + the shell's own Python (in process minus library) + the FMI floor (bare
-under fmpy minus bare in process), each measured here.
+So, with the fast path: FMU under fmpy = library step + the shell's Python in doStep + the host's Get/Set +
+the rest (the loader's doStep: one GIL round trip and call into Python, and the caches the host's Python
+evicts), each measured here but the rest. Without it: library + the slave's Python methods + the FMI floor.
 
 Two builds of the same FMU cannot be timed in one process (their relocated packages have the same module
 names, so the second would run the first's code): compare another build (e.g. main's) with ``--fmu`` in
 alternating runs.
 
 Usage: ``OPENBLAS_NUM_THREADS=1 python benchmarks/ekf_fmu_step.py [--steps 3000] [--repeats 3] [--ramp-s 60]
-[--fmu OilFlowEKF.fmu]``
+[--fmu OilFlowEKF.fmu] [--constant-only]``
 """
 
 from __future__ import annotations
@@ -42,6 +48,7 @@ from ekf_step import FmuLoop, bare_fmu, ekf_fmu, measurements, plant_ramp_record
 from models.system.augmented import GridAugmentedModel
 from models.system.factory import load_system
 
+FAST_PATH_VARIABLE = "OILWATCH_FMU_FAST_PATH"  # fmu_src.slave_base: read when the instance initializes
 OUTPUT_REALS = ("q1_est_ml_min", "q2_est_ml_min", "q1_std_ml_min", "q2_std_ml_min")
 OUTPUT_FLAGS = ("starved1", "starved2", "converged", "measurement_ok")
 DT = 1.0e-3
@@ -69,14 +76,29 @@ def _slave(slave_class, ramps):
     return slave, vr
 
 
+def python_path_loop(fmu_path: Path, record: np.ndarray, ramps=None) -> FmuLoop:
+    """:class:`FmuLoop` on an instance initialized with the fast path off (every call through pythonfmu)."""
+    os.environ[FAST_PATH_VARIABLE] = "0"
+    try:
+        return FmuLoop(fmu_path, record, ramps)
+    finally:
+        del os.environ[FAST_PATH_VARIABLE]
+
+
 class InProcess:
     """A slave object called as the FMU loop calls it (``part="slave"``: setReal, doStep, getReal,
-    getBoolean through its Python methods) or its filter's library step alone (``part="library"``: the same
-    samples and operating point as the slave hands them to ``OilFlowEKF.step``), fresh and initialized."""
+    getBoolean through its Python methods; ``part="fast"``: its step as the loader's fast path calls it) or
+    its filter's library step alone (``part="library"``: the same samples and operating point as the slave
+    hands them to ``OilFlowEKF.step``), fresh and initialized."""
 
     def __init__(self, slave_class, record: np.ndarray, ramps=None, part: str = "slave") -> None:
         names, self.rows = _inputs(record, ramps)
         self.slave, vr = _slave(slave_class, ramps)
+        self.slave.log_queue.clear()  # pythonfmu relays and empties it after each call
+        if part == "fast":  # the rows as the loader leaves them in the input array (STEP_INPUTS order)
+            width = len(self.slave.buffered_inputs)
+            self.table = np.tile(self.slave._inputs[:width], (len(self.rows), 1))
+            self.table[:, [self.slave.buffered_inputs.index(n) for n in names]] = self.rows
         self.inputs = [vr[n] for n in names]
         self.reals, self.flags = [vr[n] for n in OUTPUT_REALS], [vr[n] for n in OUTPUT_FLAGS]
         self.part, self.k = part, 0
@@ -95,6 +117,17 @@ class InProcess:
             step, samples, operating = self.slave.filter.step, self.samples, self.operating
             for j in range(steps):
                 step(samples[j + 1], *operating[j + 1], None)
+        elif self.part == "fast":
+            slave, table, k = self.slave, self.table, self.k
+            inputs, width = slave._inputs, len(slave.buffered_inputs)
+            fast_step = slave._fast_step
+            for j in range(steps):
+                inputs[:width] = table[j + 1]
+                inputs[-2] = k * DT
+                inputs[-1] = DT
+                fast_step()
+                k += 1
+            self.k = k
         else:
             slave, inputs, reals, flags, rows, k = (
                 self.slave,
@@ -144,6 +177,7 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=7)
     parser.add_argument("--ramp-s", type=float, default=60.0, help="length of the plant's ramp record [s]")
     parser.add_argument("--fmu", default=None, help="OilFlowEKF.fmu to time (default: build one)")
+    parser.add_argument("--constant-only", action="store_true", help="only the bearing_table 0 record")
     args = parser.parse_args()
 
     sys.path.insert(0, str(Path(__file__).resolve().parent / "fmus"))
@@ -152,30 +186,41 @@ def main() -> None:
     from fmu_src.oilwatch_ekf_slave import OilFlowEKF
 
     constant = measurements(GridAugmentedModel(load_system(reduced=True)), args.steps)
-    ramp, speed, temperature = plant_ramp_record(args.ramp_s)
-    ramp, ramps = ramp[: args.steps], (speed[: args.steps], temperature[: args.steps])
-    cases = (("bearing_table 0, constant", constant, None), ("bearing_table 1, plant ramps", ramp, ramps))
+    cases = [("bearing_table 0, constant", constant, None)]
+    if not args.constant_only:
+        ramp, speed, temperature = plant_ramp_record(args.ramp_s)
+        ramp, ramps = ramp[: args.steps], (speed[: args.steps], temperature[: args.steps])
+        cases.append(("bearing_table 1, plant ramps", ramp, ramps))
     load = [os.getloadavg()[0]]
     rows = []
     with tempfile.TemporaryDirectory(prefix="oilwatch_bench_") as folder:
         ekf_path, bare_path = ekf_fmu(args.fmu, folder), bare_fmu(folder)
         for label, record, inputs in cases:
             runners = {"fmu": FmuLoop(ekf_path, record, inputs)}
+            runners["python_path"] = python_path_loop(ekf_path, record, inputs)
+            runners["host_calls"] = FmuLoop(ekf_path, record, inputs, step=False)
+            runners["fast"] = InProcess(OilFlowEKF, record, inputs, part="fast")
             runners["slave"] = InProcess(OilFlowEKF, record, inputs)
             runners["library"] = InProcess(OilFlowEKF, record, inputs, part="library")
             runners["bare"] = FmuLoop(bare_path, record, inputs)
             runners["bare_slave"] = InProcess(BareFilter, record, inputs)
             t = interleaved(runners, args.repeats)
             load.append(os.getloadavg()[0])
+            shell = _difference(t["fast"], t["library"])
+            rest = _difference(_difference(_difference(t["fmu"], t["library"]), shell), t["host_calls"])
             rows += [
-                (f"EKF FMU under fmpy, {label}", t["fmu"]),
-                ("  the same slave in process (its Python methods, no FMI)", t["slave"]),
+                (f"EKF FMU under fmpy, {label} (fast path)", t["fmu"]),
+                (f"  the same FMU, {FAST_PATH_VARIABLE}=0 (every call through pythonfmu)", t["python_path"]),
                 ("  its library step alone (OilFlowEKF.step)", t["library"]),
+                ("  the slave's step in process as the loader calls it", t["fast"]),
+                ("  the host's Get/Set calls alone (the fast instance, no doStep)", t["host_calls"]),
+                ("  => shell's Python in doStep (step in process - library)", shell),
+                ("  => the rest (FMU - library - shell - host's calls)", rest),
+                ("  the slave's Python methods in process (pythonfmu's calls, no FMI)", t["slave"]),
                 ("  bare FMU under fmpy, the same calls", t["bare"]),
                 ("  bare slave in process", t["bare_slave"]),
-                ("  => shell's own Python (slave - library)", _difference(t["slave"], t["library"])),
                 (
-                    "  => FMI floor (bare under fmpy - bare in process)",
+                    "  => FMI floor without the fast path (bare under fmpy - bare in process)",
                     _difference(t["bare"], t["bare_slave"]),
                 ),
             ]

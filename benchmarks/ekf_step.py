@@ -254,9 +254,12 @@ class FmuLoop:
     unconnected ``t_sample_s``), so the filter sees aligned data. The instance runs on through the passes.
     ``ramps``: the record's speed [Hz] and oil temperature [degC] (K,) each; the FMU then runs with
     ``bearing_table = 1`` and gets them on its inputs with every step (setReal included in the cost).
+    ``step=False`` leaves out the doStep: the host's Get/Set calls alone.
     """
 
-    def __init__(self, fmu_path: Path, record: np.ndarray, ramps=None, dt: float = 1.0e-3) -> None:
+    def __init__(
+        self, fmu_path: Path, record: np.ndarray, ramps=None, dt: float = 1.0e-3, step: bool = True
+    ) -> None:
         from fmpy import extract, read_model_description
         from fmpy.fmi2 import FMU2Slave
 
@@ -284,7 +287,7 @@ class FmuLoop:
         if ramps is not None:
             operating = zip(ramps[0].tolist(), ramps[1].tolist(), strict=True)
             samples = [[*row, *point] for row, point in zip(samples, operating, strict=True)]
-        self.samples, self.dt, self.k = samples, dt, 0
+        self.samples, self.dt, self.k, self.step = samples, dt, 0, step
 
     def run_pass(self) -> tuple[float, float]:
         """One pass over the record: (wall, CPU) time per step [us]."""
@@ -296,11 +299,12 @@ class FmuLoop:
             self.samples,
             self.dt,
         )
-        steps, k = len(samples) - 1, self.k
+        steps, k, step = len(samples) - 1, self.k, self.step
         start, cpu = time.perf_counter(), time.process_time()
         for j in range(steps):
             fmu.setReal(inputs, samples[j + 1])
-            fmu.doStep(k * dt, dt)
+            if step:
+                fmu.doStep(k * dt, dt)
             fmu.getReal(reals)
             fmu.getBoolean(flags)
             k += 1

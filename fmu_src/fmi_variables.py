@@ -54,6 +54,7 @@ UNITS: dict[str, UnitDefinition] = {
         _unit("1"),
         _unit("s", s=1),
         _unit("ms", 1e-3, s=1),
+        _unit("d", 86400.0, s=1),
         _unit("Hz", s=-1),
         _unit("m", m=1),
         _unit("mm", 1e-3, m=1),

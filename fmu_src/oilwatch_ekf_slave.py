@@ -31,6 +31,12 @@ estimate (time stamp ``t_estimate_s``) lags one step. A NaN or infinite position
 from the update (the others are used); a NaN or infinite ``t_sample_s`` is a skipped sample (predicted
 through), never an error.
 
+Outputs and the fast path. The per-step inputs (positions, ``t_sample_s``, ``rotor_angle_deg``, ``speed_hz``,
+``oil_temperature_c``) and the outputs published with every step (:data:`STEP_OUTPUTS`) live in the base
+class's arrays, which oilwatch's FMI 2.0 loader serves in C (:mod:`fmu_src.slave_base`: the fast path). Each
+step writes its report into the output array with one numpy division (:data:`REPORT_COLUMNS`); the nuisance
+estimates cost a covariance read and are published only when a host reads one of them.
+
 The estimator's numba kernels compile on first use in a process (5-10 s); ``setup`` warms them up during
 initialization and logs the time, so that no ``doStep`` pays for it.
 """
@@ -45,7 +51,7 @@ import numpy as np
 from pythonfmu import DefaultExperiment
 from pythonfmu.enums import Fmi2Causality
 
-from estimator.baseline import load_baseline
+from estimator.baseline import load_baseline, load_runout
 from estimator.channels import STATUS_NAMES
 from estimator.config import (
     ESTIMATOR_PARAMETERS,
@@ -89,11 +95,41 @@ from models.system.operating_model import build_operating_model
 from models.validation import InputError
 
 SAMPLING_PERIOD_S = 1e-3
+SECONDS_PER_DAY = 86400.0
 POSITIONS = ("x1", "y1", "x2", "y2")
 VELOCITY_MODES = ("displacement-only", "paper", "correlated")
 GRID_TOLERANCE = 1e-3
 """A sample time within this fraction of a period of the grid is on the grid."""
 KEYPHASOR_UNCONNECTED = -1.0
+STEP_INPUTS = (
+    *(f"{name}_um" for name in POSITIONS),
+    "t_sample_s",
+    "rotor_angle_deg",
+    "speed_hz",
+    "oil_temperature_c",
+)
+"""The inputs read by every step (the fast path's input array, in this order)."""
+REPORT_OUTPUTS = (
+    ("q1_est_ml_min", REPORT_FLOWRATE, ML_MIN),
+    ("q2_est_ml_min", REPORT_FLOWRATE + 1, ML_MIN),
+    ("q1_std_ml_min", REPORT_STD, ML_MIN),
+    ("q2_std_ml_min", REPORT_STD + 1, ML_MIN),
+    ("nis", REPORT_NIS, 1.0),
+    ("n_channels", REPORT_ROWS, 1.0),
+    ("converged", REPORT_CONVERGED, 1.0),
+    ("starved1", REPORT_STARVED, 1.0),
+    ("starved2", REPORT_STARVED + 1, 1.0),
+    ("measurement_ok", REPORT_OK, 1.0),
+    ("model_consistent", REPORT_CONSISTENT, 1.0),
+    *((f"probe_status_{name}", REPORT_STATUS + i, 1.0) for i, name in enumerate(POSITIONS)),
+)
+"""The outputs taken from the step report: name, report column (``estimator.step_kernel`` REPORT_* layout),
+divisor (SI -> field units; flags and counts as 0/1 and whole numbers)."""
+STEP_OUTPUTS = (*(name for name, _, _ in REPORT_OUTPUTS), "t_estimate_s")
+"""The outputs published with every step (the fast path's output array, in this order)."""
+T_ESTIMATE_INDEX = STEP_OUTPUTS.index("t_estimate_s")
+REPORT_COLUMNS = np.array([column for _, column, _ in REPORT_OUTPUTS])
+REPORT_DIVISORS = np.array([divisor for _, _, divisor in REPORT_OUTPUTS])
 OWN_REALS = (
     ("sample_period_s", SAMPLING_PERIOD_S, "s", 1e-5, 0.01,
      "Sampling period of the filter's discrete model; its samples lie on t = k period"),
@@ -101,6 +137,9 @@ OWN_REALS = (
      "Initial flowrate estimate of both bearings (within the coefficient table's range); 0: the nominal"),
     ("q_nominal_ml_min", 0.0, "ml/min", 0.0, None,
      "Nominal flowrate, the alarm thresholds' reference; 0: the machine file's nominal flowrate"),
+    ("baseline_age_days", 0.0, "d", 0.0, None,
+     "Time from the baseline_file's record to this run's start: the offsets' prior std grows by the machine "
+     "file's [probes] offset_drift_um_per_day per day (in quadrature); 0: just commissioned"),
     ("q_std_velocity_um_s", -1.0, "um/s", -1.0, None,
      f"Process-noise std per step of every velocity state; -1: the recommended "
      f"{RECOMMENDED_DISPLACEMENT_PROCESS_STD_M * 1e6:g} um x 2 pi speed_hz; the paper's 10 um/s makes the "
@@ -122,6 +161,8 @@ class OilFlowEKF(OilwatchSlave):
     )
     default_experiment = DefaultExperiment(start_time=0.0, stop_time=20.0, step_size=SAMPLING_PERIOD_S)
     state_attributes = ("filter_state", "keyphasor_state")
+    buffered_inputs = STEP_INPUTS
+    buffered_outputs = STEP_OUTPUTS
 
     def __init__(self, **kwargs):
         limit_blas_threads()
@@ -131,12 +172,12 @@ class OilFlowEKF(OilwatchSlave):
         self._missing = np.full(4, np.nan)
         self._warned_off_grid = False
         self._nuisance_names = [row[0] for row in nuisance_names()]
-        self._report: ReportView | None = None
-        self._core_stale = self._nuisances_stale = False
+        self._nuisances_stale = False
         self._previous_angle_rad: float | None = None
         self._declare_parameters()
         self._declare_inputs_outputs()
-        self._core_outputs, self._nuisance_outputs = self._output_groups()
+        self._nuisance_outputs = self._nuisance_references()
+        self._report_outputs = self._outputs[: len(REPORT_OUTPUTS)]  # a view the step writes into
 
     def _declare_parameters(self) -> None:
         declare_machine_parameters(self)
@@ -159,7 +200,8 @@ class OilFlowEKF(OilwatchSlave):
             "parameter",
             start="",
             description="Commissioning baseline (JSON written by 'oilwatch baseline'): the probe offsets' "
-            "prior; an absolute path or one relative to this FMU's resources folder; empty: none",
+            "prior and, when it has them, the runout vectors (they replace the machine file's [probes] "
+            "runout_* keys); an absolute path or one relative to this FMU's resources folder; empty: none",
         )
         self.declare_integer(
             "velocity_channels",
@@ -291,9 +333,7 @@ class OilFlowEKF(OilwatchSlave):
     def filter_state(self, state) -> None:
         if state is not None:
             self.filter.set_state(state)
-            # the outputs were restored with the state; a later step's report must not overwrite them
-            self._report = None
-            self._core_stale = self._nuisances_stale = False
+            self._nuisances_stale = False  # the outputs were restored with the state
 
     @property
     def keyphasor_state(self) -> float | None:
@@ -304,22 +344,18 @@ class OilFlowEKF(OilwatchSlave):
     def keyphasor_state(self, angle: float | None) -> None:
         self._previous_angle_rad = angle
 
-    def _output_groups(self) -> tuple[frozenset[int], frozenset[int]]:
-        """Value references of the outputs published together when the host reads one of them (module
-        docstring: lazy outputs): the nuisance estimates, and all the others."""
+    def _nuisance_references(self) -> frozenset[int]:
+        """Value references of the nuisance estimates, published together when the host reads one of them
+        (module docstring)."""
         nuisances = set(self._nuisance_names)
-        outputs = [v for v in self.vars.values() if v.causality == Fmi2Causality.output]
-        return (
-            frozenset(v.value_reference for v in outputs if v.local_name not in nuisances),
-            frozenset(v.value_reference for v in outputs if v.local_name in nuisances),
+        return frozenset(
+            v.value_reference
+            for v in self.vars.values()
+            if v.causality == Fmi2Causality.output and v.local_name in nuisances
         )
 
     def refresh_outputs(self, vrs) -> None:
-        """Publish the last step's report to the outputs among ``vrs`` if they are stale (the nuisance
-        estimates apart: they cost a covariance read)."""
-        if self._core_stale and not self._core_outputs.isdisjoint(vrs):
-            self._core_stale = False
-            self._publish_core(self._report if self._report is not None else self.filter.current_report())
+        """Publish the nuisance estimates if they are stale and among ``vrs``."""
         if self._nuisances_stale and not self._nuisance_outputs.isdisjoint(vrs):
             self._nuisances_stale = False
             self._publish_nuisances()
@@ -380,7 +416,7 @@ class OilFlowEKF(OilwatchSlave):
         else:
             model = GridAugmentedModel(system, self.sample_period_s)
         self.filter = FlowFilter(
-            model, self._config(machine, nominal, initial, system.speed_hz, self._baseline())
+            model, self._config(machine, nominal, initial, system.speed_hz, *self._baseline(machine))
         )
         self._first_sample_time_s = self.filter.config.first_sample_time_s
         built = time.perf_counter()
@@ -393,25 +429,36 @@ class OilFlowEKF(OilwatchSlave):
         )
         self._publish()
 
-    def _baseline(self):
-        """The ``baseline_file`` parameter's offsets prior (None when empty); relative to the resources."""
+    def _baseline(self, machine):
+        """(offsets prior, runout vectors) of the ``baseline_file`` parameter ((None, None) when empty; a
+        relative path is relative to the resources): the prior ``baseline_age_days`` after its record with
+        ``machine``'s offset drift bound, the runout None when the baseline has none."""
         if not self.baseline_file:
-            return None
+            return None, None
         path = Path(self.baseline_file)
         if not path.is_absolute() and self.resources:
             path = Path(self.resources) / path
         try:
-            return load_baseline(path)
+            drift = read_probes(machine).offset_drift_m_per_day
+            prior = load_baseline(path, SECONDS_PER_DAY * self.baseline_age_days, drift)
+            return prior, load_runout(path)
         except (InputError, OSError, UnicodeDecodeError) as error:
             reason = error if isinstance(error, InputError) else f"cannot read {path}: {error}"
             raise InputError(f"baseline_file {self.baseline_file!r}: {reason}") from None
 
     def _config(
-        self, machine, nominal_ml_min: float, initial_ml_min: float, speed_hz: float, baseline
+        self,
+        machine,
+        nominal_ml_min: float,
+        initial_ml_min: float,
+        speed_hz: float,
+        baseline,
+        baseline_runout,
     ) -> EKFConfig:
         """The estimator's configuration from the parameters (field units -> SI) and the machine file's
-        ``[probes]`` (mounting angle and offset prior for the sentinels; the offsets' drift and the runout
-        vectors of its ``runout_*`` keys, which the filter subtracts at the model's rotor angle, always)."""
+        ``[probes]`` (mounting angle and offset prior for the sentinels; the offsets' drift, always). The
+        runout vectors the filter subtracts at the model's rotor angle are the baseline's when it has them,
+        else those of the ``[probes]`` ``runout_*`` keys (as ``oilwatch estimate`` chooses)."""
         omega = 2.0 * math.pi * speed_hz
         velocity_std = (
             RECOMMENDED_DISPLACEMENT_PROCESS_STD_M * omega
@@ -433,28 +480,29 @@ class OilFlowEKF(OilwatchSlave):
             first_sample_time_s=round(self.start_time / self.sample_period_s) * self.sample_period_s,
             initial_flowrate_std_m3_s=INITIAL_FLOWRATE_STD_FRACTION * nominal_ml_min * ML_MIN,
             offset_baseline=baseline,
-            runout=runout_of_probes(probes),
+            runout=runout_of_probes(probes) if baseline_runout is None else baseline_runout,
         )
 
     def _warm_up(self) -> None:
         """Run the compiled paths (predict, update, skipped sample) once, then return to the initial state."""
         for sample in (self._measurement, self._measurement, self._missing):
-            self.filter.step(sample, *self._operating_point())
+            self.filter.step(sample, *self._operating_point(self.speed_hz, self.oil_temperature_c))
         self.filter.reset()
 
-    def _operating_point(self) -> tuple[float | None, float | None]:
-        """(speed [Hz], oil temperature [degC]) for the filter from the inputs (bearing_table = 0: None, and
-        InputError when they left their start values)."""
+    def _operating_point(self, speed: float, temperature: float) -> tuple[float | None, float | None]:
+        """(speed [Hz], oil temperature [degC]) for the filter from the inputs ``speed`` and ``temperature``
+        (bearing_table = 0: None, and InputError when they left their start values)."""
         if self.bearing_table == 1:
             return operating_conditions(self, self._machine)
-        if (self.speed_hz, self.oil_temperature_c) != self._start_inputs:  # the check costs only then
+        if (speed, temperature) != self._start_inputs:  # the check costs only then
             held_operating_point(self, self._machine, self._start_conditions)
         return None, None
 
     # ------------------------------------------------------------------------------- step
     def step(self, current_time: float, step_size: float) -> bool:
         end = current_time + step_size
-        stamp = self.t_sample_s
+        # the inputs' array (STEP_INPUTS order) read once: the step's Python is the FMU's per-step cost
+        x1, y1, x2, y2, stamp, keyphasor, speed, temperature, _, _ = self._inputs.tolist()
         bad_stamp = not math.isfinite(stamp)  # NaN or inf: a skipped sample, predicted through
         sample_time = end if (bad_stamp or stamp < 0.0) else stamp
         period = self.sample_period_s
@@ -475,21 +523,21 @@ class OilFlowEKF(OilwatchSlave):
             return True
         if index < self.filter.step_count:
             return True  # a repeated sample: already used
-        operating = self._operating_point()
+        operating = self._operating_point(speed, temperature)
         while self.filter.step_count < index:
             self.filter.step(self._missing, *operating)  # a gap: predict through it
             self._previous_angle_rad = None
         measurement = self._measurement
-        measurement[0] = self.x1_um * 1e-6
-        measurement[1] = self.y1_um * 1e-6
-        measurement[2] = self.x2_um * 1e-6
-        measurement[3] = self.y2_um * 1e-6
         if bad_stamp:
             measurement[:] = np.nan
+        else:
+            measurement[0] = x1 * 1e-6
+            measurement[1] = y1 * 1e-6
+            measurement[2] = x2 * 1e-6
+            measurement[3] = y2 * 1e-6
         angle = self._previous_angle_rad if self.bearing_table == 1 else None
-        self._report = self.filter.step(measurement, *operating, angle)
-        self._core_stale = self._nuisances_stale = True
-        keyphasor = self.rotor_angle_deg
+        self._publish_core(self.filter.step(measurement, *operating, angle))
+        self._nuisances_stale = True
         connected = math.isfinite(keyphasor) and keyphasor >= 0.0 and not bad_stamp
         self._previous_angle_rad = math.radians(keyphasor) if connected else None
         return True
@@ -498,30 +546,16 @@ class OilFlowEKF(OilwatchSlave):
         """Copy a step report (default: the last one, rebuilt from the state) to all outputs now."""
         self._publish_core(report if report is not None else self.filter.current_report())
         self._publish_nuisances()
-        self._core_stale = self._nuisances_stale = False
+        self._nuisances_stale = False
 
     def _publish_nuisances(self) -> None:
         for name, value in zip(self._nuisance_names, nuisance_values(self.filter), strict=True):
             setattr(self, name, value)
 
     def _publish_core(self, report: ReportView) -> None:
-        # one tolist() of the report array (REPORT_* layout), not a ReportView field per output
-        v = report.values.tolist()
-        self.q1_est_ml_min = v[REPORT_FLOWRATE] / ML_MIN
-        self.q2_est_ml_min = v[REPORT_FLOWRATE + 1] / ML_MIN
-        self.q1_std_ml_min = v[REPORT_STD] / ML_MIN
-        self.q2_std_ml_min = v[REPORT_STD + 1] / ML_MIN
-        self.nis = v[REPORT_NIS]
-        self.n_channels = int(v[REPORT_ROWS])
-        self.converged = v[REPORT_CONVERGED] != 0.0
-        self.starved1 = v[REPORT_STARVED] != 0.0
-        self.starved2 = v[REPORT_STARVED + 1] != 0.0
-        self.measurement_ok = v[REPORT_OK] != 0.0
-        self.model_consistent = v[REPORT_CONSISTENT] != 0.0
-        self.probe_status_x1, self.probe_status_y1, self.probe_status_x2, self.probe_status_y2 = (
-            int(code) for code in v[REPORT_STATUS : REPORT_STATUS + 4]
-        )
+        """Write a step report into the output array (:data:`STEP_OUTPUTS`): one division of its columns."""
+        np.divide(report.values[REPORT_COLUMNS], REPORT_DIVISORS, out=self._report_outputs)
         steps = report.step + 1
-        self.t_estimate_s = (
+        self._outputs[T_ESTIMATE_INDEX] = (
             -1.0 if steps == 0 else self._first_sample_time_s + (steps - 1) * self.sample_period_s
         )

@@ -30,6 +30,16 @@ What pythonfmu 0.7.0 does, and what this class does about it (verified with fmpy
   checks ``isinstance`` per variable and call), a declared variable's default getter and setter are
   ``functools.partial(getattr/setattr, self, name)`` (no Python frame), and the fixed parameters are one set
   checked only after initialization (``isdisjoint``, not a scan of the call's variables).
+- The fast path (issue 14). A subclass names its per-step real inputs in :attr:`OilwatchSlave.buffered_inputs`
+  and the outputs it publishes with every step in :attr:`OilwatchSlave.buffered_outputs`. Their values live in
+  two numpy arrays (``_inputs``, ``_outputs``; the attributes of those names read and write them), and at the
+  end of initialization the slave hands both, a table by value reference and :meth:`_fast_step` to oilwatch's
+  FMI 2.0 loader (entry point ``oilwatch_loader_bind_buffers``). The loader then serves setReal of those
+  inputs and the Get calls of those variables in C and calls :meth:`_fast_step` for fmi2DoStep; every other
+  call, and any call naming another variable, still comes here through pythonfmu. A step that does not simply
+  succeed (it failed, discards or logged) is replayed through pythonfmu's doStep without running twice
+  (:meth:`do_step`), so the host sees exactly pythonfmu's status and messages. ``OILWATCH_FMU_FAST_PATH=0``
+  keeps every call on the Python path (the same values: the arrays are the storage either way).
 - ``fmi2GetFMUstate`` returns whatever ``_get_fmu_state`` returns (a Python object held by
   reference; the default saves registered variables only). Here the state also holds deep copies of
   the attributes named in :attr:`OilwatchSlave.state_attributes` (numpy arrays, a
@@ -44,15 +54,14 @@ parameters in :meth:`validate_parameters` (raise ``InputError``) and build their
 from __future__ import annotations
 
 import copy
-import ctypes
 import math
 import pickle
 import traceback
 from functools import partial
-from pathlib import Path
 from typing import Any, ClassVar
 from xml.etree.ElementTree import Element
 
+import numpy as np
 from pythonfmu import Fmi2Slave
 from pythonfmu.enums import Fmi2Causality, Fmi2Status, Fmi2Variability
 from pythonfmu.variables import Boolean, Integer, Real, String
@@ -67,52 +76,18 @@ from .fmi_variables import (
     unit_definitions_xml,
     variable_attributes,
 )
+from .loader_link import (
+    STEP_DONE,
+    STEP_REPLAY,
+    bind_buffers,
+    buffered_property,
+    flag_refused_call_to_loader,
+    outlive_the_wrappers_cleanup,
+)
 
 
 class SlaveInitializationError(RuntimeError):
     """Raised out of ``exit_initialization_mode`` (or a refused set) after the reasons were logged."""
-
-
-REFUSED_CALL_ENTRY = "oilwatch_loader_refused_call"
-"""The loader's entry point that turns the current call's fmi2Fatal into fmi2Error."""
-
-
-def flag_refused_call_to_loader(resources: str | None) -> bool:
-    """Tell the FMU's loader (module docstring) that the current FMI call refuses the user's input; return
-    whether a loader took the flag. The loader is the binary beside ``resources/`` that exports
-    :data:`REFUSED_CALL_ENTRY` and is already mapped into this process (it is what the host loaded, so
-    ``ctypes`` opens the same copy; nothing new is loaded)."""
-    if not resources:
-        return False
-    binaries = Path(resources).parent / "binaries"
-    try:
-        mapped = Path("/proc/self/maps").read_text(encoding="utf-8", errors="replace")
-    except OSError:
-        return False
-    # FMI 2.0's folder and FMI 3.0's (its layer over pythonfmu3, oilwatch/cosim/native/fmi3_refusal.c)
-    for binary in sorted([*binaries.glob("linux64/*.so"), *binaries.glob("x86_64-linux/*.so")]):
-        if str(binary.resolve()) not in mapped:
-            continue
-        entry = getattr(ctypes.CDLL(str(binary)), REFUSED_CALL_ENTRY, None)
-        if entry is not None:
-            entry.restype = None
-            entry()
-            return True
-    return False
-
-
-def outlive_the_wrappers_cleanup(facade) -> None:
-    """Take one more reference to the object pythonfmu's (or pythonfmu3's) C++ wrapper holds, its class and
-    its log queue, before an exception the host will see as fmi2Error / fmi3Error.
-
-    On every Python exception the wrapper's ``handle_py_exception`` calls ``cleanPyObject``, which releases
-    its references to the instance, the class and the log queue (``Py_XDECREF`` of ``pInstance_``,
-    ``pClass_``, ``pMessages_``) but keeps the pointers and uses them in the next call and again when the
-    instance is freed. After fmi2Fatal nothing more is called; after a refused input the host steps on, and
-    without these references the instance would be used after its release (a crash at the next garbage
-    collection or at exit)."""
-    for held in (facade, type(facade), facade._get_log_queue()):
-        ctypes.pythonapi.Py_IncRef(ctypes.py_object(held))
 
 
 VARIABLE_TYPES = (Real, Integer, Boolean, String)
@@ -124,6 +99,9 @@ class OilwatchSlave(Fmi2Slave):
 
     #: Names of attributes (beyond registered variables) saved by fmi2GetFMUstate.
     state_attributes: ClassVar[tuple[str, ...]] = ()
+    #: Real inputs and outputs (Real, Integer, Boolean) kept in the fast path's arrays (module docstring).
+    buffered_inputs: ClassVar[tuple[str, ...]] = ()
+    buffered_outputs: ClassVar[tuple[str, ...]] = ()
     #: The FMI call that ends initialization, in messages (the FMI 3.0 shell names its own).
     initialization_end_call = "fmi2ExitInitializationMode"
 
@@ -136,19 +114,45 @@ class OilwatchSlave(Fmi2Slave):
         self._initialized = False
         self.start_time = 0.0
         self.stop_time: float | None = None
+        # the buffered inputs, then the step's current time and size (written by the loader's doStep)
+        self._inputs = np.zeros(len(self.buffered_inputs) + 2)
+        self._outputs = np.zeros(len(self.buffered_outputs))
+        self._replay: Any = None  # a fast step's outcome that pythonfmu's doStep returns or raises
+        self.fast_path_bound = False
 
     # ----------------------------------------------------------------- declarations
     def _declare(self, variable, start) -> None:
         low, high = getattr(variable, "minimum", None), getattr(variable, "maximum", None)
         if (low is not None and start < low) or (high is not None and start > high):
             raise ValueError(f"variable {variable.name}: start {start} outside [{low}, {high}]")
-        setattr(self, variable.local_name, start)
-        # builtins bound to the name (pythonfmu's default lambdas cost a Python frame per value)
-        variable.getter = partial(getattr, self, variable.local_name)
-        if variable.variability != Fmi2Variability.constant:
-            variable.setter = partial(setattr, self, variable.local_name)
+        name = variable.local_name
+        buffered = self._buffer_of(name)
+        if buffered is not None:  # the attribute is the array's element; getter and setter use it directly
+            buffer, index = buffered
+            convert = next(
+                c for k, c in ((Boolean, bool), (Integer, int), (Real, float)) if isinstance(variable, k)
+            )
+            if not isinstance(type(self).__dict__.get(name), property):
+                setattr(type(self), name, buffered_property(buffer, index, convert))
+            getattr(self, buffer)[index] = start
+            variable.getter = partial(getattr(self, buffer).item, index)
+            variable.setter = partial(getattr(self, buffer).__setitem__, index)
+        else:
+            setattr(self, name, start)
+            # builtins bound to the name (pythonfmu's default lambdas cost a Python frame per value)
+            variable.getter = partial(getattr, self, name)
+            if variable.variability != Fmi2Variability.constant:
+                variable.setter = partial(setattr, self, name)
         self.register_variable(variable)
         self._declared.append(variable)
+
+    def _buffer_of(self, name: str) -> tuple[str, int] | None:
+        """("_inputs" or "_outputs", index) of a buffered variable, None for the others."""
+        if name in self.buffered_inputs:
+            return "_inputs", self.buffered_inputs.index(name)
+        if name in self.buffered_outputs:
+            return "_outputs", self.buffered_outputs.index(name)
+        return None
 
     def register_variable(self, var, nested: bool = True) -> None:
         """pythonfmu's registration, plus the lookup tables of the Get/Set calls (module docstring)."""
@@ -305,6 +309,28 @@ class OilwatchSlave(Fmi2Slave):
                 self._flag_refused_call()
             self.fail(problems, "initialization")
         self._initialized = True
+        self._bind_fast_path()
+
+    # -------------------------------------------------------------------- fast path
+    def _bind_fast_path(self) -> None:
+        """Hand the buffers to the FMU's loader (module docstring); without one, or with
+        ``OILWATCH_FMU_FAST_PATH=0``, every call stays on the Python path."""
+        if self.buffered_inputs or self.buffered_outputs:
+            self.fast_path_bound = bind_buffers(self, self._fast_step)
+
+    def _fast_step(self) -> int:
+        """The loader's fmi2DoStep (module docstring), the GIL held: :meth:`do_step` at the time and step
+        size the loader wrote after the inputs; :data:`STEP_DONE` when it succeeded and logged nothing, else
+        :data:`STEP_REPLAY` with its outcome kept for pythonfmu's doStep."""
+        try:
+            outcome = self.do_step(self._inputs.item(-2), self._inputs.item(-1))
+        except BaseException as error:  # pythonfmu's doStep raises it again
+            self._replay = error
+            return STEP_REPLAY
+        if outcome is True and not self.log_queue:
+            return STEP_DONE
+        self._replay = outcome
+        return STEP_REPLAY
 
     # ------------------------------------------------------------------ get and set
     def refuse_fixed_after_initialization(self, vrs, values, call: str) -> None:
@@ -375,7 +401,13 @@ class OilwatchSlave(Fmi2Slave):
         return self._get(String, str, vrs)
 
     def do_step(self, current_time: float, step_size: float) -> bool:
-        """Advance by ``step_size`` [s]; exceptions of :meth:`step` are logged, then re-raised."""
+        """Advance by ``step_size`` [s]; exceptions of :meth:`step` are logged, then re-raised. After a fast
+        step that needs pythonfmu (:meth:`_fast_step`), return or raise its outcome instead."""
+        if self._replay is not None:
+            outcome, self._replay = self._replay, None
+            if isinstance(outcome, BaseException):
+                raise outcome
+            return outcome
         try:
             return self.step(current_time, step_size) is not False
         except Exception as error:

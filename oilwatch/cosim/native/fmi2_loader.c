@@ -40,6 +40,27 @@
  * host has logging on (fmi2Instantiate's loggingOn, then fmi2SetDebugLogging), as the Modelica
  * Association's reference FMUs do.
  *
+ * The fast path (issue 14: the estimator FMU's step). pythonfmu serves every call in Python: it takes the
+ * GIL, builds Python lists of the value references and values, calls the slave's method and walks its log
+ * queue. A slave that keeps its per-step inputs and outputs in numpy arrays (fmu_src/slave_base.py,
+ * "buffered" variables) hands them to the loader during fmi2ExitInitializationMode through the exported
+ * oilwatch_loader_bind_buffers() (called with ctypes.PyDLL, the GIL held): the two buffers, a table by
+ * value reference (kind and index, or -1) and its step function. Then
+ * - fmi2SetReal of bound real inputs, fmi2GetReal of bound reals (inputs or outputs), fmi2GetInteger and
+ *   fmi2GetBoolean of bound outputs are served here, in C, without the GIL; a call that names any other
+ *   value reference (a parameter, a nuisance output, a wrong type) goes to pythonfmu whole, as before, so
+ *   the refusal of a fixed parameter, FMI's type errors and the slave's lazy outputs are unchanged. The
+ *   buffers are the slave's own storage of those variables (its attributes read and write them), so
+ *   either path sees the same values;
+ * - fmi2DoStep writes its time and step size after the inputs, takes the GIL once and calls the step
+ *   function, which returns 0 when the step succeeded and logged nothing. Any other outcome (a failed
+ *   step, a discard, a queued log message) is replayed through pythonfmu's fmi2DoStep: the slave hands
+ *   back the stored outcome without stepping again, and pythonfmu returns the status and relays the
+ *   messages exactly as it does without the fast path.
+ * fmi2Reset and fmi2FreeInstance drop the binding (pythonfmu's reset makes a new slave object, which binds
+ * its own buffers at its next initialization). The slave does not bind with OILWATCH_FMU_FAST_PATH=0. FMI
+ * 3.0 and Windows use pythonfmu's binaries, which have no such entry: their slaves stay on the Python path.
+ *
  * Teardown. pythonfmu 0.7 keeps its interpreter guard in a static std::shared_ptr and also resets it
  * from an __attribute__((destructor)) function. Its library has STB_GNU_UNIQUE symbols, so dlclose
  * never unloads it; at exit() the C++ static destructor (an atexit entry) runs first and the
@@ -111,7 +132,11 @@ static struct {
     const char *(*UnicodeAsUTF8)(PyObject *);
     PyObject *(*EvalGetBuiltins)(void);
     void (*DecRef)(PyObject *);
+    void (*IncRef)(PyObject *);
     void (*ErrClear)(void);
+    void (*ErrPrint)(void);
+    PyObject *(*CallObject)(PyObject *, PyObject *);
+    long (*LongAsLong)(PyObject *);
 } py;
 #define PY_FILE_INPUT 257
 
@@ -312,7 +337,11 @@ static int resolve_python(void *handle, char *error, size_t size)
     PY(UnicodeAsUTF8, "PyUnicode_AsUTF8");
     PY(EvalGetBuiltins, "PyEval_GetBuiltins");
     PY(DecRef, "Py_DecRef");
+    PY(IncRef, "Py_IncRef");
     PY(ErrClear, "PyErr_Clear");
+    PY(ErrPrint, "PyErr_Print");
+    PY(CallObject, "PyObject_CallObject");
+    PY(LongAsLong, "PyLong_AsLong");
 #undef PY
     *(void **)(&py.SetPythonHome) = dlsym(handle, "Py_SetPythonHome"); /* optional: PYTHONHOME otherwise */
     if (missing[0]) {
@@ -478,13 +507,86 @@ static int ensure_loaded(fmi2String resource_location, char *error, size_t size)
     return inner.handle || load_inner(error, size);
 }
 
+/* ---- the fast path's binding (top of the file); the kinds as in fmu_src/slave_base.py ---- */
+enum { SLOT_REAL_INPUT = 1, SLOT_REAL_OUTPUT = 2, SLOT_INTEGER_OUTPUT = 3, SLOT_BOOLEAN_OUTPUT = 4 };
+#define SLOT_SHIFT 24
+typedef struct {
+    double *inputs;    /* the bound real inputs, then the step's current time and step size */
+    size_t n_inputs;
+    double *outputs;   /* the bound outputs, integers and booleans as doubles */
+    size_t n_outputs;
+    int *slots;        /* by value reference: kind << SLOT_SHIFT | index into its buffer, or -1 */
+    size_t n_slots;
+    PyObject *step;    /* the slave's step function (a reference held here); NULL: not bound */
+} FastPath;
+
 /* ---- one instance: pythonfmu's component, the host's callbacks and the relay given to pythonfmu ---- */
 typedef struct {
     fmi2Component component;         /* pythonfmu's */
     fmi2CallbackFunctions host;      /* as the host passed them */
     fmi2CallbackFunctions relay;     /* what pythonfmu gets: relay_log, componentEnvironment = this */
     int host_logging;                /* the host's loggingOn / fmi2SetDebugLogging */
+    FastPath fast;
 } Instance;
+
+/* The instance whose fmi2ExitInitializationMode runs on this thread: the one a slave binds to. */
+static __thread Instance *initializing;
+
+/* Called by the slave with the GIL held (ctypes.PyDLL); 1: bound, 0: not (no initialization running here,
+ * bad arguments or no memory: the slave stays on the Python path). The buffers belong to the slave, which
+ * the held step function keeps alive. */
+EXPORT int oilwatch_loader_bind_buffers(double *inputs, size_t n_inputs, double *outputs, size_t n_outputs,
+                                        const int *slots, size_t n_slots, PyObject *step)
+{
+    Instance *self = initializing;
+    if (!self || !inputs || !outputs || !slots || !step) return 0;
+    for (size_t i = 0; i < n_slots; ++i) {
+        int kind = slots[i] < 0 ? 0 : slots[i] >> SLOT_SHIFT, index = slots[i] & ((1 << SLOT_SHIFT) - 1);
+        if (slots[i] >= 0 && (kind < SLOT_REAL_INPUT || kind > SLOT_BOOLEAN_OUTPUT ||
+                              (size_t)index >= (kind == SLOT_REAL_INPUT ? n_inputs : n_outputs)))
+            return 0;
+    }
+    int *copy = malloc((n_slots ? n_slots : 1) * sizeof *copy);
+    if (!copy) return 0;
+    memcpy(copy, slots, n_slots * sizeof *copy);
+    py.IncRef(step);
+    if (self->fast.step) py.DecRef(self->fast.step); /* a second initialization of the same slave */
+    free(self->fast.slots);
+    self->fast = (FastPath){inputs, n_inputs, outputs, n_outputs, copy, n_slots, step};
+    return 1;
+}
+
+/* Whether the instance c serves its bound variables here (for tests and diagnostics). */
+EXPORT int oilwatch_loader_fast_path(fmi2Component c) { return c && ((Instance *)c)->fast.step != NULL; }
+
+static void unbind(Instance *self)
+{
+    if (self->fast.step) {
+        PyGILState_STATE gil = py.GILStateEnsure();
+        py.DecRef(self->fast.step);
+        py.GILStateRelease(gil);
+    }
+    free(self->fast.slots);
+    memset(&self->fast, 0, sizeof self->fast);
+}
+
+/* The bound value of vr if its kind is one of `kinds` (a bit mask of 1 << kind), else NULL. */
+static inline double *bound(const FastPath *fast, fmi2ValueReference vr, unsigned kinds)
+{
+    if (vr >= fast->n_slots || fast->slots[vr] < 0) return NULL;
+    int kind = fast->slots[vr] >> SLOT_SHIFT, index = fast->slots[vr] & ((1 << SLOT_SHIFT) - 1);
+    if (!(kinds & (1u << kind))) return NULL;
+    return (kind == SLOT_REAL_INPUT ? fast->inputs : fast->outputs) + index;
+}
+
+/* Whether every one of the n value references is bound with one of `kinds`. */
+static int all_bound(const FastPath *fast, const fmi2ValueReference vr[], size_t n, unsigned kinds)
+{
+    if (!fast->step || (n && !vr)) return 0;
+    for (size_t i = 0; i < n; ++i)
+        if (!bound(fast, vr[i], kinds)) return 0;
+    return 1;
+}
 
 /* Set by the slave (oilwatch_loader_refused_call) during the call whose input it refuses; the call runs
  * on the host's thread, and the slave's Python code on the same thread. */
@@ -552,6 +654,7 @@ EXPORT void fmi2FreeInstance(fmi2Component c)
 {
     Instance *self = c;
     if (!self) return;
+    unbind(self);
     if (inner.FreeInstance) inner.FreeInstance(self->component);
     free(self);
 }
@@ -566,18 +669,22 @@ EXPORT fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean on, size_t n,
               : inner.SetDebugLogging(self->component, 1, 0, NULL);
 }
 
-/* Every other function takes the loader's instance and is forwarded with pythonfmu's component. */
-#define FORWARD(name, params, args)                                                                           \
-    EXPORT fmi2Status fmi2##name params                                                                        \
+/* Every other function takes the loader's instance and is forwarded with pythonfmu's component. FORWARD_TO
+ * defines `declaration params` forwarding to pythonfmu's `field`; FORWARD exports it as fmi2<field>, and
+ * FORWARD_INNER keeps it static as forward_<field> (for the calls with a fast path, at the end). */
+#define FORWARD_TO(declaration, field, params, args)                                                          \
+    declaration params                                                                                         \
     {                                                                                                          \
-        if (!c || !inner.name) return fmi2Error;                                                               \
+        if (!c || !inner.field) return fmi2Error;                                                              \
         c = ((Instance *)c)->component;                                                                        \
-        return inner.name args;                                                                                \
+        return inner.field args;                                                                               \
     }
+#define FORWARD(name, params, args) FORWARD_TO(EXPORT fmi2Status fmi2##name, name, params, args)
+#define FORWARD_INNER(name, params, args) FORWARD_TO(static fmi2Status forward_##name, name, params, args)
 /* The calls that can refuse the user's input: a fatal status after the slave flagged the refusal is
  * fmi2Error (top of the file). */
-#define FORWARD_REFUSABLE(name, params, args)                                                                 \
-    EXPORT fmi2Status fmi2##name params                                                                        \
+#define FORWARD_REFUSABLE_TO(declaration, name, params, args)                                                 \
+    declaration params                                                                                         \
     {                                                                                                          \
         if (!c || !inner.name) return fmi2Error;                                                               \
         c = ((Instance *)c)->component;                                                                        \
@@ -587,21 +694,23 @@ EXPORT fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean on, size_t n,
         refused_in_call = 0;                                                                                   \
         return status;                                                                                         \
     }
-#define FORWARD_SET(name, type)                                                                               \
-    FORWARD_REFUSABLE(name, (fmi2Component c, const fmi2ValueReference vr[], size_t n, const type v[]),       \
-                      (c, vr, n, v))
+#define FORWARD_REFUSABLE(name, params, args)                                                                 \
+    FORWARD_REFUSABLE_TO(EXPORT fmi2Status fmi2##name, name, params, args)
+#define SET_PARAMS(type) (fmi2Component c, const fmi2ValueReference vr[], size_t n, const type v[])
+#define GET_PARAMS(type) (fmi2Component c, const fmi2ValueReference vr[], size_t n, type v[])
+#define FORWARD_SET(name, type) FORWARD_REFUSABLE(name, SET_PARAMS(type), (c, vr, n, v))
 FORWARD(SetupExperiment, (fmi2Component c, fmi2Boolean tol_defined, fmi2Real tol, fmi2Real start,
                           fmi2Boolean stop_defined, fmi2Real stop),
         (c, tol_defined, tol, start, stop_defined, stop))
 FORWARD(EnterInitializationMode, (fmi2Component c), (c))
-FORWARD_REFUSABLE(ExitInitializationMode, (fmi2Component c), (c))
+FORWARD_REFUSABLE_TO(static fmi2Status forward_ExitInitializationMode, ExitInitializationMode,
+                     (fmi2Component c), (c))
 FORWARD(Terminate, (fmi2Component c), (c))
-FORWARD(Reset, (fmi2Component c), (c))
-FORWARD(GetReal, (fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Real v[]), (c, vr, n, v))
-FORWARD(GetInteger, (fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Integer v[]), (c, vr, n, v))
-FORWARD(GetBoolean, (fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Boolean v[]), (c, vr, n, v))
-FORWARD(GetString, (fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2String v[]), (c, vr, n, v))
-FORWARD_SET(SetReal, fmi2Real)
+FORWARD_INNER(GetReal, GET_PARAMS(fmi2Real), (c, vr, n, v))
+FORWARD_INNER(GetInteger, GET_PARAMS(fmi2Integer), (c, vr, n, v))
+FORWARD_INNER(GetBoolean, GET_PARAMS(fmi2Boolean), (c, vr, n, v))
+FORWARD(GetString, GET_PARAMS(fmi2String), (c, vr, n, v))
+FORWARD_REFUSABLE_TO(static fmi2Status forward_SetReal, SetReal, SET_PARAMS(fmi2Real), (c, vr, n, v))
 FORWARD_SET(SetInteger, fmi2Integer)
 FORWARD_SET(SetBoolean, fmi2Boolean)
 FORWARD_SET(SetString, fmi2String)
@@ -620,11 +729,88 @@ FORWARD(SetRealInputDerivatives, (fmi2Component c, const fmi2ValueReference vr[]
 FORWARD(GetRealOutputDerivatives, (fmi2Component c, const fmi2ValueReference vr[], size_t n,
                                    const fmi2Integer order[], fmi2Real v[]),
         (c, vr, n, order, v))
-FORWARD(DoStep, (fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean no_prior),
-        (c, t, h, no_prior))
+FORWARD_INNER(DoStep, (fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean no_prior), (c, t, h, no_prior))
 FORWARD(CancelStep, (fmi2Component c), (c))
 FORWARD(GetStatus, (fmi2Component c, const fmi2StatusKind k, fmi2Status *v), (c, k, v))
 FORWARD(GetRealStatus, (fmi2Component c, const fmi2StatusKind k, fmi2Real *v), (c, k, v))
 FORWARD(GetIntegerStatus, (fmi2Component c, const fmi2StatusKind k, fmi2Integer *v), (c, k, v))
 FORWARD(GetBooleanStatus, (fmi2Component c, const fmi2StatusKind k, fmi2Boolean *v), (c, k, v))
 FORWARD(GetStringStatus, (fmi2Component c, const fmi2StatusKind k, fmi2String *v), (c, k, v))
+
+/* ---- the calls with a fast path (top of the file); the others forward as above ---- */
+#define REALS ((1u << SLOT_REAL_INPUT) | (1u << SLOT_REAL_OUTPUT))
+
+EXPORT fmi2Status fmi2ExitInitializationMode(fmi2Component c)
+{
+    initializing = c; /* the slave binds its buffers during this call (oilwatch_loader_bind_buffers) */
+    fmi2Status status = forward_ExitInitializationMode(c);
+    initializing = NULL;
+    return status;
+}
+
+EXPORT fmi2Status fmi2Reset(fmi2Component c)
+{
+    Instance *self = c;
+    if (!self || !inner.Reset) return fmi2Error;
+    unbind(self); /* pythonfmu's reset makes a new slave object */
+    return inner.Reset(self->component);
+}
+
+EXPORT fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Real v[])
+{
+    Instance *self = c;
+    if (self && all_bound(&self->fast, vr, n, 1u << SLOT_REAL_INPUT)) {
+        for (size_t i = 0; i < n; ++i) *bound(&self->fast, vr[i], 1u << SLOT_REAL_INPUT) = v[i];
+        return fmi2OK;
+    }
+    return forward_SetReal(c, vr, n, v);
+}
+
+EXPORT fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Real v[])
+{
+    Instance *self = c;
+    if (self && all_bound(&self->fast, vr, n, REALS)) {
+        for (size_t i = 0; i < n; ++i) v[i] = *bound(&self->fast, vr[i], REALS);
+        return fmi2OK;
+    }
+    return forward_GetReal(c, vr, n, v);
+}
+
+EXPORT fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Integer v[])
+{
+    Instance *self = c;
+    if (self && all_bound(&self->fast, vr, n, 1u << SLOT_INTEGER_OUTPUT)) {
+        for (size_t i = 0; i < n; ++i) v[i] = (fmi2Integer)*bound(&self->fast, vr[i], 1u << SLOT_INTEGER_OUTPUT);
+        return fmi2OK;
+    }
+    return forward_GetInteger(c, vr, n, v);
+}
+
+EXPORT fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Boolean v[])
+{
+    Instance *self = c;
+    if (self && all_bound(&self->fast, vr, n, 1u << SLOT_BOOLEAN_OUTPUT)) {
+        for (size_t i = 0; i < n; ++i) v[i] = *bound(&self->fast, vr[i], 1u << SLOT_BOOLEAN_OUTPUT) != 0.0;
+        return fmi2OK;
+    }
+    return forward_GetBoolean(c, vr, n, v);
+}
+
+EXPORT fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean no_prior)
+{
+    Instance *self = c;
+    if (self && self->fast.step) {
+        self->fast.inputs[self->fast.n_inputs] = t;
+        self->fast.inputs[self->fast.n_inputs + 1] = h;
+        PyGILState_STATE gil = py.GILStateEnsure();
+        PyObject *result = py.CallObject(self->fast.step, NULL);
+        long outcome = result ? py.LongAsLong(result) : -1;
+        if (result) py.DecRef(result);
+        else py.ErrPrint(); /* the step function catches everything: this is a bug, on stderr */
+        py.ErrClear();
+        py.GILStateRelease(gil);
+        if (outcome == 0) return fmi2OK;
+        if (outcome < 0) return fmi2Fatal;
+    }
+    return forward_DoStep(c, t, h, no_prior); /* the slave replays a stored outcome (top of the file) */
+}
