@@ -33,19 +33,27 @@ from pathlib import Path
 
 import numpy as np
 
+from models.bearing.supply import ML_MIN_PER_M3_S
+from models.machine import load_machine
+
 ROOT = Path(__file__).resolve().parent.parent
 HOST_SOURCE = ROOT / "tests" / "c_host" / "fmi2_host.c"
-NOMINAL_ML_MIN = 596.3
-PLANT_PARAMETERS = {
-    "q1_final_ml_min": 0.8 * NOMINAL_ML_MIN,
-    "q2_final_ml_min": 0.8 * NOMINAL_ML_MIN,
-    "fault_time_s": 0.0,
-    "fault_duration_s": 1e-3,
-}
+STARVED_FRACTION = 0.8
 CONNECTED = ("x1_um", "y1_um", "x2_um", "y2_um")
 OUTPUT_REALS = ("q1_est_ml_min", "q2_est_ml_min", "q1_std_ml_min", "q2_std_ml_min")
 OUTPUT_FLAGS = ("starved1", "starved2", "converged", "measurement_ok")
 DT = 1e-3
+
+
+def plant_parameters() -> dict:
+    """The plant at 80 % of the machine file's nominal flowrate from the start (a starved, alarmed state)."""
+    starved_ml_min = STARVED_FRACTION * load_machine().lubrication.nominal_flowrate_m3_s * ML_MIN_PER_M3_S
+    return {
+        "q1_final_ml_min": starved_ml_min,
+        "q2_final_ml_min": starved_ml_min,
+        "fault_time_s": 0.0,
+        "fault_duration_s": 1e-3,
+    }
 
 
 def compile_host(folder: Path) -> Path:
@@ -74,7 +82,7 @@ def fmu_lines(fmu: Path, folder: Path, instance: str, parameters: dict) -> tuple
 
 def host_run(host: Path, plant: Path, ekf: Path, folder: Path, steps: int) -> np.ndarray:
     """One coupled run of ``steps`` steps; the estimator's per-step (cpu_ns, wall_ns), shape (steps, 2)."""
-    spec, pvr = fmu_lines(plant, folder / "plant", "plant", PLANT_PARAMETERS)
+    spec, pvr = fmu_lines(plant, folder / "plant", "plant", plant_parameters())
     ekf_spec, evr = fmu_lines(ekf, folder / "ekf", "ekf", {})
     spec += ekf_spec
     spec += [f"connect plant {pvr[n]} ekf {evr[n]}" for n in CONNECTED]
