@@ -110,6 +110,12 @@ class FilterReporting:
         """Number of samples processed."""
         return int(self._counters[COUNT_STEP])
 
+    @property
+    def settling_steps(self) -> int:
+        """Samples of the settling start (:mod:`estimator.nuisance_start`; 0: none): the flowrates and
+        nuisances restart from their prior after this sample."""
+        return self._settling
+
     def current_report(self) -> StepReport:
         """The report of the last processed sample, rebuilt from the state (e.g. after :meth:`set_state`)."""
         self._refresh_report()

@@ -204,6 +204,12 @@ class EstimateTrace:
             else:
                 target[...] = values
 
+    def put_rows(self, start: int, source: EstimateTrace, count: int, source_start: int = 0) -> None:
+        """Rows ``start:start + count`` from ``source``'s rows ``source_start:``."""
+        rows = slice(source_start, source_start + count)
+        for name, _, _ in _TRACE_COLUMNS:
+            getattr(self, name)[start : start + count] = getattr(source, name)[rows]
+
 
 _TRACE_COLUMNS = (
     ("q_m3_s", REPORT_FLOWRATE, 2),

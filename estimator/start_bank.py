@@ -16,15 +16,27 @@ prior), through a selection window; at its end it keeps the filter whose accumul
 start's restart is smallest (the log-likelihood up to the log-determinant of the innovation covariance,
 the same to first order for filters with the same measurement noise and settled dynamic states) and
 continues it alone. Before the choice the reports are the nominal start's (the unchanged filter's), so the
-bank is causal and costs ``len(starts)`` filters for the window only.
+bank is causal and costs ``len(starts)`` filters for the window only. A record shorter than the window ends
+before the choice: its estimates are the nominal start's, as one filter would give (:attr:`StartBank.chosen`
+stays None).
+
+The bank has the filter's public interface (:meth:`step`, :meth:`run`, :meth:`run_batch`, :meth:`reset`,
+the reports, the nuisance estimates, :meth:`get_state` / :meth:`set_state`), so that every caller builds its
+estimator with :func:`estimator.factory.make_estimator` and does not care which one it holds: ``oilwatch
+estimate``, the estimator FMU and the robustness report run the same estimator.
 """
 
 from __future__ import annotations
 
 import copy
 import dataclasses
+from collections.abc import Callable
 
 import numpy as np
+
+from models.validation import InputError
+
+from .reports import EstimateTrace, StepReport
 
 START_FRACTIONS = (1.1, 1.0, 0.9, 0.8, 0.7)
 """The starts, as fractions of the configured initial flowrate: -1.2 to +0.4 prior std of 25 % apart by
@@ -36,10 +48,18 @@ accumulated NIS separate in their first tens of seconds and not afterwards (thei
 follow its own point)."""
 
 
+def _of_active(name: str):
+    return property(
+        lambda bank: getattr(bank.active, name),
+        doc=f"The followed filter's ``{name}`` (:class:`estimator.ekf.OilFlowEKF`).",
+    )
+
+
 class StartBank:
     """Filters from :data:`START_FRACTIONS` of the initial flowrate; the smallest accumulated NIS at
-    ``select_s`` continues (module docstring). ``step`` takes what :meth:`OilFlowEKF.step` takes and returns
-    the report of the filter followed (the nominal start's until the choice)."""
+    ``select_s`` continues (module docstring). Every method takes what the same method of
+    :class:`estimator.ekf.OilFlowEKF` takes and gives what the filter followed gives (the nominal start's
+    until the choice)."""
 
     def __init__(
         self,
@@ -55,19 +75,22 @@ class StartBank:
         if 1.0 not in self.fractions:
             raise ValueError("the start fractions must include 1 (the configured start)")
         self._nominal = self.fractions.index(1.0)
-        # each start its own model (an operating model carries the rotor angle and its correction centre)
+        # each start its own model (an operating model carries the rotor angle and its correction centre);
+        # the nominal start is the configured filter itself
         self.filters = [
-            OilFlowEKF(
-                model if k == self._nominal else copy.deepcopy(model),
-                dataclasses.replace(config, q_initial_m3_s=tuple(f * q0)),
-            )
+            OilFlowEKF(model, config)
+            if k == self._nominal
+            else OilFlowEKF(copy.deepcopy(model), dataclasses.replace(config, q_initial_m3_s=tuple(f * q0)))
             for k, f in enumerate(self.fractions)
         ]
+        self.select_s = float(select_s)
         self._select_step = round(select_s / float(model.dt_s)) if np.isfinite(select_s) else None
-        self._settling = self.filters[0]._settling
+        self.settling_steps = self.filters[self._nominal].settling_steps
+        """Samples of the settling start: the NIS is summed from the next one on."""
         self.nis = np.zeros(len(self.filters))
+        """Each start's NIS summed since the settling start's restart."""
         self.chosen: int | None = None
-        self._step = 0
+        """The index of the start chosen (None until the window ends)."""
 
     @staticmethod
     def applies(config) -> bool:
@@ -80,21 +103,167 @@ class StartBank:
         return free and config.flowrate_process_std_m3_s > 0.0 and config.nuisance_shadow
 
     @property
+    def config(self):
+        """The configuration (the nominal start's: the one the bank was built with)."""
+        return self.filters[self._nominal].config
+
+    model = _of_active("model")
+    alarm = _of_active("alarm")
+    step_count = _of_active("step_count")
+    flowrate_m3_s = _of_active("flowrate_m3_s")
+    flowrate_std_m3_s = _of_active("flowrate_std_m3_s")
+    offset_m = _of_active("offset_m")
+    offset_std_m = _of_active("offset_std_m")
+    unbalance = _of_active("unbalance")
+    unbalance_std = _of_active("unbalance_std")
+    viscosity_factor = _of_active("viscosity_factor")
+    viscosity_factor_std = _of_active("viscosity_factor_std")
+    dynamic_state = _of_active("dynamic_state")
+    covariance = _of_active("covariance")
+
+    @property
     def active(self):
         """The filter whose reports are given (the chosen one, else the nominal start's)."""
         return self.filters[self._nominal if self.chosen is None else self.chosen]
 
-    def step(self, displacement_m, **operating):
-        """One sample through every filter until the choice, then through the chosen one."""
-        if self.chosen is not None:
-            return self.active.step(displacement_m, **operating)
-        reports = []
+    @property
+    def chosen_fraction(self) -> float | None:
+        """The chosen start as a fraction of the configured initial flowrate (None before the choice)."""
+        return None if self.chosen is None else self.fractions[self.chosen]
+
+    def reset(self) -> None:
+        """Every start back to its initial state; the choice is open again."""
         for ekf in self.filters:
-            reports.append(ekf.step(displacement_m, **operating))
-            if self._step > self._settling:
-                self.nis[len(reports) - 1] += reports[-1].nis
-        self._step += 1
-        if self._select_step is not None and self._step >= self._select_step:
-            self.chosen = int(np.argmin(self.nis))
-            self.filters = [ekf if k == self.chosen else None for k, ekf in enumerate(self.filters)]
+            ekf.reset()
+        self.nis[:] = 0.0
+        self.chosen = None
+
+    def step(
+        self,
+        displacement_m: np.ndarray,
+        speed_hz: float | None = None,
+        oil_temperature_c: float | None = None,
+        rotor_angle_rad: float | None = None,
+    ) -> StepReport:
+        """One sample through every start until the choice, then through the chosen one."""
+        operating = (speed_hz, oil_temperature_c, rotor_angle_rad)
+        if self.chosen is not None:
+            return self.active.step(displacement_m, *operating)
+        index = self.step_count
+        reports = [ekf.step(displacement_m, *operating) for ekf in self.filters]
+        if index > self.settling_steps:
+            for k, report in enumerate(reports):
+                self.nis[k] += report.nis
+        self._choose_when_due()
         return reports[self._nominal if self.chosen is None else self.chosen]
+
+    def run(
+        self,
+        displacements_m: np.ndarray,
+        progress: Callable[[int, int], None] | None = None,
+        speed_hz: np.ndarray | None = None,
+        oil_temperature_c: np.ndarray | None = None,
+    ) -> EstimateTrace:
+        """:meth:`estimator.ekf.OilFlowEKF.run` through the bank (``progress`` every 100 samples)."""
+        record = _checked(displacements_m)
+        count = record.shape[0]
+        trace = EstimateTrace.empty(count)
+
+        def through(ekf, rows):
+            return ekf.run(record[rows], None, _rows(speed_hz, rows), _rows(oil_temperature_c, rows))
+
+        for start in range(0, count, 100):
+            if progress is not None:
+                progress(start, count)
+            self._advance_rows(through, start, min(start + 100, count), trace)
+        if progress is not None:
+            progress(count, count)
+        return trace
+
+    def run_batch(
+        self,
+        displacements_m: np.ndarray,
+        speed_hz: np.ndarray | None = None,
+        oil_temperature_c: np.ndarray | None = None,
+        out: EstimateTrace | None = None,
+    ) -> EstimateTrace:
+        """:meth:`estimator.ekf.OilFlowEKF.run_batch` through the bank (bit-identical to as many
+        :meth:`step` calls)."""
+        if self.chosen is not None:
+            return self.active.run_batch(displacements_m, speed_hz, oil_temperature_c, out)
+        record = _checked(displacements_m)
+        count = record.shape[0]
+        if out is None:
+            out = EstimateTrace.empty(count)
+        elif out.q_m3_s.shape[0] < count:
+            raise InputError(f"out must have at least {count} rows, got {out.q_m3_s.shape[0]}")
+
+        def through(ekf, rows):
+            return ekf.run_batch(record[rows], _rows(speed_hz, rows), _rows(oil_temperature_c, rows))
+
+        self._advance_rows(through, 0, count, out)
+        return out
+
+    def _advance_rows(self, through, start: int, stop: int, out: EstimateTrace) -> None:
+        """Rows ``start:stop`` of a record through the bank, into ``out``'s rows: ``through(filter, rows)``
+        runs one filter on a slice of the record and returns its trace. Before the choice every start runs
+        up to the sample that completes the window."""
+        if start < stop and self.chosen is None:
+            first = self.step_count
+            window = stop - start if self._select_step is None else max(1, self._select_step - first)
+            rows = slice(start, min(stop, start + window))
+            traces = [through(ekf, rows) for ekf in self.filters]
+            done = traces[self._nominal].nis.shape[0]
+            for k, trace in enumerate(traces):
+                # in the order of the samples, as step() adds: the sum decides the choice
+                counted = trace.nis[max(0, self.settling_steps + 1 - first) :]
+                self.nis[k] = np.cumsum(np.r_[self.nis[k], counted])[-1]
+            out.put_rows(start, traces[self._nominal], done)
+            self._choose_when_due()
+            if self.chosen is not None:  # the sample that completes the window reports the chosen start
+                out.put_rows(start + done - 1, traces[self.chosen], 1, done - 1)
+            start += done
+        if start < stop:
+            out.put_rows(start, through(self.active, slice(start, stop)), stop - start)
+
+    def _choose_when_due(self) -> None:
+        if self._select_step is not None and self.step_count >= self._select_step:
+            self.chosen = int(np.argmin(self.nis))
+
+    def current_report(self) -> StepReport:
+        """The followed filter's last report, rebuilt from its state."""
+        return self.active.current_report()
+
+    def get_state(self) -> dict[str, np.ndarray]:
+        """The bank's state: the choice, the NIS sums and the state of every start until the choice (of the
+        chosen one after it), keys prefixed ``start{k}_`` (copies; restoring continues bit-identically)."""
+        state = {"bank": np.r_[-1.0 if self.chosen is None else float(self.chosen), self.nis]}
+        members = range(len(self.filters)) if self.chosen is None else (self.chosen,)
+        for k in members:
+            state.update({f"start{k}_{key}": value for key, value in self.filters[k].get_state().items()})
+        return state
+
+    def set_state(self, state: dict[str, np.ndarray]) -> None:
+        """Restore a state from :meth:`get_state` exactly (same model and configuration)."""
+        bank = np.asarray(state.get("bank", ()), dtype=float)
+        if bank.shape != (1 + len(self.filters),):
+            raise InputError(f"start bank state 'bank' must have shape ({1 + len(self.filters)},)")
+        chosen = None if bank[0] < 0 else int(bank[0])
+        members = range(len(self.filters)) if chosen is None else (chosen,)
+        for k in members:
+            prefix = f"start{k}_"
+            self.filters[k].set_state(
+                {key.removeprefix(prefix): value for key, value in state.items() if key.startswith(prefix)}
+            )
+        self.chosen, self.nis[:] = chosen, bank[1:]
+
+
+def _rows(values, rows: slice):
+    return None if values is None else values[rows]
+
+
+def _checked(displacements_m) -> np.ndarray:
+    record = np.asarray(displacements_m, dtype=np.float64)
+    if record.ndim != 2 or record.shape[1] != 4:
+        raise InputError(f"displacements_m must have shape (K, 4), got {record.shape}")
+    return record

@@ -64,7 +64,7 @@ from estimator.config import (
     nuisance_names,
     nuisance_values,
 )
-from estimator.ekf import OilFlowEKF as FlowFilter
+from estimator.factory import make_estimator
 from estimator.reports import ReportView
 from estimator.runout import runout_of_probes
 from estimator.step_kernel import (
@@ -167,7 +167,7 @@ class OilFlowEKF(OilwatchSlave):
     def __init__(self, **kwargs):
         limit_blas_threads()
         super().__init__(**kwargs)
-        self.filter: FlowFilter | None = None
+        self.filter = None  # estimator.factory.make_estimator's: a filter, or the start bank
         self._measurement = np.zeros(4)
         self._missing = np.full(4, np.nan)
         self._warned_off_grid = False
@@ -415,7 +415,7 @@ class OilFlowEKF(OilwatchSlave):
             raise InputError("viscosity_factor_prior_std > 0 needs bearing_table = 1")
         else:
             model = GridAugmentedModel(system, self.sample_period_s)
-        self.filter = FlowFilter(
+        self.filter = make_estimator(
             model, self._config(machine, nominal, initial, system.speed_hz, *self._baseline(machine))
         )
         self._first_sample_time_s = self.filter.config.first_sample_time_s

@@ -46,7 +46,7 @@ def main() -> None:
             for ekf in bank.filters
         ]
         for m, report in enumerate(reports):
-            if k > bank._settling:
+            if k > bank.settling_steps:
                 bank.nis[m] += report.nis
             if k >= half:
                 sums[m] += report.q_m3_s

@@ -17,6 +17,8 @@ import pytest
 
 from estimator.config import OffsetBaseline
 from estimator.ekf import OilFlowEKF
+from estimator.factory import make_estimator
+from estimator.reports import EstimateTrace
 from estimator.start_bank import START_FRACTIONS, StartBank
 from models.machine import load_machine
 from models.system.factory import build_system
@@ -47,7 +49,7 @@ def test_the_bank_reports_the_nominal_start_then_continues_the_least_nis_start_e
     steps, select_s = 1400, 1.0
     record = _record(model, steps, 1.0)
     bank = StartBank(model, config, select_s=select_s)
-    assert 0 < bank._settling < round(select_s / DT)
+    assert 0 < bank.settling_steps < round(select_s / DT)
     q_bank = np.array([bank.step(record[k]).q_m3_s for k in range(steps)])
     assert bank.chosen == START_FRACTIONS.index(1.0), bank.nis
     assert bank.nis[bank.chosen] == bank.nis.min() and (np.diff(np.sort(bank.nis)) > 0).all()
@@ -70,3 +72,69 @@ def test_a_start_below_nominal_wins_on_a_low_flow_record_and_continues_as_that_f
     model.reset_operating_state()
     low = dataclasses.replace(config, q_initial_m3_s=0.8 * model.nominal_flowrate_m3_s)
     np.testing.assert_array_equal(q_bank[choice:], OilFlowEKF(model, low).run(record).q_m3_s[choice:])
+
+
+FIELDS = ("q_m3_s", "q_std_m3_s", "nis", "starved", "model_consistent", "viscosity_factor", "offset_m")
+
+
+def _stepped(bank, record) -> dict:
+    reports = [bank.step(sample) for sample in record]
+    return {name: np.array([getattr(report, name) for report in reports]) for name in FIELDS[:5]}
+
+
+def test_the_bank_s_record_entries_equal_its_steps_across_the_choice(model):
+    """``run_batch`` in blocks that split the window anywhere (the choice inside a block) and ``run`` give
+    what as many steps give, bit for bit, and choose the same start from the same NIS sums."""
+    config = free_config()
+    record = _record(model, 1400, 0.8)
+    stepped = StartBank(model, config, select_s=1.0)
+    expected = _stepped(stepped, record)
+    assert stepped.chosen is not None
+    batched = StartBank(model, config, select_s=1.0)
+    out = EstimateTrace.empty(400)  # reused by every block, as oilwatch estimate does
+    rows = []
+    for start, stop in ((0, 1), (1, 351), (351, 751), (751, 1151), (1151, 1400)):
+        batched.run_batch(record[start:stop], out=out)
+        rows.append({name: getattr(out, name)[: stop - start].copy() for name in FIELDS})
+    batch = {name: np.concatenate([r[name] for r in rows]) for name in FIELDS}
+    whole = StartBank(model, config, select_s=1.0).run(record)
+    for name in FIELDS[:5]:
+        np.testing.assert_array_equal(batch[name], expected[name], err_msg=name)
+        np.testing.assert_array_equal(getattr(whole, name), expected[name], err_msg=name)
+    assert batched.chosen == stepped.chosen and np.array_equal(batched.nis, stepped.nis)
+    np.testing.assert_array_equal(batched.viscosity_factor, stepped.viscosity_factor)
+
+
+def test_the_bank_s_state_restores_bit_identically_and_reset_starts_over(model):
+    """A state saved inside the window or after the choice continues bit for bit; ``reset`` runs the record
+    again as a new bank (the FMU's get/setFMUstate and fmi2Reset)."""
+    config = free_config()
+    record = _record(model, 1400, 0.8)
+    bank = StartBank(model, config, select_s=1.0)
+    first = _stepped(bank, record[:600])["q_m3_s"]
+    inside = bank.get_state()
+    assert {key.partition("_")[0] for key in inside} == {"bank"} | {f"start{k}" for k in range(5)}
+    on = _stepped(bank, record[600:1200])
+    after = bank.get_state()
+    assert bank.chosen is not None and {key.partition("_")[0] for key in after} == {
+        "bank",
+        f"start{bank.chosen}",
+    }
+    tail = _stepped(bank, record[1200:])
+    bank.set_state(inside)
+    assert bank.chosen is None
+    again = _stepped(bank, record[600:1200])
+    bank.set_state(after)
+    tail_again = _stepped(bank, record[1200:])
+    for name in FIELDS[:5]:
+        np.testing.assert_array_equal(again[name], on[name], err_msg=name)
+        np.testing.assert_array_equal(tail_again[name], tail[name], err_msg=name)
+    bank.reset()
+    assert bank.chosen is None and not bank.nis.any() and bank.step_count == 0
+    np.testing.assert_array_equal(_stepped(bank, record[:600])["q_m3_s"], first)
+
+
+def test_the_factory_builds_the_bank_where_it_applies_and_one_filter_elsewhere(model):
+    assert isinstance(make_estimator(model, free_config()), StartBank)
+    known = dataclasses.replace(free_config(), viscosity_factor_prior_std=0.0)
+    assert type(make_estimator(model, known)) is OilFlowEKF

@@ -58,6 +58,16 @@ def register(subparsers) -> None:
         "offset_prior_std_um; 0: the offsets are known to be zero, the estimator FMU's default)",
     )
     parser.add_argument(
+        "--viscosity-prior",
+        type=float,
+        default=0.0,
+        metavar="STD",
+        help="prior std of each bearing's viscosity factor (film over the oil law at the measured "
+        "temperature), e.g. 0.1: estimated beside the flowrates, with the start bank where no --baseline "
+        "estimated them (README); needs the model that follows the operating point; 0: known (default, "
+        "the estimator FMU's viscosity_factor_prior_std)",
+    )
+    parser.add_argument(
         "--probe",
         action="append",
         default=[],
@@ -101,7 +111,7 @@ def register(subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Check the arguments, then run one record in-process or several on Dask."""
-    from models.validation import InputError
+    from models.validation import InputError, require_in_range
     from oilwatch.monitoring.estimate import EstimateOptions
     from oilwatch.records.readers import STDIN
 
@@ -124,13 +134,13 @@ def run(args: argparse.Namespace) -> int:
         if args.baseline is not None:
             baseline_age_days(args.baseline, args.record_start)  # a baseline newer than the record fails here
     if args.offset_prior_um is not None:
-        from models.validation import require_in_range
-
         require_in_range("--offset-prior-um", args.offset_prior_um, 0.0, 1000.0, "um")
+    require_in_range("--viscosity-prior", args.viscosity_prior, 0.0, 0.5)
     options = EstimateOptions(
         machine_file=args.machine,
         baseline_file=args.baseline,
         offset_prior_std_um=args.offset_prior_um,
+        viscosity_factor_prior_std=args.viscosity_prior,
         probe_overrides=tuple(args.probe),
         output_every=args.output_every,
         views=not args.no_views,

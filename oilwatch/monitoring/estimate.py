@@ -46,7 +46,7 @@ from estimator.config import (
     EKFConfig,
     OffsetBaseline,
 )
-from estimator.ekf import OilFlowEKF
+from estimator.factory import make_estimator
 from estimator.runout import SlowRollVectors, runout_of_probes
 from models.machine import Machine, load_machine
 from models.probes import Probes, read_probes
@@ -92,6 +92,10 @@ class EstimateOptions:
     machine_file: str | None = None
     baseline_file: str | None = None
     offset_prior_std_um: float | None = None
+    viscosity_factor_prior_std: float = 0.0
+    """> 0: each bearing's viscosity factor is estimated with this prior std (the estimator FMU's
+    ``viscosity_factor_prior_std``; needs the model that follows the operating point); with no baseline for
+    the factors the estimator is the start bank (:func:`estimator.factory.make_estimator`)."""
     probe_overrides: tuple[str, ...] = ()
     output_every: int = 1
     chunk_rows: int = 8192
@@ -147,6 +151,7 @@ def estimator_config(
     baseline: OffsetBaseline | None = None,
     probe_angle_deg: float = 0.0,
     runout: SlowRollVectors | None = None,
+    viscosity_factor_prior_std: float = 0.0,
 ) -> EKFConfig:
     """The OilFlowEKF FMU's default configuration with the machine's probe nuisances (module docstring).
 
@@ -154,10 +159,11 @@ def estimator_config(
     default); ``baseline``: a commissioning baseline's offsets prior (the FMU's ``baseline_file``);
     ``probe_angle_deg``: the probe pairs' mounting angle when the samples are along the probes' axes (the
     FMU's ``probe_angle_deg``; 0: (x, y) positions); ``runout``: the probes' slow-roll vectors, subtracted
-    from each sample at its rotor angle (the samples must then be along the probes' axes)."""
-    nuisance = {}
+    from each sample at its rotor angle (the samples must then be along the probes' axes);
+    ``viscosity_factor_prior_std``: the viscosity factors' prior std (0: known, the FMU's default)."""
+    nuisance = {"viscosity_factor_prior_std": viscosity_factor_prior_std}
     if probes is not None:
-        nuisance = {
+        nuisance |= {
             "offset_prior_std_m": probes.offset_prior_std_m,
             "offset_random_walk_m_sqrt_s": probes.offset_random_walk_m_sqrt_s,
         }
@@ -230,10 +236,16 @@ class EstimateRun:
         if total_callback is not None:
             total_callback(self.stream.reader.total, self.stream.reader.progress_unit)
         self.follow, self.operating_reason = self._operating_choice()
+        if options.viscosity_factor_prior_std > 0.0 and not self.follow:
+            raise InputError(
+                "--viscosity-prior > 0 needs the model that follows the operating point: a record with a "
+                "speed or an oil temperature and the machine's [oil] (or --operating-point follow); "
+                f"the model is {self.operating_reason}"
+            )
         # after the record's checks: errors come first
         self.model = estimator_model(options.machine_file, follow=self.follow)
         self.live_stream = live_stream
-        self.filter: OilFlowEKF | None = None
+        self.filter = None  # estimator.factory.make_estimator's: a filter, or the start bank
         # the estimator takes the readings along the probes' axes when it can (the FMU's probe_angle_deg)
         self.probe_angle_deg = self.stream.probe_angle_deg or 0.0
         self.runout, self.runout_source = self._runout()
@@ -384,8 +396,9 @@ class EstimateRun:
             self.baseline,
             self.probe_angle_deg,
             self.runout,
+            self.options.viscosity_factor_prior_std,
         )
-        self.filter = OilFlowEKF(self.model, config)
+        self.filter = make_estimator(self.model, config)
         missing = np.full(4, np.nan)
         operating = self._operating(float(block.speed_hz[0]), float(block.oil_temperature_c[0]))
         # compile the kernels, as the FMU does, at the first sample's operating point (the FMU's start
@@ -415,7 +428,7 @@ class EstimateRun:
         return self._rows.rows(block, trace, count)
 
     def _steps(self, block):
-        """The estimator's per-sample outputs over a block (:meth:`estimator.ekf.OilFlowEKF.run_batch`, into
+        """The estimator's per-sample outputs over a block (its ``run_batch``, into
         the previous block's trace when it has the rows)."""
         count = block.k.size
         reuse = self._trace if self._trace is not None and self._trace.nis.shape[0] >= count else None

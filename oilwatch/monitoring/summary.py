@@ -18,6 +18,23 @@ def final_window(duration_s: float) -> float:
     return min(0.1 * duration_s, 30.0)
 
 
+def start_bank_summary(estimator) -> dict | None:
+    """The start bank's starts, window and choice (None: one filter). A record that ends inside the window
+    has no choice: its estimates are the nominal start's, as one filter's."""
+    from estimator.start_bank import StartBank
+
+    if not isinstance(estimator, StartBank):
+        return None
+    return {
+        "start_fractions": list(estimator.fractions),
+        "select_s": estimator.select_s,
+        "chosen_start_fraction": estimator.chosen_fraction,
+        "note": "the nominal start's estimates throughout: the record ended inside the selection window"
+        if estimator.chosen is None
+        else "the nominal start's estimates until the choice, the chosen start's after it",
+    }
+
+
 def summarize(run, wall_s: float, csv_path: Path) -> dict:
     """summary.json of a finished :class:`oilwatch.monitoring.estimate.EstimateRun` (module docstring)."""
     history = run.history
@@ -47,6 +64,7 @@ def summarize(run, wall_s: float, csv_path: Path) -> dict:
             "baseline_file": run.options.baseline_file,
             "baseline_age_days": run.baseline_age_days,  # None: unknown, the prior not widened by drift
             "runout": run.runout_source,
+            "start_bank": start_bank_summary(run.filter),
         },
         "q_nominal_ml_min": nominal,
         "samples": history.samples,

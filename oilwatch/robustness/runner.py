@@ -10,10 +10,11 @@ Reported: error and the filter's own std (% of the true flowrate), their ratio, 
 detections (the alarm set at the end for a bearing below 90 %), the probes flagged faulty, the share of the
 second half with a consistent model, whether every alarm was raised under a consistent model, and the error
 over the nuisance Cramer-Rao bound of the case's own configuration (:mod:`.bounds`: the nuisances its
-estimator estimates, its baseline, its speed and temperature trajectory; the whole record). With the
-viscosity factors free and no baseline for them the estimator is :class:`estimator.start_bank.StartBank`
-(several starts along the flowrates' prior, the record's NIS picks one); every other configuration runs
-one :class:`estimator.ekf.OilFlowEKF`.
+estimator estimates, its baseline, its speed and temperature trajectory; the whole record). The estimator is
+the product's, built by :func:`estimator.factory.make_estimator` and run through ``run_batch`` as ``oilwatch
+estimate`` runs it: with the viscosity factors free and no baseline for them the start bank
+(:class:`estimator.start_bank.StartBank`: several starts along the flowrates' prior, the record's NIS picks
+one), else one :class:`estimator.ekf.OilFlowEKF`.
 
 Cases run in worker processes (``workers``), each building the models once; each finished row is written at
 once to ``robustness.json``, so nothing is lost when the run is stopped.
@@ -29,15 +30,14 @@ import os
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
-from types import SimpleNamespace
 
 import numpy as np
 
 from estimator.baseline import baseline_prior, estimate_baseline
 from estimator.config import EKFConfig
 from estimator.ekf import OilFlowEKF
+from estimator.factory import make_estimator
 from estimator.runout import runout_of_probes
-from estimator.start_bank import StartBank
 from models.machine import load_machine
 from models.probes import read_probes
 from models.rotor.assembly import Rotor
@@ -265,24 +265,9 @@ class RobustnessRun:
         """(trace, follows): the estimator's record, and whether it was fed the measured speed and oil
         temperature (an estimator whose step takes them: issue 13's estimator side)."""
         if not (case.operating_point and self.follows_operating_point):
-            return OilFlowEKF(self.model, config).run(signals), False
-        model = self._operating_model()
-        ekf = StartBank(model, config) if StartBank.applies(config) else OilFlowEKF(model, config)
-        count = len(signals)
-        trace = SimpleNamespace(
-            q_m3_s=np.zeros((count, 2)),
-            q_std_m3_s=np.zeros((count, 2)),
-            starved=np.zeros((count, 2), dtype=bool),
-            starved_consistent=np.zeros((count, 2), dtype=bool),
-            model_consistent=np.zeros(count, dtype=bool),
-            probe_faulty=np.zeros((count, 4), dtype=bool),
-        )
-        for k in range(count):
-            report = ekf.step(signals[k], speed_hz=float(speed[k]), oil_temperature_c=float(temperature[k]))
-            trace.q_m3_s[k], trace.q_std_m3_s[k] = report.q_m3_s, report.q_std_m3_s
-            trace.starved[k], trace.starved_consistent[k] = report.starved, report.starved_consistent
-            trace.model_consistent[k], trace.probe_faulty[k] = report.model_consistent, report.probe_faulty
-        return trace, True
+            return make_estimator(self.model, config).run_batch(signals), False
+        estimator = make_estimator(self._operating_model(), config)
+        return estimator.run_batch(signals, speed_hz=speed, oil_temperature_c=temperature), True
 
     def _operating_model(self):
         """The estimator's model that follows speed and temperature (issue 13), built once."""
