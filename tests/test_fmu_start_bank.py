@@ -1,0 +1,87 @@
+"""The estimator FMU runs the product's estimator (estimator.factory.make_estimator): with the viscosity
+factors free (``bearing_table = 1``, ``viscosity_factor_prior_std = 0.1``) and no baseline, the start bank.
+
+In a fresh process (tests/fixtures/fmu_subprocess.py) the slave is driven through its FMI calls with the
+estimator model's own steady motion at 80 % flow (as tests/test_start_bank.py), its window shortened to 1 s
+to keep the record at 1.5 s. An in-process bank built by the factory with the FMU's configuration, fed the
+same samples as the FMU feeds its filter (the warm-up and reset of initialization, the missing sample of
+the first step's gap), must give the FMU's estimates after the choice, and the FMU's state saved inside the
+window and after the choice (``fmi2GetFMUstate``, serialized as ``fmi2SerializeFMUstate`` does) must run on
+bit for bit when restored.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from fixtures.fmu_subprocess import run_json
+
+RUN = """
+import numpy as np
+from estimator import start_bank
+start_bank.SELECT_S = 1.0  # before the slave builds its estimator
+from estimator.factory import make_estimator
+from estimator.config import ML_MIN
+from fmu_src.oilwatch_ekf_slave import OilFlowEKF
+from models.machine import load_machine
+from models.system.factory import build_system
+from models.system.operating_model import build_operating_model
+from tests.test_nuisance_start import DT, _record
+
+machine = load_machine()
+model = build_operating_model(build_system(machine, reduced=True), machine, DT)
+record = _record(model, 1500, 0.8)
+slave = OilFlowEKF(instance_name="bank", resources=None)
+vr = {v.name: v.value_reference for v in slave.vars.values()}
+slave.setup_experiment(0.0, None, None)
+slave.set_integer([vr["bearing_table"]], [1])
+slave.set_real([vr["viscosity_factor_prior_std"]], [0.1])
+slave.exit_initialization_mode()
+PORTS = [vr[f"{n}_um"] for n in ("x1", "y1", "x2", "y2")]
+OUT = [vr[n] for n in ("q1_est_ml_min", "q2_est_ml_min", "q1_std_ml_min", "q2_std_ml_min", "nis")]
+
+def run(k0, k1):
+    rows = []
+    for k in range(k0, k1):
+        slave.set_real(PORTS, (record[k] * 1e6).tolist())
+        slave.do_step(k * DT, DT)
+        rows.append(slave.get_real(OUT))
+    return rows
+
+first = run(0, 600)
+inside = slave._fmu_state_to_bytes(slave._get_fmu_state())
+second = run(600, 1200)
+after = slave._fmu_state_to_bytes(slave._get_fmu_state())
+third = run(1200, 1500)
+slave._set_fmu_state(slave._fmu_state_from_bytes(inside))
+second_again = run(600, 1200)
+slave._set_fmu_state(slave._fmu_state_from_bytes(after))
+third_again = run(1200, 1500)
+
+bank = make_estimator(model, slave.filter.config)
+speed, temperature = machine.nominal_speed_hz, machine.nominal_oil_temperature_c
+missing = np.full(4, np.nan)
+for sample in (np.zeros(4), np.zeros(4), missing):  # the slave's warm-up
+    bank.step(sample, speed, temperature)
+bank.reset()
+bank.step(missing, speed, temperature)  # the first step's sample lies one period after the start
+ours = [bank.step((record[k] * 1e6) * 1e-6, speed, temperature).q_m3_s / ML_MIN for k in range(1500)]
+result = {
+    "kind": type(slave.filter).__name__, "chosen": slave.filter.chosen_fraction,
+    "bank_chosen": bank.chosen_fraction, "fmu": [r[:2] for r in first + second + third],
+    "bank": np.array(ours).tolist(), "again": [second == second_again, third == third_again],
+}
+"""
+
+
+def test_the_fmu_with_free_factors_runs_the_start_bank_and_restores_its_state():
+    result = run_json(RUN, timeout=600)
+    assert result["kind"] == "StartBank" and result["chosen"] is not None
+    assert result["chosen"] == result["bank_chosen"]
+    fmu, bank = result["fmu"], result["bank"]
+    assert len(fmu) == len(bank) == 1500
+    fmu, bank = np.array(fmu), np.array(bank)
+    largest = float(np.max(np.abs(fmu / bank - 1.0)))
+    print(f"chosen start {result['chosen']}; largest relative gap FMU / in-process bank {largest:.2e}")
+    assert largest <= 1e-9, largest
+    assert (fmu[-1] != fmu[998]).all()  # the estimate moves on after the choice
+    assert result["again"] == [True, True]
