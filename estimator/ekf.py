@@ -350,7 +350,8 @@ class OilFlowEKF(FilterReporting, BatchRuns):
         elif self._floor is not None and step > self._settling:  # estimator/nuisance_start.py
             if self._floor.due():
                 unbalance = self.unbalance if self._n_unbalance else (1.0, 0.0)
-                self._floor.advance(self._flowrate_si(), self.viscosity_factor, unbalance)
+                self._floor.begin(self._flowrate_si(), self.viscosity_factor, unbalance)
+            self._floor.work()  # one stage of an update under way
             reported = self._report[REPORT_STD : REPORT_STD + 2]
             np.maximum(reported, self._floor.std, out=reported)
         if self._floor is not None and step >= self._settling:  # the alarm's floor from the next step

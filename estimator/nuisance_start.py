@@ -86,8 +86,10 @@ class ShadowJacobian:
 
 
 UPDATE_S = 2.0
-"""How often the floor takes in the record's information [s]: one exact-map sensitivity (9 matrix
-exponentials, about 8 ms) per update, 4 us per step; the bound moves little within 2 s."""
+"""How often the floor takes in the record's information [s]; the bound moves little within 2 s."""
+STAGES = 9
+"""The exact-map responses of one update (:func:`models.system.identifiability.sensitivity_points`), one per
+step: about 0.3-0.5 ms each, where the whole update in one step was 4-8 ms, a latency spike every 2 s."""
 
 
 class InformationFloor:
@@ -106,6 +108,12 @@ class InformationFloor:
     columns) moved the temperature-ramp rows from +1.59 / +1.01 and -10.95 / -7.60 % to -3.76 / +0.22 and
     -0.34 / +13.63 %: along the nearly unobservable direction any change of the gain moves the end point
     by several %, and none of it towards the truth.
+
+    The work of an update is spread over :data:`STAGES` steps, so that no step pays for all of it: at the
+    step an update is due (:meth:`due`) the estimates and the operating point are taken (:meth:`begin`),
+    and that step and the next ones each evaluate one response (:meth:`work`); the last applies the update,
+    ``STAGES - 1`` samples after the estimates were taken. The bound is the same number as when all was
+    done in the due step; it is reported from 8 samples later (the previous, larger bound until then).
     """
 
     def __init__(
@@ -142,18 +150,21 @@ class InformationFloor:
         c = self._columns
         self._prior = np.diag(prior[c] ** 2)
         self._walk = np.diag(walk[c] ** 2) * self._every * self._dt
-        self.covariance = self._prior.copy()
-        self.std = self.std_m3_s()
-        self._since = 0
+        # the update under way: stage (-1: none), then its inputs (flowrates, factors, unbalance, speed,
+        # viscosity) and the responses evaluated so far
+        self._pending = np.full(1 + _INPUTS + STAGES * 12, np.nan)
+        self.reset()
 
     def reset(self) -> None:
         """Back to the prior (the filter's reset or the settling start's restart)."""
         self.covariance = self._prior.copy()
         self.std = self.std_m3_s()
         self._since = 0
+        self._pending[:] = np.nan
+        self._pending[0] = -1.0
 
     def due(self) -> bool:
-        """Count one step; True every ``update_s`` (then call :meth:`advance`)."""
+        """Count one step; True every ``update_s`` (then call :meth:`begin`)."""
         self._since += 1
         if self._since < self._every:
             return False
@@ -161,33 +172,62 @@ class InformationFloor:
         return True
 
     def get_state(self) -> np.ndarray:
-        """The bound's covariance and step counter, flattened (a copy, for the filter's state)."""
-        return np.r_[self.covariance.ravel(), float(self._since)]
+        """The bound's covariance, step counter and the update under way, flattened (a copy, for the
+        filter's state)."""
+        return np.r_[self.covariance.ravel(), float(self._since), self._pending]
 
     def set_state(self, state) -> None:
         """Restore :meth:`get_state`."""
         values = np.asarray(state, dtype=float)
-        self.covariance = values[:-1].reshape(self.covariance.shape).copy()
+        size = self.covariance.size
+        self.covariance = values[:size].reshape(self.covariance.shape).copy()
         self.std = self.std_m3_s()
-        self._since = int(values[-1])
+        self._since = int(values[size])
+        self._pending[:] = values[size + 1 :]
 
     def std_m3_s(self) -> np.ndarray:
         """(2,) the bound on the flowrates' std now [m^3/s]."""
         return np.sqrt(np.diag(self.covariance)[:2])
 
-    def advance(self, flowrate_m3_s, factors, unbalance) -> None:
-        """Add the information of the last ``update_s`` at the estimates (``std`` follows)."""
-        from models.system.identifiability import OperatingSegment, map_sensitivity
-
+    def begin(self, flowrate_m3_s, factors, unbalance) -> None:
+        """Start an update at these estimates and the model's operating point now (:meth:`work` does it)."""
         speed, viscosity = self._model.operating_point
-        q = np.asarray(flowrate_m3_s, dtype=float)
-        segment = OperatingSegment(speed, viscosity, self._every * self._dt)
+        self._pending[: 1 + _INPUTS] = np.r_[0.0, flowrate_m3_s, factors, unbalance, speed, viscosity]
+
+    def work(self) -> None:
+        """One stage of the update under way, if any: one exact-map response; the last stage adds the
+        information of the last ``update_s`` at the estimates :meth:`begin` took (``std`` follows)."""
+        pending = self._pending
+        stage = int(pending[0])
+        if stage < 0:
+            return
+        from models.system.identifiability import (
+            OperatingSegment,
+            map_response,
+            sensitivity_columns,
+            sensitivity_points,
+        )
+
+        q, factors, unbalance = pending[1:3], pending[3:5], complex(*pending[5:7])
+        segment = OperatingSegment(float(pending[7]), float(pending[8]), self._every * self._dt)
+        flows, f = sensitivity_points(q, factors, unbalance)[stage]
+        responses = pending[1 + _INPUTS :].reshape(STAGES, 12)
         model = self._model
-        jacobian = map_sensitivity(
-            model.maps, model.output_matrix, self._dt, q, segment, factors, complex(*unbalance)
-        )[:, self._columns]
+        responses[stage] = map_response(
+            model.maps, model.output_matrix, self._dt, flows, segment, f, unbalance
+        )
+        pending[0] = stage + 1
+        if stage + 1 < STAGES:
+            return
+        pending[0] = -1.0
+        jacobian = sensitivity_columns(list(responses), unbalance)[:, self._columns]
         jacobian[:, :2] /= q  # per m^3/s
         weights = np.r_[np.ones(4), np.full(8, 0.5)]
         information = self._every * (jacobian.T * weights) @ jacobian / self._noise**2
         self.covariance = np.linalg.inv(np.linalg.inv(self.covariance + self._walk) + information)
         self.std = self.std_m3_s()
+
+
+_INPUTS = 8
+"""The inputs an update takes (:meth:`InformationFloor.begin`): two flowrates, two factors, the unbalance's
+two parts, the speed and the oil viscosity."""

@@ -104,3 +104,42 @@ def test_the_alarm_judges_the_floored_std(model):
     first_floored = with_floor.starved.argmax(axis=0)
     first_update = floored._settling + round(2.0 / DT)  # the floor's first information update
     assert with_floor.starved[-1].all() and (first_floored > first_update).all(), first_floored
+
+
+def test_the_floor_s_update_spread_over_steps_is_the_whole_update_of_the_due_step(model):
+    """The floor's update runs one exact-map response per step (nuisance_start.STAGES of them): the bound it
+    reaches is, bit for bit, the information recursion over models.system.identifiability.map_sensitivity at
+    the estimates the due step took; it is applied at the last stage only, and a state saved in between
+    continues to it."""
+    from estimator.nuisance_start import STAGES, InformationFloor
+    from models.system.identifiability import OperatingSegment, map_sensitivity, parameter_columns
+
+    config = free_config().for_model(model)
+    floor = InformationFloor(model, config, model.n_states, 4, 2)
+    prior = floor.std.copy()
+    q, factors, unbalance = 0.8 * model.nominal_flowrate_m3_s * np.array([1.0, 1.1]), (1.05, 0.97), (1.2, 0.1)
+    floor.begin(q, np.array(factors), unbalance)
+    floor.work()
+    halfway = floor.get_state()
+    for _ in range(STAGES - 2):
+        floor.work()
+        assert np.array_equal(floor.std, prior)  # nothing applied before the last stage
+    floor.work()
+    floor.work()  # no update under way: nothing more
+    every = round(2.0 / DT)
+    segment = OperatingSegment(*model.operating_point, every * DT)
+    columns = parameter_columns(("viscosity", "unbalance", "offsets"))
+    jacobian = map_sensitivity(
+        model.maps, model.output_matrix, DT, q, segment, np.array(factors), complex(*unbalance)
+    )[:, columns]
+    jacobian[:, :2] /= q
+    information = every * (jacobian.T * np.r_[np.ones(4), np.full(8, 0.5)]) @ jacobian / config.noise_std_m**2
+    walk = floor._walk  # the filter's own random walks over 2 s (the constructor's)
+    expected = np.linalg.inv(np.linalg.inv(floor._prior + walk) + information)
+    np.testing.assert_array_equal(floor.covariance, expected)
+    assert (floor.std < prior).all()
+    done = floor.covariance.copy()
+    floor.set_state(halfway)
+    for _ in range(STAGES - 1):
+        floor.work()
+    np.testing.assert_array_equal(floor.covariance, done)

@@ -301,28 +301,40 @@ def map_sensitivity(
 ) -> np.ndarray:
     """(12, 10) d response / d :data:`TRAJECTORY_PARAMETERS` at the truth (the flowrates, viscosity
     ``factors`` and relative ``unbalance``) by central differences of the exact map (the unbalance and the
-    offsets enter linearly: exact columns; the factors are differenced in absolute steps)."""
+    offsets enter linearly: exact columns; the factors are differenced in absolute steps): the
+    :func:`map_response` at each of :func:`sensitivity_points`, into :func:`sensitivity_columns`."""
+    points = sensitivity_points(flowrates_m3_s, factors, unbalance, relative_step)
+    responses = [map_response(maps, output_matrix, dt_s, flows, segment, f, unbalance) for flows, f in points]
+    return sensitivity_columns(responses, unbalance, relative_step)
+
+
+def sensitivity_points(flowrates_m3_s, factors, unbalance: complex, relative_step: float = 1e-3) -> list:
+    """The 9 (flowrates, factors) of :func:`map_sensitivity`'s differences: the point itself, then each
+    flowrate up and down by ``relative_step`` of itself, then each factor up and down by it."""
     require_in_range("relative_step", relative_step, 1e-6, 0.05)
     q = np.asarray(flowrates_m3_s, dtype=float)
     ones = np.asarray(factors, dtype=float)
     if complex(unbalance) == 0.0:
         raise InputError("unbalance: the bound needs a non-zero unbalance (the 1x orbit informs q)")
-
-    def response(flows, f):
-        return map_response(maps, output_matrix, dt_s, flows, segment, f, unbalance)
-
-    base = response(q, ones)
-    columns = []
+    points = [(q, ones)]
     for i in range(2):
         up, down = q.copy(), q.copy()
         up[i] *= 1.0 + relative_step
         down[i] *= 1.0 - relative_step
-        columns.append((response(up, ones) - response(down, ones)) / (2.0 * relative_step))
+        points += [(up, ones), (down, ones)]
     for i in range(2):
         up, down = ones.copy(), ones.copy()
         up[i] += relative_step
         down[i] -= relative_step
-        columns.append((response(q, up) - response(q, down)) / (2.0 * relative_step))
+        points += [(q, up), (q, down)]
+    return points
+
+
+def sensitivity_columns(responses, unbalance: complex, relative_step: float = 1e-3) -> np.ndarray:
+    """(12, 10) :func:`map_sensitivity` from the :func:`map_response` at each of its
+    :func:`sensitivity_points` (in their order)."""
+    base = responses[0]
+    columns = [(responses[1 + 2 * j] - responses[2 + 2 * j]) / (2.0 * relative_step) for j in range(4)]
     orbit = (base[4:8] - 1j * base[8:]) / complex(unbalance)  # the unit unbalance's orbit
     for unit in (1.0, 1j):
         turned = unit * orbit
