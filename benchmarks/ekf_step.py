@@ -29,11 +29,14 @@ operating point (its re-centrings included in the mean); beside it the same filt
 constant conditions, and the FMU with ``bearing_table = 1`` fed the same record through its ``speed_hz`` and
 ``oil_temperature_c`` inputs. The plant's record is computed once (minutes) and cached.
 
+Latency (``--latency``, or with the ramp rows): ``benchmarks/ekf_step_latency.py``, the per-step CPU time of
+the row with the viscosity factors estimated.
+
 Beside them (library rows): the reference grid with the four probe-offset states of ``oilwatch estimate``
 (per step, and through ``OilFlowEKF.run_batch`` per 1000 samples), and with the unbalance estimated too.
 
 Usage: ``OPENBLAS_NUM_THREADS=1 python benchmarks/ekf_step.py [--steps 3000] [--repeats 5] [--table JSON]
-[--fmu OilFlowEKF.fmu] [--only-ramps [--library-only]] [--ramp-s 60] [--cpu]``
+[--fmu OilFlowEKF.fmu] [--only-ramps [--library-only]] [--ramp-s 60] [--cpu] [--latency]``
 """
 
 from __future__ import annotations
@@ -482,7 +485,13 @@ def main() -> None:
         "--library-only", action="store_true", help="with --only-ramps: the library rows, no FMU built"
     )
     parser.add_argument("--cpu", action="store_true", help="library rows in process CPU time, not wall time")
+    parser.add_argument("--latency", action="store_true", help="only the per-step latency figures")
     args = parser.parse_args()
+    if args.latency:
+        from ekf_step_latency import latency_rows
+
+        latency_rows(args)
+        return
     if args.cpu:
         global CLOCK
         CLOCK = time.process_time
@@ -490,6 +499,9 @@ def main() -> None:
     if args.only_ramps:
         record = measurements(GridAugmentedModel(load_system(reduced=True)), args.steps)
         print_rows(operating_rows(args, record))
+        from ekf_step_latency import latency_rows
+
+        latency_rows(args)
         return
 
     rows = []

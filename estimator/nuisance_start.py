@@ -87,9 +87,11 @@ class ShadowJacobian:
 
 UPDATE_S = 2.0
 """How often the floor takes in the record's information [s]; the bound moves little within 2 s."""
-STAGES = 9
-"""The exact-map responses of one update (:func:`models.system.identifiability.sensitivity_points`), one per
-step: about 0.3-0.5 ms each, where the whole update in one step was 4-8 ms, a latency spike every 2 s."""
+POINTS = 9
+"""The exact-map responses of one update (:func:`models.system.identifiability.sensitivity_points`)."""
+STAGES = 2 * POINTS
+"""The steps of one update: each point's continuous block, then its exponential and response (0.1-0.3 ms
+each, where the whole update in one step was 4-8 ms, a latency spike every 2 s)."""
 
 
 class InformationFloor:
@@ -111,9 +113,9 @@ class InformationFloor:
 
     The work of an update is spread over :data:`STAGES` steps, so that no step pays for all of it: at the
     step an update is due (:meth:`due`) the estimates and the operating point are taken (:meth:`begin`),
-    and that step and the next ones each evaluate one response (:meth:`work`); the last applies the update,
+    and that step and the next ones each evaluate half of one response (:meth:`work`); the last applies it,
     ``STAGES - 1`` samples after the estimates were taken. The bound is the same number as when all was
-    done in the due step; it is reported from 8 samples later (the previous, larger bound until then).
+    done in the due step; it is reported from 17 samples later (the previous bound until then).
     """
 
     def __init__(
@@ -152,7 +154,9 @@ class InformationFloor:
         self._walk = np.diag(walk[c] ** 2) * self._every * self._dt
         # the update under way: stage (-1: none), then its inputs (flowrates, factors, unbalance, speed,
         # viscosity) and the responses evaluated so far
-        self._pending = np.full(1 + _INPUTS + STAGES * 12, np.nan)
+        self._pending = np.full(1 + _INPUTS + POINTS * 12, np.nan)
+        size = model.n_states + 3  # the continuous block of the stage under way: (2n + 3) square
+        self._block = np.zeros((size, size))
         self.reset()
 
     def reset(self) -> None:
@@ -174,7 +178,7 @@ class InformationFloor:
     def get_state(self) -> np.ndarray:
         """The bound's covariance, step counter and the update under way, flattened (a copy, for the
         filter's state)."""
-        return np.r_[self.covariance.ravel(), float(self._since), self._pending]
+        return np.r_[self.covariance.ravel(), float(self._since), self._pending, self._block.ravel()]
 
     def set_state(self, state) -> None:
         """Restore :meth:`get_state`."""
@@ -183,7 +187,9 @@ class InformationFloor:
         self.covariance = values[:size].reshape(self.covariance.shape).copy()
         self.std = self.std_m3_s()
         self._since = int(values[size])
-        self._pending[:] = values[size + 1 :]
+        pending = self._pending.size
+        self._pending[:] = values[size + 1 : size + 1 + pending]
+        self._block.ravel()[:] = values[size + 1 + pending :]
 
     def std_m3_s(self) -> np.ndarray:
         """(2,) the bound on the flowrates' std now [m^3/s]."""
@@ -195,27 +201,32 @@ class InformationFloor:
         self._pending[: 1 + _INPUTS] = np.r_[0.0, flowrate_m3_s, factors, unbalance, speed, viscosity]
 
     def work(self) -> None:
-        """One stage of the update under way, if any: one exact-map response; the last stage adds the
-        information of the last ``update_s`` at the estimates :meth:`begin` took (``std`` follows)."""
+        """One stage of the update under way, if any: half of one exact-map response; the last stage adds
+        the information of the last ``update_s`` at the estimates :meth:`begin` took (``std`` follows)."""
         pending = self._pending
         stage = int(pending[0])
         if stage < 0:
             return
         from models.system.identifiability import (
             OperatingSegment,
-            map_response,
+            block_response,
+            map_block,
             sensitivity_columns,
             sensitivity_points,
         )
 
         q, factors, unbalance = pending[1:3], pending[3:5], complex(*pending[5:7])
         segment = OperatingSegment(float(pending[7]), float(pending[8]), self._every * self._dt)
-        flows, f = sensitivity_points(q, factors, unbalance)[stage]
-        responses = pending[1 + _INPUTS :].reshape(STAGES, 12)
+        responses = pending[1 + _INPUTS :].reshape(POINTS, 12)
+        point, half = divmod(stage, 2)
         model = self._model
-        responses[stage] = map_response(
-            model.maps, model.output_matrix, self._dt, flows, segment, f, unbalance
-        )
+        if half == 0:
+            flows, f = sensitivity_points(q, factors, unbalance)[point]
+            self._block[:] = map_block(model.maps, flows, segment, f)
+        else:
+            responses[point] = block_response(
+                model.maps, model.output_matrix, self._dt, self._block, segment, unbalance
+            )
         pending[0] = stage + 1
         if stage + 1 < STAGES:
             return

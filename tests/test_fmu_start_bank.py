@@ -8,12 +8,18 @@ same samples as the FMU feeds its filter (the warm-up and reset of initializatio
 the first step's gap), must give the FMU's estimates after the choice, and the FMU's state saved inside the
 window and after the choice (``fmi2GetFMUstate``, serialized as ``fmi2SerializeFMUstate`` does) must run on
 bit for bit when restored.
+
+The built FMU (slow: ``built_fmus``) with the same parameters, one instance on the loader's fast path and one
+with ``OILWATCH_FMU_FAST_PATH=0``, fed the same record inside the bank's window (its 20 s: five filters per
+step), must give bit-identical outputs, restore a saved state bit for bit, and after ``fmi2Reset`` and a new
+initialization run the record again as at first.
 """
 
 from __future__ import annotations
 
 import numpy as np
 from fixtures.fmu_subprocess import run_json
+from test_ekf_fmu import FMPY_PRELUDE, TIMEOUT_S
 
 RUN = """
 import numpy as np
@@ -85,3 +91,57 @@ def test_the_fmu_with_free_factors_runs_the_start_bank_and_restores_its_state():
     assert largest <= 1e-9, largest
     assert (fmu[-1] != fmu[998]).all()  # the estimate moves on after the choice
     assert result["again"] == [True, True]
+
+
+BUILT = """
+import os
+import numpy as np
+from models.machine import load_machine
+from models.system.factory import build_system
+from models.system.operating_model import build_operating_model
+from tests.test_nuisance_start import DT, _record
+
+machine = load_machine()
+record = _record(build_operating_model(build_system(machine, reduced=True), machine, DT), 600, 0.8) * 1e6
+FREE = {"viscosity_factor_prior_std": 0.1, "noise_um": 1.0}
+os.environ["OILWATCH_FMU_FAST_PATH"] = "0"
+slow, vr = load(EKF, "slow", FREE, {"bearing_table": 1})
+del os.environ["OILWATCH_FMU_FAST_PATH"]
+fast, _ = load(EKF, "fast", FREE, {"bearing_table": 1})
+IN = [vr[n] for n in ("x1_um", "y1_um", "x2_um", "y2_um")]
+OUT = [vr[n] for n in ("q1_est_ml_min", "q2_est_ml_min", "q1_std_ml_min", "q2_std_ml_min", "nis",
+                       "viscosity_factor_b1", "offset_x1_um")]
+
+def run(slave, k0, k1):
+    rows = []
+    for k in range(k0, k1):
+        slave.setReal(IN, record[k].tolist())
+        slave.doStep(k * DT, DT)
+        rows.append(slave.getReal(OUT))
+    return rows
+
+result = {}
+for name, slave in (("fast", fast), ("slow", slow)):
+    first = run(slave, 0, 300)
+    state = slave.getFMUstate()
+    second = run(slave, 300, 600)
+    slave.setFMUstate(state)
+    again = run(slave, 300, 600)
+    slave.reset()
+    slave.setupExperiment(startTime=0.0)
+    slave.enterInitializationMode()
+    for key, value in FREE.items():
+        slave.setReal([vr[key]], [value])
+    slave.setInteger([vr["bearing_table"]], [1])
+    slave.exitInitializationMode()
+    result[name] = {"first": first, "second": second, "again": again, "after_reset": run(slave, 0, 300)}
+"""
+
+
+def test_the_built_fmu_runs_the_bank_on_the_fast_path_and_restores_and_resets_it(built_fmus):
+    paths = f"EKF = {str(built_fmus / 'OilFlowEKF.fmu')!r}\n"
+    result = run_json(FMPY_PRELUDE + paths + BUILT, timeout=TIMEOUT_S)
+    fast, slow = result["fast"], result["slow"]
+    assert fast == slow  # bit for bit (JSON keeps every digit)
+    assert fast["again"] == fast["second"] and fast["after_reset"] == fast["first"]
+    assert len({row[0] for row in fast["first"]}) > 100  # the estimate moves

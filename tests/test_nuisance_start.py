@@ -107,7 +107,7 @@ def test_the_alarm_judges_the_floored_std(model):
 
 
 def test_the_floor_s_update_spread_over_steps_is_the_whole_update_of_the_due_step(model):
-    """The floor's update runs one exact-map response per step (nuisance_start.STAGES of them): the bound it
+    """The floor's update runs half an exact-map response per step (nuisance_start.STAGES steps): the bound it
     reaches is, bit for bit, the information recursion over models.system.identifiability.map_sensitivity at
     the estimates the due step took; it is applied at the last stage only, and a state saved in between
     continues to it."""

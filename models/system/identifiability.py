@@ -278,9 +278,21 @@ def map_response(
     maps, output_matrix, dt_s: float, flowrates_m3_s, segment: OperatingSegment, factors, unbalance
 ):
     """(12,) [m] steady static position (4), 1x orbit cosine (4) and sine (4) parts at the probes of the exact
-    map ``maps.discrete_map`` (:class:`models.system.operating_maps.OperatingMaps`) at the segment's point."""
+    map ``maps.discrete_map`` (:class:`models.system.operating_maps.OperatingMaps`) at the segment's point:
+    :func:`block_response` of :func:`map_block`."""
+    block = map_block(maps, flowrates_m3_s, segment, factors)
+    return block_response(maps, output_matrix, dt_s, block, segment, unbalance)
+
+
+def map_block(maps, flowrates_m3_s, segment: OperatingSegment, factors) -> np.ndarray:
+    """The continuous block of the exact map at the segment's point and the viscosity ``factors``."""
     mu = segment.oil_viscosity_pa_s * np.asarray(factors, dtype=float)
-    a, g = maps.discrete_map(np.asarray(flowrates_m3_s, dtype=float), segment.speed_hz, mu)
+    return maps.block(np.asarray(flowrates_m3_s, dtype=float), segment.speed_hz, mu)
+
+
+def block_response(maps, output_matrix, dt_s: float, block, segment: OperatingSegment, unbalance):
+    """:func:`map_response` from the :func:`map_block` of its point."""
+    a, g = maps.discrete_of_block(block)
     n = a.shape[0]
     h = np.asarray(output_matrix)
     static = h @ np.linalg.solve(np.eye(n) - a, g[:, 0])

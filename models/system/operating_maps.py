@@ -206,8 +206,12 @@ class OperatingMaps:
         self, flowrates_m3_s, speed_hz: float, viscosities_pa_s
     ) -> tuple[np.ndarray, np.ndarray]:
         """``(A_d (2n, 2n), G (2n, 3))`` at the operating point (harmonic hold)."""
+        return self.discrete_of_block(self.block(flowrates_m3_s, speed_hz, viscosities_pa_s))
+
+    def discrete_of_block(self, block: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(A_d, G)`` of a continuous :meth:`block`: its exponential over one step."""
         m = 2 * self._n
-        exponential = expm(self.block(flowrates_m3_s, speed_hz, viscosities_pa_s) * self.dt_s)
+        exponential = expm(block * self.dt_s)
         return exponential[:m, :m], exponential[:m, m:]
 
     def derivatives(
