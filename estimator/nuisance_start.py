@@ -115,7 +115,10 @@ class InformationFloor:
     step an update is due (:meth:`due`) the estimates and the operating point are taken (:meth:`begin`),
     and that step and the next ones each evaluate half of one response (:meth:`work`); the last applies it,
     ``STAGES - 1`` samples after the estimates were taken. The bound is the same number as when all was
-    done in the due step; it is reported from 17 samples later (the previous bound until then).
+    done in the due step; it is reported from 17 samples later (the previous bound until then). The first
+    update after a reset or the settling start's restart is done whole in its due step, as before: it takes
+    the floor from the prior (25 % of nominal, which holds the alarm off) to the record's bound, so the
+    alarm's timing stays the same (one 4-8 ms step, 2 s after the settling start).
     """
 
     def __init__(
@@ -196,9 +199,13 @@ class InformationFloor:
         return np.sqrt(np.diag(self.covariance)[:2])
 
     def begin(self, flowrate_m3_s, factors, unbalance) -> None:
-        """Start an update at these estimates and the model's operating point now (:meth:`work` does it)."""
+        """Start an update at these estimates and the model's operating point now (:meth:`work` does it; the
+        first update from the prior is done here, whole: class docstring)."""
         speed, viscosity = self._model.operating_point
         self._pending[: 1 + _INPUTS] = np.r_[0.0, flowrate_m3_s, factors, unbalance, speed, viscosity]
+        if np.array_equal(self.covariance, self._prior):
+            while self._pending[0] >= 0.0:
+                self.work()
 
     def work(self) -> None:
         """One stage of the update under way, if any: half of one exact-map response; the last stage adds
