@@ -3,7 +3,8 @@
 Runs one filter with the viscosity factors estimated over the first ``--samples`` of
 ``benchmarks/ekf_step.py``'s 60 s plant ramp record and saves the flowrates, the reported stds and the
 alarms; ``--compare A B`` prints how many samples differ between two such files. Run it once in this tree
-and once with ``PYTHONPATH`` on the other tree's checkout (``git archive d733c26 | tar -x -C DIR``):
+and once with ``PYTHONPATH`` on the other tree's checkout (``--robustness``: the robustness report's
+temperature-ramp configuration instead of ``ekf_step.py``'s) (``git archive d733c26 | tar -x -C DIR``):
 
     python scripts/floor_staging_check.py new.npz
     PYTHONPATH=DIR python scripts/floor_staging_check.py old.npz
@@ -19,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 
-def run(out: str, samples: int) -> None:
+def run(out: str, samples: int, robustness: bool) -> None:
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
     from ekf_step import plant_ramp_record
 
@@ -32,6 +33,11 @@ def run(out: str, samples: int) -> None:
     model = build_operating_model(load_system(reduced=True), load_machine())
     ramp, speed, temperature = (a[:samples] for a in plant_ramp_record(60.0))
     config = EKFConfig.recommended(viscosity_factor_prior_std=0.05, first_sample_time_s=1e-3)
+    if robustness:  # the robustness report's temperature-ramp configuration (offsets, unbalance, factors 0.1)
+        from oilwatch.robustness.cases import case_by_name
+        from oilwatch.robustness.runner import REPORT_SETTINGS, RobustnessRun
+
+        config = RobustnessRun(REPORT_SETTINGS).config(case_by_name("temperature-ramp"))
     trace = OilFlowEKF(model, config).run(ramp, speed_hz=speed, oil_temperature_c=temperature)
     np.savez(out, q=trace.q_m3_s, std=trace.q_std_m3_s, starved=trace.starved)
 
@@ -50,12 +56,13 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("out", nargs="?", help="the .npz to write")
     parser.add_argument("--samples", type=int, default=60000)
+    parser.add_argument("--robustness", action="store_true", help="the robustness report's configuration")
     parser.add_argument("--compare", nargs=2, metavar=("OLD", "NEW"))
     args = parser.parse_args()
     if args.compare:
         compare(*args.compare)
     elif args.out:
-        run(args.out, args.samples)
+        run(args.out, args.samples, args.robustness)
     else:
         parser.error("give OUT or --compare OLD NEW")
 
