@@ -10,9 +10,9 @@ window and after the choice (``fmi2GetFMUstate``, serialized as ``fmi2SerializeF
 bit for bit when restored.
 
 The built FMU (slow: ``built_fmus``) with the same parameters, one instance on the loader's fast path and one
-with ``OILWATCH_FMU_FAST_PATH=0``, fed the same record inside the bank's window (its 20 s: five filters per
-step), must give bit-identical outputs, restore a saved state bit for bit, and after ``fmi2Reset`` and a new
-initialization run the record again as at first.
+with ``OILWATCH_FMU_FAST_PATH=0``, fed the same stored plant record inside the bank's window (its 20 s: five
+filters per step), must give bit-identical outputs, restore a saved state bit for bit, and after ``fmi2Reset``
+and a new initialization run the record again as at first.
 """
 
 from __future__ import annotations
@@ -20,6 +20,7 @@ from __future__ import annotations
 import numpy as np
 from fixtures.fmu_subprocess import run_json
 from test_ekf_fmu import FMPY_PRELUDE, TIMEOUT_S
+from test_estimate_model_cache import STORED
 
 RUN = """
 import numpy as np
@@ -96,13 +97,8 @@ def test_the_fmu_with_free_factors_runs_the_start_bank_and_restores_its_state():
 BUILT = """
 import os
 import numpy as np
-from models.machine import load_machine
-from models.system.factory import build_system
-from models.system.operating_model import build_operating_model
-from tests.test_nuisance_start import DT, _record
-
-machine = load_machine()
-record = _record(build_operating_model(build_system(machine, reduced=True), machine, DT), 600, 0.8) * 1e6
+DT = 1e-3
+record = np.load(STORED)["constant/record"][:600] * 1e6  # a stored plant record at constant conditions
 FREE = {"viscosity_factor_prior_std": 0.1, "noise_um": 1.0}
 os.environ["OILWATCH_FMU_FAST_PATH"] = "0"
 slow, vr = load(EKF, "slow", FREE, {"bearing_table": 1})
@@ -139,7 +135,7 @@ for name, slave in (("fast", fast), ("slow", slow)):
 
 
 def test_the_built_fmu_runs_the_bank_on_the_fast_path_and_restores_and_resets_it(built_fmus):
-    paths = f"EKF = {str(built_fmus / 'OilFlowEKF.fmu')!r}\n"
+    paths = f"EKF = {str(built_fmus / 'OilFlowEKF.fmu')!r}\nSTORED = {str(STORED)!r}\n"
     result = run_json(FMPY_PRELUDE + paths + BUILT, timeout=TIMEOUT_S)
     fast, slow = result["fast"], result["slow"]
     assert fast == slow  # bit for bit (JSON keeps every digit)
