@@ -138,29 +138,30 @@ def _restrict(r, mask, parent, out):
     out[:] = 0.0
     for k in range(r.size):
         if mask[k]:
-            out[parent[k]] += r[k]
+            out[np.uint64(parent[k])] += r[k]
 
 
 @njit(cache=True)
 def _prolong(x, mask, parent, coarse, scale):
     for k in range(x.size):
         if mask[k]:
-            c = parent[k]
+            c = np.uint64(parent[k])
             x[k] += scale[c] * coarse[c]
 
 
 @njit(cache=True)
 def _gauss_seidel(indptr, indices, data, diag, mask, x, b, forward):
-    """One linear Gauss-Seidel sweep on the masked rows (the masked data hold no other columns)."""
+    """One linear Gauss-Seidel sweep on the masked rows (the masked data hold no other columns).
+    Unsigned indices, as in :mod:`models.bearing.transient_sweep`."""
     n = x.size
     for kk in range(n):
-        k = kk if forward else n - 1 - kk
+        k = np.uint64(kk if forward else n - 1 - kk)
         if not mask[k]:
             continue
         total = b[k]
-        for s in range(indptr[k], indptr[k + 1]):
-            total -= data[s] * x[indices[s]]
-        d = data[diag[k]]
+        for s in range(np.uint64(indptr[k]), np.uint64(indptr[k + np.uint64(1)])):
+            total -= data[s] * x[np.uint64(indices[s])]
+        d = data[np.uint64(diag[k])]
         x[k] = (total + d * x[k]) / d
 
 
@@ -171,8 +172,8 @@ def _masked_residual(indptr, indices, data, mask, x, b, out):
         total = 0.0
         if mask[k]:
             total = b[k]
-            for s in range(indptr[k], indptr[k + 1]):
-                j = indices[s]
+            for s in range(np.uint64(indptr[k]), np.uint64(indptr[k + 1])):
+                j = np.uint64(indices[s])
                 if mask[j]:
                     total -= data[s] * x[j]
         out[k] = total
