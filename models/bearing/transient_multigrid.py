@@ -152,17 +152,28 @@ def _prolong(x, mask, parent, coarse, scale):
 @njit(cache=True)
 def _gauss_seidel(indptr, indices, data, diag, mask, x, b, forward):
     """One linear Gauss-Seidel sweep on the masked rows (the masked data hold no other columns).
-    Unsigned indices, as in :mod:`models.bearing.transient_sweep`."""
+    As in the projected sweep, the neighbour updated just before a row (the slot left of the diagonal
+    forward, right of it backward) enters last and the division is a multiplication by the diagonal's
+    inverse, computed off that chain: the sweep waits on it at every row. Unsigned indices, as in
+    :mod:`models.bearing.transient_sweep`."""
     n = x.size
+    one = np.uint64(1)
     for kk in range(n):
         k = np.uint64(kk if forward else n - 1 - kk)
         if not mask[k]:
             continue
+        first, end, d = np.uint64(indptr[k]), np.uint64(indptr[k + one]), np.uint64(diag[k])
+        if forward:
+            t = d - one if d > first else d
+        else:
+            t = d + one if d + one < end else d
+        inverse = 1.0 / data[d]
         total = b[k]
-        for s in range(np.uint64(indptr[k]), np.uint64(indptr[k + np.uint64(1)])):
-            total -= data[s] * x[np.uint64(indices[s])]
-        d = data[np.uint64(diag[k])]
-        x[k] = (total + d * x[k]) / d
+        for s in range(first, end):
+            if s != d and s != t:
+                total -= data[s] * x[np.uint64(indices[s])]
+        latest = data[t] * x[np.uint64(indices[t])] if t != d else 0.0
+        x[k] = (total - latest) * inverse
 
 
 @njit(cache=True)
