@@ -205,7 +205,7 @@ def projected_sweeps(k: StepArrays, factors, p, theta, relaxation, n_sweeps):
     """``n_sweeps`` projected SOR sweeps in place on ``p`` (scaled pressure) and ``theta``;
     ``factors`` from :func:`sweep_factors`. The land volumes in node order, then the groove."""
     for _ in range(n_sweeps):
-        _sweep_land(k, factors, p, theta, relaxation, p, False)
+        _sweep_land(k, factors, p, theta, relaxation, p, False)  # no residual kept: ``out`` is not written
         _relax(p.size - 1, k, factors, p, theta, relaxation)
 
 
