@@ -13,8 +13,10 @@ from models.bearing.geometry import JournalBearing
 from models.bearing.grid import Mesh, film_grid
 from models.bearing.transient_kernels import StepAssembly
 from models.bearing.transient_sweep import (
+    _relax,
     conserve_mass,
     projected_sweep_residual,
+    projected_sweeps,
     step_residual,
     sweep_factors,
 )
@@ -71,6 +73,38 @@ def test_sweep_leaves_the_true_residual():
         np.testing.assert_allclose(kept, fresh, rtol=0.0, atol=1e-12 * scale)
         assert worst == pytest.approx(worst_fresh, rel=1e-10)
         assert total == pytest.approx(total_fresh, rel=1e-9, abs=1e-12 * scale)
+
+
+@pytest.mark.parametrize("half", [False, True], ids=["whole", "half"])
+def test_fixed_width_sweep_is_the_csr_sweep(half):
+    """The sweeps over the fixed-width rows give bitwise the iterates of Ausas' update read from the
+    CSR rows in node order (the whole film has rows that do not fit: they take the CSR path)."""
+    grid = film_grid(BEARING, Mesh(60, 16), half=half)
+    arrays = StepAssembly(grid, BEARING.viscosity_pa_s, OMEGA, P_REF).fill(20e-6, -80e-6)
+    assert (arrays.sweep_csr.size > 0) == (not half)
+    rng = np.random.default_rng(13)
+    n = grid.n_nodes
+    arrays.storage[:] = 1e-7 * (1.0 + rng.random(n))
+    arrays.rhs[:] = 1e-6 * (rng.random(n) - 0.3)
+    p = rng.random(n)
+    theta = np.where(p > 0.5, 1.0, rng.random(n))
+    p[theta < 1.0] = 0.0
+    factors = sweep_factors(arrays)
+    for relaxation in (1.0, 1.3):
+        expected_p, expected_theta = p.copy(), theta.copy()
+        for _ in range(3):
+            for i in range(n):
+                _relax(i, arrays, factors, expected_p, expected_theta, relaxation)
+        swept_p, swept_theta = p.copy(), theta.copy()
+        projected_sweeps(arrays, factors, swept_p, swept_theta, relaxation, 3)
+        assert np.array_equal(swept_p, expected_p) and np.array_equal(swept_theta, expected_theta)
+        # The sweep that keeps its residual relaxes the groove first.
+        expected_p, expected_theta = p.copy(), theta.copy()
+        for i in (n - 1, *range(n - 1)):
+            _relax(i, arrays, factors, expected_p, expected_theta, relaxation)
+        kept_p, kept_theta = p.copy(), theta.copy()
+        projected_sweep_residual(arrays, factors, kept_p, kept_theta, relaxation, np.empty(n))
+        assert np.array_equal(kept_p, expected_p) and np.array_equal(kept_theta, expected_theta)
 
 
 def test_mass_correction_zeroes_the_residual_sum():

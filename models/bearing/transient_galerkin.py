@@ -30,11 +30,12 @@ def _galerkin(indptr, indices, data, mask, slot_of, parent, coarse_data, coarse_
     for k in range(indptr.size - 1):
         if not mask[k]:
             continue
-        coarse_mask[parent[k]] = True
-        count[parent[k]] += 1
-        for s in range(indptr[k], indptr[k + 1]):
-            if mask[indices[s]]:
-                coarse_data[slot_of[s]] += data[s]
+        c = np.uint64(parent[k])  # unsigned indices, as in transient_sweep
+        coarse_mask[c] = True
+        count[c] += 1
+        for s in range(np.uint64(indptr[k]), np.uint64(indptr[k + 1])):
+            if mask[np.uint64(indices[s])]:
+                coarse_data[np.uint64(slot_of[s])] += data[s]
     for c in range(coarse_mask.size):
         if not coarse_mask[c]:
             coarse_data[coarse_diag[c]] = 1.0
@@ -137,9 +138,9 @@ def update(h, k, full, switched, n_switched) -> None:
             cs = affected[a]
             flag[cs] = False
             total = 0.0
-            for m in range(member_ptr[cs], member_ptr[cs + 1]):
-                s = member_slots[m]
-                if mask[rows[s]] and mask[indices[s]]:
+            for m in range(np.uint64(member_ptr[cs]), np.uint64(member_ptr[cs + 1])):
+                s = np.uint64(member_slots[m])
+                if mask[np.uint64(rows[s])] and mask[np.uint64(indices[s])]:
                     total += data[s]
             row = c_rows[cs]
             if row == c_indices[cs] and not c_mask[row]:

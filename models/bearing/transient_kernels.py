@@ -12,6 +12,14 @@ grid (with the slot of every entry's transpose, for the sweep that keeps the res
 coefficients, refilled in place every step. It is a ``NamedTuple`` so the compiled kernels take it as
 one argument.
 
+The projected sweeps read the same coefficients as fixed-width rows (:func:`sweep_rows`): every land
+volume of the structured grid has at most four neighbours, so its row is four (column, coefficient)
+pairs in the order the sweep subtracts them, padded with zeros, and the sweep runs without the CSR
+row bounds, with unsigned columns (no negative-index wraparound in the compiled loop) and its
+coefficients in one contiguous stream. The same arithmetic in the same order: the sweeps' iterates
+are bitwise those of the CSR rows (tested). The lumped groove, coupled to its whole rim, keeps its
+CSR row.
+
 :class:`StepAssembly` fills Ap and At for a journal position with the same face quadrature as
 :func:`models.bearing.discretization.film_operator` (h^3 / (12 mu) at the faces, upwind Couette flow
 (U / 2) h), in one compiled pass over the faces instead of a numpy assembly per step (tested equal).
@@ -27,13 +35,20 @@ from numba import njit
 
 from .grid import FilmGrid
 
+SWEEP_WIDTH = 4
+"""Off-diagonal entries of a land volume's row (its circumferential and axial neighbours)."""
+
 
 class StepArrays(NamedTuple):
     """Pattern (indptr, indices, diag, rows, transpose: the slot of entry (j, k) for the slot of (k, j))
     and the step's coefficients: ap (nnz,) Poiseuille [m^3/s per scaled pressure], at (nnz,) Couette
     [m^3/s], storage (n,) S_k [m^3/s] and rhs (n,) b_k [m^3/s]; at_transpose (nnz,) the Couette entry
     of every slot's transpose, ``at[transpose]`` (Ap is symmetric, bitwise: each face adds the same
-    conductance to both of its slots), so the sweep that keeps its residual reads both row-wise."""
+    conductance to both of its slots), so the sweep that keeps its residual reads both row-wise.
+    The sweep's rows of the volumes but the last (:func:`sweep_rows`): ``sweep_cols`` (n - 1, 4)
+    unsigned columns, ``sweep_slots`` (n - 1, 4) their CSR slots (-1: padding), ``sweep_csr``
+    the rows that do not fit, ascending (all padding; swept from their CSR rows) and ``sweep_coef``
+    (n - 1, 12) their ap, at and at_transpose entries (padding 0), refilled with them."""
 
     indptr: np.ndarray
     indices: np.ndarray
@@ -45,6 +60,10 @@ class StepArrays(NamedTuple):
     storage: np.ndarray
     rhs: np.ndarray
     at_transpose: np.ndarray
+    sweep_cols: np.ndarray
+    sweep_slots: np.ndarray
+    sweep_csr: np.ndarray
+    sweep_coef: np.ndarray
 
 
 def transpose_slots(pattern: sp.csr_matrix) -> np.ndarray:
@@ -59,6 +78,49 @@ def transpose_slots(pattern: sp.csr_matrix) -> np.ndarray:
     ):
         raise ValueError("the film grid's pattern is not structurally symmetric")
     return flipped.data.astype(np.int64) - 1
+
+
+@njit(cache=True)
+def sweep_rows(indptr, indices, diag):
+    """The sweep's fixed-width rows of every volume but the last (the groove): per row the CSR slots
+    of its off-diagonal entries in the order the sweep subtracts them (those left of the diagonal but
+    the nearest, those right of it, then the nearest left of it: the volume updated just before, whose
+    flow enters last), padded to :data:`SWEEP_WIDTH` (own column, slot -1) before that last one. A row
+    whose entries do not fit (four right of the diagonal: a volume of the whole film's first column
+    next to the groove) is all padding and listed. Returns (columns (n - 1, 4) uint32, slots
+    (n - 1, 4) int64, the rows that do not fit (int64, ascending))."""
+    n = indptr.size - 1
+    cols = np.empty((n - 1, SWEEP_WIDTH), dtype=np.uint32)
+    slots = np.full((n - 1, SWEEP_WIDTH), -1, dtype=np.int64)
+    csr = np.zeros(n - 1, dtype=np.bool_)
+    for i in range(n - 1):
+        first, d, end = indptr[i], diag[i], indptr[i + 1]
+        latest = d - 1 if d > first else -1
+        c = 0
+        for s in range(first, end):
+            if s != d and s != latest:
+                if c < SWEEP_WIDTH - 1:
+                    slots[i, c] = s
+                c += 1
+        slots[i, SWEEP_WIDTH - 1] = latest
+        if c > SWEEP_WIDTH - 1:
+            csr[i] = True
+            slots[i, :] = -1
+        for c in range(SWEEP_WIDTH):
+            cols[i, c] = indices[slots[i, c]] if slots[i, c] >= 0 else i
+    return cols, slots, np.flatnonzero(csr)
+
+
+@njit(cache=True)
+def _gather_rows(ap, at, at_transpose, slots, coef):
+    """coef[i] = (ap, at, at_transpose) of the slots of row i (padding left at 0)."""
+    for i in range(slots.shape[0]):
+        for c in range(SWEEP_WIDTH):
+            s = slots[i, c]
+            if s >= 0:
+                coef[i, c] = ap[s]
+                coef[i, SWEEP_WIDTH + c] = at[s]
+                coef[i, 2 * SWEEP_WIDTH + c] = at_transpose[s]
 
 
 class StepAssembly:
@@ -108,9 +170,11 @@ class StepAssembly:
         """Conductance of every end volume to ambient at the last :meth:`fill` [m^3/s per scaled pressure]."""
         pattern = grid.pattern
         n = grid.n_nodes
+        indptr, indices = pattern.indptr.astype(np.int64), pattern.indices.astype(np.int64)
+        sweep_cols, sweep_slots, sweep_csr = sweep_rows(indptr, indices, slots["diag"])
         self.arrays = StepArrays(
-            indptr=pattern.indptr.astype(np.int64),
-            indices=pattern.indices.astype(np.int64),
+            indptr=indptr,
+            indices=indices,
             diag=slots["diag"],
             rows=slots["rows"],
             transpose=transpose_slots(pattern),
@@ -119,6 +183,10 @@ class StepAssembly:
             storage=np.zeros(n),
             rhs=np.zeros(n),
             at_transpose=np.zeros(pattern.nnz),
+            sweep_cols=sweep_cols,
+            sweep_slots=sweep_slots,
+            sweep_csr=sweep_csr,
+            sweep_coef=np.zeros((n - 1, 3 * SWEEP_WIDTH)),
         )
 
     def fill(self, ex: float, ey: float) -> StepArrays:
@@ -126,6 +194,7 @@ class StepAssembly:
         a = self.arrays
         _fill(self.clearance_m, ex, ey, self.circ, self.axial, self.ends, a.ap, a.at, self.end_conductance)
         _gather(a.at, a.transpose, a.at_transpose)
+        _gather_rows(a.ap, a.at, a.at_transpose, a.sweep_slots, a.sweep_coef)
         return a
 
     def side_leakage(self, p) -> float:

@@ -138,30 +138,42 @@ def _restrict(r, mask, parent, out):
     out[:] = 0.0
     for k in range(r.size):
         if mask[k]:
-            out[parent[k]] += r[k]
+            out[np.uint64(parent[k])] += r[k]
 
 
 @njit(cache=True)
 def _prolong(x, mask, parent, coarse, scale):
     for k in range(x.size):
         if mask[k]:
-            c = parent[k]
+            c = np.uint64(parent[k])
             x[k] += scale[c] * coarse[c]
 
 
 @njit(cache=True)
 def _gauss_seidel(indptr, indices, data, diag, mask, x, b, forward):
-    """One linear Gauss-Seidel sweep on the masked rows (the masked data hold no other columns)."""
+    """One linear Gauss-Seidel sweep on the masked rows (the masked data hold no other columns).
+    As in the projected sweep, the neighbour updated just before a row (the slot left of the diagonal
+    forward, right of it backward) enters last and the division is a multiplication by the diagonal's
+    inverse, computed off that chain: the sweep waits on it at every row. Unsigned indices, as in
+    :mod:`models.bearing.transient_sweep`."""
     n = x.size
+    one = np.uint64(1)
     for kk in range(n):
-        k = kk if forward else n - 1 - kk
+        k = np.uint64(kk if forward else n - 1 - kk)
         if not mask[k]:
             continue
+        first, end, d = np.uint64(indptr[k]), np.uint64(indptr[k + one]), np.uint64(diag[k])
+        if forward:
+            t = d - one if d > first else d
+        else:
+            t = d + one if d + one < end else d
+        inverse = 1.0 / data[d]
         total = b[k]
-        for s in range(indptr[k], indptr[k + 1]):
-            total -= data[s] * x[indices[s]]
-        d = data[diag[k]]
-        x[k] = (total + d * x[k]) / d
+        for s in range(first, end):
+            if s != d and s != t:
+                total -= data[s] * x[np.uint64(indices[s])]
+        latest = data[t] * x[np.uint64(indices[t])] if t != d else 0.0
+        x[k] = (total - latest) * inverse
 
 
 @njit(cache=True)
@@ -171,8 +183,8 @@ def _masked_residual(indptr, indices, data, mask, x, b, out):
         total = 0.0
         if mask[k]:
             total = b[k]
-            for s in range(indptr[k], indptr[k + 1]):
-                j = indices[s]
+            for s in range(np.uint64(indptr[k]), np.uint64(indptr[k + 1])):
+                j = np.uint64(indices[s])
                 if mask[j]:
                     total -= data[s] * x[j]
         out[k] = total

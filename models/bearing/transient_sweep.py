@@ -30,6 +30,8 @@ met its tolerance 1-3 cycles after the volumes met theirs (each cycle cutting th
 3-fold once the partition settled, by cycle 4). The step is accepted only on a fresh residual pass.
 
 The kernels take the step's arrays as one :class:`models.bearing.transient_kernels.StepArrays`.
+Their hot loops index with unsigned integers: numba indexes an array with a signed one through a
+negative-index wraparound, which cost about half of a residual pass on 240 x 72 (the same arithmetic).
 """
 
 from __future__ import annotations
@@ -49,8 +51,8 @@ def step_residual(k: StepArrays, p, theta, out):
     total = 0.0
     for i in range(p.size):
         flow = storage[i] * theta[i]
-        for s in range(indptr[i], indptr[i + 1]):
-            j = indices[s]
+        for s in range(np.uint64(indptr[i]), np.uint64(indptr[i + 1])):
+            j = np.uint64(indices[s])
             flow += ap[s] * p[j] + at[s] * theta[j]
         r = rhs[i] - flow
         out[i] = r
@@ -79,18 +81,11 @@ def sweep_factors(k: StepArrays):
     return inverse_conductance, outflow, inverse_outflow, outflow_pressure
 
 
-@njit(cache=True, inline="always")
-def _relax(i, k: StepArrays, factors, p, theta, relaxation):
-    """Ausas' projected update of volume ``i``; returns b, the balance's right-hand side less the
-    neighbours' flows.
-
-    The flows of the neighbours that are settled are summed first; the neighbour updated just before
-    ``i`` (the slot left of the diagonal in the node order) enters last, and the pressure follows from
-    it by one multiply-add (p_new = base + gain b, base and gain set before it is read, the division a
-    precomputed inverse): the sweep waits on that chain at every volume. Selects rather than branches
-    keep numba's inlined code as fast as a hand-inlined loop. The update of the textbook form, to
-    rounding."""
-    inverse_conductance, inverse_outflow, outflow_pressure = factors[0], factors[2], factors[3]
+@njit(cache=True)
+def _row_flows(i, k: StepArrays, p, theta):
+    """(rest, latest) of volume ``i`` from its CSR row: its right-hand side less the flows of the
+    neighbours that are settled, summed first, and the flow of the neighbour updated just before ``i``
+    (the slot left of the diagonal in the node order; 0 if there is none), which enters last."""
     indptr, indices, ap, at = k.indptr, k.indices, k.ap, k.at
     d = k.diag[i]
     first = indptr[i]
@@ -101,13 +96,25 @@ def _relax(i, k: StepArrays, factors, p, theta, relaxation):
     for s in range(d + 1, indptr[i + 1]):
         j = indices[s]
         rest -= ap[s] * p[j] + at[s] * theta[j]
+    t = d - 1 if d > first else d
+    j = indices[t]
+    return rest, ((ap[t] * p[j] + at[t] * theta[j]) if t != d else 0.0)
+
+
+@njit(cache=True)
+def _relax(i, k: StepArrays, factors, p, theta, relaxation):
+    """Ausas' projected update of volume ``i`` from its CSR row; returns b, the balance's right-hand
+    side less the neighbours' flows.
+
+    The pressure follows from the flow of the neighbour updated just before ``i`` by one multiply-add
+    (p_new = base + gain b, base and gain set before it is read, the division a precomputed inverse):
+    the sweep waits on that chain at every volume. The update of the textbook form, to rounding."""
+    inverse_conductance, inverse_outflow, outflow_pressure = factors[0], factors[2], factors[3]
+    rest, latest = _row_flows(i, k, p, theta)
     # A full volume's pressure is over-relaxed: p + w (p_full - p), p_full = b / Ap[k, k] - outflow pressure.
     factor = relaxation if theta[i] >= 1.0 else 1.0
     gain = factor * inverse_conductance[i]
     base = (1.0 - factor) * p[i] - factor * outflow_pressure[i]
-    t = d - 1 if d > first else d
-    j = indices[t]
-    latest = (ap[t] * p[j] + at[t] * theta[j]) if t != d else 0.0
     b = rest - latest
     p_new = (base + gain * rest) - gain * latest
     if p_new > 0.0:
@@ -120,12 +127,86 @@ def _relax(i, k: StepArrays, factors, p, theta, relaxation):
 
 
 @njit(cache=True)
+def _sweep_rows(k: StepArrays, factors, p, theta, relaxation, out, keep, start, stop, p_new, theta_new):
+    """Ausas' update (:func:`_relax`, the same arithmetic in the same order: bitwise) of the volumes
+    ``start`` to ``stop`` - 1 from their fixed-width sweep rows. The volume updated just before
+    (``i - 1``, the usual last entry of a row) is read from registers (``p_new``, ``theta_new`` on
+    entry: the values of ``start - 1``), not from the array it was just stored to: the sweep waits on
+    that chain at every volume. ``keep``: also the residual into ``out`` as
+    :func:`projected_sweep_residual` says. Returns the last volume's (p, theta)."""
+    inverse_conductance, outflow, inverse_outflow, outflow_pressure = factors
+    cols, coef, rhs, ap, diag = k.sweep_cols, k.sweep_coef, k.rhs, k.ap, k.diag
+    # Unsigned, like the columns (see the module docstring).
+    for i in range(np.uint64(start), np.uint64(stop)):
+        c0, c1, c2, c3 = cols[i, 0], cols[i, 1], cols[i, 2], cols[i, 3]
+        rest = rhs[i]
+        rest -= coef[i, 0] * p[c0] + coef[i, 4] * theta[c0]
+        rest -= coef[i, 1] * p[c1] + coef[i, 5] * theta[c1]
+        rest -= coef[i, 2] * p[c2] + coef[i, 6] * theta[c2]
+        p_old, theta_old = p[i], theta[i]
+        factor = relaxation if theta_old >= 1.0 else 1.0
+        gain = factor * inverse_conductance[i]
+        base = (1.0 - factor) * p_old - factor * outflow_pressure[i]
+        if c3 == i - np.uint64(1):
+            last_p, last_theta = p_new, theta_new
+        else:
+            last_p, last_theta = p[c3], theta[c3]
+        latest = coef[i, 3] * last_p + coef[i, 7] * last_theta
+        b = rest - latest
+        p_new = (base + gain * rest) - gain * latest
+        if p_new > 0.0:
+            theta_new = 1.0
+        else:
+            p_new, theta_new = 0.0, min(b * inverse_outflow[i], 1.0)
+        p[i] = p_new
+        theta[i] = theta_new
+        if keep:
+            out[i] = b - ap[diag[i]] * p_new - outflow[i] * theta_new
+            dp, dtheta = p_new - p_old, theta_new - theta_old
+            for c in range(4):
+                out[cols[i, c]] -= coef[i, c] * dp + coef[i, 8 + c] * dtheta
+    return p_new, theta_new
+
+
+@njit(cache=True)
+def _relax_kept(i, k: StepArrays, factors, p, theta, relaxation, out):
+    """:func:`_relax` of volume ``i`` that also keeps the residual in ``out`` (its own balance, and
+    through the transposed entries those of the columns left of the diagonal, updated before it)."""
+    indptr, indices, diag, ap, at_transpose = k.indptr, k.indices, k.diag, k.ap, k.at_transpose
+    p_old, theta_old = p[i], theta[i]
+    b = _relax(i, k, factors, p, theta, relaxation)
+    out[i] = b - ap[diag[i]] * p[i] - factors[1][i] * theta[i]
+    dp, dtheta = p[i] - p_old, theta[i] - theta_old
+    if dp != 0.0 or dtheta != 0.0:
+        for s in range(indptr[i], diag[i]):
+            out[indices[s]] -= ap[s] * dp + at_transpose[s] * dtheta
+
+
+@njit(cache=True)
+def _sweep_land(k: StepArrays, factors, p, theta, relaxation, out, keep):
+    """One sweep of every volume but the groove, in node order: the fixed-width rows by
+    :func:`_sweep_rows`, the rare row that does not fit (``sweep_csr``) from its CSR row."""
+    p_new, theta_new = 0.0, 0.0
+    start = 0
+    for i in k.sweep_csr:
+        last = (p_new, theta_new)
+        p_new, theta_new = _sweep_rows(k, factors, p, theta, relaxation, out, keep, start, i, *last)
+        if keep:
+            _relax_kept(i, k, factors, p, theta, relaxation, out)
+        else:
+            _relax(i, k, factors, p, theta, relaxation)
+        p_new, theta_new = p[i], theta[i]
+        start = i + 1
+    _sweep_rows(k, factors, p, theta, relaxation, out, keep, start, p.size - 1, p_new, theta_new)
+
+
+@njit(cache=True)
 def projected_sweeps(k: StepArrays, factors, p, theta, relaxation, n_sweeps):
     """``n_sweeps`` projected SOR sweeps in place on ``p`` (scaled pressure) and ``theta``;
-    ``factors`` from :func:`sweep_factors`."""
+    ``factors`` from :func:`sweep_factors`. The land volumes in node order, then the groove."""
     for _ in range(n_sweeps):
-        for i in range(p.size):
-            _relax(i, k, factors, p, theta, relaxation)
+        _sweep_land(k, factors, p, theta, relaxation, p, False)  # no residual kept: ``out`` is not written
+        _relax(p.size - 1, k, factors, p, theta, relaxation)
 
 
 @njit(cache=True)
@@ -133,22 +214,15 @@ def projected_sweep_residual(k: StepArrays, factors, p, theta, relaxation, out):
     """One projected sweep as :func:`projected_sweeps` that also leaves the residual of its result in
     ``out`` (as :func:`step_residual`, to rounding): each volume's own balance is evaluated right after
     its update, and the later updates of its neighbours are subtracted through the transposed entries
-    (Ap's own, it is symmetric, and ``at_transpose``: read row-wise; about 1.5 sweeps' cost instead of a
-    sweep and a residual pass). The lumped groove, the last node
+    (Ap's own, it is symmetric, and ``at_transpose``; about 1.5 sweeps' cost instead of a sweep and a
+    residual pass). A row's entries right of the diagonal get the same subtraction, harmlessly: their
+    residual is written when they are updated, later in the sweep. The lumped groove, the last node
     of the grid and coupled to its whole rim, is relaxed first, so that the rim sees its new pressure
     within the sweep (a cycle fewer per step on 240 x 72). Returns (max |r|, sum r)."""
-    indptr, indices, diag, ap, at, at_transpose = k.indptr, k.indices, k.diag, k.ap, k.at, k.at_transpose
-    outflow = factors[1]
+    indptr, indices, ap, at = k.indptr, k.indices, k.ap, k.at
     groove = p.size - 1
     _relax(groove, k, factors, p, theta, relaxation)
-    for i in range(groove):
-        p_old, theta_old = p[i], theta[i]
-        b = _relax(i, k, factors, p, theta, relaxation)
-        out[i] = b - ap[diag[i]] * p[i] - outflow[i] * theta[i]
-        dp, dtheta = p[i] - p_old, theta[i] - theta_old
-        if dp != 0.0 or dtheta != 0.0:
-            for s in range(indptr[i], diag[i]):  # the columns before the diagonal: updated before i
-                out[indices[s]] -= ap[s] * dp + at_transpose[s] * dtheta
+    _sweep_land(k, factors, p, theta, relaxation, out, True)
     flow = k.storage[groove] * theta[groove]
     for s in range(indptr[groove], indptr[groove + 1]):
         j = indices[s]
