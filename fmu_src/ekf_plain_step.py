@@ -89,7 +89,7 @@ FILTER_VIEWS = (
 """The filter's arrays (:class:`estimator.filter_arrays.FilterArrays` order) as :func:`plain_step` views
 them: name, dtype, dimensions."""
 N_ENTRIES = T_FILTER + len(FILTER_VIEWS)
-F_COUNTERS = T_FILTER + 17
+F_COUNTERS = T_FILTER + [name for name, _, _ in FILTER_VIEWS].index("counters")
 
 
 @njit(inline="always")

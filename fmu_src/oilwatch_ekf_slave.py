@@ -35,7 +35,10 @@ Outputs and the fast path. The per-step inputs (positions, ``t_sample_s``, ``rot
 ``oil_temperature_c``) and the outputs published with every step (:data:`STEP_OUTPUTS`) live in the base
 class's arrays, which oilwatch's FMI 2.0 loader serves in C (:mod:`fmu_src.slave_base`: the fast path). Each
 step writes its report into the output array with one numpy division (:data:`REPORT_COLUMNS`); the nuisance
-estimates cost a covariance read and are published only when a host reads one of them.
+estimates cost a covariance read and are published only when a host reads one of them (after the filter
+stepped). With ``bearing_table`` 0 the loader runs the plain sample (the next one on the grid, the
+operating point unchanged) in one compiled C function without the GIL (:mod:`fmu_src.ekf_plain_step`, the
+same arithmetic); every other sample goes through :meth:`OilFlowEKF.step` here.
 
 The estimator's numba kernels compile on first use in a process (5-10 s); ``setup`` warms them up during
 initialization and logs the time, so that no ``doStep`` pays for it.
@@ -176,7 +179,7 @@ class OilFlowEKF(OilwatchSlave):
         self._nuisance_names = [row[0] for row in nuisance_names()]
         self._nuisances_published = 0  # the filter's step count when the nuisances were last published
         self._keyphasor_cell = np.full(1, np.nan)  # keyphasor_state's storage (the compiled step writes it)
-        self._plain_step = None
+        self._plain_step = None  # the bound compiled step's table, kept alive: the loader points into it
         self._declare_parameters()
         self._declare_inputs_outputs()
         self._nuisance_outputs = self._nuisance_references()
@@ -489,10 +492,13 @@ class OilFlowEKF(OilwatchSlave):
         )
 
     def _warm_up(self) -> None:
-        """Run the compiled paths (predict, update, skipped sample) once, then return to the initial state."""
+        """Run the compiled paths (predict, update, skipped sample) once, then return to the initial state;
+        compile (or load) the compiled plain step when this configuration has one."""
         for sample in (self._measurement, self._measurement, self._missing):
             self.filter.step(sample, *self._operating_point(self.speed_hz, self.oil_temperature_c))
         self.filter.reset()
+        if self._has_plain_step():
+            import fmu_src.ekf_plain_step  # noqa: F401 - compiles its C entry on import
 
     def _operating_point(self, speed: float, temperature: float) -> tuple[float | None, float | None]:
         """(speed [Hz], oil temperature [degC]) for the filter from the inputs ``speed`` and ``temperature``
@@ -504,20 +510,28 @@ class OilFlowEKF(OilwatchSlave):
         return None, None
 
     def _bind_fast_path(self) -> None:
-        """The base class's binding, then, on the grid model at one speed (whose library step is one
-        compiled call), the compiled plain step (:mod:`fmu_src.ekf_plain_step`): the loader's doStep runs
-        the plain sample without entering Python."""
+        """The base class's binding, then, on the grid model at one speed, the compiled plain step: the
+        loader's doStep runs the plain sample without entering Python."""
         super()._bind_fast_path()
-        if not (self.fast_path_bound and self.bearing_table == 0 and self.filter._grid_batch is not None):
-            return
-        from fmu_src.ekf_plain_step import PlainStepTable  # compiled (or loaded) only for this binding
+        table = self.plain_step_table() if self.fast_path_bound else None
+        if table is not None and bind_plain_step(self, table):
+            self._plain_step = table
+
+    def _has_plain_step(self) -> bool:
+        return self.filter is not None and self.bearing_table == 0 and self.filter._grid_batch is not None
+
+    def plain_step_table(self):
+        """The compiled plain step on this slave's arrays (:class:`fmu_src.ekf_plain_step.PlainStepTable`),
+        None unless its library step is one compiled call (``bearing_table`` 0, no nuisance in the
+        transition)."""
+        if not self._has_plain_step():
+            return None
+        from fmu_src.ekf_plain_step import PlainStepTable  # compiled in _warm_up, for this configuration only
 
         constants = (self._first_sample_time_s, self.sample_period_s, *self._start_inputs, GRID_TOLERANCE)
-        table = PlainStepTable(
+        return PlainStepTable(
             self, constants, REPORT_COLUMNS, REPORT_DIVISORS, len(STEP_INPUTS), T_ESTIMATE_INDEX
         )
-        if bind_plain_step(self, table):
-            self._plain_step = table
 
     # ------------------------------------------------------------------------------- step
     def step(self, current_time: float, step_size: float) -> bool:
