@@ -264,7 +264,8 @@ class PlainStepTable:
         self._shapes, self._addresses, self._arrays = shapes, addresses, entries
         self.address = addresses.ctypes.data
         self.function = plain_step_entry.address
+        self._argument = addresses.ctypes.data_as(ctypes.POINTER(ctypes.c_void_p))
 
     def step(self) -> int:
         """:data:`plain_step_entry` on this table, as the loader calls it (tests, benchmarks)."""
-        return plain_step_entry.ctypes(self._addresses.ctypes.data_as(ctypes.POINTER(ctypes.c_void_p)))
+        return plain_step_entry.ctypes(self._argument)
