@@ -498,7 +498,7 @@ class OilFlowEKF(OilwatchSlave):
             self.filter.step(sample, *self._operating_point(self.speed_hz, self.oil_temperature_c))
         self.filter.reset()
         if self._has_plain_step():
-            import fmu_src.ekf_plain_step  # noqa: F401 - compiles its C entry on import
+            from fmu_src import ekf_plain_step  # noqa: F401 - compiles its C entry on import
 
     def _operating_point(self, speed: float, temperature: float) -> tuple[float | None, float | None]:
         """(speed [Hz], oil temperature [degC]) for the filter from the inputs ``speed`` and ``temperature``
