@@ -132,8 +132,8 @@ def bind_buffers(slave, step) -> bool:
 def bind_plain_step(slave, table) -> bool:
     """Hand the loader a compiled step for its fmi2DoStep (e.g. :mod:`fmu_src.ekf_plain_step`: ``table``'s
     ``function``, ``int f(void *)``, and its argument ``address``, which the slave keeps alive), after
-    :func:`bind_buffers`; return whether it took it
-    (not with ``OILWATCH_FMU_FAST_PATH`` ``0`` or ``python``, nor without a loader of this version)."""
+    :func:`bind_buffers`; return whether it took it (not with ``OILWATCH_FMU_FAST_PATH`` ``0`` or
+    ``python``, nor without a loader of this version)."""
     if os.environ.get(FAST_PATH_VARIABLE) in ("0", "python"):
         return False
     entry = loader_entry(slave.resources, BIND_STEP_ENTRY, ctypes.PyDLL)
