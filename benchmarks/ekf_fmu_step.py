@@ -6,20 +6,26 @@ and, beside it, the process's CPU time, which a shared machine inflates less):
 * the OilFlowEKF FMU under fmpy (``benchmarks/ekf_step.py``'s :class:`FmuLoop`: setReal of the inputs, doStep,
   getReal of four outputs, getBoolean of four flags), ``bearing_table`` 0 on the constant record and 1 on the
   60 s plant ramp record (speed_hz and oil_temperature_c set with every step), with the loader's fast path
-  (``fmu_src/slave_base.py``: Get/Set served in C, doStep calls the slave's step) and, a second instance of
-  the same FMU, with ``OILWATCH_FMU_FAST_PATH=0`` (every call through pythonfmu, as before the fast path);
+  (``fmu_src/slave_base.py``: Get/Set served in C; doStep runs the compiled plain step,
+  ``fmu_src/ekf_plain_step.py``, or, when it declines or with ``bearing_table`` 1, the slave's Python step)
+  and, further instances of the same FMU, with ``OILWATCH_FMU_FAST_PATH=python`` (Get/Set in C, every doStep
+  through the slave's Python step) and ``=0`` (every call through pythonfmu, as before the fast path);
 * the same loop without the doStep on the fast instance: the host's own cost of its Get/Set calls (fmpy's
   ctypes marshalling and status checks; the loader's C answer is well under 0.1 us);
-* the slave's step in this process as the loader calls it (``_fast_step``, after one copy of the inputs'
-  row into its input array, which the loader does in C): the shell's Python in doStep;
+* the slave's Python step in this process as the loader calls it (``_fast_step``, after one copy of the
+  inputs' row into its input array, which the loader does in C): the shell's Python in doStep;
+* the compiled plain step in this process (its C entry through ctypes, after the same copy;
+  ``bearing_table`` 0 only);
 * the slave's Python methods called as pythonfmu calls them (set_real, do_step, get_real, get_boolean);
 * the library step inside it alone (``OilFlowEKF.step`` with the slave's own filter and arguments);
 * the bare FMU (``benchmarks/fmus/bare_filter_slave.py``: the same variables, a doStep that does nothing)
   under fmpy and in process: the floor that fmpy, ctypes and pythonfmu's C++ put under any pythonfmu FMU.
 
-So, with the fast path: FMU under fmpy = library step + the shell's Python in doStep + the host's Get/Set +
-the rest (the loader's doStep: one GIL round trip and call into Python, and the caches the host's Python
-evicts), each measured here but the rest. Without it: library + the slave's Python methods + the FMI floor.
+So, with the fast path and its Python step: FMU under fmpy = library step + the shell's Python in doStep +
+the host's Get/Set + the rest (the loader's doStep: one GIL round trip and call into Python, and the caches
+the host's Python evicts), each measured here but the rest; with the compiled step: FMU under fmpy = the
+compiled step + the host's Get/Set + the rest (fmpy's doStep call, caches). Without the fast path: library
++ the slave's Python methods + the FMI floor.
 
 Two builds of the same FMU cannot be timed in one process (their relocated packages have the same module
 names, so the second would run the first's code): compare another build (e.g. main's) with ``--fmu`` in
@@ -76,9 +82,10 @@ def _slave(slave_class, ramps):
     return slave, vr
 
 
-def python_path_loop(fmu_path: Path, record: np.ndarray, ramps=None) -> FmuLoop:
-    """:class:`FmuLoop` on an instance initialized with the fast path off (every call through pythonfmu)."""
-    os.environ[FAST_PATH_VARIABLE] = "0"
+def python_path_loop(fmu_path: Path, record: np.ndarray, ramps=None, mode: str = "0") -> FmuLoop:
+    """:class:`FmuLoop` on an instance initialized with ``OILWATCH_FMU_FAST_PATH=mode`` (``0``: every call
+    through pythonfmu; ``python``: Get/Set in C, every doStep through the slave's Python step)."""
+    os.environ[FAST_PATH_VARIABLE] = mode
     try:
         return FmuLoop(fmu_path, record, ramps)
     finally:
@@ -87,7 +94,9 @@ def python_path_loop(fmu_path: Path, record: np.ndarray, ramps=None) -> FmuLoop:
 
 class InProcess:
     """A slave object called as the FMU loop calls it (``part="slave"``: setReal, doStep, getReal,
-    getBoolean through its Python methods; ``part="fast"``: its step as the loader's fast path calls it) or
+    getBoolean through its Python methods; ``part="fast"``: its Python step as the loader's fast path calls
+    it; ``part="compiled"``: the compiled plain step, or the Python step when it declines, as the loader
+    calls them) or
     its filter's library step alone (``part="library"``: the same samples and operating point as the slave
     hands them to ``OilFlowEKF.step``), fresh and initialized."""
 
@@ -95,7 +104,7 @@ class InProcess:
         names, self.rows = _inputs(record, ramps)
         self.slave, vr = _slave(slave_class, ramps)
         self.slave.log_queue.clear()  # pythonfmu relays and empties it after each call
-        if part == "fast":  # the rows as the loader leaves them in the input array (STEP_INPUTS order)
+        if part in ("fast", "compiled"):  # the rows as the loader leaves them in the input array
             width = len(self.slave.buffered_inputs)
             self.table = np.tile(self.slave._inputs[:width], (len(self.rows), 1))
             self.table[:, [self.slave.buffered_inputs.index(n) for n in names]] = self.rows
@@ -117,15 +126,18 @@ class InProcess:
             step, samples, operating = self.slave.filter.step, self.samples, self.operating
             for j in range(steps):
                 step(samples[j + 1], *operating[j + 1], None)
-        elif self.part == "fast":
+        elif self.part in ("fast", "compiled"):
             slave, table, k = self.slave, self.table, self.k
             inputs, width = slave._inputs, len(slave.buffered_inputs)
-            fast_step = slave._fast_step
+            fast_step, plain = slave._fast_step, None
+            if self.part == "compiled":
+                plain = slave.plain_step_table().step
             for j in range(steps):
                 inputs[:width] = table[j + 1]
                 inputs[-2] = k * DT
                 inputs[-1] = DT
-                fast_step()
+                if plain is None or not plain():
+                    fast_step()
                 k += 1
             self.k = k
         else:
@@ -197,9 +209,12 @@ def main() -> None:
         ekf_path, bare_path = ekf_fmu(args.fmu, folder), bare_fmu(folder)
         for label, record, inputs in cases:
             runners = {"fmu": FmuLoop(ekf_path, record, inputs)}
+            runners["python_step"] = python_path_loop(ekf_path, record, inputs, "python")
             runners["python_path"] = python_path_loop(ekf_path, record, inputs)
             runners["host_calls"] = FmuLoop(ekf_path, record, inputs, step=False)
             runners["fast"] = InProcess(OilFlowEKF, record, inputs, part="fast")
+            if inputs is None:
+                runners["compiled"] = InProcess(OilFlowEKF, record, inputs, part="compiled")
             runners["slave"] = InProcess(OilFlowEKF, record, inputs)
             runners["library"] = InProcess(OilFlowEKF, record, inputs, part="library")
             runners["bare"] = FmuLoop(bare_path, record, inputs)
@@ -207,15 +222,25 @@ def main() -> None:
             t = interleaved(runners, args.repeats)
             load.append(os.getloadavg()[0])
             shell = _difference(t["fast"], t["library"])
-            rest = _difference(_difference(_difference(t["fmu"], t["library"]), shell), t["host_calls"])
+            python_step = t["python_step"]
+            rest = _difference(_difference(_difference(python_step, t["library"]), shell), t["host_calls"])
             rows += [
                 (f"EKF FMU under fmpy, {label} (fast path)", t["fmu"]),
+                (f"  the same FMU, {FAST_PATH_VARIABLE}=python (its Python step)", python_step),
                 (f"  the same FMU, {FAST_PATH_VARIABLE}=0 (every call through pythonfmu)", t["python_path"]),
                 ("  its library step alone (OilFlowEKF.step)", t["library"]),
-                ("  the slave's step in process as the loader calls it", t["fast"]),
+                ("  the slave's Python step in process as the loader calls it", t["fast"]),
                 ("  the host's Get/Set calls alone (the fast instance, no doStep)", t["host_calls"]),
-                ("  => shell's Python in doStep (step in process - library)", shell),
-                ("  => the rest (FMU - library - shell - host's calls)", rest),
+                ("  => shell's Python in doStep (Python step in process - library)", shell),
+                ("  => the rest of the Python step (=python - library - shell - host's calls)", rest),
+            ]
+            if "compiled" in t:
+                compiled_rest = _difference(_difference(t["fmu"], t["compiled"]), t["host_calls"])
+                rows += [
+                    ("  the compiled plain step in process (ctypes call)", t["compiled"]),
+                    ("  => the rest (FMU - compiled step - host's calls)", compiled_rest),
+                ]
+            rows += [
                 ("  the slave's Python methods in process (pythonfmu's calls, no FMI)", t["slave"]),
                 ("  bare FMU under fmpy, the same calls", t["bare"]),
                 ("  bare slave in process", t["bare_slave"]),

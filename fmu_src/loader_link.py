@@ -16,8 +16,11 @@ REFUSED_CALL_ENTRY = "oilwatch_loader_refused_call"
 """The loader's entry point that turns the current call's fmi2Fatal into fmi2Error."""
 BIND_ENTRY = "oilwatch_loader_bind_buffers"
 """The FMI 2.0 loader's entry point of the fast path (module docstring)."""
+BIND_STEP_ENTRY = "oilwatch_loader_bind_plain_step"
+"""The FMI 2.0 loader's entry point of the compiled plain step (:mod:`fmu_src.ekf_plain_step`)."""
 FAST_PATH_VARIABLE = "OILWATCH_FMU_FAST_PATH"
-"""Environment variable: ``0`` keeps every FMI call on the Python path."""
+"""Environment variable: ``0`` keeps every FMI call on the Python path; ``python`` binds the buffers but not
+a compiled step (every doStep calls the slave's Python step)."""
 SLOT_REAL_INPUT, SLOT_REAL_OUTPUT, SLOT_INTEGER_OUTPUT, SLOT_BOOLEAN_OUTPUT = 1, 2, 3, 4
 SLOT_SHIFT = 24
 """The fast path's table by value reference: ``kind << SLOT_SHIFT | index``, -1 when not bound (as in
@@ -124,3 +127,18 @@ def bind_buffers(slave, step) -> bool:
     inputs, outputs = slave._inputs, slave._outputs
     arguments = (inputs.ctypes.data, len(inputs) - 2, outputs.ctypes.data, len(outputs))
     return bool(entry(*arguments, slots.ctypes.data, len(slots), step))
+
+
+def bind_plain_step(slave, table) -> bool:
+    """Hand the loader a compiled step for its fmi2DoStep (e.g. :mod:`fmu_src.ekf_plain_step`: ``table``'s
+    ``function``, ``int f(void *)``, and its argument ``address``, which the slave keeps alive), after
+    :func:`bind_buffers`; return whether it took it (not with ``OILWATCH_FMU_FAST_PATH`` ``0`` or
+    ``python``, nor without a loader of this version)."""
+    if os.environ.get(FAST_PATH_VARIABLE) in ("0", "python"):
+        return False
+    entry = loader_entry(slave.resources, BIND_STEP_ENTRY, ctypes.PyDLL)
+    if entry is None:
+        return False
+    entry.argtypes = (ctypes.c_void_p, ctypes.c_void_p)
+    entry.restype = ctypes.c_int
+    return bool(entry(table.function, table.address))

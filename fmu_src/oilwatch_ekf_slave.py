@@ -35,7 +35,10 @@ Outputs and the fast path. The per-step inputs (positions, ``t_sample_s``, ``rot
 ``oil_temperature_c``) and the outputs published with every step (:data:`STEP_OUTPUTS`) live in the base
 class's arrays, which oilwatch's FMI 2.0 loader serves in C (:mod:`fmu_src.slave_base`: the fast path). Each
 step writes its report into the output array with one numpy division (:data:`REPORT_COLUMNS`); the nuisance
-estimates cost a covariance read and are published only when a host reads one of them.
+estimates cost a covariance read and are published only when a host reads one of them (after the filter
+stepped). With ``bearing_table`` 0 the loader runs the plain sample (the next one on the grid, the
+operating point unchanged) in one compiled C function without the GIL (:mod:`fmu_src.ekf_plain_step`, the
+same arithmetic); every other sample goes through :meth:`OilFlowEKF.step` here.
 
 The estimator's numba kernels compile on first use in a process (5-10 s); ``setup`` warms them up during
 initialization and logs the time, so that no ``doStep`` pays for it.
@@ -79,6 +82,7 @@ from estimator.step_kernel import (
     REPORT_STD,
 )
 from fmu_src.blas_threads import limit_blas_threads
+from fmu_src.loader_link import bind_plain_step
 from fmu_src.machine_parameters import (
     declare_machine_parameters,
     held_operating_point,
@@ -169,11 +173,13 @@ class OilFlowEKF(OilwatchSlave):
         super().__init__(**kwargs)
         self.filter = None  # estimator.factory.make_estimator's: a filter, or the start bank
         self._measurement = np.zeros(4)
+        self._measurement_row = self._measurement.reshape(1, 4)  # the compiled plain step's view
         self._missing = np.full(4, np.nan)
         self._warned_off_grid = False
         self._nuisance_names = [row[0] for row in nuisance_names()]
-        self._nuisances_stale = False
-        self._previous_angle_rad: float | None = None
+        self._nuisances_published = 0  # the filter's step count when the nuisances were last published
+        self._keyphasor_cell = np.full(1, np.nan)  # keyphasor_state's storage (the compiled step writes it)
+        self._plain_step = None  # the bound compiled step's table, kept alive: the loader points into it
         self._declare_parameters()
         self._declare_inputs_outputs()
         self._nuisance_outputs = self._nuisance_references()
@@ -333,16 +339,17 @@ class OilFlowEKF(OilwatchSlave):
     def filter_state(self, state) -> None:
         if state is not None:
             self.filter.set_state(state)
-            self._nuisances_stale = False  # the outputs were restored with the state
+            self._nuisances_published = self.filter.step_count  # the outputs were restored with the state
 
     @property
     def keyphasor_state(self) -> float | None:
         """The keyphasor angle of the last sample [rad] (None: none): where the next prediction starts."""
-        return self._previous_angle_rad
+        angle = self._keyphasor_cell.item(0)
+        return None if math.isnan(angle) else angle
 
     @keyphasor_state.setter
     def keyphasor_state(self, angle: float | None) -> None:
-        self._previous_angle_rad = angle
+        self._keyphasor_cell[0] = math.nan if angle is None else angle
 
     def _nuisance_references(self) -> frozenset[int]:
         """Value references of the nuisance estimates, published together when the host reads one of them
@@ -355,9 +362,10 @@ class OilFlowEKF(OilwatchSlave):
         )
 
     def refresh_outputs(self, vrs) -> None:
-        """Publish the nuisance estimates if they are stale and among ``vrs``."""
-        if self._nuisances_stale and not self._nuisance_outputs.isdisjoint(vrs):
-            self._nuisances_stale = False
+        """Publish the nuisance estimates if they are stale (the filter stepped since) and among ``vrs``."""
+        if self.filter is None or self.filter.step_count == self._nuisances_published:
+            return
+        if not self._nuisance_outputs.isdisjoint(vrs):
             self._publish_nuisances()
 
     def validate_parameters(self) -> None:
@@ -484,10 +492,13 @@ class OilFlowEKF(OilwatchSlave):
         )
 
     def _warm_up(self) -> None:
-        """Run the compiled paths (predict, update, skipped sample) once, then return to the initial state."""
+        """Run the compiled paths (predict, update, skipped sample) once, then return to the initial state;
+        compile (or load) the compiled plain step when this configuration has one."""
         for sample in (self._measurement, self._measurement, self._missing):
             self.filter.step(sample, *self._operating_point(self.speed_hz, self.oil_temperature_c))
         self.filter.reset()
+        if self._has_plain_step():
+            from fmu_src import ekf_plain_step  # noqa: F401 - compiles its C entry on import
 
     def _operating_point(self, speed: float, temperature: float) -> tuple[float | None, float | None]:
         """(speed [Hz], oil temperature [degC]) for the filter from the inputs ``speed`` and ``temperature``
@@ -497,6 +508,30 @@ class OilFlowEKF(OilwatchSlave):
         if (speed, temperature) != self._start_inputs:  # the check costs only then
             held_operating_point(self, self._machine, self._start_conditions)
         return None, None
+
+    def _bind_fast_path(self) -> None:
+        """The base class's binding, then, on the grid model at one speed, the compiled plain step: the
+        loader's doStep runs the plain sample without entering Python."""
+        super()._bind_fast_path()
+        table = self.plain_step_table() if self.fast_path_bound else None
+        if table is not None and bind_plain_step(self, table):
+            self._plain_step = table
+
+    def _has_plain_step(self) -> bool:
+        return self.filter is not None and self.bearing_table == 0 and self.filter._grid_batch is not None
+
+    def plain_step_table(self):
+        """The compiled plain step on this slave's arrays (:class:`fmu_src.ekf_plain_step.PlainStepTable`),
+        None unless its library step is one compiled call (``bearing_table`` 0, no nuisance in the
+        transition)."""
+        if not self._has_plain_step():
+            return None
+        from fmu_src.ekf_plain_step import PlainStepTable  # compiled in _warm_up, for this configuration only
+
+        constants = (self._first_sample_time_s, self.sample_period_s, *self._start_inputs, GRID_TOLERANCE)
+        return PlainStepTable(
+            self, constants, REPORT_COLUMNS, REPORT_DIVISORS, len(STEP_INPUTS), T_ESTIMATE_INDEX
+        )
 
     # ------------------------------------------------------------------------------- step
     def step(self, current_time: float, step_size: float) -> bool:
@@ -526,7 +561,7 @@ class OilFlowEKF(OilwatchSlave):
         operating = self._operating_point(speed, temperature)
         while self.filter.step_count < index:
             self.filter.step(self._missing, *operating)  # a gap: predict through it
-            self._previous_angle_rad = None
+            self.keyphasor_state = None
         measurement = self._measurement
         if bad_stamp:
             measurement[:] = np.nan
@@ -535,20 +570,19 @@ class OilFlowEKF(OilwatchSlave):
             measurement[1] = y1 * 1e-6
             measurement[2] = x2 * 1e-6
             measurement[3] = y2 * 1e-6
-        angle = self._previous_angle_rad if self.bearing_table == 1 else None
+        angle = self.keyphasor_state if self.bearing_table == 1 else None
         self._publish_core(self.filter.step(measurement, *operating, angle))
-        self._nuisances_stale = True
         connected = math.isfinite(keyphasor) and keyphasor >= 0.0 and not bad_stamp
-        self._previous_angle_rad = math.radians(keyphasor) if connected else None
+        self.keyphasor_state = math.radians(keyphasor) if connected else None
         return True
 
     def _publish(self, report: ReportView | None = None) -> None:
         """Copy a step report (default: the last one, rebuilt from the state) to all outputs now."""
         self._publish_core(report if report is not None else self.filter.current_report())
         self._publish_nuisances()
-        self._nuisances_stale = False
 
     def _publish_nuisances(self) -> None:
+        self._nuisances_published = self.filter.step_count
         for name, value in zip(self._nuisance_names, nuisance_values(self.filter), strict=True):
             setattr(self, name, value)
 

@@ -10,6 +10,9 @@ restore their state, and both get a fixed parameter set after initialization. Ev
 booleans, the nuisance estimates) must be bit-identical between the two, the refused set must be fmi2Error
 on both with the same message, and a step that fails (a time stamp after the step's end) must be fmi2Fatal
 with the slave's message on both. ``fmi2Reset`` drops the binding; the next initialization binds again.
+The fast instance's plain samples run in the compiled step (``fmu_src/ekf_plain_step.py``, without the GIL);
+the others (a non-finite, off-grid or repeated time stamp, the first sample, a failing step) decline to
+the slave's Python step.
 
 Also here (the same slave's parameters, in process): ``baseline_age_days`` widens the baseline's offsets prior
 by the machine file's ``[probes] offset_drift_um_per_day``, and the runout the filter subtracts is the
@@ -31,15 +34,17 @@ q = 0.85 * 596.3
 flow = {f"q{b}_{s}_ml_min": q for b in (1, 2) for s in ("initial", "final")}
 plant, pv = load(PLANT, "plant", {"noise_um": 1.0, **flow}, {"seed": 3})
 
-def loader_bound(slave):
+def loader_bound(slave, entry="oilwatch_loader_fast_path"):
     binary = Path(slave.unzipDirectory) / "binaries" / "linux64" / (slave.modelIdentifier + ".so")
-    return ctypes.CDLL(str(binary)).oilwatch_loader_fast_path(ctypes.c_void_p(slave.component))
+    return getattr(ctypes.CDLL(str(binary)), entry)(ctypes.c_void_p(slave.component))
 
 os.environ["OILWATCH_FMU_FAST_PATH"] = "0"
 slow, ev = load(EKF, "slow", {"noise_um": 1.0})
 del os.environ["OILWATCH_FMU_FAST_PATH"]
 fast, _ = load(EKF, "fast", {"noise_um": 1.0})
+COMPILED = "oilwatch_loader_compiled_step"
 result = {"bound": [loader_bound(fast), loader_bound(slow)]}
+result["compiled"] = [loader_bound(fast, COMPILED), loader_bound(slow, COMPILED)]
 PORTS = ["x1_um", "y1_um", "x2_um", "y2_um", "t_sample_s"]
 src, dst = [pv[n] for n in PORTS], [ev[n] for n in PORTS]
 md = read_model_description(EKF)
@@ -95,7 +100,7 @@ fast.setupExperiment(startTime=0.0)
 fast.enterInitializationMode()
 fast.setReal([ev["noise_um"]], [1.0])
 fast.exitInitializationMode()
-result["bound_after_reinitialization"] = loader_bound(fast)
+result["bound_after_reinitialization"] = [loader_bound(fast), loader_bound(fast, COMPILED)]
 failed = {}
 for name, ekf in (("fast", fast), ("slow", slow)):
     ekf.setReal([ev["t_sample_s"]], [99.0])  # after the end of the step: the slave raises
@@ -114,6 +119,10 @@ def test_the_fast_path_changes_no_output_status_or_message(built_fmus):
     paths = f"PLANT, EKF = {plant!r}, {ekf!r}\n"
     result = run_json(FMPY_PRELUDE + paths + RUN, timeout=TIMEOUT_S)
     assert result["bound"] == [1, 0]  # the fast instance is served by the loader, the other by pythonfmu
+    assert result["compiled"] == [
+        1,
+        0,
+    ]  # and its plain samples by the compiled step (fmu_src/ekf_plain_step.py)
     for part in ("first", "second", "again", "third"):
         assert result[part]["fast"] == result[part]["slow"], part  # bit for bit (JSON keeps every digit)
     assert result["second"] == result["again"]  # the restored state runs on identically
@@ -122,7 +131,7 @@ def test_the_fast_path_changes_no_output_status_or_message(built_fmus):
     assert all(len(messages) == 1 for messages in result["refusal_log"].values())
     assert result["refusal_log"]["fast"] == [m.replace("slow", "fast") for m in result["refusal_log"]["slow"]]
     assert all(len(messages) == 1 for messages in result["off_grid_log"].values())  # replayed, relayed
-    assert result["bound_after_reset"] == 0 and result["bound_after_reinitialization"] == 1
+    assert result["bound_after_reset"] == 0 and result["bound_after_reinitialization"] == [1, 1]
     assert result["failed"] == {"fast": 4, "slow": 4}  # fmi2Fatal with the slave's reason on both
     fast_failure, slow_failure = result["failed_log"]["fast"], result["failed_log"]["slow"]
     assert fast_failure and fast_failure == [m.replace("slow", "fast") for m in slow_failure]

@@ -56,7 +56,11 @@
  *   function, which returns 0 when the step succeeded and logged nothing. Any other outcome (a failed
  *   step, a discard, a queued log message) is replayed through pythonfmu's fmi2DoStep: the slave hands
  *   back the stored outcome without stepping again, and pythonfmu returns the status and relays the
- *   messages exactly as it does without the fast path.
+ *   messages exactly as it does without the fast path;
+ * - a slave may also hand over a compiled step (oilwatch_loader_bind_plain_step: a C function and its
+ *   argument; the estimator's plain sample, fmu_src/ekf_plain_step.py), which fmi2DoStep calls first,
+ *   without the GIL: 1 it did the step (fmi2OK), 0 it declined having changed nothing (the Python step
+ *   function runs as above), 2 it failed (fmi2Fatal, as pythonfmu answers an exception).
  * fmi2Reset and fmi2FreeInstance drop the binding (pythonfmu's reset makes a new slave object, which binds
  * its own buffers at its next initialization). The slave does not bind with OILWATCH_FMU_FAST_PATH=0. FMI
  * 3.0 and Windows use pythonfmu's binaries, which have no such entry: their slaves stay on the Python path.
@@ -518,6 +522,8 @@ typedef struct {
     int *slots;        /* by value reference: kind << SLOT_SHIFT | index into its buffer, or -1 */
     size_t n_slots;
     PyObject *step;    /* the slave's step function (a reference held here); NULL: not bound */
+    int (*kernel)(void *); /* a compiled step tried first, without the GIL (1 done, 0 declined, 2 failed) */
+    void *kernel_table;    /* its argument (the slave keeps it alive) */
 } FastPath;
 
 /* ---- one instance: pythonfmu's component, the host's callbacks and the relay given to pythonfmu ---- */
@@ -556,8 +562,24 @@ EXPORT int oilwatch_loader_bind_buffers(double *inputs, size_t n_inputs, double 
     return 1;
 }
 
+/* Called by the slave with the GIL held, after oilwatch_loader_bind_buffers in the same initialization: a
+ * compiled step (fmu_src/ekf_plain_step.py) that fmi2DoStep calls first, without the GIL. It returns 1 when
+ * it did the step, 0 when it declined having changed nothing (the slave's Python step then runs), 2 when
+ * it failed. 1: bound, 0: not. */
+EXPORT int oilwatch_loader_bind_plain_step(int (*kernel)(void *), void *table)
+{
+    Instance *self = initializing;
+    if (!self || !self->fast.step || !kernel || !table) return 0;
+    self->fast.kernel = kernel;
+    self->fast.kernel_table = table;
+    return 1;
+}
+
 /* Whether the instance c serves its bound variables here (for tests and diagnostics). */
 EXPORT int oilwatch_loader_fast_path(fmi2Component c) { return c && ((Instance *)c)->fast.step != NULL; }
+
+/* Whether the instance c has a compiled step bound (for tests and diagnostics). */
+EXPORT int oilwatch_loader_compiled_step(fmi2Component c) { return c && ((Instance *)c)->fast.kernel != NULL; }
 
 static void unbind(Instance *self)
 {
@@ -802,6 +824,16 @@ EXPORT fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolea
     if (self && self->fast.step) {
         self->fast.inputs[self->fast.n_inputs] = t;
         self->fast.inputs[self->fast.n_inputs + 1] = h;
+        if (self->fast.kernel) {
+            int done = self->fast.kernel(self->fast.kernel_table);
+            if (done == 1) return fmi2OK;
+            if (done != 0) {
+                if (self->host.logger)
+                    self->host.logger(self->host.componentEnvironment, "", fmi2Fatal, "logStatusFatal",
+                                      "the compiled step failed at t = %.9g s (its exception is on stderr)", t);
+                return fmi2Fatal;
+            }
+        }
         PyGILState_STATE gil = py.GILStateEnsure();
         PyObject *result = py.CallObject(self->fast.step, NULL);
         long outcome = result ? py.LongAsLong(result) : -1;
