@@ -261,13 +261,15 @@ class RobustnessRun:
             self._bounds = CaseBounds(self.machine, self.settings, DT_S)
         return self._bounds.bound_pct(case, point_pct)
 
-    def _estimate(self, case: Case, config: EKFConfig, signals, speed, temperature):
+    def _estimate(self, case: Case, config: EKFConfig, signals, speed, temperature, single: bool = False):
         """(trace, follows): the estimator's record, and whether it was fed the measured speed and oil
-        temperature (an estimator whose step takes them: issue 13's estimator side)."""
+        temperature (an estimator whose step takes them: issue 13's estimator side). ``single``: one
+        filter from the configured start even where the start bank applies (diagnostics)."""
         if not (case.operating_point and self.follows_operating_point):
             return OilFlowEKF(self.model, config).run(signals), False
         model = self._operating_model()
-        ekf = StartBank(model, config) if StartBank.applies(config) else OilFlowEKF(model, config)
+        bank = StartBank.applies(config) and not single
+        ekf = StartBank(model, config) if bank else OilFlowEKF(model, config)
         count = len(signals)
         trace = SimpleNamespace(
             q_m3_s=np.zeros((count, 2)),
