@@ -8,13 +8,14 @@ simulated once; the case's probes (offsets, angle) are applied to it as ``Robust
 the measurement noise drawn from each ``--seeds`` generator (seed 1 is the report's record, bit for bit) and
 once without noise. Each record goes through the row's estimator (``RobustnessRun._estimate``: the start
 bank where it applies, fed the measured speed and oil temperature), and the row's figure is printed: the
-error of the mean of the last 30 s [% of the truth]. ``--own-model`` replaces the plant's motion with the
-estimator's own operating model run at the truth (factors 1, the case's unbalance) along the same speed and
-temperature, from rest (the first second is its settling): the same noise draws on a record without any
-plant/model difference. ``--recentring`` builds the estimator's operating model with these thresholds of
-:class:`models.system.operating_model.Recentring` (speed and flowrate as fractions of nominal, ln mu, the
-least steps between re-centrings) instead of the default ones. ``--single-start`` runs the configured start's
-filter alone (the start bank's member 1.0) where the row runs the bank.
+error of the mean of the last 30 s [% of the truth]. ``--own-model`` replaces the plant's motion with
+the estimator's own operating model (default thresholds) run at the truth (factors 1, the case's
+unbalance) along the same speed and temperature, from rest (the first second is its settling): the same
+noise draws on a record without any plant/model difference. ``--recentring`` builds the estimator's
+operating model with these thresholds of :class:`models.system.operating_model.Recentring` (speed and
+flowrate as fractions of nominal, ln mu, the least steps between re-centrings) instead of the defaults.
+``--single-start`` runs the configured start's filter alone (the start bank's member 1.0) where the row
+runs the bank.
 
 Reading: the noise-free record's error is the bias the model difference gives; the spread over seeds is
 the estimator's variance on this record's information, to compare with its reported std; the mean over
@@ -95,11 +96,6 @@ def main() -> None:
     parser.add_argument("--recentring", type=float, nargs=4, default=None, help="the model's thresholds")
     args = parser.parse_args()
     run, case = RobustnessRun(REPORT_SETTINGS), case_by_name(args.case)
-    if args.recentring is not None:
-        speed_fraction, log_viscosity, flowrate_fraction, steps = args.recentring
-        recentring = Recentring(speed_fraction, log_viscosity, flowrate_fraction, round(steps))
-        reduced = build_system(run.machine, reduced=True)
-        run._operating = build_operating_model(reduced, run.machine, DT_S, recentring=recentring)
     point = (args.q1_pct, args.q2_pct)
     began = time.process_time()
     true, angle, clock = plant_motion(run, case, point, args.motion_cache)
@@ -109,6 +105,12 @@ def main() -> None:
     if args.own_model:
         true = own_model_motion(run, case, point, speed, temperature)
     print(f"motion: {'own model' if args.own_model else 'plant'}, {time.process_time() - began:.0f} s CPU")
+    # the estimator's thresholds: the own model's motion above stays the default model's
+    if args.recentring is not None:
+        speed_fraction, log_viscosity, flowrate_fraction, steps = args.recentring
+        recentring = Recentring(speed_fraction, log_viscosity, flowrate_fraction, round(steps))
+        reduced = build_system(run.machine, reduced=True)
+        run._operating = build_operating_model(reduced, run.machine, DT_S, recentring=recentring)
     config = run.config(case)
     truth = np.array(point) / 100.0 * run.nominal_m3_s
     half = len(times) // 2
