@@ -261,12 +261,14 @@ class RobustnessRun:
             self._bounds = CaseBounds(self.machine, self.settings, DT_S)
         return self._bounds.bound_pct(case, point_pct)
 
-    def _estimate(self, case: Case, config: EKFConfig, signals, speed, temperature):
+    def _estimate(self, case: Case, config: EKFConfig, signals, speed, temperature, single: bool = False):
         """(trace, follows): the estimator's record, and whether it was fed the measured speed and oil
-        temperature (an estimator whose step takes them: issue 13's estimator side)."""
+        temperature (an estimator whose step takes them: issue 13's estimator side). ``single``: one
+        filter from the configured start even where the start bank applies (diagnostics)."""
         if not (case.operating_point and self.follows_operating_point):
             return make_estimator(self.model, config).run_batch(signals), False
-        estimator = make_estimator(self._operating_model(), config)
+        model = self._operating_model()
+        estimator = OilFlowEKF(model, config) if single else make_estimator(model, config)
         return estimator.run_batch(signals, speed_hz=speed, oil_temperature_c=temperature), True
 
     def _operating_model(self):
