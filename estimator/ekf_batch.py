@@ -72,6 +72,26 @@ class BatchRuns:
         out.fill(table, count)
         return out
 
+    def grid_batch_arguments(self) -> tuple | None:
+        """The arguments of :func:`estimator.step_kernel.grid_batch` that belong to this filter, in its
+        order less the record and the report table: ``(transition, forcing, axes, omega, dt, first_step,
+        next, transition_work, flow_jacobian, exogenous, packed)``; None unless the filter steps as one
+        compiled call (a grid model at one speed). The arrays are the filter's own storage: a compiled
+        caller that runs ``grid_batch`` on them (the estimator FMU's plain step,
+        :mod:`fmu_src.ekf_plain_step`) advances the filter exactly as :meth:`step` does. They stay valid
+        through :meth:`set_state` (which copies into them) and are replaced by ``reset``."""
+        if self._grid_batch is None:
+            return None
+        return (
+            *self._grid_batch,
+            self._first_step,
+            self._batch_next,
+            self._batch_transition,
+            self._batch_flow_jacobian,
+            self._batch_exogenous,
+            self._packed,
+        )
+
     def _run_grid_batch(self, record: np.ndarray, table: np.ndarray) -> None:
         """:func:`estimator.step_kernel.grid_batch` on the record's rows (K, 4), reports into ``table``."""
         transition, forcing, axes, omega, dt = self._grid_batch

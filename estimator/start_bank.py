@@ -230,6 +230,11 @@ class StartBank:
         if self._select_step is not None and self.step_count >= self._select_step:
             self.chosen = int(np.argmin(self.nis))
 
+    def grid_batch_arguments(self) -> None:
+        """None: a bank is several filters, never one compiled call (as
+        :meth:`estimator.ekf.OilFlowEKF.grid_batch_arguments`)."""
+        return None
+
     def current_report(self) -> StepReport:
         """The followed filter's last report, rebuilt from its state."""
         return self.active.current_report()

@@ -28,7 +28,7 @@ import numpy as np
 from numba import carray, cfunc, njit, types
 
 from estimator.filter_arrays import FilterArrays
-from estimator.step_kernel import COUNT_STEP, grid_batch
+from estimator.step_kernel import COUNT_STEP, REPORT_SIZE, grid_batch
 
 KERNEL_DECLINED, KERNEL_DONE, KERNEL_FAILED = 0, 1, 2
 """:func:`plain_step`'s answers (as ``oilwatch/cosim/native/fmi2_loader.c`` reads them)."""
@@ -210,40 +210,37 @@ def plain_step_entry(table):
 
 
 class PlainStepTable:
-    """The table of addresses :data:`plain_step_entry` reads (module docstring) for ``slave`` (an initialized
-    :class:`fmu_src.oilwatch_ekf_slave.OilFlowEKF` on the grid model at one speed); :attr:`address` is what
-    the loader passes to :attr:`function` (the C entry's address). It holds every array it points to."""
+    """The table of addresses :data:`plain_step_entry` reads (module docstring). ``arguments``: the filter's
+    :meth:`estimator.ekf.OilFlowEKF.grid_batch_arguments`; ``slave_arrays``: the slave's input and output
+    arrays, its measurement row (1, 4) and its keyphasor cell (1,). :attr:`address` is what the loader passes
+    to :attr:`function` (the C entry's address). It holds every array it points to."""
 
-    def __init__(self, slave, constants, columns, divisors, time_index: int, t_estimate_index: int) -> None:
-        ekf = slave.filter
-        transition, forcing, axes, omega, dt = ekf._grid_batch
+    def __init__(
+        self, arguments, slave_arrays, constants, columns, divisors, time_index: int, t_estimate_index: int
+    ) -> None:
+        transition, forcing, axes, omega, dt, first_step, *work, packed = arguments
+        inputs, outputs, measurement_row, keyphasor_cell = slave_arrays
         if tuple(name for name, _, _ in FILTER_VIEWS) != FilterArrays._fields:
             raise ValueError("FilterArrays' fields differ from FILTER_VIEWS")
         self._constants = np.array([omega, dt, *constants], dtype=np.float64)
         self._columns = np.ascontiguousarray(columns, dtype=np.int64)
         self._divisors = np.ascontiguousarray(divisors, dtype=np.float64)
-        self._row = np.empty((1, ekf._report.shape[0]))
+        self._row = np.empty((1, REPORT_SIZE))
         entries = [
             (None, None, 0),  # T_SHAPES, filled below
             (self._constants, np.float64, 1),
-            (slave._inputs, np.float64, 1),
-            (slave._outputs, np.float64, 1),
+            (inputs, np.float64, 1),
+            (outputs, np.float64, 1),
             (self._columns, np.int64, 1),
             (self._divisors, np.float64, 1),
-            (slave._measurement_row, np.float64, 2),
+            (measurement_row, np.float64, 2),
             (self._row, np.float64, 2),
-            (slave._keyphasor_cell, np.float64, 1),
+            (keyphasor_cell, np.float64, 1),
             (transition, np.float64, 4),
             (forcing, np.float64, 4),
             (axes, np.float64, 1),
-            (ekf._batch_next, np.float64, 1),
-            (ekf._batch_transition, np.float64, 2),
-            (ekf._batch_flow_jacobian, np.float64, 2),
-            (ekf._batch_exogenous, np.float64, 1),
-            *(
-                (array, dtype, ndim)
-                for array, (_, dtype, ndim) in zip(ekf._packed, FILTER_VIEWS, strict=True)
-            ),
+            *zip(work, (np.float64,) * 4, (1, 2, 2, 1), strict=True),
+            *((array, dtype, ndim) for array, (_, dtype, ndim) in zip(packed, FILTER_VIEWS, strict=True)),
         ]
         shapes = np.zeros(1 + MAX_DIMS * N_ENTRIES + I_T_ESTIMATE + 1, dtype=np.int64)
         shapes[0] = shapes.size
@@ -256,7 +253,7 @@ class PlainStepTable:
             shapes[1 + MAX_DIMS * i : 1 + MAX_DIMS * i + ndim] = array.shape
             addresses[i] = array.ctypes.data
         settings = 1 + MAX_DIMS * N_ENTRIES
-        shapes[settings + I_FIRST_STEP] = ekf._first_step
+        shapes[settings + I_FIRST_STEP] = first_step
         shapes[settings + I_TIME_INDEX] = time_index
         shapes[settings + I_REPORTED] = self._columns.size
         shapes[settings + I_T_ESTIMATE] = t_estimate_index

@@ -518,7 +518,9 @@ class OilFlowEKF(OilwatchSlave):
             self._plain_step = table
 
     def _has_plain_step(self) -> bool:
-        return self.filter is not None and self.bearing_table == 0 and self.filter._grid_batch is not None
+        if self.filter is None or self.bearing_table != 0:
+            return False
+        return self.filter.grid_batch_arguments() is not None
 
     def plain_step_table(self):
         """The compiled plain step on this slave's arrays (:class:`fmu_src.ekf_plain_step.PlainStepTable`),
@@ -530,7 +532,13 @@ class OilFlowEKF(OilwatchSlave):
 
         constants = (self._first_sample_time_s, self.sample_period_s, *self._start_inputs, GRID_TOLERANCE)
         return PlainStepTable(
-            self, constants, REPORT_COLUMNS, REPORT_DIVISORS, len(STEP_INPUTS), T_ESTIMATE_INDEX
+            self.filter.grid_batch_arguments(),
+            (self._inputs, self._outputs, self._measurement_row, self._keyphasor_cell),
+            constants,
+            REPORT_COLUMNS,
+            REPORT_DIVISORS,
+            len(STEP_INPUTS),
+            T_ESTIMATE_INDEX,
         )
 
     # ------------------------------------------------------------------------------- step
