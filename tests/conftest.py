@@ -5,27 +5,43 @@ Two tiers (README, Development): ``python -m pytest -q -m "not slow"`` is the fa
 needs the real FMUs built (the ``built_fmus`` fixture, directly or through another fixture): building them
 and compiling their kernels in a fresh process is what makes a test slow here.
 
-Under pytest-xdist (``-n 2``, the default in pyproject.toml) the session's built FMUs are built once and
-shared by the workers: the first worker to need them builds them under a file lock in the session's common
-temporary folder, the others wait and reuse them (the same files, so the same unpacked folders and numba
-caches in ``$OILWATCH_CACHE``).
+On two workers (``python -m pytest -q -n 2 --dist loadgroup``, the README's and CI's command) the session's
+built FMUs are built once and shared by the workers: the first worker to need them builds them under a file
+lock in the session's common temporary folder, the others wait and reuse them (the same files, so the same
+unpacked folders and numba caches in ``$OILWATCH_CACHE``). ``fixtures/xdist_units.py`` splits the suite.
 """
 
 from __future__ import annotations
 
 import contextlib
 import os
-from pathlib import Path
 
 import pytest
 from fixtures.fmu_subprocess import run_python
 from fixtures.toy_fmus import toy_fmu_dir
+from fixtures.xdist_units import group_and_order, session_root, worker_lock
 
 
+@pytest.hookimpl(tryfirst=True)  # before pytest-xdist's, which reads the xdist_group markers added here
 def pytest_collection_modifyitems(config, items):
     for item in items:
         if "built_fmus" in getattr(item, "fixturenames", ()):
             item.add_marker(pytest.mark.slow)
+    if config.getoption("loadgroup", False):  # a worker of --dist loadgroup (its own "dist" is "no")
+        group_and_order(items)
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_protocol(item, nextitem):
+    with worker_lock(item):
+        yield
+
+
+def pytest_configure(config):
+    if config.getoption("dist", "no") == "loadgroup":
+        # The units go to the workers in collection order (longest first, see group_and_order), not
+        # reordered by their number of tests.
+        config.option.loadscopereorder = False
 
 
 @contextlib.contextmanager
@@ -38,7 +54,7 @@ def _session_folder(tmp_path_factory, name: str):
         return
     import fcntl
 
-    root = Path(tmp_path_factory.getbasetemp()).parent
+    root = session_root(tmp_path_factory)
     folder, done = root / name, root / f"{name}.done"
     with open(root / f"{name}.lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)

@@ -17,6 +17,7 @@ import zipfile
 import numpy as np
 import pytest
 from fixtures.fmu_subprocess import REPO_ROOT
+from fixtures.xdist_units import session_root
 
 from oilwatch.scenarios.runner import COLUMNS, OPERATING_INPUTS
 
@@ -27,7 +28,7 @@ HEADER = ["time_s", *COLUMNS.values(), *OPERATING_INPUTS.values()]  # the turbin
 
 @pytest.fixture(scope="module")
 def environment(tmp_path_factory):
-    cache = tmp_path_factory.getbasetemp() / "oilwatch_cache"
+    cache = session_root(tmp_path_factory) / "oilwatch_cache"  # shared with test_cosim_scenarios
     return dict(os.environ, OPENBLAS_NUM_THREADS="1", OILWATCH_CACHE=str(cache), PYTHONPATH=str(REPO_ROOT))
 
 

@@ -14,6 +14,7 @@ import time
 import numpy as np
 import pytest
 from fixtures.fmu_subprocess import run_json
+from fixtures.xdist_units import session_root
 
 from models.system.fault import SCENARIO_DURATIONS_S, SigmoidFlowrate
 from models.validation import InputError
@@ -26,7 +27,7 @@ NOMINAL_ML_MIN = 596.3  # the bundled turbine's nominal flowrate (its machine fi
 
 @pytest.fixture(autouse=True)
 def session_cache(tmp_path_factory, monkeypatch):
-    monkeypatch.setenv("OILWATCH_CACHE", str(tmp_path_factory.getbasetemp() / "oilwatch_cache"))
+    monkeypatch.setenv("OILWATCH_CACHE", str(session_root(tmp_path_factory) / "oilwatch_cache"))
 
 
 # ----------------------------------------------------------------------------------------- definitions

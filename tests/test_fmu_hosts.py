@@ -88,6 +88,7 @@ same FMUs: measured 2.2-2.6 on an idle 2-core machine, libcosim's per-step overh
 limit it was about 18 there."""
 
 
+@pytest.mark.alone  # wall-time ratios: no other test may run meanwhile (tests/fixtures/xdist_units.py)
 def test_libcosim_without_blas_settings_runs_as_fast_as_with_them(built_fmus, tmp_path):
     ssp = built_fmus / "OilStarvation.ssp"
     host = clean_env(OILWATCH_FMU_CACHE="0")  # nothing about BLAS threads, as a user's libcosim host
