@@ -3,9 +3,9 @@
 * Each built FMU is copied to a folder outside the clone and run by fmpy in a fresh virtual environment that
   holds only numpy, scipy, numba and fmpy: the code it bundles imports nothing else (no tqdm, no oilwatch),
   and it limits the process's OpenBLAS to one thread itself (the host sets no OPENBLAS_NUM_THREADS).
-* The README's libcosimpy example runs without OPENBLAS_NUM_THREADS as fast as oilwatch's fmpy master (a
-  ratio measured in the same test, not an absolute time): before the FMUs limited their own threads it was
-  several times slower (:data:`MAX_THREAD_RATIO`).
+* The README's libcosimpy example, without OPENBLAS_NUM_THREADS, runs every OpenBLAS one thread and as fast
+  as with OPENBLAS_NUM_THREADS=1 (a ratio of the same host, not an absolute time): before the FMUs limited
+  their own threads it was several times slower (:data:`MAX_THREAD_RATIO`).
 """
 
 from __future__ import annotations
@@ -15,13 +15,15 @@ import shutil
 import subprocess
 
 import pytest
-from fixtures.host_timing import wall_per_simulated_second
+from fixtures.host_timing import FMPY, LIBCOSIM, OPENBLAS_THREADS, time_host
 from fixtures.venvs import clean_env, make_venv, pinned
 
 pytestmark = pytest.mark.slow
 
-BARE_HOST = r"""
-import ctypes, json, os, sys
+BARE_HOST = (
+    OPENBLAS_THREADS
+    + r"""
+import json, os, sys
 from pathlib import Path
 import numpy as np
 from fmpy import simulate_fmu
@@ -32,15 +34,7 @@ plant = simulate_fmu(str(here / "RotorBearingPlant.fmu"), stop_time=0.05, step_s
                      output=["x1_um", "y1_um", "q1_ml_min"])
 ekf = simulate_fmu(str(here / "OilFlowEKF.fmu"), stop_time=0.05, step_size=1e-3, output_interval=1e-3,
                    output=["q1_est_ml_min", "q1_std_ml_min"])
-threads = {}
-for line in Path("/proc/self/maps").read_text().splitlines():
-    path = line.split()[-1]
-    if "openblas" in Path(path).name.lower():
-        library = ctypes.CDLL(path)
-        for name in ("scipy_openblas_get_num_threads", "scipy_openblas_get_num_threads64_",
-                     "openblas_get_num_threads"):
-            if hasattr(library, name):
-                threads[Path(path).name] = getattr(library, name)()
+threads = openblas_threads()
 print("@@" + json.dumps({
     "y1_um": float(plant["y1_um"][-1]), "q1_ml_min": float(plant["q1_ml_min"][-1]),
     "q1_est_ml_min": float(ekf["q1_est_ml_min"][-1]), "q1_std_ml_min": float(ekf["q1_std_ml_min"][-1]),
@@ -50,6 +44,7 @@ print("@@" + json.dumps({
 sys.stdout.flush()
 os._exit(0)  # pythonfmu 0.7's teardown may corrupt the heap at exit (PythonFMU issue #228)
 """
+)
 
 
 def _result(process: subprocess.CompletedProcess) -> dict:
@@ -80,24 +75,29 @@ def test_each_fmu_runs_in_a_bare_venv_outside_the_clone(built_fmus, tmp_path):
 WARM_S, STOP_S = 0.5, 2.5
 MAX_THREAD_RATIO = 1.5
 """libcosim with no BLAS setting against the same libcosim host with OPENBLAS_NUM_THREADS=1: the FMUs limit
-their own threads, so the two cost the same (measured 0.98 on an idle 2-core machine). FMUs that left the
-threads to the host were several times slower there (the issue saw 107 s for 12 s simulated)."""
-MAX_MASTER_RATIO = 4.0
-"""libcosim (Jacobi, its own observers and bookkeeping) against oilwatch's fmpy master (Gauss-Seidel) on the
-same FMUs: measured 2.2-2.6 on an idle 2-core machine, libcosim's per-step overhead; without the FMUs' thread
-limit it was about 18 there."""
+their own threads, so the two cost the same (measured 0.98 on an idle 2-core machine, 1.07 in session 7's
+CI). FMUs that left the threads to the host were several times slower there (the issue saw 107 s for 12 s
+simulated)."""
 
 
-@pytest.mark.alone  # wall-time ratios: no other test may run meanwhile (tests/fixtures/xdist_units.py)
+@pytest.mark.alone  # a wall-time ratio: no other test may run meanwhile (tests/fixtures/xdist_units.py)
 def test_libcosim_without_blas_settings_runs_as_fast_as_with_them(built_fmus, tmp_path):
+    """In a libcosim host that sets nothing about BLAS, every OpenBLAS the FMUs load runs one thread (the
+    cause, checked directly), and the host costs what it costs with OPENBLAS_NUM_THREADS=1 (the effect, the
+    same host both times). libcosim against oilwatch's fmpy master is printed, not asserted: two hosts'
+    speeds are a benchmark's figure (``benchmarks/host_blas_threads.py``); it was 2.2-2.6 before the
+    estimator FMU's compiled step, and 3.1-5.5 on this machine since, as the fmpy master got faster."""
     ssp = built_fmus / "OilStarvation.ssp"
     host = clean_env(OILWATCH_FMU_CACHE="0")  # nothing about BLAS threads, as a user's libcosim host
     reference = clean_env(OPENBLAS_NUM_THREADS="1", OILWATCH_FMU_CACHE="0")
-    libcosim, fmpy = wall_per_simulated_second(ssp, WARM_S, STOP_S, host, reference, tmp_path)
-    limited, _ = wall_per_simulated_second(ssp, WARM_S, STOP_S, reference, reference, tmp_path)
+    bare = time_host(LIBCOSIM, ssp, WARM_S, STOP_S, host, tmp_path)
+    limited = time_host(LIBCOSIM, ssp, WARM_S, STOP_S, reference, tmp_path)
+    fmpy = time_host(FMPY, ssp, WARM_S, STOP_S, reference, tmp_path)
+    libcosim_s, limited_s = (run["wall_s"] / (STOP_S - WARM_S) for run in (bare, limited))
+    fmpy_s = fmpy["wall_s"] / STOP_S
     print(
-        f"wall s per simulated s: libcosim {libcosim:.3f} (with OPENBLAS_NUM_THREADS=1: {limited:.3f}), "
-        f"fmpy master {fmpy:.3f}; ratios {libcosim / limited:.2f}, {libcosim / fmpy:.2f}"
+        f"wall s per simulated s: libcosim {libcosim_s:.3f} (with OPENBLAS_NUM_THREADS=1: {limited_s:.3f}), "
+        f"fmpy master {fmpy_s:.3f}; ratios {libcosim_s / limited_s:.2f}, {libcosim_s / fmpy_s:.2f}"
     )
-    assert libcosim / limited < MAX_THREAD_RATIO
-    assert libcosim / fmpy < MAX_MASTER_RATIO
+    assert bare["threads"] and set(bare["threads"].values()) == {1}, bare["threads"]
+    assert libcosim_s / limited_s < MAX_THREAD_RATIO
