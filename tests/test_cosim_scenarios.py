@@ -253,11 +253,11 @@ fmu = Path({str(built_fmus / "RotorBearingPlant.fmu")!r})
 folders = []
 for name in ("plant", "plant", "other"):
     slave = Slave(name, fmu)
-    folders.append(str(slave._unzip_dir))
+    folders.append(str(slave.unzip_directory))
     slave.close()
 os.environ["OILWATCH_FMU_CACHE"] = "0"
 private = Slave("plant", fmu)
-temporary = private._unzip_dir
+temporary = private.unzip_directory
 existed = temporary.is_dir()
 private.close()
 result = {{"folders": folders, "kept": Path(folders[0], "modelDescription.xml").is_file(),
@@ -281,4 +281,27 @@ def test_prune_keeps_the_most_recently_used_folders(tmp_path):
         stamp = time.time() - 100 * age
         os.utime(folder, (stamp, stamp))
     prune(tmp_path, 2)
-    assert sorted(p.name for p in tmp_path.iterdir()) == [".partial-x", "middle", "newest"]
+    names = sorted(p.name for p in tmp_path.iterdir() if p.name != ".locks")
+    assert names == [".partial-x", "middle", "newest"]
+
+
+def test_prune_leaves_a_folder_in_use(tmp_path):
+    """Two processes sharing one cache (two test workers, two monitors): a folder whose user holds its lock
+    survives pruning however old it is, and goes once released; its lock file goes with it."""
+    from oilwatch.cosim import extraction
+
+    if extraction.fcntl is None:
+        pytest.skip("folder locks need fcntl (POSIX)")
+    for age, name in enumerate(["newest", "middle", "oldest"]):
+        folder = tmp_path / name
+        folder.mkdir()
+        stamp = time.time() - 100 * age
+        os.utime(folder, (stamp, stamp))
+    in_use = extraction.Extraction(tmp_path / "oldest", True, extraction.lock_folder(tmp_path / "oldest"))
+    extraction.prune(tmp_path, 1)
+    assert sorted(p.name for p in tmp_path.iterdir()) == [".locks", "newest", "oldest"]
+    in_use.release()
+    in_use.release()  # idempotent: the loader's close may come twice
+    extraction.prune(tmp_path, 1)
+    assert sorted(p.name for p in tmp_path.iterdir()) == [".locks", "newest"]
+    assert list((tmp_path / ".locks").iterdir()) == []

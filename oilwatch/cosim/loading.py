@@ -10,7 +10,6 @@ from __future__ import annotations
 import itertools
 import logging
 import re
-import shutil
 import weakref
 import zipfile
 from collections import deque
@@ -33,7 +32,7 @@ from fmpy.fmi2 import (
 from fmpy.logging import addLoggerProxy
 
 from .errors import SlaveError, SystemDescriptionError
-from .extraction import extract_fmu
+from .extraction import Extraction, extract_fmu
 from .values import fmi_value
 
 LOGGER = logging.getLogger("oilwatch.cosim")
@@ -130,13 +129,13 @@ class Slave:
         self.dead = False
         self.instantiated = False
         self.labels: dict[str, str] = {}
-        self._unzip_dir, self._persistent = None, False
+        self._extraction: Extraction | None = None
         try:
             # A persistent folder per FMU content keeps numba's on-disk cache valid across runs.
-            self._unzip_dir, self._persistent = extract_fmu(self.path, name)
+            self._extraction = extract_fmu(self.path, name)
             self.fmu = self.fmu_class(
                 guid=md.guid,
-                unzipDirectory=str(self._unzip_dir),
+                unzipDirectory=str(self._extraction.folder),
                 modelIdentifier=md.coSimulation.modelIdentifier,
                 instanceName=name,
             )
@@ -303,8 +302,8 @@ class Slave:
         self.call("fmi2Terminate", self.fmu.terminate)
 
     def close(self) -> None:
-        """Free the instance (unless it died with fmi2Fatal) and remove the extracted files (unless
-        they are the shared persistent folder of :mod:`~oilwatch.cosim.extraction`)."""
+        """Free the instance (unless it died with fmi2Fatal) and release the extracted files (a temporary
+        folder is removed; the shared persistent folder of :mod:`~oilwatch.cosim.extraction` is unlocked)."""
         if self.instantiated and not self.dead:
             self.fmu.freeInstance()
         elif self.instantiated:
@@ -314,9 +313,15 @@ class Slave:
         self.instantiated = False
         self._remove_extraction()
 
+    @property
+    def unzip_directory(self) -> Path | None:
+        """The folder the FMU is unpacked into (None once closed)."""
+        return None if self._extraction is None else self._extraction.folder
+
     def _remove_extraction(self) -> None:
-        if self._unzip_dir is not None and not self._persistent:
-            shutil.rmtree(self._unzip_dir, ignore_errors=True)
+        if self._extraction is not None:
+            self._extraction.release()
+            self._extraction = None
 
 
 class Port:
