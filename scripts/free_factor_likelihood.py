@@ -87,7 +87,7 @@ def main() -> None:
     runner = RobustnessRun(SETTINGS)
     data = np.load(f"{args.records}/{args.case}_{args.q1:g}_{args.q2:g}_60.npz")
     record = (data["measured"], data["speed"], data["temperature"])
-    model = runner._operating_model()
+    model = runner.operating_model()
     config = runner.config(case)
     half = len(record[0]) // 2
     truth = np.array([args.q1, args.q2]) / 100.0 * runner.nominal_m3_s
