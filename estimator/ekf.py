@@ -76,7 +76,7 @@ from .model import AugmentedModel
 from .nuisance_start import InformationFloor, ShadowJacobian, restart_parameters, settling_steps
 from .reports import EstimateTrace, StepReport
 from .runout import RunoutCompensation
-from .state import export_state, import_state
+from .state import FilterStateIO
 from .step_kernel import (
     COUNT_SINCE_UPDATE,
     COUNT_STEP,
@@ -89,7 +89,7 @@ from .step_kernel import (
 __all__ = ["MIN_VISCOSITY_FACTOR", "EstimateTrace", "OilFlowEKF", "StepReport"]
 
 
-class OilFlowEKF(FilterReporting, BatchRuns, ModelPrediction):
+class OilFlowEKF(FilterReporting, BatchRuns, ModelPrediction, FilterStateIO):
     """Augmented-state EKF estimating (q1, q2) from the four measured bearing displacements.
 
     Parameters
@@ -98,9 +98,13 @@ class OilFlowEKF(FilterReporting, BatchRuns, ModelPrediction):
     config : :class:`estimator.config.EKFConfig` (paper defaults; what it leaves open, e.g. the nominal
         flowrate, comes from the model: :meth:`EKFConfig.for_model`).
 
+    ``state_layout`` (:class:`estimator.ekf_setup.StateLayout`) tells where each part sits in the state
+    vector ``x`` of :meth:`get_state` (the flowrates in fractions of ``config.q_nominal_m3_s``).
+
     The set-up is :mod:`estimator.ekf_setup`, the reported estimates :mod:`estimator.ekf_reporting`, the
     record entries (:meth:`run`, :meth:`run_batch`) :mod:`estimator.ekf_batch`, the model's transition with
-    the nuisance columns and the operating point :mod:`estimator.ekf_prediction`.
+    the nuisance columns and the operating point :mod:`estimator.ekf_prediction`, the state's export and
+    import :mod:`estimator.state`.
     """
 
     def __init__(self, model: AugmentedModel, config: EKFConfig | None = None) -> None:
@@ -109,6 +113,7 @@ class OilFlowEKF(FilterReporting, BatchRuns, ModelPrediction):
         check_model(model, self.config)
         cfg = self.config
         layout = StateLayout.for_config(model, cfg)
+        self.state_layout = layout
         n = layout.n
         self._n = n
         self._n_offsets, self._n_viscosity, self._n_unbalance = (
@@ -357,7 +362,7 @@ class OilFlowEKF(FilterReporting, BatchRuns, ModelPrediction):
 
     def get_state(self) -> dict[str, np.ndarray]:
         """The complete filter state as copies of numpy arrays (restoring it continues bit-identically)."""
-        state = export_state(self)
+        state = self._export_state()
         if self._shadow is not None and self._shadow.state is not None:
             state["nuisance_shadow"] = self._shadow.state.copy()
         if self._floor is not None:
@@ -366,7 +371,7 @@ class OilFlowEKF(FilterReporting, BatchRuns, ModelPrediction):
 
     def set_state(self, state: dict[str, np.ndarray]) -> None:
         """Restore a state from :meth:`get_state` exactly (same model and configuration)."""
-        import_state(self, state)
+        self._import_state(state)
         if self._shadow is not None:
             shadow = state.get("nuisance_shadow")
             self._shadow.state = None if shadow is None else np.array(shadow, dtype=float)
