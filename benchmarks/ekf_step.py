@@ -35,6 +35,10 @@ the row with the viscosity factors estimated.
 Beside them (library rows): the reference grid with the four probe-offset states of ``oilwatch estimate``
 (per step, and through ``OilFlowEKF.run_batch`` per 1000 samples), and with the unbalance estimated too.
 
+Here: the synthetic and system families against filterpy and the headline; the FMU loop is
+``benchmarks/ekf_fmu_loop.py``, the ramp and nuisance rows ``benchmarks/ekf_step_ramps.py``, the rows' clock
+``benchmarks/step_timing.py``.
+
 Usage: ``OPENBLAS_NUM_THREADS=1 python benchmarks/ekf_step.py [--steps 3000] [--repeats 5] [--table JSON]
 [--fmu OilFlowEKF.fmu] [--only-ramps [--library-only]] [--ramp-s 60] [--cpu] [--latency]``
 """
@@ -43,15 +47,15 @@ from __future__ import annotations
 
 import argparse
 import os
-import sys
 import tempfile
-import time
-from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np
+from ekf_fmu_loop import FmuLoop, bare_fmu, ekf_fmu, time_fmu
+from ekf_step_ramps import operating_rows, plant_ramp_record
 from filterpy.kalman import ExtendedKalmanFilter
+from step_timing import time_per_step, use_process_time
 
 from estimator.config import EKFConfig
 from estimator.ekf import OilFlowEKF
@@ -59,6 +63,10 @@ from estimator.toy_model import NOMINAL_FLOWRATE_M3_S, SPEED_HZ
 from models.machine import load_machine
 from models.system.augmented import GridAugmentedModel
 from models.system.factory import flowrate_table_path, load_system
+
+__all__ = ["FmuLoop", "bare_fmu", "ekf_fmu", "main", "measurements", "plant_ramp_record", "time_fmu"]
+"""Also the import path of the other benchmarks' FMU loop and ramp record (``ekf_fmu_step.py``,
+``ekf_step_latency.py``)."""
 
 
 class SyntheticRotorModel:
@@ -155,22 +163,6 @@ class FilterpyBaseline:
         self.k += 1
 
 
-CLOCK = time.perf_counter
-"""The clock of the library rows: wall time, or the process's CPU time with ``--cpu`` (a shared machine)."""
-
-
-def time_per_step(make_filter, record: np.ndarray, repeats: int) -> tuple[float, float]:
-    """Median and minimum over ``repeats`` of the mean time per step [us] of a fresh filter (``CLOCK``)."""
-    samples = []
-    for _ in range(repeats):
-        step = make_filter().step
-        start = CLOCK()
-        for z in record:
-            step(z)
-        samples.append((CLOCK() - start) / len(record) * 1e6)
-    return float(np.median(samples)), float(np.min(samples))
-
-
 class _ModelOnly:
     """Calls only the model's transition, to separate the model's cost from the filter's."""
 
@@ -183,269 +175,6 @@ class _ModelOnly:
     def step(self, _z: np.ndarray) -> None:
         self.model.transition(self.state, self.flowrate, self.k)
         self.k += 1
-
-
-RAMP_HZ_PER_S = 1.0
-WARMING_C_PER_S = 10.0 / 60.0
-RAMP_HZ = (72.0, 78.0)
-RAMP_FLOWRATES = (0.8, 0.9)
-"""The plant's constant flowrates in the ramp record (fractions of nominal)."""
-
-
-def ramp_inputs(steps: int, nominal_c: float, dt: float = 1.0e-3) -> tuple[np.ndarray, np.ndarray]:
-    """Speed [Hz] and oil temperature [degC] of samples k = 1 .. steps: the speed ramps up and down between
-    72 and 78 Hz at 1 Hz/s (a triangle wave, continuous), the oil warms by 10 degC per minute."""
-    t = np.arange(1, steps + 1) * dt
-    period = 2.0 * (RAMP_HZ[1] - RAMP_HZ[0]) / RAMP_HZ_PER_S
-    phase = t % period
-    return RAMP_HZ[0] + RAMP_HZ_PER_S * np.minimum(phase, period - phase), nominal_c + WARMING_C_PER_S * t
-
-
-def plant_ramp_record(seconds: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(displacements (K, 4) [m], speed (K,) [Hz], oil temperature (K,) [degC]) of the plant (full-order
-    Newmark model on the dimensionless table, 1 um noise) under :func:`ramp_inputs` at
-    :data:`RAMP_FLOWRATES`, samples t = 1 ms .. seconds: what a machine would give the estimator, which is fed
-    the same speed and temperature. Cached in ``<cache>/benchmarks`` (the plant takes minutes)."""
-    from models.cache import user_cache_dir
-    from models.system.operating_point import operating_system
-    from models.system.plant import RotorBearingPlant
-
-    machine = load_machine()
-    nominal_c = machine.nominal_oil_temperature_c
-    steps = round(seconds / 1.0e-3)
-    path = user_cache_dir() / "benchmarks" / f"ekf_ramp_record_{steps}.npz"
-    if path.exists():
-        stored = np.load(path)
-        return stored["displacements"], stored["speed_hz"], stored["oil_temperature_c"]
-    speed, temperature = ramp_inputs(steps, nominal_c)
-    q = tuple(f * machine.lubrication.nominal_flowrate_m3_s for f in RAMP_FLOWRATES)
-    system = operating_system(machine, RAMP_HZ[0], machine.oil.dynamic_viscosity_pa_s(nominal_c))
-    plant = RotorBearingPlant(
-        system, 1e-3, None, 1e-6, 3, initial_flowrates_m3_s=q, oil=machine.oil, oil_temperature_c=nominal_c
-    )
-    displacements = np.empty((steps, 4))
-    for k in range(steps):
-        if k % (steps // 10) == 0:
-            print(f"  plant ramp record: {k / steps:4.0%}", flush=True)
-        sample = plant.step(q, speed_hz=float(speed[k]), oil_temperature_c=float(temperature[k]))
-        displacements[k] = sample.measured_position_m
-    path.parent.mkdir(parents=True, exist_ok=True)
-    np.savez(path, displacements=displacements, speed_hz=speed, oil_temperature_c=temperature)
-    return displacements, speed, temperature
-
-
-class _RampFilter:
-    """An OilFlowEKF fed a record's measured speed and oil temperature with every sample."""
-
-    def __init__(self, model, config: EKFConfig, speed: np.ndarray, temperature: np.ndarray) -> None:
-        self.ekf = OilFlowEKF(model, config)
-        self.inputs = list(zip(speed.tolist(), temperature.tolist(), strict=True))
-        self.k = 0
-
-    def step(self, z: np.ndarray) -> None:
-        speed, temperature = self.inputs[self.k]
-        self.ekf.step(z, speed, temperature)
-        self.k += 1
-
-
-class FmuLoop:
-    """One instance of an EKF-like FMU (or the bare one) under fmpy's ``FMU2Slave``, initialized, and the
-    benchmark's loop over a record: setReal of the four positions (and, with ``ramps``, speed_hz and
-    oil_temperature_c), doStep, getReal of the estimates and stds, getBoolean of four flags.
-
-    ``record[k]`` is the model's output at t_k = k dt; doStep(t, dt) gets the sample of t + dt (the FMU's
-    unconnected ``t_sample_s``), so the filter sees aligned data. The instance runs on through the passes.
-    ``ramps``: the record's speed [Hz] and oil temperature [degC] (K,) each; the FMU then runs with
-    ``bearing_table = 1`` and gets them on its inputs with every step (setReal included in the cost).
-    ``step=False`` leaves out the doStep: the host's Get/Set calls alone.
-    """
-
-    def __init__(
-        self, fmu_path: Path, record: np.ndarray, ramps=None, dt: float = 1.0e-3, step: bool = True
-    ) -> None:
-        from fmpy import extract, read_model_description
-        from fmpy.fmi2 import FMU2Slave
-
-        md = read_model_description(str(fmu_path))
-        bare = md.coSimulation.modelIdentifier == "BareFilter"
-        self.fmu = fmu = FMU2Slave(
-            guid=md.guid,
-            unzipDirectory=extract(str(fmu_path)),
-            modelIdentifier=md.coSimulation.modelIdentifier,
-            instanceName="ekf",
-        )
-        vr = {v.name: v.valueReference for v in md.modelVariables}
-        names = ["x1_um", "y1_um", "x2_um", "y2_um"] + (["speed_hz", "oil_temperature_c"] if ramps else [])
-        self.inputs = [vr[n] for n in names]
-        self.reals = [vr[n] for n in ("q1_est_ml_min", "q2_est_ml_min", "q1_std_ml_min", "q2_std_ml_min")]
-        self.flags = [vr[n] for n in ("starved1", "starved2", "converged", "measurement_ok")]
-        fmu.instantiate()
-        fmu.setupExperiment(startTime=0.0)
-        fmu.enterInitializationMode()
-        if ramps is not None and not bare:
-            fmu.setInteger([vr["bearing_table"]], [1])
-            fmu.setReal([vr["speed_hz"], vr["oil_temperature_c"]], [float(ramps[0][0]), float(ramps[1][0])])
-        fmu.exitInitializationMode()  # builds the model and compiles (or loads) the numba kernels
-        samples = (record * 1e6).tolist()
-        if ramps is not None:
-            operating = zip(ramps[0].tolist(), ramps[1].tolist(), strict=True)
-            samples = [[*row, *point] for row, point in zip(samples, operating, strict=True)]
-        self.samples, self.dt, self.k, self.step = samples, dt, 0, step
-
-    def run_pass(self) -> tuple[float, float]:
-        """One pass over the record: (wall, CPU) time per step [us]."""
-        fmu, inputs, reals, flags, samples, dt = (
-            self.fmu,
-            self.inputs,
-            self.reals,
-            self.flags,
-            self.samples,
-            self.dt,
-        )
-        steps, k, step = len(samples) - 1, self.k, self.step
-        start, cpu = time.perf_counter(), time.process_time()
-        for j in range(steps):
-            fmu.setReal(inputs, samples[j + 1])
-            if step:
-                fmu.doStep(k * dt, dt)
-            fmu.getReal(reals)
-            fmu.getBoolean(flags)
-            k += 1
-        wall, cpu = time.perf_counter() - start, time.process_time() - cpu
-        self.k = k
-        return wall / steps * 1e6, cpu / steps * 1e6
-
-    def close(self) -> None:
-        self.fmu.terminate()
-        self.fmu.freeInstance()
-
-
-def time_fmu(
-    fmu_path: Path,
-    record: np.ndarray,
-    repeats: int,
-    ramps: tuple[np.ndarray, np.ndarray] | None = None,
-) -> tuple[float, float]:
-    """Median and minimum over ``repeats`` passes of ``record`` of the wall time per FMU step [us] of
-    :class:`FmuLoop`'s loop (setReal, doStep, getReal, getBoolean)."""
-    loop = FmuLoop(fmu_path, record, ramps)
-    samples_us = [loop.run_pass()[0] for _ in range(repeats)]
-    loop.close()
-    return float(np.median(samples_us)), float(np.min(samples_us))
-
-
-def operating_rows(args, record: np.ndarray) -> list[tuple[str, tuple[float, float]]]:
-    """The estimator on the plant's ramp record (:func:`plant_ramp_record`, ``--ramp-s`` long), fed the
-    measured speed and oil temperature, beside the same filter on the reference grid at constant conditions
-    (``record``), re-centrings included in the mean; the FMU the same way."""
-    from models.system.operating_model import build_operating_model
-
-    machine = load_machine()
-    model = build_operating_model(load_system(reduced=True), machine)
-    ramp, speed, temperature = plant_ramp_record(args.ramp_s)
-    config = EKFConfig(
-        velocity_noise="displacement-only", gate_tail_probability=0.0, first_sample_time_s=1e-3
-    )
-    factors = EKFConfig.recommended(viscosity_factor_prior_std=0.05, first_sample_time_s=1e-3)
-    for c in (config, factors):
-        _RampFilter(model, c, speed, temperature).ekf.run(ramp[:10])  # compile outside the timing
-    rows = [
-        (
-            "OilFlowEKF, reference grid (26 states), constant",
-            time_per_step(lambda: OilFlowEKF(model.reference, config), record, args.repeats),
-        )
-    ]
-    rows += offset_rows(model.reference, machine, record, args.repeats)
-    label = f"{args.ramp_s:g} s plant ramps 1 Hz/s + 10 degC/min"
-    for name, c in (("", config), (", viscosity factors estimated", factors)):
-        before = model.recentre_count
-        cost = time_per_step(lambda c=c: _RampFilter(model, c, speed, temperature), ramp, args.repeats)
-        rows.append((f"OilFlowEKF, operating model, {label}{name}", cost))
-        passes = (model.recentre_count - before) / args.repeats
-        print(f"(operating model{name}: {passes:.0f} re-centrings per pass)")
-    costs = []
-    for k in range(max(args.repeats, 10)):
-        # a new centre each time (as under a ramp: new table slices at the new speed and viscosities)
-        q = 0.8 * model.nominal_flowrate_m3_s
-        centre = np.array([q, q, 74.0 + 0.05 * k, -2.5 + 0.005 * k, -2.5 - 0.005 * k])
-        start = CLOCK()
-        model.place_centre(centre)
-        costs.append((CLOCK() - start) * 1e6)
-    rows.append(
-        ("one re-centring of the operating model (a new centre each)", (np.median(costs), min(costs)))
-    )
-    if args.library_only:
-        return rows
-    with tempfile.TemporaryDirectory(prefix="oilwatch_bench_") as folder:
-        path = ekf_fmu(args.fmu, folder)
-        rows.append(
-            ("OilFlowEKF FMU under fmpy, bearing_table 0, constant", time_fmu(path, record, args.repeats))
-        )
-        rows.append(
-            (
-                f"OilFlowEKF FMU under fmpy, bearing_table 1, {label}",
-                time_fmu(path, ramp, args.repeats, ramps=(speed, temperature)),
-            )
-        )
-        rows.append(
-            (
-                "bare FMU under fmpy (doStep does nothing), the same calls with the ramps' inputs",
-                time_fmu(bare_fmu(folder), ramp, args.repeats, ramps=(speed, temperature)),
-            )
-        )
-    return rows
-
-
-def offset_rows(reference, machine, record: np.ndarray, repeats: int) -> list[tuple[str, tuple]]:
-    """The reference grid with the four probe-offset states of ``oilwatch estimate`` (the machine file's
-    [probes] prior), per step and through :meth:`OilFlowEKF.run_batch` (its per-block entry), and with the
-    complex unbalance estimated as well."""
-    from models.probes import read_probes
-    from oilwatch.monitoring.estimate import estimator_config
-
-    offsets = estimator_config(machine.nominal_speed_hz, 1.0, 0.0, read_probes(machine))
-    both = EKFConfig.recommended(offset_prior_std_m=5e-6, unbalance_prior_std=0.3)
-    for c in (offsets, both):
-        OilFlowEKF(reference, c).run(record[:10])  # compile outside the timing
-    label = "OilFlowEKF, reference grid + 4 probe offsets (estimate's config)"
-    rows = [(label, time_per_step(lambda: OilFlowEKF(reference, offsets), record, repeats))]
-    if hasattr(OilFlowEKF, "run_batch"):  # absent before the batch entry (timing an older checkout)
-        samples = []
-        for _ in range(repeats):
-            ekf = OilFlowEKF(reference, offsets)
-            start = CLOCK()
-            for block in range(0, len(record), 1000):
-                ekf.run_batch(record[block : block + 1000])
-            samples.append((CLOCK() - start) / len(record) * 1e6)
-        batch = (np.median(samples), np.min(samples))
-        rows.append(("the same through run_batch, 1000 samples per call", batch))
-    cost = time_per_step(lambda: OilFlowEKF(reference, both), record, repeats)
-    return [*rows, ("OilFlowEKF, reference grid + 4 probe offsets + unbalance", cost)]
-
-
-def bare_fmu(out_dir: str) -> Path:
-    """BareFilter.fmu (``benchmarks/fmus/bare_filter_slave.py``: the same inputs, a doStep that does nothing),
-    built now."""
-    sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-    from oilwatch.cosim.fmu_build import FmuEntry, build_fmus
-
-    entry = FmuEntry(
-        name="BareFilter",
-        script=str(Path(__file__).resolve().parent / "fmus" / "bare_filter_slave.py"),
-        packages=(),
-        prefix="barefilter",
-    )
-    return next(p for p in build_fmus(out_dir, only=["BareFilter"], extra=(entry,)) if p.suffix == ".fmu")
-
-
-def ekf_fmu(path: str | None, out_dir: str) -> Path:
-    """The EKF FMU to time: ``path``, or one built now into ``out_dir``."""
-    if path is not None:
-        return Path(path)
-    sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-    from build import build_fmus
-
-    return next(p for p in build_fmus(out_dir, only=["OilFlowEKF"]) if p.suffix == ".fmu")
 
 
 def make_models(table: str | None) -> dict[str, dict[str, object]]:
@@ -493,8 +222,7 @@ def main() -> None:
         latency_rows(args)
         return
     if args.cpu:
-        global CLOCK
-        CLOCK = time.process_time
+        use_process_time()
         print("library rows in process CPU time (the FMU rows in wall time)\n")
     if args.only_ramps:
         record = measurements(GridAugmentedModel(load_system(reduced=True)), args.steps)

@@ -135,7 +135,7 @@ def schur_solve(args, h, k, p, theta, work, full, log):
             fine[:] = 0.0
             fine[f_idx] = v
             correction[:] = 0.0
-            multigrid._correct(h, correction, fine, full, 1)
+            multigrid.v_cycle_correction(h, correction, fine, full, 1)
             return correction[f_idx].copy()
 
         def precondition(v):
@@ -191,7 +191,7 @@ def make_cycles(args, log):
                 ap = sp.csr_matrix((k.ap, k.indices, k.indptr), shape=(n, n))
                 p[f_idx] += spla.spsolve(ap[f_idx][:, f_idx].tocsc(), work[f_idx])
             else:
-                multigrid._correct(h, p, work, mask, correction.smoothing)
+                multigrid.v_cycle_correction(h, p, work, mask, correction.smoothing)
                 if args.correction == "band":
                     band_solve(args, k, p, theta, work, log)
         return max_cycles, worst, total, False

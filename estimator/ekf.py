@@ -59,6 +59,7 @@ from . import channels
 from .alarm import StarvationAlarm
 from .config import EKFConfig
 from .ekf_batch import BatchRuns
+from .ekf_prediction import MIN_VISCOSITY_FACTOR, ModelPrediction
 from .ekf_reporting import FilterReporting
 from .ekf_setup import (
     StateLayout,
@@ -75,11 +76,10 @@ from .model import AugmentedModel
 from .nuisance_start import InformationFloor, ShadowJacobian, restart_parameters, settling_steps
 from .reports import EstimateTrace, StepReport
 from .runout import RunoutCompensation
-from .state import export_state, import_state
+from .state import FilterStateIO
 from .step_kernel import (
     COUNT_SINCE_UPDATE,
     COUNT_STEP,
-    REPORT_FLOWRATE,
     REPORT_SIZE,
     REPORT_STD,
     SUMMARY_STD_FLOOR,
@@ -88,11 +88,8 @@ from .step_kernel import (
 
 __all__ = ["MIN_VISCOSITY_FACTOR", "EstimateTrace", "OilFlowEKF", "StepReport"]
 
-MIN_VISCOSITY_FACTOR = 0.2
-"""The model never sees a viscosity factor below this (a random walk kept physical)."""
 
-
-class OilFlowEKF(FilterReporting, BatchRuns):
+class OilFlowEKF(FilterReporting, BatchRuns, ModelPrediction, FilterStateIO):
     """Augmented-state EKF estimating (q1, q2) from the four measured bearing displacements.
 
     Parameters
@@ -101,8 +98,13 @@ class OilFlowEKF(FilterReporting, BatchRuns):
     config : :class:`estimator.config.EKFConfig` (paper defaults; what it leaves open, e.g. the nominal
         flowrate, comes from the model: :meth:`EKFConfig.for_model`).
 
+    ``state_layout`` (:class:`estimator.ekf_setup.StateLayout`) tells where each part sits in the state
+    vector ``x`` of :meth:`get_state` (the flowrates in fractions of ``config.q_nominal_m3_s``).
+
     The set-up is :mod:`estimator.ekf_setup`, the reported estimates :mod:`estimator.ekf_reporting`, the
-    record entries (:meth:`run`, :meth:`run_batch`) :mod:`estimator.ekf_batch`.
+    record entries (:meth:`run`, :meth:`run_batch`) :mod:`estimator.ekf_batch`, the model's transition with
+    the nuisance columns and the operating point :mod:`estimator.ekf_prediction`, the state's export and
+    import :mod:`estimator.state`.
     """
 
     def __init__(self, model: AugmentedModel, config: EKFConfig | None = None) -> None:
@@ -111,6 +113,7 @@ class OilFlowEKF(FilterReporting, BatchRuns):
         check_model(model, self.config)
         cfg = self.config
         layout = StateLayout.for_config(model, cfg)
+        self.state_layout = layout
         n = layout.n
         self._n = n
         self._n_offsets, self._n_viscosity, self._n_unbalance = (
@@ -357,58 +360,9 @@ class OilFlowEKF(FilterReporting, BatchRuns):
         if self._floor is not None and step >= self._settling:  # the alarm's floor from the next step
             self._summary_settings[SUMMARY_STD_FLOOR : SUMMARY_STD_FLOOR + 2] = self._floor.std
 
-    def _predict_with_model(
-        self, model_step: int, state: np.ndarray | None = None
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The model's transition from the current estimate (or from ``state`` at the current flowrates and
-        nuisances) to the next sample: ``(s_next, df/ds, df/dq)``, with the nuisance columns of the Jacobian
-        (viscosity factors, unbalance) put into place."""
-        n = self._n
-        s = self._x[:n] if state is None else state
-        flowrate = self._report[REPORT_FLOWRATE : REPORT_FLOWRATE + 2]
-        trailing = self._trailing_jacobian
-        if self._n_viscosity:
-            factors = np.maximum(self._x[self._viscosity], MIN_VISCOSITY_FACTOR)
-            unbalance = self._x[self._unbalance] if self._n_unbalance else None
-            next_state, state_jac, flow_jac, viscosity_jac, unbalance_jac = self.model.transition_full(
-                s, flowrate, model_step, factors, unbalance
-            )
-            trailing[:, :2] = viscosity_jac
-            if self._n_unbalance:
-                trailing[:, 2:] = unbalance_jac
-            return next_state, state_jac, flow_jac
-        if self._n_unbalance:
-            next_state, state_jac, flow_jac, unbalance_jac = self.model.transition_with_unbalance(
-                s, flowrate, model_step, self._x[self._unbalance]
-            )
-            trailing[:, :] = unbalance_jac
-            return next_state, state_jac, flow_jac
-        return self.model.transition(s, flowrate, model_step)
-
-    def _set_operating_point(
-        self, speed_hz: float | None, oil_temperature_c: float | None, rotor_angle_rad: float | None
-    ) -> None:
-        """Hand the measured operating point to the model (InputError for one it cannot follow)."""
-        model = self.model
-        if self._follows:
-            speed, temperature = self._operating
-            speed = speed if speed_hz is None else speed_hz
-            temperature = temperature if oil_temperature_c is None else oil_temperature_c
-            model.set_operating_point(speed, temperature, rotor_angle_rad)
-            self._operating = (speed, temperature)
-            return
-        own = getattr(model, "speed_hz", None)
-        if speed_hz is not None and own is not None and not math.isclose(speed_hz, own, rel_tol=1e-9):
-            raise InputError(
-                f"speed_hz = {speed_hz:g} Hz: this estimator's model holds one speed ({own:g} Hz); build "
-                "it on the operating-point model to follow speed and oil temperature"
-            )
-        if rotor_angle_rad is not None:
-            raise InputError("rotor_angle_rad needs a model that follows the operating point")
-
     def get_state(self) -> dict[str, np.ndarray]:
         """The complete filter state as copies of numpy arrays (restoring it continues bit-identically)."""
-        state = export_state(self)
+        state = self._export_state()
         if self._shadow is not None and self._shadow.state is not None:
             state["nuisance_shadow"] = self._shadow.state.copy()
         if self._floor is not None:
@@ -417,7 +371,7 @@ class OilFlowEKF(FilterReporting, BatchRuns):
 
     def set_state(self, state: dict[str, np.ndarray]) -> None:
         """Restore a state from :meth:`get_state` exactly (same model and configuration)."""
-        import_state(self, state)
+        self._import_state(state)
         if self._shadow is not None:
             shadow = state.get("nuisance_shadow")
             self._shadow.state = None if shadow is None else np.array(shadow, dtype=float)

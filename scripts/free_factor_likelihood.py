@@ -32,9 +32,20 @@ TINY = 1e-9
 
 def parameters(ekf: OilFlowEKF) -> np.ndarray:
     """(q1, q2 [m^3/s], factors (2), unbalance (2), offsets (4) [m]) now."""
-    x = ekf._x
-    n = ekf._n
-    return np.r_[x[n : n + 2] * ekf._q_nominal, x[ekf._viscosity], x[ekf._unbalance], x[ekf._offsets]]
+    x, layout, nominal = ekf.get_state()["x"], ekf.state_layout, ekf.config.q_nominal_m3_s
+    n = layout.n
+    return np.r_[x[n : n + 2] * nominal, x[layout.viscosity], x[layout.unbalance], x[layout.offsets]]
+
+
+def fix_parameters(ekf: OilFlowEKF, fixed: np.ndarray) -> None:
+    """Put the parameters (in :func:`parameters`' order) into the filter's state."""
+    state, layout = ekf.get_state(), ekf.state_layout
+    x, n = state["x"], layout.n
+    x[n : n + 2] = fixed[:2] / ekf.config.q_nominal_m3_s
+    x[layout.viscosity] = fixed[2:4]
+    x[layout.unbalance] = fixed[4:6]
+    x[layout.offsets] = fixed[6:10]
+    ekf.set_state(state)
 
 
 def run(model, config, record, keep_from: int, fixed: np.ndarray | None = None):
@@ -43,11 +54,7 @@ def run(model, config, record, keep_from: int, fixed: np.ndarray | None = None):
     signals, speed, temperature = record
     ekf = OilFlowEKF(model, config)
     if fixed is not None:
-        n = ekf._n
-        ekf._x[n : n + 2] = fixed[:2] / ekf._q_nominal
-        ekf._x[ekf._viscosity] = fixed[2:4]
-        ekf._x[ekf._unbalance] = fixed[4:6]
-        ekf._x[ekf._offsets] = fixed[6:10]
+        fix_parameters(ekf, fixed)
     kept, nis, updates = [], np.zeros(2), np.zeros(2, dtype=int)
     for k in range(len(signals)):
         report = ekf.step(signals[k], speed_hz=float(speed[k]), oil_temperature_c=float(temperature[k]))
@@ -87,7 +94,7 @@ def main() -> None:
     runner = RobustnessRun(SETTINGS)
     data = np.load(f"{args.records}/{args.case}_{args.q1:g}_{args.q2:g}_60.npz")
     record = (data["measured"], data["speed"], data["temperature"])
-    model = runner._operating_model()
+    model = runner.operating_model()
     config = runner.config(case)
     half = len(record[0]) // 2
     truth = np.array([args.q1, args.q2]) / 100.0 * runner.nominal_m3_s

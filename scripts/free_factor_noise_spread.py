@@ -6,7 +6,7 @@
 The plant's true motion of the case (``RobustnessRun.true_motion``: the report's settings, seed 1) is
 simulated once; the case's probes (offsets, angle) are applied to it as ``RobustnessRun.record`` does, with
 the measurement noise drawn from each ``--seeds`` generator (seed 1 is the report's record, bit for bit) and
-once without noise. Each record goes through the row's estimator (``RobustnessRun._estimate``: the start
+once without noise. Each record goes through the row's estimator (``RobustnessRun.estimate``: the start
 bank where it applies, fed the measured speed and oil temperature), and the row's figure is printed: the
 error of the mean of the last 30 s [% of the truth]. ``--own-model`` replaces the plant's motion with
 the estimator's own operating model (default thresholds) run at the truth (factors 1, the case's
@@ -62,7 +62,7 @@ def plant_motion(run: RobustnessRun, case, point, cache: Path | None):
 
 def own_model_motion(run: RobustnessRun, case, point, speed, temperature) -> np.ndarray:
     """(K, 4) the estimator's operating model at the truth along the record's speed and temperature."""
-    model = run._operating_model()
+    model = run.operating_model()
     truth = np.array(point) / 100.0 * run.nominal_m3_s
     factors, unbalance = np.full(2, case.viscosity_factor), np.array([case.unbalance[0], 0.0])
     model.reset_operating_state()
@@ -100,8 +100,8 @@ def main() -> None:
     began = time.process_time()
     true, angle, clock = plant_motion(run, case, point, args.motion_cache)
     times = DT_S * np.arange(1, len(clock) + 1)
-    speed = np.array([run._speed(case, t - DT_S) for t in times])
-    temperature = np.array([run._temperature(case, t - DT_S) for t in times])
+    speed = np.array([run.speed_hz(case, t - DT_S) for t in times])
+    temperature = np.array([run.temperature_c(case, t - DT_S) for t in times])
     if args.own_model:
         true = own_model_motion(run, case, point, speed, temperature)
     print(f"motion: {'own model' if args.own_model else 'plant'}, {time.process_time() - began:.0f} s CPU")
@@ -110,7 +110,7 @@ def main() -> None:
         speed_fraction, log_viscosity, flowrate_fraction, steps = args.recentring
         recentring = Recentring(speed_fraction, log_viscosity, flowrate_fraction, round(steps))
         reduced = build_system(run.machine, reduced=True)
-        run._operating = build_operating_model(reduced, run.machine, DT_S, recentring=recentring)
+        run.use_operating_model(build_operating_model(reduced, run.machine, DT_S, recentring=recentring))
     config = run.config(case)
     truth = np.array(point) / 100.0 * run.nominal_m3_s
     half = len(times) // 2
@@ -118,7 +118,7 @@ def main() -> None:
     for seed in [None, *seeds_of(args.seeds)]:
         began = time.process_time()
         record = measured(run, case, true, angle, clock, seed)
-        trace, _ = run._estimate(case, config, record, speed, temperature, single=args.single_start)
+        trace, _ = run.estimate(case, config, record, speed, temperature, single=args.single_start)
         error = 100.0 * (trace.q_m3_s[half:].mean(axis=0) / truth - 1.0)
         std = 100.0 * trace.q_std_m3_s[-1] / truth
         if seed is not None:

@@ -35,7 +35,7 @@ def main() -> None:
     data = np.load(f"{args.records}/{args.case}_{args.q1:g}_{args.q2:g}_60.npz")
     signals, speed, temperature = data["measured"], data["speed"], data["temperature"]
     began = time.process_time()
-    bank = StartBank(runner._operating_model(), runner.config(case), select_s=np.inf)
+    bank = StartBank(runner.operating_model(), runner.config(case), select_s=np.inf)
     marks = {round(t / 1e-3): t for t in CHECKPOINTS_S}
     truth = np.array([args.q1, args.q2]) / 100.0 * runner.nominal_m3_s
     half = len(signals) // 2

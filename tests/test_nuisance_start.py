@@ -102,7 +102,7 @@ def test_the_alarm_judges_the_floored_std(model):
     first_plain = plain.starved.argmax(axis=0)
     assert plain.starved[-1].all() and (first_plain < 1000).all()
     first_floored = with_floor.starved.argmax(axis=0)
-    first_update = floored._settling + round(2.0 / DT)  # the floor's first information update
+    first_update = floored.settling_steps + round(2.0 / DT)  # the floor's first information update
     assert with_floor.starved[-1].all() and (first_floored > first_update).all(), first_floored
 
 

@@ -256,7 +256,7 @@ class CoarseCorrection:
 
 
 @njit(cache=True)
-def _correct(h: LevelArrays, p, residual, full, smoothing) -> None:
+def v_cycle_correction(h: LevelArrays, p, residual, full, smoothing) -> None:
     """p[full] += the V-cycle's correction for ``residual`` on the full volumes, with the step
     length that minimises the error's energy norm along it (Ap[F, F] is symmetric positive
     definite; the over-corrected coarse levels are only approximately right for every mode)."""
@@ -337,5 +337,5 @@ def _cycles(h, k, p, theta, residual_limit, mass_limit, max_cycles, relaxation, 
             built = True
         elif n_switched > 0:
             update_coarse(h, k, mask, switched, n_switched)
-        _correct(h, p, work, mask, smoothing)
+        v_cycle_correction(h, p, work, mask, smoothing)
     return max_cycles, worst, total, False

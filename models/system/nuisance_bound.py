@@ -48,7 +48,7 @@ from ..bearing.grid import Mesh
 from ..bearing.supply import SupplyFlow
 from ..bearing.table import BearingCoefficients
 from ..validation import InputError, require_in_range, require_positive
-from .identifiability import DEFAULT_DT_S, M3_S_TO_ML_MIN, orbit_sensitivity
+from .orbit_bound import DEFAULT_DT_S, M3_S_TO_ML_MIN, orbit_sensitivity
 from .rotor_bearing import RotorBearingSystem
 
 NUISANCE_GROUPS = ("offsets", "unbalance", "viscosity")

@@ -31,7 +31,6 @@ Outputs, in ``out_dir``:
 from __future__ import annotations
 
 import dataclasses
-import functools
 import gc
 import itertools
 import time
@@ -42,14 +41,10 @@ from typing import TextIO
 
 import numpy as np
 
-from estimator.config import (
-    EKFConfig,
-    OffsetBaseline,
-)
 from estimator.factory import make_estimator
 from estimator.runout import SlowRollVectors, runout_of_probes
 from models.machine import Machine, load_machine
-from models.probes import Probes, read_probes
+from models.probes import read_probes
 from models.validation import InputError
 from oilwatch.records import RecordStream, probe_setup
 from oilwatch.records.probes import merged_section
@@ -59,12 +54,10 @@ from oilwatch.study.storage import write_json_atomic
 from . import OPERATING_POINTS
 from .columns import TraceRows, column_decimals, estimate_columns
 from .csv_rows import RowWriter
+from .estimator_setup import ESTIMATOR_DT_S, estimator_config, estimator_model
 from .history import History
 from .timing import CpuMarks, LatencyHistogram
 
-ESTIMATOR_DT_S = 1e-3
-"""The estimator's sampling period (its discrete model's step, as the FMU's default)."""
-_MODELS: dict[tuple, object] = {}
 GC_BLOCKS = 64
 """Blocks between the collections of young objects while the automatic collector is off (below)."""
 
@@ -111,71 +104,9 @@ class EstimateOptions:
     a keyphasor) or an oil-temperature column and the machine has an ``[oil]``."""
 
 
-def estimator_model(machine_file: str | None, dt_s: float = ESTIMATOR_DT_S, follow: bool = False):
-    """The estimator's model of a machine file: the reduced system at the nominal point (the estimator FMU's
-    ``bearing_table = 0``) or, with ``follow``, its operating model on the dimensionless tables
-    (``bearing_table = 1``); each built once per process (a Dask worker keeps it). A filter built on the
-    operating model resets it to its just-built state (``OilFlowEKF.reset``: no correction centre survives),
-    so a record's estimates do not depend on what ran on it before (tests/test_estimate_model_cache.py)."""
-    key = (machine_file, dt_s, follow)
-    if key not in _MODELS:
-        if follow:
-            from models.system.operating_model import build_operating_model
-
-            model = build_operating_model(_reduced_system(machine_file), load_machine(machine_file), dt_s)
-        else:
-            from models.system.augmented import GridAugmentedModel
-
-            model = GridAugmentedModel(_reduced_system(machine_file), dt_s)
-        _MODELS[key] = model
-    return _MODELS[key]
-
-
 def _is_angle_key(override: str) -> bool:
     key = override.partition("=")[0].strip()
     return key == "layout" or key.endswith(".angle_deg")
-
-
-@functools.lru_cache(maxsize=4)
-def _reduced_system(machine_file: str | None):
-    from models.system.factory import load_system
-
-    return load_system(machine_file, reduced=True)
-
-
-def estimator_config(
-    speed_hz: float,
-    noise_um: float,
-    first_sample_time_s: float,
-    probes: Probes | None = None,
-    baseline: OffsetBaseline | None = None,
-    probe_angle_deg: float = 0.0,
-    runout: SlowRollVectors | None = None,
-    viscosity_factor_prior_std: float = 0.0,
-) -> EKFConfig:
-    """The OilFlowEKF FMU's default configuration with the machine's probe nuisances (module docstring).
-
-    ``probes``: the machine file's ``[probes]`` offsets prior and drift (None: offsets known, the FMU's
-    default); ``baseline``: a commissioning baseline's offsets prior (the FMU's ``baseline_file``);
-    ``probe_angle_deg``: the probe pairs' mounting angle when the samples are along the probes' axes (the
-    FMU's ``probe_angle_deg``; 0: (x, y) positions); ``runout``: the probes' slow-roll vectors, subtracted
-    from each sample at its rotor angle (the samples must then be along the probes' axes);
-    ``viscosity_factor_prior_std``: the viscosity factors' prior std (0: known, the FMU's default)."""
-    nuisance = {"viscosity_factor_prior_std": viscosity_factor_prior_std}
-    if probes is not None:
-        nuisance |= {
-            "offset_prior_std_m": probes.offset_prior_std_m,
-            "offset_random_walk_m_sqrt_s": probes.offset_random_walk_m_sqrt_s,
-        }
-    return EKFConfig.recommended(
-        speed_hz=speed_hz,
-        noise_std_m=noise_um * 1e-6,
-        first_sample_time_s=first_sample_time_s,
-        offset_baseline=baseline,
-        probe_angle_deg=probe_angle_deg,
-        runout=runout,
-        **nuisance,
-    )
 
 
 class EstimateRun:

@@ -1,0 +1,83 @@
+"""The estimator ``oilwatch estimate`` runs a record through: its model and its configuration.
+
+Configured as the OilFlowEKF FMU's defaults (``EKFConfig.recommended`` at the model's speed, the probes'
+``noise_um``, initial flowrates at nominal, zero initial states) plus the record's probe nuisances (see
+:mod:`oilwatch.monitoring.estimate`). The model is the machine file's reduced rotor-bearing system sampled at
+1 kHz (:data:`ESTIMATOR_DT_S`), at the nominal point or as the operating model that follows speed and oil
+temperature; each is built once per process.
+"""
+
+from __future__ import annotations
+
+import functools
+
+from estimator.config import EKFConfig, OffsetBaseline
+from estimator.runout import SlowRollVectors
+from models.machine import load_machine
+from models.probes import Probes
+
+ESTIMATOR_DT_S = 1e-3
+"""The estimator's sampling period (its discrete model's step, as the FMU's default)."""
+_MODELS: dict[tuple, object] = {}
+
+
+def estimator_model(machine_file: str | None, dt_s: float = ESTIMATOR_DT_S, follow: bool = False):
+    """The estimator's model of a machine file: the reduced system at the nominal point (the estimator FMU's
+    ``bearing_table = 0``) or, with ``follow``, its operating model on the dimensionless tables
+    (``bearing_table = 1``); each built once per process (a Dask worker keeps it). A filter built on the
+    operating model resets it to its just-built state (``OilFlowEKF.reset``: no correction centre survives),
+    so a record's estimates do not depend on what ran on it before (tests/test_estimate_model_cache.py)."""
+    key = (machine_file, dt_s, follow)
+    if key not in _MODELS:
+        if follow:
+            from models.system.operating_model import build_operating_model
+
+            model = build_operating_model(_reduced_system(machine_file), load_machine(machine_file), dt_s)
+        else:
+            from models.system.augmented import GridAugmentedModel
+
+            model = GridAugmentedModel(_reduced_system(machine_file), dt_s)
+        _MODELS[key] = model
+    return _MODELS[key]
+
+
+@functools.lru_cache(maxsize=4)
+def _reduced_system(machine_file: str | None):
+    from models.system.factory import load_system
+
+    return load_system(machine_file, reduced=True)
+
+
+def estimator_config(
+    speed_hz: float,
+    noise_um: float,
+    first_sample_time_s: float,
+    probes: Probes | None = None,
+    baseline: OffsetBaseline | None = None,
+    probe_angle_deg: float = 0.0,
+    runout: SlowRollVectors | None = None,
+    viscosity_factor_prior_std: float = 0.0,
+) -> EKFConfig:
+    """The OilFlowEKF FMU's default configuration with the machine's probe nuisances (module docstring).
+
+    ``probes``: the machine file's ``[probes]`` offsets prior and drift (None: offsets known, the FMU's
+    default); ``baseline``: a commissioning baseline's offsets prior (the FMU's ``baseline_file``);
+    ``probe_angle_deg``: the probe pairs' mounting angle when the samples are along the probes' axes (the
+    FMU's ``probe_angle_deg``; 0: (x, y) positions); ``runout``: the probes' slow-roll vectors, subtracted
+    from each sample at its rotor angle (the samples must then be along the probes' axes);
+    ``viscosity_factor_prior_std``: the viscosity factors' prior std (0: known, the FMU's default)."""
+    nuisance = {"viscosity_factor_prior_std": viscosity_factor_prior_std}
+    if probes is not None:
+        nuisance |= {
+            "offset_prior_std_m": probes.offset_prior_std_m,
+            "offset_random_walk_m_sqrt_s": probes.offset_random_walk_m_sqrt_s,
+        }
+    return EKFConfig.recommended(
+        speed_hz=speed_hz,
+        noise_std_m=noise_um * 1e-6,
+        first_sample_time_s=first_sample_time_s,
+        offset_baseline=baseline,
+        probe_angle_deg=probe_angle_deg,
+        runout=runout,
+        **nuisance,
+    )

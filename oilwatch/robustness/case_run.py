@@ -1,0 +1,308 @@
+"""One robustness case at one truth point: the plant with the case's discrepancy against the estimator.
+
+Per case and truth point: the plant (:class:`models.system.plant.RotorBearingPlant`, full model, Newmark,
+constant flowrates) makes the record through its own measurement chain with the case's probe errors,
+unbalance, viscosity and operating point; the EKF (reduced grid model; recommended tuning; probe offsets and
+the complex unbalance as states with the configured priors; the baseline and the slow-roll vectors when the
+case has them) estimates; the identified value is the mean estimate over the second half of the record.
+Reported: error and the filter's own std (% of the true flowrate), their ratio, whether the truth lies within
++-2 std at the end, false alarms (any alarm, after the first tenth, at a bearing at 95 % of nominal or more),
+detections (the alarm set at the end for a bearing below 90 %), the probes flagged faulty, the share of the
+second half with a consistent model, whether every alarm was raised under a consistent model, and the error
+over the nuisance Cramer-Rao bound of the case's own configuration (:mod:`.bounds`: the nuisances its
+estimator estimates, its baseline, its speed and temperature trajectory; the whole record). The estimator is
+the product's, built by :func:`estimator.factory.make_estimator` and run through ``run_batch`` as ``oilwatch
+estimate`` runs it: with the viscosity factors free and no baseline for them the start bank
+(:class:`estimator.start_bank.StartBank`: several starts along the flowrates' prior, the record's NIS picks
+one), else one :class:`estimator.ekf.OilFlowEKF`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import inspect
+import math
+
+import numpy as np
+
+from estimator.baseline import baseline_prior, estimate_baseline
+from estimator.config import EKFConfig
+from estimator.ekf import OilFlowEKF
+from estimator.factory import make_estimator
+from estimator.runout import runout_of_probes
+from models.machine import load_machine
+from models.probes import read_probes
+from models.rotor.assembly import Rotor
+from models.system.augmented import GridAugmentedModel
+from models.system.factory import build_system
+from models.system.measurement import MeasurementChain, UnbalanceChange
+from models.system.operating_point import operating_system
+from models.system.plant import RotorBearingPlant
+
+from .bounds import CaseBounds, configuration_label
+from .cases import BASELINE_AGE_DAYS, Case, probe_errors
+from .slow_roll import slow_roll_vectors
+
+DT_S = 1e-3
+ALARM_LEVEL_PCT = 90.0
+HEALTHY_PCT = 95.0
+"""A bearing at or above the alarm's clearing level (95 % of nominal) must never be alarmed; one at 90 %, the
+setting level itself, is not judged."""
+
+
+def _accepts(function, name: str) -> bool:
+    return name in inspect.signature(function).parameters
+
+
+class RobustnessRun:
+    """The models of one robustness run, built once per process and shared by its cases."""
+
+    def __init__(self, settings: dict) -> None:
+        self.settings = settings
+        self.machine = load_machine(settings["machine_file"])
+        self.nominal_m3_s = self.machine.lubrication.nominal_flowrate_m3_s
+        self.duration_s = settings["duration_s"]
+        self.noise_m = settings["noise_um"] * 1e-6
+        self.seed = settings["seed"]
+        self.probes = read_probes(self.machine)
+        self.model = GridAugmentedModel(build_system(self.machine, reduced=True), DT_S)
+        rotor = Rotor.from_machine(self.machine)
+        self._unbalance = (rotor.unbalance_moment_kg_m, rotor.unbalance_phase_rad)
+        self.clearance_m = self.machine.bearing.clearance_m
+        self.n_samples = round(self.duration_s / DT_S)
+        self._motions: dict = {}  # true_motion's, per plant variant, point and seed
+        # issue 13's estimator side: a step that takes the measured operating point, viscosity-factor states
+        self.follows_operating_point = _accepts(OilFlowEKF.step, "speed_hz") and (
+            "viscosity_factor_prior_std" in {f.name for f in dataclasses.fields(EKFConfig)}
+        )
+
+    def plant_system(self, case: Case):
+        """The plant's full system for the case: its unbalance, and its operating point at t = 0."""
+        moment, phase = self._unbalance
+        unbalance = {
+            "unbalance_moment_kg_m": moment * case.unbalance[0],
+            "unbalance_phase_rad": phase + math.radians(case.unbalance[1]),
+        }
+        if not case.operating_point:
+            return build_system(self.machine, reduced=False, **unbalance)
+        viscosity = self.machine.oil.dynamic_viscosity_pa_s(self.machine.nominal_oil_temperature_c)
+        return operating_system(self.machine, self.speed_hz(case, 0.0), viscosity, **unbalance)
+
+    def speed_hz(self, case: Case, t: float) -> float:
+        """The plant's speed [Hz] at time t [s] of the record: nominal, or along the case's ramp."""
+        if case.speed_ramp_hz is None:
+            return self.machine.nominal_speed_hz
+        start, end = case.speed_ramp_hz
+        return start + (end - start) * t / self.duration_s
+
+    def temperature_c(self, case: Case, t: float) -> float:
+        """The oil temperature [degC] at time t [s] of the record: nominal plus the case's rise so far."""
+        return self.machine.nominal_oil_temperature_c + case.temperature_rise_c * t / self.duration_s
+
+    def mounting_angle_deg(self, case: Case) -> float:
+        """The probes' angle: the case's, else the machine file's ([probes] layout)."""
+        return self.probes.angle_deg if case.mounting_angle_deg is None else case.mounting_angle_deg
+
+    def chain(self, case: Case, after_baseline: bool) -> MeasurementChain:
+        """The plant's probes for the case (the run's, or the baseline record's)."""
+        return MeasurementChain(
+            probe_errors(case, self.seed, self.duration_s, after_baseline),
+            math.radians(self.mounting_angle_deg(case)),
+            self.noise_m,
+        )
+
+    def record(self, case: Case, point_pct, seed: int, after_baseline: bool = True):
+        """(measured (K, 4) [m], speed (K,) [Hz], oil temperature (K,) [degC]) at t = dt ... T.
+
+        The plant's true motion does not depend on its probes, so it is simulated once per plant variant,
+        truth point and seed (:meth:`true_motion`) and the case's measurement chain is applied to it with
+        the plant's own noise generator, draw for draw as :meth:`RotorBearingPlant.current_sample` does:
+        bit-identical to a plant built with that chain (tests/test_robustness_cli.py)."""
+        true, angle, times = self.true_motion(case, point_pct, seed, after_baseline)
+        chain = self.chain(case, after_baseline)
+        rng = np.random.default_rng(seed)
+        held = np.zeros(4)
+        measured = np.array(
+            [chain.measure(true[k], angle[k], times[k], rng, held) for k in range(len(times))]
+        )
+        times = DT_S * np.arange(1, len(times) + 1)
+        speed = np.array([self.speed_hz(case, t - DT_S) for t in times])
+        temperature = np.array([self.temperature_c(case, t - DT_S) for t in times])
+        return measured, speed, temperature
+
+    def true_motion(self, case: Case, point_pct, seed: int, after_baseline: bool = True):
+        """(true positions (K, 4) [m], rotor angle (K,) [rad], times (K,) [s]) of the case's plant (its
+        unbalance, change, film and operating point; ideal probes), kept for the other cases of the run."""
+        change = case.unbalance_change if after_baseline else None
+        key = (
+            case.unbalance,
+            change,
+            case.viscosity_factor,
+            case.temperature_rise_c,
+            case.speed_ramp_hz,
+            case.operating_point,
+            tuple(point_pct),
+            seed,
+        )
+        if key not in self._motions:
+            self._motions[key] = self._simulate(case, point_pct, seed, change)
+        return self._motions[key]
+
+    def _simulate(self, case: Case, point_pct, seed: int, change_of_case):
+        q = tuple(p / 100.0 * self.nominal_m3_s for p in point_pct)
+        change = UnbalanceChange()
+        if change_of_case is not None:
+            moment, phase = self._unbalance
+            change = UnbalanceChange(
+                self.duration_s / 2.0, moment * change_of_case[0], phase + math.radians(change_of_case[1])
+            )
+        conditions = {}
+        if case.operating_point:
+            conditions = {
+                "oil": self.machine.oil,
+                "oil_temperature_c": self.temperature_c(case, 0.0),
+                "viscosity_factor": case.viscosity_factor,
+            }
+        plant = RotorBearingPlant(
+            self.plant_system(case),
+            DT_S,
+            None,
+            self.noise_m,
+            seed,
+            initial_flowrates_m3_s=q,
+            unbalance_change=change,
+            **conditions,
+        )
+        times = DT_S * np.arange(1, self.n_samples + 1)
+        ramps = case.speed_ramp_hz is not None or case.temperature_rise_c != 0.0
+        true, angle, clock = np.zeros((self.n_samples, 4)), np.zeros(self.n_samples), np.zeros(self.n_samples)
+        for k in range(self.n_samples):
+            extra = {}
+            if ramps:
+                extra = {"speed_hz": self.speed_hz(case, times[k] - DT_S)}
+                extra["oil_temperature_c"] = self.temperature_c(case, times[k] - DT_S)
+            true[k] = plant.step(q, **extra).true_position_m
+            angle[k], clock[k] = plant.rotor_angle_rad, plant.time_s
+        return true, angle, clock
+
+    def config(self, case: Case) -> EKFConfig:
+        """What a user would configure for this machine and case."""
+        values = dict(
+            speed_hz=self.machine.nominal_speed_hz,
+            first_sample_time_s=DT_S,
+            noise_std_m=self.noise_m,
+            offset_prior_std_m=self.settings["offset_prior_um"] * 1e-6,
+            offset_random_walk_m_sqrt_s=self.probes.offset_random_walk_m_sqrt_s,
+            unbalance_prior_std=self.settings["unbalance_prior"],
+            probe_angle_deg=self.mounting_angle_deg(case),
+        )
+        if case.operating_point and self.follows_operating_point and case.viscosity_states:
+            values["viscosity_factor_prior_std"] = self.settings["viscosity_prior"]
+        config = EKFConfig.recommended(**values, runout=runout_of_probes(self.probes), **case.ekf)
+        if case.compensate_runout:
+            runout = slow_roll_vectors(
+                self.chain(case, False),
+                self.clearance_m,
+                self.machine.nominal_speed_hz,
+                60.0,
+                DT_S,
+                self.seed,
+            )
+            config = dataclasses.replace(config, runout=runout)
+        if case.baseline:
+            # the commissioning record: at 100/100 %, the run's start conditions held (a ramp's start speed)
+            start = None if case.speed_ramp_hz is None else (case.speed_ramp_hz[0],) * 2
+            healthy = dataclasses.replace(
+                case, unbalance_change=None, speed_ramp_hz=start, temperature_rise_c=0.0
+            )
+            record, speed, temperature = self.record(
+                healthy, (100.0, 100.0), self.seed + 1, after_baseline=False
+            )
+            q = (self.nominal_m3_s, self.nominal_m3_s)
+            # the estimator's own model: with viscosity states, the baseline separates them from the offsets
+            model = (
+                self.operating_model()
+                if case.operating_point and self.follows_operating_point
+                else self.model
+            )
+            measured = {}
+            if start is not None or case.temperature_rise_c:
+                # the baseline at a ramp's start conditions: the model is told them (the viscosity cases'
+                # baselines run at the reference point, where the model needs no operating point)
+                measured = {"speed_hz": speed, "oil_temperature_c": temperature}
+            document = estimate_baseline(model, record, q, config, **measured)
+            # the baseline record ends where the run's begins (no drift beyond the run's own), or is
+            # BASELINE_AGE_DAYS old in the offset-step case
+            age_s = BASELINE_AGE_DAYS * 86400.0 if case.offset_step else 0.0
+            prior = baseline_prior(document, age_s, self.probes.offset_drift_m_per_day)
+            config = dataclasses.replace(config, offset_baseline=prior)
+        return config
+
+    def bound_pct(self, case: Case, point_pct) -> np.ndarray:
+        """(2,) nuisance Cramer-Rao bound [% of q] in the case's own configuration (:mod:`.bounds`)."""
+        if not hasattr(self, "_bounds"):
+            self._bounds = CaseBounds(self.machine, self.settings, DT_S)
+        return self._bounds.bound_pct(case, point_pct)
+
+    def estimate(self, case: Case, config: EKFConfig, signals, speed, temperature, single: bool = False):
+        """(trace, follows): the estimator's record, and whether it was fed the measured speed and oil
+        temperature (an estimator whose step takes them: issue 13's estimator side). ``single``: one
+        filter from the configured start even where the start bank applies (diagnostics)."""
+        if not (case.operating_point and self.follows_operating_point):
+            return make_estimator(self.model, config).run_batch(signals), False
+        model = self.operating_model()
+        estimator = OilFlowEKF(model, config) if single else make_estimator(model, config)
+        return estimator.run_batch(signals, speed_hz=speed, oil_temperature_c=temperature), True
+
+    def operating_model(self):
+        """The estimator's model that follows speed and temperature (issue 13), built once (or the one given
+        to :meth:`use_operating_model`)."""
+        if not hasattr(self, "_operating"):
+            from models.system.operating_model import build_operating_model
+
+            reduced = build_system(self.machine, reduced=True)
+            self._operating = build_operating_model(reduced, self.machine, DT_S)
+        return self._operating
+
+    def use_operating_model(self, model) -> None:
+        """Run the estimator of the operating-point cases on ``model`` instead of the default one (a
+        diagnostic's variant, e.g. other re-centring thresholds)."""
+        self._operating = model
+
+    def run_case(self, case: Case, point_pct) -> dict:
+        """The row of one case at one truth point (module docstring)."""
+        signals, speed, temperature = self.record(case, point_pct, self.seed)
+        config = self.config(case)
+        trace, follows = self.estimate(case, config, signals, speed, temperature)
+        truth = np.array(point_pct) / 100.0 * self.nominal_m3_s
+        half = len(signals) // 2
+        error_pct = 100.0 * (trace.q_m3_s[half:].mean(axis=0) / truth - 1.0)
+        std_pct = 100.0 * trace.q_std_m3_s[-1] / truth
+        settled = trace.starved[len(signals) // 10 :]
+        low = np.array(point_pct) < ALARM_LEVEL_PCT
+        healthy = np.array(point_pct) >= HEALTHY_PCT
+        flagged = sorted({int(c) for c in np.flatnonzero(trace.probe_faulty.any(axis=0))})
+        alarmed = trace.starved.any(axis=1)
+        bound = self.bound_pct(case, tuple(point_pct))
+        return {
+            "case": case.name,
+            "description": case.description,
+            "q1_pct": point_pct[0],
+            "q2_pct": point_pct[1],
+            "error_pct": error_pct.tolist(),
+            "std_pct": std_pct.tolist(),
+            "error_over_std": (np.abs(error_pct) / std_pct).tolist(),
+            "within_2_std": bool((np.abs(error_pct) <= 2.0 * std_pct).all()),
+            "within_tolerance": bool((np.abs(error_pct) <= case.tolerance_pct).all()),
+            "tolerance_pct": case.tolerance_pct,
+            "false_alarm": bool(settled[:, healthy].any()),
+            "detected": [bool(trace.starved[-1, b]) for b in range(2) if low[b]],
+            "flagged_probes": flagged,
+            "fault_flagged": None if case.probe_fault is None else case.probe_fault in flagged,
+            "consistent_fraction": float(trace.model_consistent[half:].mean()),
+            "alarms_consistent": bool(trace.starved_consistent[alarmed].all()) if alarmed.any() else None,
+            "bound_pct": bound.tolist(),
+            "bound_configuration": configuration_label(case, self.settings),
+            "error_over_bound": (np.abs(error_pct) / bound).tolist(),
+            "estimator_follows_operating_point": follows if case.operating_point else None,
+        }
