@@ -29,6 +29,7 @@ from estimator.step_kernel import (
     REPORT_STATUS,
     REPORT_STD,
 )
+from fmu_src.ekf_start_outputs import SETTLED_OUTPUT, START_OUTPUTS, declare_start_outputs
 from fmu_src.machine_parameters import declare_machine_parameters
 
 SAMPLING_PERIOD_S = 1e-3
@@ -57,12 +58,23 @@ REPORT_OUTPUTS = (
     ("measurement_ok", REPORT_OK, 1.0),
     ("model_consistent", REPORT_CONSISTENT, 1.0),
     *((f"probe_status_{name}", REPORT_STATUS + i, 1.0) for i, name in enumerate(POSITIONS)),
+    (SETTLED_OUTPUT.name, REPORT_CONVERGED, 1.0),  # cleared during the starts (fmu_src.ekf_start_outputs)
 )
 """The outputs taken from the step report: name, report column (``estimator.step_kernel`` REPORT_* layout),
 divisor (SI -> field units; flags and counts as 0/1 and whole numbers)."""
-STEP_OUTPUTS = (*(name for name, _, _ in REPORT_OUTPUTS), "t_estimate_s")
+STEP_OUTPUTS = (
+    *(name for name, _, _ in REPORT_OUTPUTS),
+    "t_estimate_s",
+    *(output.name for output in START_OUTPUTS),
+)
 """The outputs published with every step (the fast path's output array, in this order)."""
 T_ESTIMATE_INDEX = STEP_OUTPUTS.index("t_estimate_s")
+SETTLED_INDEX = STEP_OUTPUTS.index(SETTLED_OUTPUT.name)
+START_CHOOSING_INDEX = STEP_OUTPUTS.index("start_choosing")
+START_SETTLING_INDEX = STEP_OUTPUTS.index("settling_start_left_s")
+"""Nonzero while a start is under way (the slave's step then writes the start outputs)."""
+START_SLICE = slice(T_ESTIMATE_INDEX + 1, T_ESTIMATE_INDEX + 1 + len(START_OUTPUTS))
+"""Where :data:`fmu_src.ekf_start_outputs.START_OUTPUTS` lie in the output array."""
 REPORT_COLUMNS = np.array([column for _, column, _ in REPORT_OUTPUTS])
 REPORT_DIVISORS = np.array([divisor for _, _, divisor in REPORT_OUTPUTS])
 OWN_REALS = (
@@ -229,3 +241,4 @@ def declare_inputs_outputs(slave) -> None:
         )
     for name, unit, text, start in nuisance_names():
         real(name, "output", start=start, unit=unit, description=text)
+    declare_start_outputs(slave)  # last: the value references of the outputs before them stay as they were

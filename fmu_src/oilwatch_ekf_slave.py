@@ -69,12 +69,17 @@ from fmu_src.ekf_configuration import (
     estimator_model,
     flowrates_ml_min,
 )
+from fmu_src.ekf_start_outputs import start_values
 from fmu_src.ekf_variables import (
     GRID_TOLERANCE,
     REPORT_COLUMNS,
     REPORT_DIVISORS,
     REPORT_OUTPUTS,
     SAMPLING_PERIOD_S,
+    SETTLED_INDEX,
+    START_CHOOSING_INDEX,
+    START_SETTLING_INDEX,
+    START_SLICE,
     STEP_INPUTS,
     STEP_OUTPUTS,
     T_ESTIMATE_INDEX,
@@ -225,8 +230,8 @@ class OilFlowEKF(OilwatchSlave):
             self._plain_step = table
 
     def _has_plain_step(self) -> bool:
-        if self.filter is None or self.bearing_table != 0:
-            return False
+        if self.filter is None or self.bearing_table != 0 or self.filter.settling_steps > 0:
+            return False  # a settling start: estimate_settled is not converged's (fmu_src.ekf_start_outputs)
         return self.filter.grid_batch_arguments() is not None
 
     def plain_step_table(self):
@@ -287,6 +292,9 @@ class OilFlowEKF(OilwatchSlave):
             measurement[3] = y2 * 1e-6
         angle = self.keyphasor_state if self.bearing_table == 1 else None
         self._publish_core(self.filter.step(measurement, *operating, angle))
+        outputs = self._outputs
+        if outputs.item(START_CHOOSING_INDEX) or outputs.item(START_SETTLING_INDEX):  # a start under way
+            self._publish_start()
         connected = math.isfinite(keyphasor) and keyphasor >= 0.0 and not bad_stamp
         self.keyphasor_state = math.radians(keyphasor) if connected else None
         return True
@@ -294,7 +302,16 @@ class OilFlowEKF(OilwatchSlave):
     def _publish(self, report: ReportView | None = None) -> None:
         """Copy a step report (default: the last one, rebuilt from the state) to all outputs now."""
         self._publish_core(report if report is not None else self.filter.current_report())
+        self._publish_start()
         self._publish_nuisances()
+
+    def _publish_start(self) -> None:
+        """Write the start outputs (:mod:`fmu_src.ekf_start_outputs`) after the report: during a start the
+        estimate is not settled, whatever converged says."""
+        values = start_values(self.filter, self.sample_period_s)
+        self._outputs[START_SLICE] = values
+        if values[0] or values[3]:
+            self._outputs[SETTLED_INDEX] = 0.0
 
     def _publish_nuisances(self) -> None:
         self._nuisances_published = self.filter.step_count
