@@ -1,8 +1,8 @@
 """The estimator FMU's start outputs: whether its estimate is past its start, so that a host can tell an
 unsettled estimate from a settled one.
 
-Beside the filter's own convergence (``converged``: both flowrate stds below 3 % of nominal, the estimates
-still for 1 s), two starts of the estimator make an estimate not yet the one to act on. Both run only where
+Beside the filter's own convergence (``converged``: both flowrate stds below 3 % of nominal and drift below
+1 % over 1 s), two starts of the estimator make an estimate not yet the one to act on. Both run only where
 the flowrates are estimated beside viscosity factors that no baseline primed (``bearing_table`` 1,
 ``viscosity_factor_prior_std`` > 0, no ``baseline_file`` with factors), the nearly unobservable direction
 of :mod:`estimator.nuisance_start`:

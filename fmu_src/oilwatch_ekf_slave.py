@@ -310,7 +310,8 @@ class OilFlowEKF(OilwatchSlave):
         estimate is not settled, whatever converged says."""
         values = start_values(self.filter, self.sample_period_s)
         self._outputs[START_SLICE] = values
-        if values[0] or values[3]:
+        choosing, _, _, settling_left_s = values
+        if choosing or settling_left_s:
             self._outputs[SETTLED_INDEX] = 0.0
 
     def _publish_nuisances(self) -> None:
