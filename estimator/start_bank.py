@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import math
 from collections.abc import Callable
 
 import numpy as np
@@ -130,6 +131,13 @@ class StartBank:
     def chosen_fraction(self) -> float | None:
         """The chosen start as a fraction of the configured initial flowrate (None before the choice)."""
         return None if self.chosen is None else self.fractions[self.chosen]
+
+    @property
+    def samples_to_choice(self) -> float:
+        """Samples left until the choice: 0 once chosen, inf when the window never ends (``select_s`` inf)."""
+        if self.chosen is not None:
+            return 0
+        return math.inf if self._select_step is None else max(0, self._select_step - self.step_count)
 
     def reset(self) -> None:
         """Every start back to its initial state; the choice is open again."""

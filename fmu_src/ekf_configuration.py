@@ -1,0 +1,141 @@
+"""The estimator FMU's estimator from its parameters: their checks, the model, the configuration (field units
+-> SI) and the commissioning baseline.
+
+The estimator itself is :func:`estimator.factory.make_estimator`'s for that model and configuration (one
+filter, or the start bank where it applies), as ``oilwatch estimate`` and the robustness report build it.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from estimator.baseline import load_baseline, load_runout
+from estimator.config import (
+    ESTIMATOR_PARAMETERS,
+    INITIAL_FLOWRATE_STD_FRACTION,
+    ML_MIN,
+    OFFSET_PRIOR_FROM_MACHINE,
+    RECOMMENDED_DISPLACEMENT_PROCESS_STD_M,
+    EKFConfig,
+    config_from_parameters,
+)
+from estimator.runout import runout_of_probes
+from fmu_src.ekf_variables import GRID_TOLERANCE
+from fmu_src.machine_parameters import probe_angle_deg
+from models.probes import read_probes
+from models.system.augmented import GridAugmentedModel
+from models.system.operating_model import build_operating_model
+from models.validation import InputError
+
+SECONDS_PER_DAY = 86400.0
+VELOCITY_MODES = ("displacement-only", "paper", "correlated")
+"""The estimator's velocity_noise of each ``velocity_channels`` value."""
+
+
+def check_parameters(slave) -> None:
+    """Check the parameters beyond their declared ranges (``InputError`` naming the parameter)."""
+    if slave.q_std_velocity_um_s < 0.0 and slave.q_std_velocity_um_s != -1.0:
+        raise InputError(
+            f"q_std_velocity_um_s must be >= 0 um/s or -1 (recommended), got {slave.q_std_velocity_um_s:g}"
+        )
+    if slave.alarm_off_fraction < slave.alarm_on_fraction:
+        raise InputError(
+            f"alarm_off_fraction must be >= alarm_on_fraction ({slave.alarm_on_fraction:g}) for "
+            f"hysteresis, got {slave.alarm_off_fraction:g}"
+        )
+    period = slave.sample_period_s
+    if slave.start_time < 0.0 or abs(slave.start_time / period - round(slave.start_time / period)) > (
+        GRID_TOLERANCE
+    ):
+        raise InputError(
+            f"the start time must be >= 0 and a multiple of sample_period_s = {period:g} s (the "
+            f"unbalance phase counts from t = 0), got {slave.start_time:g} s"
+        )
+
+
+def flowrates_ml_min(slave, system) -> tuple[float, float]:
+    """(nominal, initial) flowrate [ml/min] of the parameters (0: the machine's nominal); the initial must lie
+    in ``system``'s coefficient table."""
+    nominal = (
+        slave.q_nominal_ml_min if slave.q_nominal_ml_min > 0.0 else system.nominal_flowrate_m3_s / ML_MIN
+    )
+    initial = slave.q_initial_ml_min if slave.q_initial_ml_min > 0.0 else nominal
+    low, high = (bound / ML_MIN for bound in system.flowrate_bounds_m3_s)
+    if not low <= initial <= high:
+        name = (
+            "q_initial_ml_min"
+            if slave.q_initial_ml_min > 0.0
+            else "the nominal flowrate (q_initial_ml_min 0)"
+        )
+        raise InputError(
+            f"{name} must lie in the coefficient table's range [{low:.1f}, {high:.1f}] ml/min, "
+            f"got {initial:g} ml/min"
+        )
+    return nominal, initial
+
+
+def estimator_model(slave, system, machine):
+    """The estimator's model of ``bearing_table``: 1, the operating model following the measured speed and
+    oil temperature; 0, the flowrate grid at the start speed (no viscosity factors)."""
+    if slave.bearing_table == 1:
+        return build_operating_model(system, machine, slave.sample_period_s)
+    if slave.viscosity_factor_prior_std > 0.0:
+        raise InputError("viscosity_factor_prior_std > 0 needs bearing_table = 1")
+    return GridAugmentedModel(system, slave.sample_period_s)
+
+
+def baseline_prior(slave, machine):
+    """(offsets prior, runout vectors) of the ``baseline_file`` parameter ((None, None) when empty; a
+    relative path is relative to the resources): the prior ``baseline_age_days`` after its record with
+    ``machine``'s offset drift bound, the runout None when the baseline has none."""
+    if not slave.baseline_file:
+        return None, None
+    path = Path(slave.baseline_file)
+    if not path.is_absolute() and slave.resources:
+        path = Path(slave.resources) / path
+    try:
+        drift = read_probes(machine).offset_drift_m_per_day
+        prior = load_baseline(path, SECONDS_PER_DAY * slave.baseline_age_days, drift)
+        return prior, load_runout(path)
+    except (InputError, OSError, UnicodeDecodeError) as error:
+        reason = error if isinstance(error, InputError) else f"cannot read {path}: {error}"
+        raise InputError(f"baseline_file {slave.baseline_file!r}: {reason}") from None
+
+
+def estimator_config(
+    slave,
+    machine,
+    nominal_ml_min: float,
+    initial_ml_min: float,
+    speed_hz: float,
+    baseline,
+    baseline_runout,
+) -> EKFConfig:
+    """The estimator's configuration from the parameters (field units -> SI) and the machine file's
+    ``[probes]`` (mounting angle and offset prior for the sentinels; the offsets' drift, always). The
+    runout vectors the filter subtracts at the model's rotor angle are the baseline's when it has them,
+    else those of the ``[probes]`` ``runout_*`` keys (as ``oilwatch estimate`` chooses)."""
+    omega = 2.0 * math.pi * speed_hz
+    velocity_std = (
+        RECOMMENDED_DISPLACEMENT_PROCESS_STD_M * omega
+        if slave.q_std_velocity_um_s < 0.0
+        else slave.q_std_velocity_um_s * 1e-6
+    )
+    probes = read_probes(machine)
+    values = {p.name: getattr(slave, p.name) for p in ESTIMATOR_PARAMETERS}
+    if values["offset_prior_std_um"] == OFFSET_PRIOR_FROM_MACHINE:
+        values["offset_prior_std_um"] = probes.offset_prior_std_m * 1e6
+    return config_from_parameters(
+        values,
+        probe_angle_deg=probe_angle_deg(slave, machine),
+        offset_random_walk_m_sqrt_s=probes.offset_random_walk_m_sqrt_s,
+        velocity_noise=VELOCITY_MODES[slave.velocity_channels],
+        velocity_process_std_m_s=velocity_std,
+        q_initial_m3_s=initial_ml_min * ML_MIN,
+        q_nominal_m3_s=nominal_ml_min * ML_MIN,
+        first_sample_time_s=round(slave.start_time / slave.sample_period_s) * slave.sample_period_s,
+        initial_flowrate_std_m3_s=INITIAL_FLOWRATE_STD_FRACTION * nominal_ml_min * ML_MIN,
+        offset_baseline=baseline,
+        runout=runout_of_probes(probes) if baseline_runout is None else baseline_runout,
+    )
