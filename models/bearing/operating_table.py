@@ -18,34 +18,34 @@ full-film squeeze, mean of the one-sided limits on f = 1) on a grid uniform in l
 exact at the nodes, linear in the data), and gives dimensional values and their derivatives with respect
 to the flowrate and the viscosity at any (speed, viscosity, load, flowrate) inside the grid; outside,
 :class:`~models.validation.InputError` (no extrapolation).
+
+The parts live in their own modules and are re-exported here, the import path callers use: the scaling
+(:mod:`models.bearing.sommerfeld`), the solve (:mod:`models.bearing.operating_table_solve`) and the
+compiled interpolation with the table's slice at one operating point
+(:mod:`models.bearing.operating_table_interpolation`).
 """
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import math
-import time
-from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-import numba
 import numpy as np
 
 from .. import catmull_rom
 from ..validation import InputError, require_finite, require_positive
 from .coefficient_kinds import QUASI_STATIC, file_suffix
 from .geometry import JournalBearing
-from .grid import PRODUCTION_MESH, Mesh
+from .operating_table_interpolation import TableSlice, interpolate_point
+from .operating_table_solve import compute_operating_table
+from .sommerfeld import N_QUANTITIES, couette_flow_m3_s, dimensionless_row, sommerfeld_grid, sommerfeld_number
 from .supply import ML_MIN_PER_M3_S
-from .table import BearingCoefficients, compute_table, flooded_threshold
+from .table import BearingCoefficients
 
 FORMAT = "oilwatch dimensionless bearing table"
 FORMAT_VERSION = 1
-_PAIRS = ("xx", "xy", "yx", "yy")
-N_QUANTITIES = 11
-"""Per node: e_x / c, e_y / c, K c / W (4, row-major), C c Omega / W (4), p_g c^2 / (mu Omega R^2)."""
 GEOMETRY_KEYS = (
     "radius_m",
     "length_m",
@@ -55,18 +55,22 @@ GEOMETRY_KEYS = (
     "groove_axial_m",
 )
 
-
-def sommerfeld_number(
-    bearing: JournalBearing, viscosity_pa_s: float, speed_hz: float, load_n: float
-) -> float:
-    """S = mu N L D (R/c)^2 / W [-] (N in rev/s)."""
-    r, c = bearing.radius_m, bearing.clearance_m
-    return viscosity_pa_s * speed_hz * bearing.length_m * 2.0 * r * (r / c) ** 2 / load_n
-
-
-def couette_flow_m3_s(bearing: JournalBearing, speed_hz: float) -> float:
-    """The film's Couette flow q_c = Omega R c L / 2 [m^3/s], the flow unit of the dimensionless table."""
-    return math.pi * speed_hz * bearing.radius_m * bearing.clearance_m * bearing.length_m
+__all__ = [
+    "FORMAT",
+    "FORMAT_VERSION",
+    "GEOMETRY_KEYS",
+    "N_QUANTITIES",
+    "OperatingPoint",
+    "OperatingTable",
+    "TableSlice",
+    "compute_operating_table",
+    "couette_flow_m3_s",
+    "dimensionless_row",
+    "operating_table_name",
+    "operating_table_path",
+    "sommerfeld_grid",
+    "sommerfeld_number",
+]
 
 
 @dataclass(frozen=True)
@@ -194,7 +198,7 @@ class OperatingTable:
                 f"[{low * 100:.4g}, {high * 100:.4g}] % (no extrapolation)"
             )
         out = np.empty((3, N_QUANTITIES))
-        _interpolate_point(
+        interpolate_point(
             self._padded,
             s,
             f,
@@ -319,95 +323,6 @@ class OperatingTable:
         )
 
 
-@numba.njit(cache=True)
-def _interpolate_point(padded, s, f, s0, hs, ns, f0, hf, nf, out):  # pragma: no cover - compiled
-    """Values, d/d ln S and d/d f (rows of ``out`` (3, 11)) at (ln S = s, f) on the padded grid."""
-    i, ts = catmull_rom.cell(s, s0, hs, ns)
-    j, tf = catmull_rom.cell(f, f0, hf, nf)
-    ws, dws = catmull_rom.weights(ts)
-    wf, dwf = catmull_rom.weights(tf)
-    out[:, :] = 0.0
-    for a in range(4):
-        for b in range(4):
-            node = padded[i + a, j + b]
-            for k in range(node.shape[0]):
-                out[0, k] += ws[a] * wf[b] * node[k]
-                out[1, k] += dws[a] * wf[b] * node[k] / hs
-                out[2, k] += ws[a] * dwf[b] * node[k] / hf
-
-
-class TableSlice:
-    """The dimensionless table at one (speed, viscosity, load): interpolated in S once, in f per call.
-
-    Attributes: sommerfeld, flooded_threshold_m3_s q_t, flowrate_range_m3_s; :meth:`rows` as
-    ``OperatingTable.evaluate_many``.
-    """
-
-    def __init__(self, table: OperatingTable, speed_hz: float, viscosity_pa_s: float, load_n: float):
-        g = table.geometry
-        r, c, length = g["radius_m"], g["clearance_m"], g["length_m"]
-        self.sommerfeld = viscosity_pa_s * speed_hz * length * 2.0 * r * (r / c) ** 2 / load_n
-        where = f"the operating point ({speed_hz:g} Hz, {viscosity_pa_s:.4g} Pa s, {load_n:.5g} N)"
-        s = table._sommerfeld_coordinate(self.sommerfeld, where)
-        column = np.empty((table.fraction_nodes.size + 2, N_QUANTITIES))
-        threshold = _interpolate_column(
-            table._padded, table._log_threshold, s, table._s0, table._hs, table.sommerfeld_nodes.size, column
-        )
-        self.flooded_threshold_m3_s = math.exp(threshold) * math.pi * speed_hz * r * c * length
-        low, high = table.fraction_range
-        self.flowrate_range_m3_s = (low * self.flooded_threshold_m3_s, high * self.flooded_threshold_m3_s)
-        self._table, self._where, self._column = table, where, column
-        self._scale = np.concatenate(
-            [np.full(2, c), np.full(4, load_n / c), np.full(4, load_n / (c * 2.0 * math.pi * speed_hz))]
-        )
-
-    def rows(self, q_m3_s) -> np.ndarray:
-        """Rows (m, 10) ``[e_x, e_y, K, C]`` (SI) at the flowrates (m,) [m^3/s]."""
-        q = np.atleast_1d(np.asarray(q_m3_s, dtype=float))
-        fraction = q / self.flooded_threshold_m3_s
-        table = self._table
-        low, high = table.fraction_range
-        if not (fraction.min() >= low - 1e-12 and fraction.max() <= high + 1e-12):
-            bad = fraction.min() if fraction.min() < low - 1e-12 else fraction.max()
-            raise InputError(
-                f"supply flowrate {bad * self.flooded_threshold_m3_s * ML_MIN_PER_M3_S:.5g} ml/min "
-                f"({bad * 100:.4g} % of the flooded threshold) is outside the table's [{low * 100:.4g}, "
-                f"{high * 100:.4g}] % at {self._where} (no extrapolation)"
-            )
-        value = np.empty((q.size, 10))
-        _interpolate_rows(self._column, fraction, table._f0, table._hf, table.fraction_nodes.size, value)
-        value *= self._scale
-        return value
-
-
-@numba.njit(cache=True)
-def _interpolate_column(padded, log_threshold, s, s0, hs, ns, column):  # pragma: no cover - compiled
-    """Interpolate the padded grid in ln S at s into ``column`` (n_f + 2, 11); return ln(q_t / q_c) there."""
-    i, ts = catmull_rom.cell(s, s0, hs, ns)
-    ws, _ = catmull_rom.weights(ts)
-    column[:, :] = 0.0
-    threshold = 0.0
-    for a in range(4):
-        threshold += ws[a] * log_threshold[i + a]
-        for j in range(column.shape[0]):
-            for k in range(column.shape[1]):
-                column[j, k] += ws[a] * padded[i + a, j, k]
-    return threshold
-
-
-@numba.njit(cache=True)
-def _interpolate_rows(column, fractions, f0, hf, nf, out):  # pragma: no cover - compiled
-    """The first 10 values of a column (n_f + 2, 11) at each f of ``fractions`` into ``out`` (m, 10)."""
-    for m in range(fractions.shape[0]):
-        j, tf = catmull_rom.cell(fractions[m], f0, hf, nf)
-        wf, _ = catmull_rom.weights(tf)
-        for k in range(out.shape[1]):
-            acc = 0.0
-            for b in range(4):
-                acc += wf[b] * column[j + b, k]
-            out[m, k] = acc
-
-
 def _coefficients(v: np.ndarray) -> BearingCoefficients:
     return BearingCoefficients(v[0:2].copy(), v[2:6].reshape(2, 2).copy(), v[6:10].reshape(2, 2).copy())
 
@@ -415,151 +330,6 @@ def _coefficients(v: np.ndarray) -> BearingCoefficients:
 def _attitude_deg(e: np.ndarray) -> float:
     angle = math.degrees(math.atan2(e[1], e[0])) + 90.0
     return (angle + 180.0) % 360.0 - 180.0
-
-
-def dimensionless_row(bearing: JournalBearing, row: dict, speed_hz: float, load_n: float) -> np.ndarray:
-    """The 11 dimensionless quantities of one row of a :class:`~models.bearing.table.CoefficientTable`."""
-    c = bearing.clearance_m
-    omega = 2.0 * math.pi * speed_hz
-    k = [row["stiffness_n_per_m"][p] * c / load_n for p in _PAIRS]
-    d = [row["damping_n_s_per_m"][p] * c * omega / load_n for p in _PAIRS]
-    p_ref = bearing.viscosity_pa_s * omega * (bearing.radius_m / c) ** 2
-    return np.array(
-        [row["eccentricity_x_m"] / c, row["eccentricity_y_m"] / c, *k, *d, row["supply_pressure_pa"] / p_ref]
-    )
-
-
-def sommerfeld_grid(centre: float, low: float, high: float, ratio: float) -> np.ndarray:
-    """Nodes centre * ratio^k (uniform in ln S), from the last <= ``low`` to the first >= ``high``."""
-    if not 0 < low <= high:
-        raise InputError(f"Sommerfeld range must satisfy 0 < low <= high, got [{low:g}, {high:g}]")
-    if ratio <= 1.0:
-        raise InputError(f"Sommerfeld node ratio must be > 1, got {ratio:g}")
-    k_low = math.floor(math.log(low / centre) / math.log(ratio) + 1e-9)
-    k_high = math.ceil(math.log(high / centre) / math.log(ratio) - 1e-9)
-    return centre * ratio ** np.arange(k_low, k_high + 1, dtype=float)
-
-
-def compute_operating_table(
-    bearing: JournalBearing,
-    load_n: float,
-    speed_hz: float,
-    sommerfeld_nodes,
-    fraction_nodes,
-    mesh: Mesh | None = None,
-    progress: Callable[[int], None] | None = None,
-    provenance: dict | None = None,
-    coefficients: str = QUASI_STATIC,
-    checkpoint: str | Path | None = None,
-) -> OperatingTable:
-    """Solve the dimensionless table at ``speed_hz`` and ``load_n``, setting each S by the viscosity.
-
-    At each Sommerfeld node the viscosity is mu = S W / (N L D (R/c)^2); the flooded threshold and
-    then :func:`~models.bearing.table.compute_table` at the flowrates f q_t give the node's row.
-    ``coefficients`` is the kind of K, C (:data:`~models.bearing.table.COEFFICIENT_KINDS`): at whirl
-    frequency = spin speed the whirl ratio is 1, so the synchronous K c / W and C c Omega / W are functions
-    of (S, f) too. ``progress(n)`` is called after each solved point (n = 1) and each threshold (n = 0).
-    ``checkpoint``: a JSON file that holds every finished Sommerfeld node; a stopped run started again
-    with the same file, nodes, mesh and kind resumes after the last finished node.
-    """
-    mesh = PRODUCTION_MESH if mesh is None else mesh
-    load = require_positive("load_n", load_n, "N")
-    speed = require_positive("speed_hz", speed_hz, "Hz")
-    s_nodes = np.asarray(sommerfeld_nodes, dtype=float)
-    f_nodes = np.asarray(fraction_nodes, dtype=float)
-    q_c = couette_flow_m3_s(bearing, speed)
-    unit_viscosity = sommerfeld_number(bearing, 1.0, speed, load)
-    values = np.empty((s_nodes.size, f_nodes.size, N_QUANTITIES))
-    threshold = np.empty(s_nodes.size)
-    started = time.perf_counter()
-    resume = _Checkpoint(checkpoint, s_nodes, f_nodes, mesh, coefficients, speed, load)
-    for i, s in enumerate(s_nodes):
-        if resume.has(i):
-            threshold[i], values[i] = resume.node(i)
-            if progress is not None:
-                progress(0)
-                progress(f_nodes.size)
-            continue
-        at_s = dataclasses.replace(bearing, viscosity_pa_s=float(s / unit_viscosity))
-        q_t, _ = flooded_threshold(at_s, load, speed, mesh)
-        threshold[i] = q_t / q_c
-        if progress is not None:
-            progress(0)
-        flows = q_t * f_nodes
-        flows[np.isclose(f_nodes, 1.0, rtol=0, atol=1e-12)] = q_t  # exactly on the threshold
-        table = compute_table(
-            at_s, load, speed, flows, mesh, flooded_threshold_m3_s=q_t, coefficients=coefficients
-        )
-        for j, row in enumerate(table.rows):
-            values[i, j] = dimensionless_row(at_s, row, speed, load)
-            if progress is not None:
-                progress(1)
-        resume.store(i, threshold[i], values[i], table.metadata)
-    meta = {k: v for k, v in resume.metadata.items() if k in ("mesh", "solver")}
-    meta["solver"] = {
-        **meta["solver"],
-        "per_node": "models.bearing.table.compute_table at mu = S W / (N L D (R/c)^2)",
-    }
-    meta.update(
-        {
-            "quantities": "values[i][j] at (S_i, f_j): e_x/c, e_y/c, K c/W (xx, xy, yx, yy), "
-            "C c Omega/W (xx, xy, yx, yy), groove pressure c^2/(mu Omega R^2)",
-            "solved_at": {"speed_hz": speed, "load_n": load},
-            "interpolation": "tensor-product Catmull-Rom in (ln S, f), ghost nodes linearly extrapolated; "
-            "q_t/q_c in ln-ln over S",
-            "provenance": {
-                **resume.metadata["provenance"],
-                "compute_s": round(time.perf_counter() - started, 1),
-                **(provenance or {}),
-            },
-        }
-    )
-    return OperatingTable(s_nodes, f_nodes, values, threshold, dataclasses.asdict(bearing), meta)
-
-
-class _Checkpoint:
-    """The finished Sommerfeld nodes of :func:`compute_operating_table`, kept in a JSON file (or nowhere)."""
-
-    def __init__(self, path, s_nodes, f_nodes, mesh: Mesh, coefficients: str, speed_hz: float, load_n: float):
-        self.path = None if path is None else Path(path)
-        self.key = {
-            "sommerfeld_nodes": s_nodes.tolist(),
-            "fraction_of_threshold_nodes": f_nodes.tolist(),
-            "mesh": [mesh.n_circ, mesh.n_axial],
-            "coefficients": coefficients,
-            "speed_hz": speed_hz,
-            "load_n": load_n,
-        }
-        self.nodes: dict[str, dict] = {}
-        self.metadata: dict = {}
-        if self.path is not None and self.path.is_file():
-            try:
-                data = json.loads(self.path.read_text())
-            except json.JSONDecodeError as error:
-                raise InputError(f"checkpoint {self.path} is not valid JSON: {error}") from None
-            if data.get("key") != self.key:
-                raise InputError(
-                    f"checkpoint {self.path} belongs to another table (nodes, mesh, kind, speed or load "
-                    "differ): remove it or choose another --out"
-                )
-            self.nodes, self.metadata = data["nodes"], data["metadata"]
-
-    def has(self, i: int) -> bool:
-        return str(i) in self.nodes
-
-    def node(self, i: int) -> tuple[float, np.ndarray]:
-        entry = self.nodes[str(i)]
-        return entry["threshold_flow_ratio"], np.asarray(entry["values"])
-
-    def store(self, i: int, threshold: float, values: np.ndarray, metadata: dict) -> None:
-        self.nodes[str(i)] = {"threshold_flow_ratio": float(threshold), "values": values.tolist()}
-        self.metadata = metadata
-        if self.path is not None:
-            self.path.parent.mkdir(parents=True, exist_ok=True)
-            text = json.dumps({"key": self.key, "nodes": self.nodes, "metadata": metadata})
-            temporary = self.path.with_name(self.path.name + ".tmp")
-            temporary.write_text(text)
-            temporary.replace(self.path)
 
 
 def operating_table_name(machine_file: str | Path, coefficients: str = QUASI_STATIC) -> str:

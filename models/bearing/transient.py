@@ -23,44 +23,60 @@ Fast path: the step is solved by projected multigrid cycles (:mod:`models.bearin
 the projected Gauss-Seidel sweep of Ausas et al. as smoother, an aggregation coarse correction of the
 pressurized region) on large meshes, by projected SOR sweeps (:mod:`models.bearing.transient_sweep`) on
 small ones, warm-started from the film extrapolated linearly in time; a step is accepted only when
-every volume's residual and the step's mass balance meet the tolerances, else the active set below
-finishes it (the fallback).
+every volume's residual and the step's mass balance meet the tolerances, else the active set
+(:mod:`models.bearing.transient_active_set`, an LU-preconditioned GMRES per iteration) finishes it (the
+fallback).
 
 Symmetry: the journal is rigid and aligned and the groove axially centred, so the film is
 mirror-symmetric about the mid-plane; on an even ``n_axial`` only the half z < L/2 is solved (closed
 at the mid-plane, :func:`models.bearing.grid.film_grid` with ``half``) and forces, flows and content
 are doubled (tested against the whole film). It halves every solver's cost.
-
-Linear solves: the step matrices of successive steps differ little (the journal moves a fraction
-of the clearance, a few volumes switch), so the sparse LU of one step is reused as the
-preconditioner of GMRES for the next ones and refactored only when GMRES needs more than
-``REFACTOR_ITERATIONS`` iterations. The LU itself costs ~20 triangular solves.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import NamedTuple
 
 import numpy as np
-import scipy.sparse as sp
-from scipy.sparse.linalg import LinearOperator, gmres, splu
 
 from ..validation import InputError, require_non_negative, require_positive
 from .discretization import force_weights
 from .film import FilmSolution, validate_state
 from .geometry import JournalBearing
 from .grid import PRODUCTION_MESH, FilmGrid, Mesh, film_grid
+from .transient_active_set import (
+    LINEAR_TOLERANCE,
+    REFACTOR_ITERATIONS,
+    ActiveSetStart,
+    ActiveSetStep,
+    extrapolated_start,
+)
 from .transient_kernels import StepArrays, StepAssembly, step_source, sweep_start
 from .transient_multigrid import CoarseCorrection, multigrid_solve
 from .transient_sweep import sor_sweeps
 
+__all__ = [
+    "BDF",
+    "LINEAR_TOLERANCE",
+    "MULTIGRID_CYCLE_LIMIT",
+    "MULTIGRID_MIN_NODES",
+    "REFACTOR_ITERATIONS",
+    "SOLVERS",
+    "SWEEP_CHECK_EVERY",
+    "SWEEP_LIMIT",
+    "SWEEP_MASS_TOLERANCE",
+    "SWEEP_MAX_NODES",
+    "SWEEP_PREDICTOR",
+    "SWEEP_RELAXATION_SCALE",
+    "SWEEP_RESIDUAL_TOLERANCE",
+    "TransientFilm",
+    "TransientFilmState",
+    "default_sweep_limit",
+    "mass_balance_error",
+]
 BDF = {1: (1.0, (-1.0,)), 2: (1.5, (-2.0, 0.5))}
 """Backward-differentiation weights: d m/dt ~ (beta m^{n+1} + sum_i a_i m^{n-i}) / dt."""
-REFACTOR_ITERATIONS = 12
-LINEAR_TOLERANCE = 1e-11
-"""GMRES stops when the volume-balance residual (2-norm) is below this times the Couette flow U c L / 2."""
 SWEEP_RELAXATION_SCALE = 1.78
 """Over-relaxation of the pressure: omega = 2 / (1 + SWEEP_RELAXATION_SCALE / n_axial), the mesh scaling
 of the optimal SOR factor (2 / (1 + pi h / L)), fitted on 60 x 16 (3 um whirl, omega 1.8: 92 sweeps per
@@ -94,14 +110,6 @@ multigrid 4.4 ms (1e-11); 240 x 72 half (8389) multigrid 31 cycles, 16 ms (1e-11
 def default_sweep_limit(n_nodes: int) -> int:
     """Sweeps tried before the active set (see :data:`SWEEP_MAX_NODES`)."""
     return SWEEP_LIMIT if n_nodes <= SWEEP_MAX_NODES else SWEEP_PREDICTOR
-
-
-class _Start(NamedTuple):
-    """Unknowns and partition that start the active-set iteration."""
-
-    pressure_pa: np.ndarray
-    fill_fraction: np.ndarray
-    full: np.ndarray
 
 
 @dataclass(frozen=True, eq=False)
@@ -139,7 +147,7 @@ class TransientFilmState:
         return float(self.mirror * self.content_m3.sum())
 
 
-class TransientFilm:
+class TransientFilm(ActiveSetStep):
     """Time stepper of one bearing's p-theta film at a fixed spin speed.
 
     Parameters: ``bearing``; ``speed_hz`` [Hz]; ``mesh`` (default the production mesh); ``order``
@@ -283,9 +291,9 @@ class TransientFilm:
         else:
             if sweep is not None:
                 self.fallbacks += 1
-                start = _Start(sweep[0], sweep[1], sweep[2])
+                start = ActiveSetStart(sweep[0], sweep[1], sweep[2])
             else:
-                start = _extrapolated(state) if guess is None else guess
+                start = extrapolated_start(state) if guess is None else guess
             p, theta, full, iteration, linear = self._active_set(arrays, start, max_iterations)
         # Volumes within the tolerance of a switch keep their (unclipped) solution: the balance stays exact.
         content = theta * volume
@@ -311,8 +319,8 @@ class TransientFilm:
 
     def _sweeps(self, arrays: StepArrays, state: TransientFilmState, guess, q: float):
         """Projected SOR or multigrid (:mod:`models.bearing.transient_sweep`) from ``guess``, else from
-        ``state`` extrapolated in time (as :func:`_extrapolated`, compiled: ``sweep_start``): (p [Pa],
-        theta, full, converged, sweeps, max |residual| / (U c L / 2))."""
+        ``state`` extrapolated in time (as :func:`~models.bearing.transient_active_set.extrapolated_start`,
+        compiled: ``sweep_start``): (p [Pa], theta, full, converged, sweeps, max |residual| / (U c L / 2))."""
         n = self.grid.n_nodes
         p, theta = np.empty(n), np.empty(n)
         start = state if guess is None else guess
@@ -341,95 +349,6 @@ class TransientFilm:
         self.sweep_count += sweeps
         full = theta >= 1.0
         return p * self.p_ref, theta, full, converged, sweeps, worst / scale
-
-    def _active_set(self, arrays: StepArrays, start, max_iterations: int):
-        """The primal-dual active-set solve of the step's complementarity problem from ``start``."""
-        grid = self.grid
-        rows, cols, diag = arrays.rows, arrays.indices, arrays.diag
-        ap_scaled, at, storage, source = arrays.ap, arrays.at, arrays.storage, arrays.rhs
-        full = start.full.copy()
-        u = np.where(full, start.pressure_pa / self.p_ref, start.fill_fraction)
-        tol_p = 1e-10 * self.p_ref
-        seen: set[bytes] = set()
-        linear = 0
-        for iteration in range(1, max_iterations + 1):  # noqa: B007 (the count is returned)
-            cav = ~full
-            data = np.where(full[cols], ap_scaled, at)
-            data[diag] += storage * cav
-            rhs = source - np.bincount(rows, weights=at * full[cols], minlength=grid.n_nodes)
-            rhs -= storage * full
-            u, its = self._linear_solve(data, rhs, u, LINEAR_TOLERANCE * self.couette_scale_m3_s)
-            linear += its
-            p = np.where(full, u * self.p_ref, 0.0)
-            theta = np.where(full, 1.0, u)
-            new_full = full.copy()
-            new_full[full & (p < -tol_p)] = False
-            new_full[cav & (theta > 1.0 + 1e-10)] = True
-            if np.array_equal(new_full, full):
-                break
-            key = np.packbits(new_full).tobytes()
-            if key in seen:
-                new_full = full.copy()
-                worst_p = np.where(full, p, np.inf).argmin()
-                worst_t = np.where(cav, theta, -np.inf).argmax()
-                if -p[worst_p] / self.p_ref >= theta[worst_t] - 1.0:
-                    new_full[worst_p] = False
-                else:
-                    new_full[worst_t] = True
-            seen.add(key)
-            u = np.where(new_full & ~full, 0.0, np.where(~new_full & full, 1.0, u))
-            full = new_full
-        else:
-            raise RuntimeError(
-                f"transient film step did not converge in {max_iterations} active-set iterations"
-            )
-        return p, theta, full, iteration, linear
-
-    def _linear_solve(self, data, rhs, guess, atol: float) -> tuple[np.ndarray, int]:
-        """Solve M u = rhs (M as CSR data on the grid pattern) by GMRES preconditioned with a reused LU."""
-        grid = self.grid
-        n = grid.n_nodes
-        matrix = sp.csr_matrix((data, grid.pattern.indices, grid.pattern.indptr), shape=(n, n))
-        if self._lu is not None:
-            lu = self._lu
-            preconditioner = LinearOperator((n, n), matvec=lambda v: lu.solve(v, trans="T"))
-            count = [0]
-
-            def tick(_):
-                count[0] += 1
-
-            u, info = gmres(
-                matrix,
-                rhs,
-                x0=guess,
-                rtol=1e-14,
-                atol=atol,
-                restart=REFACTOR_ITERATIONS,
-                maxiter=1,
-                M=preconditioner,
-                callback=tick,
-                callback_type="pr_norm",
-            )
-            if info == 0 and count[0] < REFACTOR_ITERATIONS:
-                return u, count[0]
-        mt = sp.csc_matrix((data, grid.pattern.indices, grid.pattern.indptr), shape=(n, n))
-        self._lu = splu(
-            mt, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True}
-        )
-        self.factorizations += 1
-        return self._lu.solve(rhs, trans="T"), 0
-
-
-def _extrapolated(state: TransientFilmState) -> _Start:
-    """The start of a step: the film extrapolated linearly in time from its last two steps (the
-    journal moves smoothly, so this halves or better the residual the solver has to remove), or the
-    state itself before its second step. The partition follows the extrapolated pressure."""
-    if state.previous_pressure_pa is None:
-        return _Start(state.pressure_pa, state.fill_fraction, state.full)
-    p = 2.0 * state.pressure_pa - state.previous_pressure_pa
-    theta = np.clip(2.0 * state.fill_fraction - state.previous_fill_fraction, 0.0, 1.0)
-    full = p > 0.0
-    return _Start(np.maximum(p, 0.0), np.where(full, 1.0, np.minimum(theta, 1.0 - 1e-12)), full)
 
 
 def mass_balance_error(film: TransientFilm, before: TransientFilmState, after: TransientFilmState) -> float:

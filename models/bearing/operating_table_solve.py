@@ -1,0 +1,154 @@
+"""Solving the dimensionless bearing table: the p-theta equilibrium and coefficients over (ln S, f).
+
+At one speed and load every Sommerfeld node is reached by the viscosity, mu = S W / (N L D (R/c)^2)
+(:mod:`models.bearing.sommerfeld`); at each node the flooded threshold q_t and
+:func:`models.bearing.table.compute_table` at the flowrates f q_t (the project's conventions: held-partition
+stiffness, default full-film squeeze, mean of the one-sided limits on f = 1) give the node's row. A long
+run keeps its finished nodes in a checkpoint file, so a stopped run resumes.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..validation import InputError, require_positive
+from .coefficient_kinds import QUASI_STATIC
+from .geometry import JournalBearing
+from .grid import PRODUCTION_MESH, Mesh
+from .sommerfeld import N_QUANTITIES, couette_flow_m3_s, dimensionless_row, sommerfeld_number
+from .table import compute_table, flooded_threshold
+
+if TYPE_CHECKING:
+    from .operating_table import OperatingTable
+
+
+def compute_operating_table(
+    bearing: JournalBearing,
+    load_n: float,
+    speed_hz: float,
+    sommerfeld_nodes,
+    fraction_nodes,
+    mesh: Mesh | None = None,
+    progress: Callable[[int], None] | None = None,
+    provenance: dict | None = None,
+    coefficients: str = QUASI_STATIC,
+    checkpoint: str | Path | None = None,
+) -> OperatingTable:
+    """Solve the dimensionless table at ``speed_hz`` and ``load_n``, setting each S by the viscosity.
+
+    At each Sommerfeld node the viscosity is mu = S W / (N L D (R/c)^2); the flooded threshold and
+    then :func:`~models.bearing.table.compute_table` at the flowrates f q_t give the node's row.
+    ``coefficients`` is the kind of K, C (:data:`~models.bearing.table.COEFFICIENT_KINDS`): at whirl
+    frequency = spin speed the whirl ratio is 1, so the synchronous K c / W and C c Omega / W are functions
+    of (S, f) too. ``progress(n)`` is called after each solved point (n = 1) and each threshold (n = 0).
+    ``checkpoint``: a JSON file that holds every finished Sommerfeld node; a stopped run started again
+    with the same file, nodes, mesh and kind resumes after the last finished node.
+    """
+    mesh = PRODUCTION_MESH if mesh is None else mesh
+    load = require_positive("load_n", load_n, "N")
+    speed = require_positive("speed_hz", speed_hz, "Hz")
+    s_nodes = np.asarray(sommerfeld_nodes, dtype=float)
+    f_nodes = np.asarray(fraction_nodes, dtype=float)
+    q_c = couette_flow_m3_s(bearing, speed)
+    unit_viscosity = sommerfeld_number(bearing, 1.0, speed, load)
+    values = np.empty((s_nodes.size, f_nodes.size, N_QUANTITIES))
+    threshold = np.empty(s_nodes.size)
+    started = time.perf_counter()
+    resume = _Checkpoint(checkpoint, s_nodes, f_nodes, mesh, coefficients, speed, load)
+    for i, s in enumerate(s_nodes):
+        if resume.has(i):
+            threshold[i], values[i] = resume.node(i)
+            if progress is not None:
+                progress(0)
+                progress(f_nodes.size)
+            continue
+        at_s = dataclasses.replace(bearing, viscosity_pa_s=float(s / unit_viscosity))
+        q_t, _ = flooded_threshold(at_s, load, speed, mesh)
+        threshold[i] = q_t / q_c
+        if progress is not None:
+            progress(0)
+        flows = q_t * f_nodes
+        flows[np.isclose(f_nodes, 1.0, rtol=0, atol=1e-12)] = q_t  # exactly on the threshold
+        table = compute_table(
+            at_s, load, speed, flows, mesh, flooded_threshold_m3_s=q_t, coefficients=coefficients
+        )
+        for j, row in enumerate(table.rows):
+            values[i, j] = dimensionless_row(at_s, row, speed, load)
+            if progress is not None:
+                progress(1)
+        resume.store(i, threshold[i], values[i], table.metadata)
+    meta = {k: v for k, v in resume.metadata.items() if k in ("mesh", "solver")}
+    meta["solver"] = {
+        **meta["solver"],
+        "per_node": "models.bearing.table.compute_table at mu = S W / (N L D (R/c)^2)",
+    }
+    meta.update(
+        {
+            "quantities": "values[i][j] at (S_i, f_j): e_x/c, e_y/c, K c/W (xx, xy, yx, yy), "
+            "C c Omega/W (xx, xy, yx, yy), groove pressure c^2/(mu Omega R^2)",
+            "solved_at": {"speed_hz": speed, "load_n": load},
+            "interpolation": "tensor-product Catmull-Rom in (ln S, f), ghost nodes linearly extrapolated; "
+            "q_t/q_c in ln-ln over S",
+            "provenance": {
+                **resume.metadata["provenance"],
+                "compute_s": round(time.perf_counter() - started, 1),
+                **(provenance or {}),
+            },
+        }
+    )
+    # Imported at run time: models.bearing.operating_table re-exports this function (its old import path).
+    from .operating_table import OperatingTable
+
+    return OperatingTable(s_nodes, f_nodes, values, threshold, dataclasses.asdict(bearing), meta)
+
+
+class _Checkpoint:
+    """The finished Sommerfeld nodes of :func:`compute_operating_table`, kept in a JSON file (or nowhere)."""
+
+    def __init__(self, path, s_nodes, f_nodes, mesh: Mesh, coefficients: str, speed_hz: float, load_n: float):
+        self.path = None if path is None else Path(path)
+        self.key = {
+            "sommerfeld_nodes": s_nodes.tolist(),
+            "fraction_of_threshold_nodes": f_nodes.tolist(),
+            "mesh": [mesh.n_circ, mesh.n_axial],
+            "coefficients": coefficients,
+            "speed_hz": speed_hz,
+            "load_n": load_n,
+        }
+        self.nodes: dict[str, dict] = {}
+        self.metadata: dict = {}
+        if self.path is not None and self.path.is_file():
+            try:
+                data = json.loads(self.path.read_text())
+            except json.JSONDecodeError as error:
+                raise InputError(f"checkpoint {self.path} is not valid JSON: {error}") from None
+            if data.get("key") != self.key:
+                raise InputError(
+                    f"checkpoint {self.path} belongs to another table (nodes, mesh, kind, speed or load "
+                    "differ): remove it or choose another --out"
+                )
+            self.nodes, self.metadata = data["nodes"], data["metadata"]
+
+    def has(self, i: int) -> bool:
+        return str(i) in self.nodes
+
+    def node(self, i: int) -> tuple[float, np.ndarray]:
+        entry = self.nodes[str(i)]
+        return entry["threshold_flow_ratio"], np.asarray(entry["values"])
+
+    def store(self, i: int, threshold: float, values: np.ndarray, metadata: dict) -> None:
+        self.nodes[str(i)] = {"threshold_flow_ratio": float(threshold), "values": values.tolist()}
+        self.metadata = metadata
+        if self.path is not None:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            text = json.dumps({"key": self.key, "nodes": self.nodes, "metadata": metadata})
+            temporary = self.path.with_name(self.path.name + ".tmp")
+            temporary.write_text(text)
+            temporary.replace(self.path)

@@ -1,0 +1,244 @@
+"""The parts of a machine file: material, discs, unbalance, bearings, oil and lubrication, and their readers.
+
+Each reader validates one section of a parsed machine file (:mod:`models.machine`) with the field readers
+of :mod:`models.machine_fields` and converts it to SI.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from .bearing.geometry import JournalBearing
+from .machine_fields import as_node, as_number, read_key, read_real, read_table
+from .oil import DEFAULT_THERMAL_EXPANSION_PER_K, Oil
+from .validation import InputError
+
+LOAD_SPLITS = ("equal", "reactions")
+
+
+@dataclass(frozen=True)
+class Material:
+    """Isotropic linear-elastic material of shaft and discs.
+
+    Attributes: youngs_modulus_pa E [Pa], poisson_ratio nu [-], density_kg_m3 rho [kg/m^3].
+    """
+
+    youngs_modulus_pa: float
+    poisson_ratio: float
+    density_kg_m3: float
+
+    @property
+    def shear_modulus_pa(self) -> float:
+        """G = E / (2 (1 + nu)) [Pa]."""
+        return self.youngs_modulus_pa / (2.0 * (1.0 + self.poisson_ratio))
+
+
+@dataclass(frozen=True)
+class Disc:
+    """A rigid annular disc shrunk on the shaft at ``node`` (paper numbering from 1).
+
+    The bore equals the shaft diameter at the node (the larger of the adjacent elements'), which is
+    what reproduces the paper's rotor weight. Lengths in metres.
+    """
+
+    node: int
+    width_m: float
+    outer_diameter_m: float
+    bore_diameter_m: float
+
+
+@dataclass(frozen=True)
+class Unbalance:
+    """Residual unbalance by ISO 1940 balance grade: e = grade / Omega_nominal.
+
+    Attributes: node (paper numbering), iso_grade_m_s [m/s] (G2.5 = 2.5e-3 m/s), phase_rad
+    phi of Eqs. 5-6 [rad].
+    """
+
+    node: int
+    iso_grade_m_s: float
+    phase_rad: float
+
+
+@dataclass(frozen=True)
+class Lubrication:
+    """Nominal oil supply of the bearings.
+
+    Attributes: nominal_supply_pressure_pa [Pa] (NaN when the file gives only a flowrate),
+    nominal_flowrate_m3_s [m^3/s] (every flowrate given as a percentage is a percentage of it),
+    table_min/max_fraction_of_threshold: span of the coefficient tables as fractions of the flooded
+    threshold flowrate q_t [-], nominal_flowrate_computed: True when the file gives only the supply
+    pressure and the flowrate was computed from it (:func:`nominal_flowrate_from_pressure`).
+    """
+
+    nominal_supply_pressure_pa: float
+    nominal_flowrate_m3_s: float
+    table_min_fraction_of_threshold: float
+    table_max_fraction_of_threshold: float
+    nominal_flowrate_computed: bool = False
+
+
+def shaft_diameter_at_node(diameters_m: np.ndarray, node: int) -> float:
+    """The shaft diameter at ``node`` [m]: the larger of the elements meeting there."""
+    adjacent = [k - 1 for k in (node - 1, node) if 1 <= k <= diameters_m.size]
+    return float(max(diameters_m[k] for k in adjacent))
+
+
+def read_discs(data: Mapping[str, Any], diameters: np.ndarray, n_nodes: int) -> tuple[Disc, ...]:
+    """The ``[[discs]]`` array (none when absent); each bore is the shaft diameter at its node."""
+    entries = data.get("discs", [])
+    if not isinstance(entries, list):
+        raise InputError("[[discs]] must be an array of tables")
+    discs = []
+    for i, entry in enumerate(entries):
+        section = f"discs[{i}]"
+        if not isinstance(entry, Mapping):
+            raise InputError(f"{section} must be a table")
+        node = as_node(read_key(entry, section, "node"), f"{section}.node", n_nodes)
+        width = read_real(entry, section, "width_mm", "mm") / 1e3
+        outer = read_real(entry, section, "outer_diameter_mm", "mm") / 1e3
+        bore = shaft_diameter_at_node(diameters, node)
+        if outer <= bore:
+            raise InputError(
+                f"{section}.outer_diameter_mm must exceed the shaft diameter at node {node} "
+                f"({bore * 1e3:g} mm), got {outer * 1e3:g}"
+            )
+        discs.append(Disc(node, width, outer, bore))
+    return tuple(discs)
+
+
+def read_bearings(
+    data: Mapping[str, Any], diameters: np.ndarray, n_nodes: int
+) -> tuple[tuple[int, ...], JournalBearing, str]:
+    """The ``[bearings]`` table: (bearing nodes, the shared geometry and viscosity, load split)."""
+    table = read_table(data, "bearings")
+    nodes = read_key(table, "bearings", "nodes")
+    if not isinstance(nodes, list) or not nodes:
+        raise InputError("bearings.nodes must be a non-empty list of node numbers")
+    bearing_nodes = tuple(as_node(n, f"bearings.nodes[{i}]", n_nodes) for i, n in enumerate(nodes))
+    if len(set(bearing_nodes)) != len(bearing_nodes):
+        raise InputError(f"bearings.nodes must be distinct, got {list(bearing_nodes)}")
+    load_split = read_key(table, "bearings", "load_split")
+    if load_split not in LOAD_SPLITS:
+        raise InputError(f"bearings.load_split must be one of {LOAD_SPLITS}, got {load_split!r}")
+    radius = read_real(table, "bearings", "radius_mm", "mm") / 1e3
+    clearance = read_real(table, "bearings", "radial_clearance_um", "um") / 1e6
+    if clearance >= radius:
+        raise InputError("bearings.radial_clearance_um must be smaller than bearings.radius_mm")
+    for i, node in enumerate(bearing_nodes):
+        journal = shaft_diameter_at_node(diameters, node)
+        adjacent = [diameters[k - 1] for k in (node - 1, node) if 1 <= k <= diameters.size]
+        if min(abs(d - 2.0 * radius) for d in adjacent) > 0.01 * 2.0 * radius:
+            raise InputError(
+                f"bearings.radius_mm = {radius * 1e3:g} does not match the shaft at "
+                f"bearings.nodes[{i}] = {node} (diameter {journal * 1e3:g} mm)"
+            )
+    length = read_real(table, "bearings", "length_mm", "mm") / 1e3
+    groove_axial = read_real(table, "bearings", "groove_axial_mm", "mm") / 1e3
+    if groove_axial > length:
+        raise InputError(
+            f"bearings.groove_axial_mm must be <= bearings.length_mm ({length * 1e3:g}), "
+            f"got {groove_axial * 1e3:g}"
+        )
+    groove_circ = read_real(table, "bearings", "groove_circumferential_mm", "mm") / 1e3
+    if groove_circ > math.pi * radius:
+        raise InputError(
+            f"bearings.groove_circumferential_mm must be <= pi R ({math.pi * radius * 1e3:g}), "
+            f"got {groove_circ * 1e3:g}"
+        )
+    bearing = JournalBearing(
+        radius_m=radius,
+        length_m=length,
+        clearance_m=clearance,
+        viscosity_pa_s=_bearing_viscosity(data, table),
+        groove_angle_rad=math.radians(read_real(table, "bearings", "groove_angle_deg", "deg", low=None)),
+        groove_circumferential_m=groove_circ,
+        groove_axial_m=groove_axial,
+    )
+    return bearing_nodes, bearing, load_split
+
+
+def read_oil(data: Mapping[str, Any]) -> tuple[Oil | None, float | None]:
+    """The ``[oil]`` section: ISO VG grade + viscosity index, or two measured points; density; nominal
+    supply temperature. (None, None) when the file has no ``[oil]``."""
+    if "oil" not in data:
+        return None, None
+    table = read_table(data, "oil")
+    density = read_real(table, "oil", "density_15c_kg_m3", "kg/m^3")
+    expansion = DEFAULT_THERMAL_EXPANSION_PER_K
+    if "thermal_expansion_per_k" in table:
+        expansion = read_real(table, "oil", "thermal_expansion_per_k", "1/K", strict=False)
+    by_grade = "iso_vg_grade" in table or "viscosity_index" in table
+    by_points = "kinematic_viscosity_points_c_cst" in table
+    if by_grade == by_points:
+        raise InputError(
+            "[oil] needs either iso_vg_grade and viscosity_index, or kinematic_viscosity_points_c_cst "
+            "(two [temperature degC, viscosity cSt] pairs), not both"
+        )
+    if by_grade:
+        grade = read_real(table, "oil", "iso_vg_grade", "cSt")
+        oil = Oil.from_grade(
+            grade, read_real(table, "oil", "viscosity_index", "", low=None), density, expansion
+        )
+    else:
+        points = table["kinematic_viscosity_points_c_cst"]
+        pairs_ok = isinstance(points, list) and len(points) == 2
+        if not (pairs_ok and all(isinstance(p, list) and len(p) == 2 for p in points)):
+            raise InputError(
+                "oil.kinematic_viscosity_points_c_cst must be two [temperature degC, viscosity cSt] pairs, "
+                f"got {points!r}"
+            )
+        field = "oil.kinematic_viscosity_points_c_cst"
+        pairs = tuple(tuple(as_number(v, f"{field}[{i}]") for v in p) for i, p in enumerate(points))
+        oil = Oil.from_points(pairs, density, expansion)
+    temperature = read_real(table, "oil", "nominal_supply_temperature_c", "degC", low=None)
+    oil.dynamic_viscosity_pa_s(temperature)  # range check: names the temperature
+    return oil, temperature
+
+
+def _bearing_viscosity(data: Mapping[str, Any], bearings: Mapping[str, Any]) -> float:
+    """The bearings' nominal viscosity [Pa s]: the oil's at its nominal temperature, or given directly."""
+    oil, temperature = read_oil(data)
+    if oil is None:
+        return read_real(bearings, "bearings", "viscosity_pa_s", "Pa s")
+    if "viscosity_pa_s" in bearings:
+        raise InputError(
+            "give the bearings' viscosity once: bearings.viscosity_pa_s or the [oil] section "
+            "(its viscosity at oil.nominal_supply_temperature_c), not both"
+        )
+    return oil.dynamic_viscosity_pa_s(temperature)
+
+
+def read_lubrication(data: Mapping[str, Any]) -> Lubrication:
+    """The ``[lubrication]`` table: nominal pressure and/or flowrate and the tables' span."""
+    table = read_table(data, "lubrication")
+    low = read_real(table, "lubrication", "table_min_fraction_of_threshold", "")
+    high = read_real(table, "lubrication", "table_max_fraction_of_threshold", "")
+    if high <= low:
+        raise InputError(
+            "lubrication.table_max_fraction_of_threshold must exceed "
+            f"table_min_fraction_of_threshold ({low:g}), got {high:g}"
+        )
+    if "nominal_flowrate_ml_min" not in table and "nominal_supply_pressure_bar" not in table:
+        raise InputError(
+            "[lubrication] needs nominal_flowrate_ml_min or nominal_supply_pressure_bar (the flowrate is "
+            "then computed at that groove pressure)"
+        )
+    pressure = math.nan
+    if "nominal_supply_pressure_bar" in table:
+        pressure = read_real(table, "lubrication", "nominal_supply_pressure_bar", "bar", strict=False) * 1e5
+    flowrate = math.nan
+    if "nominal_flowrate_ml_min" in table:
+        flowrate = read_real(table, "lubrication", "nominal_flowrate_ml_min", "ml/min") / 1e6 / 60.0
+    return Lubrication(
+        nominal_supply_pressure_pa=pressure,
+        nominal_flowrate_m3_s=flowrate,
+        table_min_fraction_of_threshold=low,
+        table_max_fraction_of_threshold=high,
+        nominal_flowrate_computed=math.isnan(flowrate),
+    )
