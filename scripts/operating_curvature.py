@@ -6,7 +6,8 @@
    differences of 3e-4 and 1e-3 (relative error, max over the matrices' entries): truncation against
    round-off.
 2. The model error (``scripts/operating_model_error.py``: static position and 1x orbit of the map against
-   the exact map's, worst probe, over its operating points) with the centre F thresholds away in every axis,
+   the exact map's, worst probe, over its operating points) with the centre F thresholds away in every axis
+   (d323c00's thresholds: 2 % of speed, 0.03 in ln mu, 1.5 % of flow),
    for the correction of first order, with each bearing's own (q_b, ln mu_b) second-order terms (the
    model's), with the cross-bearing pairs added, and with the speed's pairs added as well.
 
@@ -27,12 +28,14 @@ from models.machine import load_machine
 from models.system.factory import load_system
 from models.system.operating_correction import SECOND_ORDER_PAIRS
 from models.system.operating_maps import AXES
-from models.system.operating_model import build_operating_model
+from models.system.operating_model import Recentring, build_operating_model
 
 CROSS_PAIRS = ((0, 1), (3, 4), (0, 4), (1, 3))
 """Second-order pairs across the bearings: (q1, q2), (ln mu1, ln mu2), (q1, ln mu2), (q2, ln mu1)."""
 SPEED_PAIRS = ((2, 2), (0, 2), (1, 2), (2, 3), (2, 4))
 """Second-order pairs with the speed."""
+PREVIOUS = Recentring(speed_fraction=0.02, log_viscosity=0.03, flowrate_fraction=0.015)
+"""d323c00's thresholds, the distances of the pair study."""
 
 
 def central(maps, q, speed, mu, pair, step):
@@ -76,7 +79,7 @@ def pair_study(model, fractions) -> None:
     print("worst static / orbit error [um] over the operating points, centre F thresholds away")
     for fraction in fractions:
         for name, pairs in variants.items():
-            variant = held_model(model, second_order=pairs)
+            variant = held_model(model, PREVIOUS, second_order=pairs)
             worst = np.zeros(2)
             rows = []
             for speed, dt, factors, share in CASES:

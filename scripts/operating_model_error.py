@@ -15,6 +15,7 @@ the point's speed (offset in the flowrates and viscosities only, where the estim
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import os
 
@@ -63,9 +64,12 @@ def model_errors(model, speed_hz, temperature_c, factors, q, fraction, speed_axi
     return float(np.abs(approx[0] - exact[0]).max()), float(np.abs(approx[1] - exact[1]).max())
 
 
-def held_model(model: OperatingAugmentedModel, **options) -> OperatingAugmentedModel:
-    """``model``'s grid and maps with the default thresholds but a centre that never moves by itself."""
-    held = Recentring(hard_factor=math.inf, min_interval_steps=2**62)
+def held_model(
+    model: OperatingAugmentedModel, thresholds: Recentring | None = None, **options
+) -> OperatingAugmentedModel:
+    """``model``'s grid and maps with ``thresholds``' (default: the default) thresholds but a centre that
+    never moves by itself."""
+    held = dataclasses.replace(thresholds or Recentring(), hard_factor=math.inf, min_interval_steps=2**62)
     return OperatingAugmentedModel(
         model.reference, model.maps, model.oil, model.reference_viscosity_pa_s, held, **options
     )

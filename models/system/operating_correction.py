@@ -22,7 +22,7 @@ central differences): the truncation error, half a step times the third derivati
 (3.8e-3 at h = 1e-3, 4e-4 at 1e-4, 4e-5 at 1e-5: linear in h down to 1e-5, so the round-off of the first
 derivatives, themselves central differences of 1e-4, stays below 1e-5 relative there); at 1e-4 it is
 4e-4 of the second-order term, far below the neglected third-order term at one re-centring threshold
-(1.5 % of q, 0.03 in ln mu: 150-300 steps). The bearing table
+(0.75 % of q, 0.015 in ln mu: 75-150 steps). The bearing table
 is Catmull-Rom (C1): its second derivative jumps at a table node, so a centre within a step of a node gets
 one side's curvature, and a step ranging across a node gets the next piece's curvature wrong by that
 jump; the expansion stays second-order accurate within a piece.
@@ -51,9 +51,9 @@ class Recentring:
     (a fast flowrate transient costs a bounded number of re-centrings; the first-order terms carry it)."""
 
     speed_fraction: float = 0.02
-    log_viscosity: float = 0.03
-    flowrate_fraction: float = 0.015
-    min_interval_steps: int = 200
+    log_viscosity: float = 0.015
+    flowrate_fraction: float = 0.0075
+    min_interval_steps: int = 100
     hard_factor: float = 4.0
 
 

@@ -14,9 +14,11 @@ gyroscopics, unbalance ~ speed^2 and the exosystem at the speed) at a centre ``x
 are each bearing's in its own flowrate q_b and ln mu_b (:mod:`operating_correction`: forward differences of
 the exact first derivatives; the cross-bearing and speed terms are left out, measured). The centre moves to
 the current (estimate, operating point) when either has left it by more than the thresholds of
-:class:`Recentring`, at most every 0.2 s unless it is four thresholds away (a re-centring is one stacked
-assembly of 38 blocks and 8 exponentials of the (2n + 3) block with 14 Frechet derivatives, :mod:`frechet`:
-about 8 ms of CPU for the turbine's 26 states, 3.4 ms at first order). A -40 % viscosity change is thus
+:class:`Recentring` (2 % of speed, 0.015 in ln mu, 0.75 % of flow: half d323c00's in (q, ln mu), which the
+second order makes affordable and which the speed ramp's noise bias needed, README "Session 8"), at most
+every 0.1 s unless it is four thresholds away (a re-centring is one stacked assembly of 38 blocks and 8
+exponentials of the (2n + 3) block with 14 Frechet derivatives, :mod:`frechet`: about 8 ms of CPU for the
+turbine's 26 states, 3.4 ms at first order). A -40 % viscosity change is thus
 followed by re-centring, never by a step from p0. At p = p0 the correction is not applied at all: at
 constant nominal conditions this is today's model, bit for bit.
 
@@ -28,10 +30,10 @@ the static probe positions and 1x orbit amplitudes of the model's map against th
 dimensionless table (worst probe) along the issue's ramps (72-78 Hz, +0..+10 degC, factors 0.95-1.05,
 100/100 and 80/90 % flow; synchronous 1x load), with the centre F thresholds away in every axis: F = 0
 (the grid's own interpolation) <= 0.003 um static, 0.002 um orbit; F = 0.5 <= 0.003 / 0.003 um; F = 1
-(where a step re-centres) <= 0.021 / 0.009 um (first order 0.070 / 0.021); F = 2 <= 0.058 / 0.046 um (first
-order 0.30 / 0.05); at F = 4, reached only within 0.2 s of a move, both orders are off by 0.1-1.7 um (the
-table's C1 nodes and third order). The static y sensitivity is 0.14 um per % of flow, the orbits 2.5-7.4
-um. The README section "Speed and oil temperature: the estimator follows them" has the table.
+(where a step re-centres) <= 0.005 / 0.006 um; F = 4 (the hard limit, reached only within 0.1 s of a move)
+<= 0.10 / 0.12 um. d323c00's first-order model at its own thresholds: 0.070 / 0.021 um at F = 1, 1.41 /
+0.32 um at F = 4. The static y sensitivity is 0.14 um per % of flow, the orbits 2.5-7.4 um. The README
+section "Speed and oil temperature: the estimator follows them" has the table.
 """
 
 from __future__ import annotations
