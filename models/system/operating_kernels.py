@@ -1,7 +1,8 @@
 """The operating model's compiled transition and the one struct of arrays it reads.
 
 :class:`models.system.operating_model.OperatingAugmentedModel` builds :class:`OperatingArrays` once: the
-reference grid's kernel arrays, the correction's six matrices (refilled in place at each re-centring), the
+reference grid's kernel arrays, the correction's matrices (6 first-order ones and one per second-order axis
+pair, :mod:`models.system.operating_correction`; refilled in place at each re-centring), the pairs, the
 output arrays and one float array ``held`` of what the transition depends on besides its arguments (the held
 operating point, the correction's centre and the re-centring thresholds; layout ``HELD_*``). A transition is
 then one compiled call, :func:`operating_transition`, which also makes the per-step decisions (whether the
@@ -54,6 +55,7 @@ class OperatingArrays(NamedTuple):
     axes: np.ndarray
     corrections_a: np.ndarray
     corrections_g: np.ndarray
+    pairs: np.ndarray
     coefficients: np.ndarray
     held: np.ndarray
     next_state: np.ndarray
@@ -64,14 +66,17 @@ class OperatingArrays(NamedTuple):
     loaded: np.ndarray
 
     @classmethod
-    def allocate(cls, kernel_arrays, n_states: int) -> OperatingArrays:
-        """Zeroed arrays for a model of ``n_states`` on a grid's ``(transition, forcing, axes)``."""
+    def allocate(cls, kernel_arrays, n_states: int, pairs) -> OperatingArrays:
+        """Zeroed arrays for a model of ``n_states`` on a grid's ``(transition, forcing, axes)``, with
+        second-order terms along the axis ``pairs`` ((i, j) of the operating point's five entries)."""
         n = n_states
+        count = 6 + len(pairs)
         return cls(
             *kernel_arrays,
-            np.zeros((6, n, n)),
-            np.zeros((6, n, 3)),
-            np.zeros(6),
+            np.zeros((count, n, n)),
+            np.zeros((count, n, 3)),
+            np.array(pairs, dtype=np.int64).reshape(-1, 2),
+            np.zeros(count),
             np.zeros(HELD_SIZE),
             np.zeros(n),
             np.zeros((n, n)),
@@ -97,11 +102,12 @@ def operating_transition(
     centre must move first.
 
     As the model's docstring: at the reference point without factors today's grid map exactly; else the
-    correction ``sum_k c_k (A_k s + G_k w)`` with ``c = (1, q - q_c, p - p_c)`` (``c = 0`` at the reference
-    point: only the factor Jacobian), and the centre is due to move when the point is more than
+    correction ``sum_k c_k (A_k s + G_k w)`` with ``c = (1, d, w_ij d_i d_j)``, ``d = (q - q_c, p - p_c)``,
+    ``w_ii = 1/2`` and ``w_ij = 1`` over the second-order pairs (``c = 0`` at the reference point: only the
+    factor Jacobian), and the centre is due to move when the point is more than
     ``hard_factor`` thresholds from it, or more than one threshold and ``min_interval`` steps after it moved.
     """
-    transition, forcing, axes, ca, cg, coefficients, held, nxt, ad, jq, jf, ju, loaded = arrays
+    transition, forcing, axes, ca, cg, pairs, coefficients, held, nxt, ad, jq, jf, ju, loaded = arrays
     log_mu = held[HELD_LOG_MU]
     point = held[HELD_POINT : HELD_POINT + 5]
     point[0], point[1], point[2] = q1, q2, held[HELD_SPEED]
@@ -134,6 +140,10 @@ def operating_transition(
             coefficients[0] = 1.0
             for k in range(5):
                 coefficients[k + 1] = point[k] - centre[k]
+            for p in range(pairs.shape[0]):
+                i, j = pairs[p, 0], pairs[p, 1]
+                weight = 0.5 if i == j else 1.0
+                coefficients[6 + p] = weight * coefficients[i + 1] * coefficients[j + 1]
     if not math.isnan(phase):
         w[0], w[1], w[2] = 1.0, math.cos(phase), math.sin(phase)
     loaded[0] = w[0]
@@ -147,7 +157,7 @@ def operating_transition(
         loaded[2] = w[2]
     interpolate_map(transition, forcing, axes, state, loaded, q1, q2, nxt, ad, jq)
     if correct:
-        _apply_correction(ca, cg, coefficients, state, loaded, nxt, ad, jq, jf, f1, f2)
+        _apply_correction(ca, cg, pairs, coefficients, state, loaded, nxt, ad, jq, jf, f1, f2)
     if with_unbalance:
         _unbalance_jacobian(forcing, axes, ca.shape[0], cg, coefficients, not at_reference, w, q1, q2, ju)
     return CORRECTED if correct else GRID_ONLY
@@ -156,16 +166,19 @@ def operating_transition(
 # Reassociation lets the compiler vectorize the row sums (a few ulps from the sequential sums); no other
 # fast-math assumption.
 @numba.njit(cache=True, fastmath={"reassoc", "contract"})
-def _apply_correction(ca, cg, coefficients, state, w, nxt, ad, jq, jf, f1, f2):  # pragma: no cover
-    """Add ``sum_k c_k (A_k s + G_k w)`` to the map; the q and ln mu Jacobians from the derivative terms,
-    the latter divided by the viscosity factors (the Jacobian per unit of factor)."""
+def _apply_correction(ca, cg, pairs, coefficients, state, w, nxt, ad, jq, jf, f1, f2):  # pragma: no cover
+    """Add ``sum_k c_k (A_k s + G_k w)`` to the map; the q and ln mu Jacobians from the derivative terms
+    (a second-order term ``w_ij d_i d_j`` adds ``d_j`` times its ``A s + G w`` along axis i and ``d_i``
+    along j), the latter divided by the viscosity factors (the Jacobian per unit of factor)."""
     n = state.shape[0]
     m = w.shape[0]
     for r in range(n):
         jf[r, 0] = 0.0
         jf[r, 1] = 0.0
     corrected = coefficients[0] != 0.0
-    for k in range(6):
+    for k in range(ca.shape[0]):
+        if k >= 6 and not corrected:
+            break
         c = coefficients[k]
         a_k = ca[k]
         g_k = cg[k]
@@ -189,9 +202,27 @@ def _apply_correction(ca, cg, coefficients, state, w, nxt, ad, jq, jf, f1, f2): 
             elif k == 2 and corrected:
                 jq[r, 1] += y
             elif k == 4:
-                jf[r, 0] = y / f1
+                jf[r, 0] += y
             elif k == 5:
-                jf[r, 1] = y / f2
+                jf[r, 1] += y
+            elif k >= 6 and corrected:
+                i, j = pairs[k - 6, 0], pairs[k - 6, 1]
+                _add_along(i, coefficients[j + 1] * y, r, jq, jf)
+                if i != j:
+                    _add_along(j, coefficients[i + 1] * y, r, jq, jf)
+    for r in range(n):
+        jf[r, 0] /= f1
+        jf[r, 1] /= f2
+
+
+@numba.njit(cache=True, inline="always")
+def _add_along(axis, value, r, jq, jf):  # pragma: no cover - compiled
+    """Add ``value`` to row r of the Jacobian along operating axis ``axis`` (q1, q2, speed: none, ln mu1,
+    ln mu2)."""
+    if axis < 2:
+        jq[r, axis] += value
+    elif axis > 2:
+        jf[r, axis - 3] += value
 
 
 @numba.njit(cache=True)

@@ -35,6 +35,9 @@ from .rotor_bearing import RotorBearingSystem
 AXES = ("q1", "q2", "speed", "ln_mu1", "ln_mu2")
 """The operating axes, in the order of :meth:`OperatingMaps.derivatives`: flowrates [m^3/s], speed [Hz],
 natural logarithms of each bearing's film viscosity."""
+SECOND_STEP = 1e-4
+"""The forward step of :meth:`OperatingMaps.second_derivatives` (relative in q and speed, absolute in ln
+mu)."""
 
 
 class OperatingMaps:
@@ -223,28 +226,90 @@ class OperatingMaps:
         derivatives of the exponential in the central differences of the block along each axis, all at once
         (:func:`models.system.frechet.expm_frechet_many`).
         """
+        return self.derivatives_many([(flowrates_m3_s, speed_hz, viscosities_pa_s, axes)])[0]
+
+    def derivatives_many(self, requests) -> list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
+        """:meth:`derivatives` of each request ``(flowrates, speed, viscosities, axes)``, the blocks of all
+        requests assembled in one stacked :meth:`blocks` call, one exponential per request."""
+        m = 2 * self._n
+        points, layout = [], []
+        for flowrates_m3_s, speed_hz, viscosities_pa_s, axes in requests:
+            q = np.array(flowrates_m3_s, dtype=float)
+            mu = np.array(viscosities_pa_s, dtype=float)
+            shifted = [self._shifted(axis, q, speed_hz, mu, sign) for axis in axes for sign in (+1, -1)]
+            widths = [high[3] - low[3] for high, low in zip(shifted[0::2], shifted[1::2], strict=True)]
+            layout.append((len(points), np.array(widths)))
+            points += [(q, speed_hz, mu)] + [point[:3] for point in shifted]
+        blocks = self.blocks(points)
+        answers = []
+        for start, widths in layout:
+            own = blocks[start : start + 1 + 2 * len(widths)]
+            directions = (own[1::2] - own[2::2]) * (self.dt_s / widths)[:, None, None]
+            exponential, frechet = expm_frechet_many(own[0] * self.dt_s, directions)
+            answers.append((exponential[:m, :m], exponential[:m, m:], frechet[:, :m, :m], frechet[:, :m, m:]))
+        return answers
+
+    def second_order_plan(self, flowrates_m3_s, speed_hz: float, viscosities_pa_s, pairs, step=SECOND_STEP):
+        """What :meth:`second_derivatives` differences: per distinct first axis i of the axis ``pairs``
+        ``(i, j)`` of :data:`AXES`, ``(request, width, [(pair index, j)])``, the request (for
+        :meth:`derivatives_many`) at the point one ``step`` along i (relative for flowrates and speed,
+        absolute in ln mu; towards the middle of the table's flowrate range) along that i's axes j."""
         q = np.array(flowrates_m3_s, dtype=float)
         mu = np.array(viscosities_pa_s, dtype=float)
-        m = 2 * self._n
-        shifted = [self._shifted(axis, q, speed_hz, mu, sign) for axis in axes for sign in (+1, -1)]
-        blocks = self.blocks([(q, speed_hz, mu)] + [point[:3] for point in shifted])
-        widths = np.array([high[3] - low[3] for high, low in zip(shifted[0::2], shifted[1::2], strict=True)])
-        directions = (blocks[1::2] - blocks[2::2]) * (self.dt_s / widths)[:, None, None]
-        exponential, frechet = expm_frechet_many(blocks[0] * self.dt_s, directions)
-        return exponential[:m, :m], exponential[:m, m:], frechet[:, :m, :m], frechet[:, :m, m:]
+        plan = []
+        for i in sorted({pair[0] for pair in pairs}):
+            wanted = [(p, j) for p, (k, j) in enumerate(pairs) if k == i]
+            sign = 1
+            if i < 2:
+                low, high = self.flowrate_range_m3_s(speed_hz, mu)
+                sign = 1 if q[i] < 0.5 * (low + high) else -1
+            q_s, speed_s, mu_s, coordinate = self._shifted(AXES[i], q, speed_hz, mu, sign, step)
+            width = coordinate - self._coordinate(i, q, speed_hz, mu)
+            plan.append(((q_s, speed_s, mu_s, tuple(AXES[j] for _, j in wanted)), width, wanted))
+        return plan
 
     @staticmethod
-    def _shifted(axis: str, q: np.ndarray, speed_hz: float, mu: np.ndarray, sign: int):
+    def forward_differences(first, shifted, plan, count: int) -> tuple[np.ndarray, np.ndarray]:
+        """``(d2A_d (count, 2n, 2n), d2G (count, 2n, 3))`` from ``first = (dA_d, dG)`` at the point (row j
+        along ``AXES[j]``) and the :meth:`derivatives_many` answers ``shifted`` to a
+        :meth:`second_order_plan`."""
+        d_a, d_g = first
+        second_a = np.empty((count, *d_a.shape[1:]))
+        second_g = np.empty((count, *d_g.shape[1:]))
+        for (_, _, d_a_s, d_g_s), (_, width, wanted) in zip(shifted, plan, strict=True):
+            for row, (p, j) in enumerate(wanted):
+                second_a[p] = (d_a_s[row] - d_a[j]) / width
+                second_g[p] = (d_g_s[row] - d_g[j]) / width
+        return second_a, second_g
+
+    def second_derivatives(
+        self, flowrates_m3_s, speed_hz: float, viscosities_pa_s, pairs, first, step: float = SECOND_STEP
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """``(d2A_d (P, 2n, 2n), d2G (P, 2n, 3))`` along the axis pairs ``(i, j)`` of :data:`AXES` at the
+        operating point, given ``first = (dA_d, dG)`` there (row j along ``AXES[j]``): forward differences
+        of the exact first derivatives at the point and one step along i (:meth:`second_order_plan`). Why
+        forward and this step: :mod:`models.system.operating_correction`."""
+        plan = self.second_order_plan(flowrates_m3_s, speed_hz, viscosities_pa_s, pairs, step)
+        shifted = self.derivatives_many([request for request, _, _ in plan])
+        return self.forward_differences(first, shifted, plan, len(pairs))
+
+    @staticmethod
+    def _coordinate(i: int, q: np.ndarray, speed_hz: float, mu: np.ndarray) -> float:
+        """The point's own value along axis ``AXES[i]``."""
+        return float(q[i]) if i < 2 else speed_hz if i == 2 else math.log(mu[i - 3])
+
+    @staticmethod
+    def _shifted(axis: str, q: np.ndarray, speed_hz: float, mu: np.ndarray, sign: int, step: float = 1e-4):
         """(q, speed, mu, coordinate) one small step along an axis (coordinate: the axis' own value)."""
         q, mu = q.copy(), mu.copy()
         if axis in ("q1", "q2"):
             i = AXES.index(axis)
-            q[i] *= 1.0 + sign * 1e-4
+            q[i] *= 1.0 + sign * step
             return q, speed_hz, mu, q[i]
         if axis == "speed":
-            speed = speed_hz * (1.0 + sign * 1e-4)
+            speed = speed_hz * (1.0 + sign * step)
             return q, speed, mu, speed
         i = AXES.index(axis) - 3
-        log_mu = math.log(mu[i]) + sign * 1e-4
+        log_mu = math.log(mu[i]) + sign * step
         mu[i] = math.exp(log_mu)
         return q, speed_hz, mu, log_mu

@@ -1,22 +1,26 @@
 """The estimator's model at the measured speed and oil temperature, with a viscosity factor per bearing.
 
 :class:`OperatingAugmentedModel` keeps today's exact (q1, q2) grid (``GridAugmentedModel``, built at the
-machine's nominal speed and viscosity: the reference operating point p0) and adds a re-centred first-order
-correction for the operating point ``p = (speed, ln mu1, ln mu2)``, ``mu_b = mu_oil(T) f_b`` (the machine's
-oil law at the measured temperature times bearing b's viscosity factor)::
+machine's nominal speed and viscosity: the reference operating point p0) and adds a re-centred correction for
+the operating point ``p = (speed, ln mu1, ln mu2)``, ``mu_b = mu_oil(T) f_b`` (the machine's oil law at the
+measured temperature times bearing b's viscosity factor), with ``x = (q, p)`` and ``d = x - x_c``::
 
-    A_d(q, p) = A_grid(q) + D_c + sum_i dD/dq_i (q_i - q_ci) + sum_j dA/dp_j (p_j - p_cj)     (same for G)
+    A_d(q, p) = A_grid(q) + D_c + sum_i dD/dx_i d_i + sum_b [1/2 D_qq,b d_qb^2 + D_qm,b d_qb d_mb
+                + 1/2 D_mm,b d_mb^2]                                                       (same for G)
 
-with ``D_c = A(q_c, p_c) - A(q_c, p0)`` and the derivatives of the exact maps (:mod:`operating_maps`, on the
+``D = A(q, p) - A(q, p0)``, its derivatives those of the exact maps (:mod:`operating_maps`, on the
 dimensionless bearing table: each bearing at its own Sommerfeld number and flowrate over its Couette flow,
-gyroscopics, unbalance ~ speed^2 and the exosystem at the speed) at a centre ``(q_c, p_c)``. The centre
-moves to the current (estimate, operating point) when either has left it by more than the thresholds of
-:class:`Recentring`, at most every 0.2 s unless it is four thresholds away (a re-centring is 16 stacked
-block assemblies and 7 Frechet derivatives of the (2n + 3) block exponential that share two exponentials,
-:mod:`operating_maps` and :mod:`frechet`: about 3 ms of CPU for the turbine's 26 states, so the average cost
-stays below a few us per step even while a flowrate drops fast). A -40 % viscosity change is
-thus followed by re-centring, never by a first-order step from p0. At p = p0 the correction is not applied at
-all: at constant nominal conditions this is today's model, bit for bit.
+gyroscopics, unbalance ~ speed^2 and the exosystem at the speed) at a centre ``x_c``; the second-order terms
+are each bearing's in its own flowrate q_b and ln mu_b (:mod:`operating_correction`: forward differences of
+the exact first derivatives; the cross-bearing and speed terms are left out, measured). The centre moves to
+the current (estimate, operating point) when either has left it by more than the thresholds of
+:class:`Recentring` (2 % of speed, 0.015 in ln mu, 0.75 % of flow: half d323c00's in (q, ln mu), which the
+second order makes affordable and which the speed ramp's noise bias needed, README "Session 8"), at most
+every 0.1 s unless it is four thresholds away (a re-centring is one stacked assembly of 38 blocks and 8
+exponentials of the (2n + 3) block with 14 Frechet derivatives, :mod:`frechet`: about 8 ms of CPU for the
+turbine's 26 states, 3.4 ms at first order). A -40 % viscosity change is thus
+followed by re-centring, never by a step from p0. At p = p0 the correction is not applied at all: at
+constant nominal conditions this is today's model, bit for bit.
 
 The unbalance phase is the integral of the measured speed (held over each period, as the plant does), or
 the keyphasor's angle when given (:meth:`set_operating_point`).
@@ -25,16 +29,16 @@ Model error (``python scripts/operating_model_error.py --fraction F``, ``tests/t
 the static probe positions and 1x orbit amplitudes of the model's map against the exact map's on the
 dimensionless table (worst probe) along the issue's ramps (72-78 Hz, +0..+10 degC, factors 0.95-1.05,
 100/100 and 80/90 % flow; synchronous 1x load), with the centre F thresholds away in every axis: F = 0
-(the grid's own interpolation) <= 0.003 um static, 0.002 um orbit; F = 0.5 <= 0.012 / 0.009 um; F = 1 (the
-worst corner a step meets before re-centring) <= 0.083 / 0.034 um; the static y sensitivity is 0.14 um per %
-of flow, the orbits 2.5-7.4 um. The
-README section "Speed and oil temperature: the estimator follows them" has the table.
+(the grid's own interpolation) <= 0.003 um static, 0.002 um orbit; F = 0.5 <= 0.003 / 0.003 um; F = 1
+(where a step re-centres) <= 0.005 / 0.006 um; F = 4 (the hard limit, reached only within 0.1 s of a move)
+<= 0.10 / 0.12 um. d323c00's first-order model at its own thresholds: 0.070 / 0.021 um at F = 1, 1.41 /
+0.32 um at F = 4. The static y sensitivity is 0.14 um per % of flow, the orbits 2.5-7.4 um. The README
+section "Speed and oil temperature: the estimator follows them" has the table.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -44,6 +48,7 @@ from ..machine import Machine
 from ..oil import Oil
 from ..validation import InputError, require_positive
 from .augmented import GridAugmentedModel
+from .operating_correction import SECOND_ORDER_PAIRS, Recentring, fill_correction
 from .operating_kernels import (
     GRID_ONLY,
     HELD_CENTRE,
@@ -72,20 +77,6 @@ SAME_VISCOSITY = 1e-9
 the nominal temperature reproduces the machine's viscosity to about 1e-12)."""
 
 
-@dataclass(frozen=True)
-class Recentring:
-    """When the correction's centre moves: speed by ``speed_fraction`` of nominal, either bearing's ln mu by
-    ``log_viscosity``, or either flowrate by ``flowrate_fraction`` of nominal; but not sooner than
-    ``min_interval_steps`` after the previous move unless the point is ``hard_factor`` thresholds away
-    (a fast flowrate transient costs a bounded number of re-centrings; the first-order terms carry it)."""
-
-    speed_fraction: float = 0.02
-    log_viscosity: float = 0.03
-    flowrate_fraction: float = 0.015
-    min_interval_steps: int = 200
-    hard_factor: float = 4.0
-
-
 class OperatingAugmentedModel:
     """The estimator's model following speed, oil temperature and the viscosity factors (module docstring).
 
@@ -96,6 +87,7 @@ class OperatingAugmentedModel:
     oil : the machine's oil (None: the viscosity stays the reference's times the factors).
     reference_viscosity_pa_s : the film viscosity of the reference grid's tables.
     recentring : thresholds of the correction's centre.
+    second_order : the axis pairs of the correction's second-order terms (``()``: first order).
     """
 
     def __init__(
@@ -105,6 +97,7 @@ class OperatingAugmentedModel:
         oil: Oil | None,
         reference_viscosity_pa_s: float,
         recentring: Recentring | None = None,
+        second_order=SECOND_ORDER_PAIRS,
     ) -> None:
         self.reference = reference
         self.maps = maps
@@ -128,7 +121,8 @@ class OperatingAugmentedModel:
         q_scale = self.nominal_flowrate_m3_s or 0.5 * sum(self.flowrate_bounds_m3_s)
         self._grid = reference.grid
         # the compiled transition's one struct (operating_kernels): built once, refilled in place
-        self._arrays = OperatingArrays.allocate(self._grid.kernel_arrays, self.n_states)
+        self._pairs = tuple(tuple(pair) for pair in second_order)
+        self._arrays = OperatingArrays.allocate(self._grid.kernel_arrays, self.n_states, self._pairs)
         self._kernel_arrays = self._arrays.as_tuple()
         held = self._held = self._arrays.held
         held[HELD_REFERENCE_SPEED] = self.speed_hz
@@ -310,19 +304,12 @@ class OperatingAugmentedModel:
         )
 
     def _recentre(self, point: np.ndarray) -> None:
-        """Exact maps and derivatives at the new centre ``(q_c, p_c)`` and at ``(q_c, p0)``.
-
-        A flowrate outside the dimensionless table's range at p_c (or p0) is taken at its edge there."""
-        mu = np.exp(point[3:5])
-        mu0 = np.full(2, self.reference_viscosity_pa_s)
-        q_c = self._inside(point[0:2], point[2], mu)
-        q_0 = self._inside(point[0:2], self.speed_hz, mu0)
-        a_c, g_c, da_c, dg_c = self.maps.derivatives(q_c, point[2], mu)
-        a_0, g_0, da_0, dg_0 = self.maps.derivatives(q_0, self.speed_hz, mu0, axes=("q1", "q2"))
-        ca, cg = self._arrays.corrections_a, self._arrays.corrections_g
-        ca[0], cg[0] = a_c - a_0, g_c - g_0
-        ca[1:3], cg[1:3] = da_c[0:2] - da_0, dg_c[0:2] - dg_0
-        ca[3:6], cg[3:6] = da_c[2:5], dg_c[2:5]
+        """The correction's terms at the new centre ``(q_c, p_c)`` (:mod:`operating_correction`)."""
+        a = self._arrays
+        fill_correction(
+            self.maps, point, self.speed_hz, self.reference_viscosity_pa_s, self._pairs, a.corrections_a,
+            a.corrections_g,
+        )  # fmt: skip
         self._centre = point.copy()
         self._held[HELD_CENTRE : HELD_CENTRE + 5] = point
         self._held[HELD_HAS_CENTRE] = 1.0
@@ -331,11 +318,6 @@ class OperatingAugmentedModel:
     def place_centre(self, point) -> None:
         """Re-centre the correction at ``point = (q1, q2, speed, ln mu1, ln mu2)`` now (for tests)."""
         self._recentre(np.asarray(point, dtype=float))
-
-    def _inside(self, q: np.ndarray, speed_hz: float, mu: np.ndarray) -> np.ndarray:
-        low, high = self.maps.flowrate_range_m3_s(speed_hz, mu)
-        margin = 1e-3 * (high - low)
-        return np.clip(q, low + margin, high - margin)
 
     def discrete_map(self, flowrate_m3_s, viscosity_factor=(1.0, 1.0)) -> tuple[np.ndarray, np.ndarray]:
         """The model's ``(A_d, G)`` at the operating point (re-centring if due; the phase untouched)."""
