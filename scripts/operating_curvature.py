@@ -43,7 +43,7 @@ def central(maps, q, speed, mu, pair, step):
     i, j = pair
     ends = []
     for sign in (+1, -1):
-        q_s, speed_s, mu_s, coordinate = maps._shifted(AXES[i], q, speed, mu, sign, step)
+        q_s, speed_s, mu_s, coordinate = maps.shifted_point(AXES[i], q, speed, mu, sign, step)
         _, _, d_a, _ = maps.derivatives(q_s, speed_s, mu_s, (AXES[j],))
         ends.append((d_a[0], coordinate))
     return (ends[0][0] - ends[1][0]) / (ends[0][1] - ends[1][1])

@@ -36,7 +36,7 @@ def test_derivatives_are_the_exact_map_s_along_every_axis(maps):
     np.testing.assert_allclose(a_d, exact[0], rtol=0.0, atol=1e-8 * np.abs(exact[0]).max())
     np.testing.assert_allclose(g, exact[1], rtol=0.0, atol=1e-8 * np.abs(exact[1]).max())
     for index, axis in enumerate(AXES):
-        high, low = (maps._shifted(axis, q, speed, mu, sign) for sign in (+1, -1))
+        high, low = (maps.shifted_point(axis, q, speed, mu, sign) for sign in (+1, -1))
         width = high[3] - low[3]
         numeric_a = (maps.discrete_map(*high[:3])[0] - maps.discrete_map(*low[:3])[0]) / width
         numeric_g = (maps.discrete_map(*high[:3])[1] - maps.discrete_map(*low[:3])[1]) / width

@@ -236,7 +236,7 @@ class OperatingMaps:
         for flowrates_m3_s, speed_hz, viscosities_pa_s, axes in requests:
             q = np.array(flowrates_m3_s, dtype=float)
             mu = np.array(viscosities_pa_s, dtype=float)
-            shifted = [self._shifted(axis, q, speed_hz, mu, sign) for axis in axes for sign in (+1, -1)]
+            shifted = [self.shifted_point(axis, q, speed_hz, mu, sign) for axis in axes for sign in (+1, -1)]
             widths = [high[3] - low[3] for high, low in zip(shifted[0::2], shifted[1::2], strict=True)]
             layout.append((len(points), np.array(widths)))
             points += [(q, speed_hz, mu)] + [point[:3] for point in shifted]
@@ -263,7 +263,7 @@ class OperatingMaps:
             if i < 2:
                 low, high = self.flowrate_range_m3_s(speed_hz, mu)
                 sign = 1 if q[i] < 0.5 * (low + high) else -1
-            q_s, speed_s, mu_s, coordinate = self._shifted(AXES[i], q, speed_hz, mu, sign, step)
+            q_s, speed_s, mu_s, coordinate = self.shifted_point(AXES[i], q, speed_hz, mu, sign, step)
             width = coordinate - self._coordinate(i, q, speed_hz, mu)
             plan.append(((q_s, speed_s, mu_s, tuple(AXES[j] for _, j in wanted)), width, wanted))
         return plan
@@ -299,7 +299,9 @@ class OperatingMaps:
         return float(q[i]) if i < 2 else speed_hz if i == 2 else math.log(mu[i - 3])
 
     @staticmethod
-    def _shifted(axis: str, q: np.ndarray, speed_hz: float, mu: np.ndarray, sign: int, step: float = 1e-4):
+    def shifted_point(
+        axis: str, q: np.ndarray, speed_hz: float, mu: np.ndarray, sign: int, step: float = 1e-4
+    ):
         """(q, speed, mu, coordinate) one small step along an axis (coordinate: the axis' own value)."""
         q, mu = q.copy(), mu.copy()
         if axis in ("q1", "q2"):
