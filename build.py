@@ -17,7 +17,6 @@ REPO_ROOT = Path(__file__).resolve().parent
 if str(REPO_ROOT) not in sys.path:
     sys.path.insert(0, str(REPO_ROOT))
 
-from models.validation import InputError  # noqa: E402
 from oilwatch.cosim.fmu_build import (  # noqa: E402
     DEFAULT_OPTIONS,
     REGISTRY,
@@ -29,6 +28,7 @@ from oilwatch.cosim.fmu_build import (  # noqa: E402
     scenario_system,
     write_system,
 )
+from oilwatch.models.validation import InputError  # noqa: E402
 
 __all__ = [
     "DEFAULT_OPTIONS",

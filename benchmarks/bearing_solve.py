@@ -1,4 +1,4 @@
-"""Steady p-theta solve: semi-smooth Newton (models.bearing.film) against plain Gauss-Seidel.
+"""Steady p-theta solve: semi-smooth Newton (oilwatch.models.bearing.film) against plain Gauss-Seidel.
 
 Both solvers share the discretization and solve the same discrete problem on the same mesh (the
 journal at its nominal equilibrium, the machine file's nominal flowrate, and a starved point at 50 % of
@@ -16,13 +16,13 @@ import time
 
 import numpy as np
 
-from models.bearing.equilibrium import static_equilibrium
-from models.bearing.film import solve_film
-from models.bearing.gauss_seidel import gauss_seidel_film
-from models.bearing.grid import Mesh
-from models.bearing.supply import ML_MIN_PER_M3_S, SupplyFlow
-from models.machine import load_machine
-from models.rotor.assembly import Rotor
+from oilwatch.models.bearing.equilibrium import static_equilibrium
+from oilwatch.models.bearing.film import solve_film
+from oilwatch.models.bearing.gauss_seidel import gauss_seidel_film
+from oilwatch.models.bearing.grid import Mesh
+from oilwatch.models.bearing.supply import ML_MIN_PER_M3_S, SupplyFlow
+from oilwatch.models.machine import load_machine
+from oilwatch.models.rotor.assembly import Rotor
 
 
 def median_seconds(repeats: int, function, *args, **kwargs) -> float:

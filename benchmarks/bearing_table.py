@@ -14,10 +14,10 @@ import time
 
 import numpy as np
 
-from models.bearing.grid import PRODUCTION_MESH
-from models.bearing.table import compute_table, flooded_threshold
-from models.machine import load_machine
-from models.rotor.assembly import Rotor
+from oilwatch.models.bearing.grid import PRODUCTION_MESH
+from oilwatch.models.bearing.table import compute_table, flooded_threshold
+from oilwatch.models.machine import load_machine
+from oilwatch.models.rotor.assembly import Rotor
 
 TARGET_S = 60.0
 

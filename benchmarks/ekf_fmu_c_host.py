@@ -33,8 +33,8 @@ from pathlib import Path
 
 import numpy as np
 
-from models.bearing.supply import ML_MIN_PER_M3_S
-from models.machine import load_machine
+from oilwatch.models.bearing.supply import ML_MIN_PER_M3_S
+from oilwatch.models.machine import load_machine
 
 ROOT = Path(__file__).resolve().parent.parent
 HOST_SOURCE = ROOT / "tests" / "c_host" / "fmi2_host.c"

@@ -51,8 +51,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 import numpy as np
 from ekf_step import FmuLoop, bare_fmu, ekf_fmu, measurements, plant_ramp_record
 
-from models.system.augmented import GridAugmentedModel
-from models.system.factory import load_system
+from oilwatch.models.system.augmented import GridAugmentedModel
+from oilwatch.models.system.factory import load_system
 
 FAST_PATH_VARIABLE = "OILWATCH_FMU_FAST_PATH"  # fmu_src.slave_base: read when the instance initializes
 OUTPUT_REALS = ("q1_est_ml_min", "q2_est_ml_min", "q1_std_ml_min", "q2_std_ml_min")
@@ -195,7 +195,7 @@ def main() -> None:
     sys.path.insert(0, str(Path(__file__).resolve().parent / "fmus"))
     from bare_filter_slave import BareFilter
 
-    from fmu_src.oilwatch_ekf_slave import OilFlowEKF
+    from oilwatch.fmu_src.oilwatch_ekf_slave import OilFlowEKF
 
     constant = measurements(GridAugmentedModel(load_system(reduced=True)), args.steps)
     cases = [("bearing_table 0, constant", constant, None)]

@@ -7,12 +7,13 @@ baseline is filterpy's ExtendedKalmanFilter driven by the same model's transitio
 full-order size (168 dynamic states + 2 flowrates).
 
 Two model families, each at the reduced and the full size; both filters only see the
-:class:`estimator.model.AugmentedModel` protocol:
+:class:`oilwatch.estimator.model.AugmentedModel` protocol:
 
 * synthetic: dense linear rotor-like systems of 30 and 168 states (lightly damped modes between 20 and 480 Hz
   mixed by a random orthogonal change of coordinates), with a transition matrix affine in the flowrates. The
   model costs little, so the figures are the filters' own cost.
-* system: the rotor-bearing model of ``models.system`` (Craig-Bampton reduced model on its fine flowrate
+* system: the rotor-bearing model of ``oilwatch.models.system`` (Craig-Bampton reduced model on its fine
+flowrate
   grid; the full 168-state model on a coarse grid, which changes the accuracy but not the cost of an
   evaluation), when its coefficient table is found (``--table``, default: the machine's table next to the
   machine file). Here the model's own evaluation is part of each step, as it would be in the estimator.
@@ -21,13 +22,13 @@ The FMU is ``--fmu`` (default: built into a temporary folder with ``build.build_
 system family, whose reduced-model response feeds it. ``benchmarks/ekf_fmu_step.py`` splits the FMU's step
 into the library step, the shell's Python and the FMI floor (its :class:`FmuLoop` is the loop timed here).
 
-Under ramps (issue 13): the estimator on ``models.system.operating_model.OperatingAugmentedModel`` (reduced,
-following the measured speed and oil temperature) on the plant's record (full-order Newmark plant on the
-dimensionless table, 80/90 % flow) while the speed ramps up and down between 72 and 78 Hz at 1 Hz/s and the
-oil warms by 10 degC per minute for ``--ramp-s`` (60 s), fed the same speed and temperature, every step a new
-operating point (its re-centrings included in the mean); beside it the same filter on the reference grid at
-constant conditions, and the FMU with ``bearing_table = 1`` fed the same record through its ``speed_hz`` and
-``oil_temperature_c`` inputs. The plant's record is computed once (minutes) and cached.
+Under ramps (issue 13): the estimator on ``oilwatch.models.system.operating_model.OperatingAugmentedModel``
+(reduced, following the measured speed and oil temperature) on the plant's record (full-order Newmark plant on
+the dimensionless table, 80/90 % flow) while the speed ramps up and down between 72 and 78 Hz at 1 Hz/s and
+the oil warms by 10 degC per minute for ``--ramp-s`` (60 s), fed the same speed and temperature, every step a
+new operating point (its re-centrings included in the mean); beside it the same filter on the reference grid
+at constant conditions, and the FMU with ``bearing_table = 1`` fed the same record through its ``speed_hz``
+and ``oil_temperature_c`` inputs. The plant's record is computed once (minutes) and cached.
 
 Latency (``--latency``, or with the ramp rows): ``benchmarks/ekf_step_latency.py``, the per-step CPU time of
 the row with the viscosity factors estimated.
@@ -57,12 +58,12 @@ from ekf_step_ramps import operating_rows, plant_ramp_record
 from filterpy.kalman import ExtendedKalmanFilter
 from step_timing import time_per_step, use_process_time
 
-from estimator.config import EKFConfig
-from estimator.ekf import OilFlowEKF
-from estimator.toy_model import NOMINAL_FLOWRATE_M3_S, SPEED_HZ
-from models.machine import load_machine
-from models.system.augmented import GridAugmentedModel
-from models.system.factory import flowrate_table_path, load_system
+from oilwatch.estimator.config import EKFConfig
+from oilwatch.estimator.ekf import OilFlowEKF
+from oilwatch.estimator.toy_model import NOMINAL_FLOWRATE_M3_S, SPEED_HZ
+from oilwatch.models.machine import load_machine
+from oilwatch.models.system.augmented import GridAugmentedModel
+from oilwatch.models.system.factory import flowrate_table_path, load_system
 
 __all__ = ["FmuLoop", "bare_fmu", "ekf_fmu", "main", "measurements", "plant_ramp_record", "time_fmu"]
 """Also the import path of the other benchmarks' FMU loop and ramp record (``ekf_fmu_step.py``,

@@ -1,8 +1,8 @@
 """Worst-case step latency of the estimator with the viscosity factors estimated (``ekf_step.py --latency``).
 
 Per-step thread CPU time over one pass of ``ekf_step.py``'s plant ramp record (``--ramp-s``, 60 s): one
-filter, and :func:`estimator.factory.make_estimator`'s start bank (what ``oilwatch estimate`` and the FMU
-run: five filters for its first 20 s). Printed: median, p99, p99.9, max, the steps over 1 ms (a missed
+filter, and :func:`oilwatch.estimator.factory.make_estimator`'s start bank (what ``oilwatch estimate`` and the
+FMU run: five filters for its first 20 s). Printed: median, p99, p99.9, max, the steps over 1 ms (a missed
 deadline at 1 kHz) and the mean. The worst steps are the information floor's updates (every 2 s) and the
 operating model's re-centrings. Thread CPU time: a step preempted by the shared machine's load does not
 count its wait.
@@ -16,11 +16,11 @@ from pathlib import Path
 import numpy as np
 from ekf_step import plant_ramp_record
 
-import estimator
-from estimator.config import EKFConfig
-from estimator.ekf import OilFlowEKF
-from models.machine import load_machine
-from models.system.factory import load_system
+from oilwatch import estimator
+from oilwatch.estimator.config import EKFConfig
+from oilwatch.estimator.ekf import OilFlowEKF
+from oilwatch.models.machine import load_machine
+from oilwatch.models.system.factory import load_system
 
 
 def step_latency_us(estimator, record: np.ndarray, speed: np.ndarray, temperature: np.ndarray):
@@ -43,14 +43,14 @@ def step_latency_us(estimator, record: np.ndarray, speed: np.ndarray, temperatur
 
 def latency_rows(args) -> None:
     """Print the latency figures (module docstring)."""
-    from models.system.operating_model import build_operating_model
+    from oilwatch.models.system.operating_model import build_operating_model
 
     model = build_operating_model(load_system(reduced=True), load_machine())
     ramp, speed, temperature = plant_ramp_record(args.ramp_s)
     factors = EKFConfig.recommended(viscosity_factor_prior_std=0.05, first_sample_time_s=1e-3)
     builders = [("one filter", lambda: OilFlowEKF(model, factors))]
     if (Path(estimator.__file__).parent / "factory.py").exists():  # not in a baseline tree from before it
-        from estimator.factory import make_estimator
+        from oilwatch.estimator.factory import make_estimator
 
         builders.append(("make_estimator (the start bank)", lambda: make_estimator(model, factors)))
     OilFlowEKF(model, factors).run(ramp[:10], speed_hz=speed[:10], oil_temperature_c=temperature[:10])

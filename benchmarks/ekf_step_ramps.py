@@ -14,10 +14,10 @@ import numpy as np
 from ekf_fmu_loop import bare_fmu, ekf_fmu, time_fmu
 from step_timing import clock, time_per_step
 
-from estimator.config import EKFConfig
-from estimator.ekf import OilFlowEKF
-from models.machine import load_machine
-from models.system.factory import load_system
+from oilwatch.estimator.config import EKFConfig
+from oilwatch.estimator.ekf import OilFlowEKF
+from oilwatch.models.machine import load_machine
+from oilwatch.models.system.factory import load_system
 
 RAMP_HZ_PER_S = 1.0
 WARMING_C_PER_S = 10.0 / 60.0
@@ -40,9 +40,9 @@ def plant_ramp_record(seconds: float) -> tuple[np.ndarray, np.ndarray, np.ndarra
     Newmark model on the dimensionless table, 1 um noise) under :func:`ramp_inputs` at
     :data:`RAMP_FLOWRATES`, samples t = 1 ms .. seconds: what a machine would give the estimator, which is fed
     the same speed and temperature. Cached in ``<cache>/benchmarks`` (the plant takes minutes)."""
-    from models.cache import user_cache_dir
-    from models.system.operating_point import operating_system
-    from models.system.plant import RotorBearingPlant
+    from oilwatch.models.cache import user_cache_dir
+    from oilwatch.models.system.operating_point import operating_system
+    from oilwatch.models.system.plant import RotorBearingPlant
 
     machine = load_machine()
     nominal_c = machine.nominal_oil_temperature_c
@@ -86,7 +86,7 @@ def operating_rows(args, record: np.ndarray) -> list[tuple[str, tuple[float, flo
     """The estimator on the plant's ramp record (:func:`plant_ramp_record`, ``--ramp-s`` long), fed the
     measured speed and oil temperature, beside the same filter on the reference grid at constant conditions
     (``record``), re-centrings included in the mean; the FMU the same way."""
-    from models.system.operating_model import build_operating_model
+    from oilwatch.models.system.operating_model import build_operating_model
 
     machine = load_machine()
     model = build_operating_model(load_system(reduced=True), machine)
@@ -148,7 +148,7 @@ def offset_rows(reference, machine, record: np.ndarray, repeats: int) -> list[tu
     """The reference grid with the four probe-offset states of ``oilwatch estimate`` (the machine file's
     [probes] prior), per step and through :meth:`OilFlowEKF.run_batch` (its per-block entry), and with the
     complex unbalance estimated as well."""
-    from models.probes import read_probes
+    from oilwatch.models.probes import read_probes
     from oilwatch.monitoring.estimate import estimator_config
 
     offsets = estimator_config(machine.nominal_speed_hz, 1.0, 0.0, read_probes(machine))

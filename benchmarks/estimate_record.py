@@ -63,9 +63,9 @@ def write_long_record(path: Path, hours: float, noise_um: float = 1.0) -> int:
 
 def bare_estimator_us_per_sample(path: Path, samples: int = 60000) -> float:
     """The bare estimator's loop with the command's configuration (the machine file's offsets prior)."""
-    from estimator.ekf import OilFlowEKF
-    from models.machine import load_machine
-    from models.probes import read_probes
+    from oilwatch.estimator.ekf import OilFlowEKF
+    from oilwatch.models.machine import load_machine
+    from oilwatch.models.probes import read_probes
     from oilwatch.monitoring.estimate import estimator_config, estimator_model
 
     data = np.loadtxt(path, delimiter=",", skiprows=1, max_rows=samples)

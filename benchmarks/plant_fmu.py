@@ -4,7 +4,8 @@ Builds the plant FMU into a temporary folder, then, in one process, for each sce
 
 - ``FMU under the oilwatch master``: 20 s at 1 ms, recording the 10 outputs each step (fmpy FMU2Slave);
 - ``FMU, bare doStep loop``: fmi2DoStep only, no output read (the FMI floor);
-- ``plant model in-process``: ``models.system.plant.RotorBearingPlant.step`` without FMI (the baseline:
+- ``plant model in-process``: ``oilwatch.models.system.plant.RotorBearingPlant.step`` without FMI (the
+baseline:
   what the physics alone costs).
 
 Prints the median wall time over the repeats, the real-time factor (simulated / wall seconds) and the
@@ -28,7 +29,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 REPO_ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO_ROOT))
 
-from models.machine import load_machine  # noqa: E402
+from oilwatch.models.machine import load_machine  # noqa: E402
 
 NOMINAL_ML_MIN = load_machine().lubrication.nominal_flowrate_m3_s * 6e7
 """The bundled turbine's nominal flowrate [ml/min] (its machine file)."""
@@ -91,9 +92,9 @@ def bare_run(fmu: Path, parameters: dict, duration: float) -> float:
 
 
 def model_run(parameters: dict, duration: float) -> float:
-    from models.system.factory import load_system
-    from models.system.fault import SigmoidFlowrate
-    from models.system.plant import RotorBearingPlant
+    from oilwatch.models.system.factory import load_system
+    from oilwatch.models.system.fault import SigmoidFlowrate
+    from oilwatch.models.system.plant import RotorBearingPlant
 
     ml = 1e-6 / 60.0
     p = {

@@ -1,6 +1,7 @@
 """Real-time factor of the plant model under speed and oil-temperature ramps (issue 13), in process.
 
-Three runs of ``models.system.plant.RotorBearingPlant.step`` at 1 ms, nominal flowrates, each repeated:
+Three runs of ``oilwatch.models.system.plant.RotorBearingPlant.step`` at 1 ms, nominal flowrates, each
+repeated:
 
 - ``flowrate table, constant``: the classic plant on the 75 Hz flowrate table (the baseline);
 - ``dimensionless table, constant``: the plant on the dimensionless table at the nominal operating point;
@@ -24,10 +25,10 @@ from pathlib import Path
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from models.machine import load_machine
-from models.system.factory import load_system
-from models.system.operating_point import operating_system
-from models.system.plant import RotorBearingPlant
+from oilwatch.models.machine import load_machine
+from oilwatch.models.system.factory import load_system
+from oilwatch.models.system.operating_point import operating_system
+from oilwatch.models.system.plant import RotorBearingPlant
 
 Q = load_machine().lubrication.nominal_flowrate_m3_s  # the machine file's nominal supply flowrate
 

@@ -23,7 +23,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
 from free_factor_noise_spread import measured, plant_motion
 
-from models.system import operating_model
+from oilwatch.models.system import operating_model
 from oilwatch.robustness.cases import case_by_name
 from oilwatch.robustness.runner import DT_S, REPORT_SETTINGS, RobustnessRun
 

@@ -27,18 +27,18 @@ import time
 
 import numpy as np
 
-from models.bearing.equilibrium import static_equilibrium
-from models.bearing.film import solve_film
-from models.bearing.grid import Mesh
-from models.bearing.supply import SupplyFlow
-from models.bearing.transient import (
+from oilwatch.models.bearing.equilibrium import static_equilibrium
+from oilwatch.models.bearing.film import solve_film
+from oilwatch.models.bearing.grid import Mesh
+from oilwatch.models.bearing.supply import SupplyFlow
+from oilwatch.models.bearing.transient import (
     SWEEP_MASS_TOLERANCE,
     SWEEP_RESIDUAL_TOLERANCE,
     TransientFilm,
     mass_balance_error,
 )
-from models.machine import load_machine
-from models.rotor.assembly import Rotor
+from oilwatch.models.machine import load_machine
+from oilwatch.models.rotor.assembly import Rotor
 
 
 def main() -> None:

@@ -1,7 +1,7 @@
 """Front corrections of the multigrid film step (issue 16, route A): cycles per bearing-step, measured.
 
 An experiment, run by hand; it changes nothing in the library. The multigrid cycle of
-:mod:`models.bearing.transient_multigrid` (one projected sweep, then a V-cycle on the pressurized
+:mod:`oilwatch.models.bearing.transient_multigrid` (one projected sweep, then a V-cycle on the pressurized
 volumes F with the fill fraction held) is re-run here as a Python loop over the same compiled kernels,
 with a correction after each V-cycle, and the cycles each bearing-step takes are counted on the
 benchmark's 3 um whirl (240 x 72 mid-plane half, plant tolerances 1e-8 / 1e-7; both bearings):
@@ -34,21 +34,21 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-import models.bearing.transient as transient
-import models.bearing.transient_multigrid as multigrid
-from models.bearing.equilibrium import static_equilibrium
-from models.bearing.grid import Mesh
-from models.bearing.supply import SupplyFlow
-from models.bearing.transient_galerkin import build as build_coarse
-from models.bearing.transient_galerkin import update as update_coarse
-from models.bearing.transient_sweep import (
+import oilwatch.models.bearing.transient as transient
+import oilwatch.models.bearing.transient_multigrid as multigrid
+from oilwatch.models.bearing.equilibrium import static_equilibrium
+from oilwatch.models.bearing.grid import Mesh
+from oilwatch.models.bearing.supply import SupplyFlow
+from oilwatch.models.bearing.transient_galerkin import build as build_coarse
+from oilwatch.models.bearing.transient_galerkin import update as update_coarse
+from oilwatch.models.bearing.transient_sweep import (
     conserve_mass,
     projected_sweep_residual,
     step_residual,
     sweep_factors,
 )
-from models.machine import load_machine
-from models.rotor.assembly import Rotor
+from oilwatch.models.machine import load_machine
+from oilwatch.models.rotor.assembly import Rotor
 
 
 def _matrices(k, n):

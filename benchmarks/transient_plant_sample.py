@@ -1,11 +1,11 @@
 """CPU time of the high-fidelity plant's 1 ms samples (the rotor on two transient films), warm.
 
-The plant of ``film_model = "transient-film"`` (:class:`models.system.nonlinear_plant.TransientFilmPlant`:
-3 implicit substeps per sample, the plant's film tolerances) on its 60 x 16 mesh, both supplies
-falling from the nominal flowrate to 75 % (a sigmoid centred at 50 ms, 10 ms wide). After the set-up and
-20 warm-up samples, the process CPU time of each of ``--samples`` samples; prints its median and mean
-and the last true journal position (the same on any code that leaves the iterates unchanged). A short
-piece of the 20 s high-fidelity run. Run by hand:
+The plant of ``film_model = "transient-film"``
+(:class:`oilwatch.models.system.nonlinear_plant.TransientFilmPlant`: 3 implicit substeps per sample, the
+plant's film tolerances) on its 60 x 16 mesh, both supplies falling from the nominal flowrate to 75 % (a
+sigmoid centred at 50 ms, 10 ms wide). After the set-up and 20 warm-up samples, the process CPU time of each
+of ``--samples`` samples; prints its median and mean and the last true journal position (the same on any code
+that leaves the iterates unchanged). A short piece of the 20 s high-fidelity run. Run by hand:
 
     OPENBLAS_NUM_THREADS=1 NUMBA_NUM_THREADS=1 python benchmarks/transient_plant_sample.py [--samples 100]
 """
@@ -16,10 +16,10 @@ import argparse
 import statistics
 import time
 
-from models.bearing.grid import Mesh
-from models.machine import load_machine
-from models.system.fault import SigmoidFlowrate
-from models.system.nonlinear_plant import TRANSIENT_PLANT_MESH, TransientFilmPlant
+from oilwatch.models.bearing.grid import Mesh
+from oilwatch.models.machine import load_machine
+from oilwatch.models.system.fault import SigmoidFlowrate
+from oilwatch.models.system.nonlinear_plant import TRANSIENT_PLANT_MESH, TransientFilmPlant
 
 
 def main() -> None:

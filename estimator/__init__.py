@@ -2,7 +2,7 @@
 
 Usage::
 
-    from estimator import EKFConfig, OilFlowEKF
+    from oilwatch.estimator import EKFConfig, OilFlowEKF
     ekf = OilFlowEKF(model, EKFConfig.recommended(noise_std_m=1e-6))  # model: any AugmentedModel
     report = ekf.step(displacement_m)  # (x1, y1, x2, y2) [m] -> q estimates, stds, NIS, flags
 """

@@ -10,12 +10,12 @@ Rule (one per bearing i, evaluated every step from the estimate q_i and its std 
   near one threshold cannot make the alarm chatter.
 
 Each alarm also records whether the estimator's model was consistent with the data (``model_consistent`` of
-:mod:`estimator.ekf`) when it was raised: ``starved_consistent``. An alarm raised while the model was not
-consistent may be the machine's departure from the model rather than starvation.
+:mod:`oilwatch.estimator.ekf`) when it was raised: ``starved_consistent``. An alarm raised while the model was
+not consistent may be the machine's departure from the model rather than starvation.
 
-Defaults (:class:`estimator.config.AlarmConfig`): z = 2, 90 % to set, 95 % to clear, holds 0.25 s and 1 s.
-Designed for: firing within 2 s of the centre of a sudden 25 % drop and never in a 20 s nominal run at sigma
-1 um (both checked in ``tests/test_estimator_alarm.py``).
+Defaults (:class:`oilwatch.estimator.config.AlarmConfig`): z = 2, 90 % to set, 95 % to clear, holds 0.25 s and
+1 s. Designed for: firing within 2 s of the centre of a sudden 25 % drop and never in a 20 s nominal run at
+sigma 1 um (both checked in ``tests/test_estimator_alarm.py``).
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from models.validation import InputError
+from oilwatch.models.validation import InputError
 
 from .config import AlarmConfig
 
@@ -63,7 +63,7 @@ class StarvationAlarm:
     config : thresholds. dt_s : step [s]. q_nominal_m3_s : reference flowrate [m^3/s].
 
     Its record (:attr:`record`, (4, n_bearings) int64) and :attr:`settings` are what the compiled step of
-    :mod:`estimator.step_kernel` advances in place (:func:`update_alarm`).
+    :mod:`oilwatch.estimator.step_kernel` advances in place (:func:`update_alarm`).
     """
 
     def __init__(self, config: AlarmConfig, dt_s: float, q_nominal_m3_s: float, n_bearings: int = 2) -> None:

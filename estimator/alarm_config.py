@@ -1,14 +1,15 @@
 """Thresholds of the per-bearing starvation alarm, each with its allowed range, unit and description.
 
-The field metadata is read twice: by validation here and by :data:`estimator.config.ESTIMATOR_PARAMETERS`,
-which turns every field into a user parameter (``alarm_<field>``) of the FMU and the CLI.
+The field metadata is read twice: by validation here and by
+:data:`oilwatch.estimator.config.ESTIMATOR_PARAMETERS`, which turns every field into a user parameter
+(``alarm_<field>``) of the FMU and the CLI.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field, fields
 
-from models.validation import InputError, require_in_range
+from oilwatch.models.validation import InputError, require_in_range
 
 
 def _bounded(default: float, low: float, high: float, unit: str, description: str):
@@ -19,7 +20,7 @@ def _bounded(default: float, low: float, high: float, unit: str, description: st
 
 @dataclass(frozen=True)
 class AlarmConfig:
-    """Thresholds of the per-bearing starvation alarm (rule in :mod:`estimator.alarm`).
+    """Thresholds of the per-bearing starvation alarm (rule in :mod:`oilwatch.estimator.alarm`).
 
     on_fraction : the alarm sets when the upper confidence bound ``q + z std`` stays below
         ``on_fraction * q_nominal`` for ``hold_on_s``.

@@ -9,9 +9,10 @@ frees the complex unbalance (``unbalance_prior_std``) or the bearings' viscosity
 (``viscosity_factor_prior_std``, a model that follows the operating point), the same run estimates them: at
 known flow the factor is what moves the journal besides the offsets, and at unknown flow it is nearly
 indistinguishable from a flowrate change (both move the static position), so it must come from here. The
-final estimates and their stds become the prior of later runs (:class:`estimator.config.OffsetBaseline`);
-drift after commissioning is then tracked by the random walks, and the offsets' prior is widened by the
-drift the time since commissioning allows (``OffsetBaseline.age_s``, ``drift_m_per_day``).
+final estimates and their stds become the prior of later runs
+(:class:`oilwatch.estimator.config.OffsetBaseline`); drift after commissioning is then tracked by the random
+walks, and the offsets' prior is widened by the drift the time since commissioning allows
+(``OffsetBaseline.age_s``, ``drift_m_per_day``).
 
 File format (JSON, units in the keys): ``format``, ``format_version``, ``flowrates_ml_min`` (2,),
 ``offsets_um`` (4,), ``offset_std_um`` (4,), ``offset_covariance_um2`` (4, 4), optional
@@ -19,7 +20,7 @@ File format (JSON, units in the keys): ``format``, ``format_version``, ``flowrat
 ``nuisance_covariance`` (the joint covariance of all of them in the state's order, offsets in m),
 ``samples``, ``record``;
 and/or ``runout``: the probes' slow-roll vectors with their stds (:meth:`SlowRollVectors.to_document`, from a
-slow-roll record, :func:`estimator.runout.fit_slow_roll`), which the estimator subtracts
+slow-roll record, :func:`oilwatch.estimator.runout.fit_slow_roll`), which the estimator subtracts
 (``EKFConfig.runout``, :func:`load_runout`).
 """
 
@@ -31,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from models.validation import InputError
+from oilwatch.models.validation import InputError
 
 from .config import ML_MIN, EKFConfig, OffsetBaseline
 from .ekf import OilFlowEKF

@@ -1,6 +1,6 @@
 """The estimator's configuration as a user sets it: field units, ranges and descriptions.
 
-:data:`ESTIMATOR_PARAMETERS` is generated from :class:`estimator.ekf_config.EKFConfig` (defaults: its
+:data:`ESTIMATOR_PARAMETERS` is generated from :class:`oilwatch.estimator.ekf_config.EKFConfig` (defaults: its
 recommended tuning) and the alarm's field metadata; the estimator FMU's parameter table and the CLI's
 ``--set ekf.NAME`` help are generated from it, never retyped.
 """

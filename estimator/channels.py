@@ -2,7 +2,7 @@
 
 Every sample, each of the four displacement channels is screened (compiled, :func:`screen_channels`) before
 the update and gated (:func:`gate_channels`) on its own innovation; the update then uses every channel that
-passed (:mod:`estimator.kernels`). One health record per probe:
+passed (:mod:`oilwatch.estimator.kernels`). One health record per probe:
 
 * **dead**: non-finite for ``dead_samples`` in a row while other channels are finite (a single NaN only drops
   that channel from that sample; a sample with no finite channel is a missing sample, not four dead probes);

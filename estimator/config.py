@@ -3,14 +3,17 @@
 The parts live one concept per module and are re-exported here, where callers, the estimator FMU and the
 README import them from:
 
-- :mod:`estimator.ekf_config`: :class:`EKFConfig` (validated on construction, SI, the paper's defaults) and
+- :mod:`oilwatch.estimator.ekf_config`: :class:`EKFConfig` (validated on construction, SI, the paper's
+defaults) and
   the recommended tuning's constants;
-- :mod:`estimator.alarm_config`: :class:`AlarmConfig`, the starvation alarm's thresholds;
-- :mod:`estimator.offset_baseline`: :class:`OffsetBaseline`, the prior a commissioning baseline gives;
-- :mod:`estimator.boundary_parameters`: :data:`ESTIMATOR_PARAMETERS`, this configuration as a user sets it
+- :mod:`oilwatch.estimator.alarm_config`: :class:`AlarmConfig`, the starvation alarm's thresholds;
+- :mod:`oilwatch.estimator.offset_baseline`: :class:`OffsetBaseline`, the prior a commissioning baseline
+gives;
+- :mod:`oilwatch.estimator.boundary_parameters`: :data:`ESTIMATOR_PARAMETERS`, this configuration as a user
+sets it
   (field units, ranges, descriptions): the estimator FMU's variable table and the CLI's help are generated
   from it, never retyped;
-- :mod:`estimator.nuisance_outputs`: :data:`NUISANCE_OUTPUTS`, the estimated nuisances as outputs.
+- :mod:`oilwatch.estimator.nuisance_outputs`: :data:`NUISANCE_OUTPUTS`, the estimated nuisances as outputs.
 """
 
 from .alarm_config import AlarmConfig

@@ -8,8 +8,8 @@ unbalance ``u``.
 
 Operating point: :meth:`OilFlowEKF.step` takes the measured speed and oil temperature of the sample (and a
 keyphasor angle when there is one) and hands them to a model that follows them (``set_operating_point``,
-:class:`models.system.operating_model.OperatingAugmentedModel`) before predicting to the sample: the plant
-holds them over the period that ends at the sample, and so does the prediction.
+:class:`oilwatch.models.system.operating_model.OperatingAugmentedModel`) before predicting to the sample: the
+plant holds them over the period that ends at the sample, and so does the prediction.
 The model works in m^3/s, where a flowrate of 1e-5 and a process-noise std
 of 1.7e-9 sit beside displacements of 1e-5 m; in fractions of nominal the flowrate entries of P are
 O(1e-4..1e-1), which keeps the flowrate block of P and its Jacobian columns well scaled. Everything at the
@@ -17,9 +17,10 @@ interface is SI.
 
 Per step (:meth:`OilFlowEKF.step`): predict with the model (Eqs. 19-21, skipped on the very first sample),
 then update with the measured displacements (Eqs. 22-24, Joseph form, Cholesky solve; see
-:mod:`estimator.kernels`).
+:mod:`oilwatch.estimator.kernels`).
 
-* Probe faults (:mod:`estimator.channels`): every channel is screened and gated on its own; the update uses
+* Probe faults (:mod:`oilwatch.estimator.channels`): every channel is screened and gated on its own; the
+update uses
   every channel that passed (a NaN on one probe drops that channel, not the update). A probe that is dead,
   stuck, out of its physical range or persistently rejected alone is flagged (``probe_status``) and excluded
   until it has looked healthy for ``probe_recover_s``. Nothing is ever forced through the gate.
@@ -53,7 +54,7 @@ import math
 
 import numpy as np
 
-from models.validation import InputError
+from oilwatch.models.validation import InputError
 
 from . import channels
 from .alarm import StarvationAlarm
@@ -94,17 +95,19 @@ class OilFlowEKF(FilterReporting, BatchRuns, ModelPrediction, FilterStateIO):
 
     Parameters
     ----------
-    model : any :class:`estimator.model.AugmentedModel`.
-    config : :class:`estimator.config.EKFConfig` (paper defaults; what it leaves open, e.g. the nominal
+    model : any :class:`oilwatch.estimator.model.AugmentedModel`.
+    config : :class:`oilwatch.estimator.config.EKFConfig` (paper defaults; what it leaves open, e.g. the
+    nominal
         flowrate, comes from the model: :meth:`EKFConfig.for_model`).
 
-    ``state_layout`` (:class:`estimator.ekf_setup.StateLayout`) tells where each part sits in the state
-    vector ``x`` of :meth:`get_state` (the flowrates in fractions of ``config.q_nominal_m3_s``).
+    ``state_layout`` (:class:`oilwatch.estimator.ekf_setup.StateLayout`) tells where each part sits in the
+    state vector ``x`` of :meth:`get_state` (the flowrates in fractions of ``config.q_nominal_m3_s``).
 
-    The set-up is :mod:`estimator.ekf_setup`, the reported estimates :mod:`estimator.ekf_reporting`, the
-    record entries (:meth:`run`, :meth:`run_batch`) :mod:`estimator.ekf_batch`, the model's transition with
-    the nuisance columns and the operating point :mod:`estimator.ekf_prediction`, the state's export and
-    import :mod:`estimator.state`.
+    The set-up is :mod:`oilwatch.estimator.ekf_setup`, the reported estimates
+    :mod:`oilwatch.estimator.ekf_reporting`, the record entries (:meth:`run`, :meth:`run_batch`)
+    :mod:`oilwatch.estimator.ekf_batch`, the model's transition with the nuisance columns and the operating
+    point :mod:`oilwatch.estimator.ekf_prediction`, the state's export and import
+    :mod:`oilwatch.estimator.state`.
     """
 
     def __init__(self, model: AugmentedModel, config: EKFConfig | None = None) -> None:

@@ -1,9 +1,11 @@
-"""Records through :class:`estimator.ekf.OilFlowEKF`: :meth:`BatchRuns.run` and :meth:`BatchRuns.run_batch`.
+"""Records through :class:`oilwatch.estimator.ekf.OilFlowEKF`: :meth:`BatchRuns.run` and
+:meth:`BatchRuns.run_batch`.
 
-Both give exactly what as many :meth:`estimator.ekf.OilFlowEKF.step` calls give (tests/test_ekf_run_batch.py,
-bit for bit). On a grid model at one speed with no operating point given a whole block is one compiled
-call (:func:`estimator.step_kernel.grid_batch`: the grid's transition and the filter's step per sample);
-otherwise each sample goes through the filter's ``_advance``, its report stored as a row of a table.
+Both give exactly what as many :meth:`oilwatch.estimator.ekf.OilFlowEKF.step` calls give
+(tests/test_ekf_run_batch.py, bit for bit). On a grid model at one speed with no operating point given a whole
+block is one compiled call (:func:`oilwatch.estimator.step_kernel.grid_batch`: the grid's transition and the
+filter's step per sample); otherwise each sample goes through the filter's ``_advance``, its report stored as
+a row of a table.
 """
 
 from __future__ import annotations
@@ -12,14 +14,15 @@ from collections.abc import Callable
 
 import numpy as np
 
-from models.validation import InputError
+from oilwatch.models.validation import InputError
 
 from .reports import EstimateTrace
 from .step_kernel import REPORT_SIZE, grid_batch
 
 
 class BatchRuns:
-    """The record half of :class:`estimator.ekf.OilFlowEKF` (which sets up the attributes used here)."""
+    """The record half of :class:`oilwatch.estimator.ekf.OilFlowEKF` (which sets up the attributes used
+    here)."""
 
     def run(
         self,
@@ -73,13 +76,13 @@ class BatchRuns:
         return out
 
     def grid_batch_arguments(self) -> tuple | None:
-        """The arguments of :func:`estimator.step_kernel.grid_batch` that belong to this filter, in its
-        order less the record and the report table: ``(transition, forcing, axes, omega, dt, first_step,
+        """The arguments of :func:`oilwatch.estimator.step_kernel.grid_batch` that belong to this filter, in
+        its order less the record and the report table: ``(transition, forcing, axes, omega, dt, first_step,
         next, transition_work, flow_jacobian, exogenous, packed)``; None unless the filter steps as one
         compiled call (a grid model at one speed). The arrays are the filter's own storage: a compiled
         caller that runs ``grid_batch`` on them (the estimator FMU's plain step,
-        :mod:`fmu_src.ekf_plain_step`) advances the filter exactly as :meth:`step` does. They stay valid
-        through :meth:`set_state` (which copies into them) and are replaced by ``reset``."""
+        :mod:`oilwatch.fmu_src.ekf_plain_step`) advances the filter exactly as :meth:`step` does. They stay
+        valid through :meth:`set_state` (which copies into them) and are replaced by ``reset``."""
         if self._grid_batch is None:
             return None
         return (
@@ -93,7 +96,8 @@ class BatchRuns:
         )
 
     def _run_grid_batch(self, record: np.ndarray, table: np.ndarray) -> None:
-        """:func:`estimator.step_kernel.grid_batch` on the record's rows (K, 4), reports into ``table``."""
+        """:func:`oilwatch.estimator.step_kernel.grid_batch` on the record's rows (K, 4), reports into
+        ``table``."""
         transition, forcing, axes, omega, dt = self._grid_batch
         grid_batch(
             transition,

@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, replace
 
-from models.validation import (
+from oilwatch.models.validation import (
     InputError,
     require_finite,
     require_in_range,
@@ -28,7 +28,7 @@ ML_MIN = 1.0e-6 / 60.0
 """One millilitre per minute in m^3/s."""
 
 VELOCITY_NOISE_MODES = ("displacement-only", "correlated", "paper")
-"""How the differentiated velocities enter the update (see :mod:`estimator.measurement`)."""
+"""How the differentiated velocities enter the update (see :mod:`oilwatch.estimator.measurement`)."""
 
 INITIAL_STATE_MODES = ("zero", "static")
 
@@ -42,7 +42,8 @@ class EKFConfig:
 
     Measurement and noise
         noise_std_m : std of the white displacement-measurement noise sigma_v [m].
-        velocity_noise : "displacement-only" (four channels, the default: see :mod:`estimator.measurement`),
+        velocity_noise : "displacement-only" (four channels, the default: see
+        :mod:`oilwatch.estimator.measurement`),
             "correlated" (eight channels, exact within-step covariance of the backward difference) or "paper"
             (eight channels, R = sigma_v^2 I as in the paper).
         displacement_process_std_m, velocity_process_std_m_s, flowrate_process_std_m3_s : process-noise stds
@@ -61,7 +62,8 @@ class EKFConfig:
             spin speed, and a quarter of the nominal flowrate: None).
     Probes and their zero offsets
         probe_angle_deg : mounting angle of each bearing's probe pair from the model's axes (see
-            :func:`estimator.measurement.probe_rotation`; 45: the API 670 pair either side of the top).
+            :func:`oilwatch.estimator.measurement.probe_rotation`; 45: the API 670 pair either side of the
+            top).
         offset_prior_std_m : prior std of each probe's zero offset; 0 (the paper's calibrated probes) keeps
             the offsets out of the state, > 0 adds four offset states (the machine file's ``[probes]``
             section gives it for a real machine, 25 um by default).
@@ -73,7 +75,8 @@ class EKFConfig:
             shows as a 1x innovation the windowed NIS test catches).
         offset_baseline : an :class:`OffsetBaseline` from a commissioning record: the offsets' initial
             estimate and prior std (it adds the offset states even when offset_prior_std_m is 0).
-        runout : the probes' slow-roll (runout) vectors, :class:`estimator.runout.SlowRollVectors` (from
+        runout : the probes' slow-roll (runout) vectors, :class:`oilwatch.estimator.runout.SlowRollVectors`
+        (from
             ``oilwatch baseline --slow-roll-record``): subtracted from each sample at its rotor angle, their
             fit's uncertainty added to the measurement noise (None: no compensation).
     Viscosity factors (issue 14 item 1)
@@ -81,10 +84,10 @@ class EKFConfig:
             film's viscosity over the oil law's at the measured oil temperature: film heating and model error;
             prior 1); 0 (the paper's calibrated setting) keeps both factors at 1 and out of the state, > 0
             adds two random-walk states (needs a model with ``transition_full``, e.g.
-            ``models.system.operating_model.OperatingAugmentedModel``).
+            ``oilwatch.models.system.operating_model.OperatingAugmentedModel``).
         viscosity_factor_random_walk_sqrt_s : their random-walk intensity [1 / sqrt(s)].
-    Consistency with free viscosity factors (:mod:`estimator.nuisance_start`; only while the factors are
-    estimated without a baseline's prior for them)
+    Consistency with free viscosity factors (:mod:`oilwatch.estimator.nuisance_start`; only while the factors
+    are estimated without a baseline's prior for them)
         nuisance_shadow : the flowrate and nuisance Jacobian of each prediction is taken at a noise-free
             shadow of the dynamic state (the model run at the current estimates), not at the state
             estimate: the instrumental-variable remedy for the information a noisy state estimate fakes
@@ -94,8 +97,8 @@ class EKFConfig:
             from their prior (0: off).
         nuisance_information_floor : (with the shadow Jacobian) the flowrates' std is kept at or above the
             posterior Cramer-Rao bound of the filter's own configuration, evaluated along the record at the
-            estimates (:class:`estimator.nuisance_start.InformationFloor`).
-    Innovation gate and probe health (see :mod:`estimator.channels`)
+            estimates (:class:`oilwatch.estimator.nuisance_start.InformationFloor`).
+    Innovation gate and probe health (see :mod:`oilwatch.estimator.channels`)
         gate_tail_probability : a channel whose squared standardized innovation exceeds the chi-square(1)
             quantile ``1 - p`` times its recent innovation power is rejected (0 disables the gate).
         gate_scale_window_s : time constant of that fading-memory innovation power [s].
@@ -105,7 +108,7 @@ class EKFConfig:
         probe_dead_s, probe_stuck_s, probe_rejected_s : non-finite, unchanged (within
             ``probe_stuck_tolerance_m``), or alone rejected by the gate for this long in a row flags a probe
             faulty; probe_recover_s : a faulty probe returns after looking healthy for this long in a row.
-    Change detection and model consistency (see :mod:`estimator.ekf`)
+    Change detection and model consistency (see :mod:`oilwatch.estimator.ekf`)
         change_window_s : time constant of the fading-memory mean of each channel's standardized innovation.
         change_tail_probability : a bearing whose two channels' mean innovation exceeds the chi-square(2)
             quantile ``1 - p`` of its null distribution is changing: its flowrate gets the extra process noise

@@ -1,4 +1,5 @@
-"""The model side of :class:`estimator.ekf.OilFlowEKF`'s prediction: the transition with the nuisance columns.
+"""The model side of :class:`oilwatch.estimator.ekf.OilFlowEKF`'s prediction: the transition with the nuisance
+columns.
 
 The filter's model either transitions the dynamic states alone (``transition``), or also returns the
 Jacobian columns of the unbalance (``transition_with_unbalance``) or of the viscosity factors and the
@@ -14,7 +15,7 @@ import math
 
 import numpy as np
 
-from models.validation import InputError
+from oilwatch.models.validation import InputError
 
 from .step_kernel import REPORT_FLOWRATE
 
@@ -23,7 +24,8 @@ MIN_VISCOSITY_FACTOR = 0.2
 
 
 class ModelPrediction:
-    """The model half of :class:`estimator.ekf.OilFlowEKF`'s step (which sets up the attributes used here)."""
+    """The model half of :class:`oilwatch.estimator.ekf.OilFlowEKF`'s step (which sets up the attributes used
+    here)."""
 
     def _predict_with_model(
         self, model_step: int, state: np.ndarray | None = None

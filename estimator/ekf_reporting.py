@@ -1,8 +1,9 @@
-"""What :class:`estimator.ekf.OilFlowEKF` reports of its state: the public estimates and the report array.
+"""What :class:`oilwatch.estimator.ekf.OilFlowEKF` reports of its state: the public estimates and the report
+array.
 
 :class:`FilterReporting` is the part of the filter that reads its state: the SI estimates and stds of the
 flowrates and the nuisances, copies of the dynamic state and of P, and the report array (``REPORT_*``
-layout of :mod:`estimator.step_kernel`) rebuilt from the state after a reset or a restored state. The
+layout of :mod:`oilwatch.estimator.step_kernel`) rebuilt from the state after a reset or a restored state. The
 compiled step writes that array itself after each sample.
 """
 
@@ -35,7 +36,8 @@ from .step_kernel import (
 
 
 class FilterReporting:
-    """The reporting half of :class:`estimator.ekf.OilFlowEKF` (which sets up the attributes used here)."""
+    """The reporting half of :class:`oilwatch.estimator.ekf.OilFlowEKF` (which sets up the attributes used
+    here)."""
 
     @property
     def flowrate_m3_s(self) -> np.ndarray:
@@ -112,8 +114,8 @@ class FilterReporting:
 
     @property
     def settling_steps(self) -> int:
-        """Samples of the settling start (:mod:`estimator.nuisance_start`; 0: none): the flowrates and
-        nuisances restart from their prior after this sample."""
+        """Samples of the settling start (:mod:`oilwatch.estimator.nuisance_start`; 0: none): the flowrates
+        and nuisances restart from their prior after this sample."""
         return self._settling
 
     def current_report(self) -> StepReport:

@@ -1,10 +1,10 @@
-"""How :class:`estimator.ekf.OilFlowEKF` is set up from its model and configuration.
+"""How :class:`oilwatch.estimator.ekf.OilFlowEKF` is set up from its model and configuration.
 
 The model's checks (:func:`check_model`), the augmented state's layout (:class:`StateLayout`) and the
-fixed arrays of the compiled step (:mod:`estimator.filter_arrays`): the measurement matrices, the
+fixed arrays of the compiled step (:mod:`oilwatch.estimator.filter_arrays`): the measurement matrices, the
 settings of the update, the probe screening and the summary, the process noise and the counters. Each is
 built once per filter; what a reset renews (x, P, ring buffers) is the filter's own
-(:meth:`estimator.ekf.OilFlowEKF.reset`).
+(:meth:`oilwatch.estimator.ekf.OilFlowEKF.reset`).
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.special import chdtri, ndtri
 
-from models.validation import InputError
+from oilwatch.models.validation import InputError
 
 from . import channels
 from .config import EKFConfig
@@ -60,7 +60,7 @@ class StateLayout:
         if n_viscosity and not callable(getattr(model, "transition_full", None)):
             raise InputError(
                 "EKFConfig.viscosity_factor_prior_std > 0 needs a model with transition_full() (one that "
-                "follows the operating point: models.system.operating_model)"
+                "follows the operating point: oilwatch.models.system.operating_model)"
             )
         return cls(int(model.n_states), n_offsets, n_viscosity, n_unbalance)
 
@@ -122,7 +122,7 @@ def check_model(model: AugmentedModel, config: EKFConfig) -> None:
 
 
 def channel_settings(cfg: EKFConfig, model: AugmentedModel, dt: float) -> np.ndarray:
-    """The settings array of :mod:`estimator.channels` from the configuration and the model."""
+    """The settings array of :mod:`oilwatch.estimator.channels` from the configuration and the model."""
     p = cfg.gate_tail_probability
     gate = float(chdtri(1, p)) if p > 0.0 else np.inf
     if cfg.probe_range_m is not None:
@@ -157,7 +157,7 @@ def physical_covariance(
 
 
 def step_settings(cfg: EKFConfig, dt: float, bounds_scaled: tuple[float, float], q_var: float) -> np.ndarray:
-    """:func:`estimator.kernels.filter_step`'s settings array (filter units)."""
+    """:func:`oilwatch.estimator.kernels.filter_step`'s settings array (filter units)."""
     change_alpha = min(1.0, dt / cfg.change_window_s)
     return np.array(
         [
@@ -174,7 +174,7 @@ def step_settings(cfg: EKFConfig, dt: float, bounds_scaled: tuple[float, float],
 def summary_settings(
     cfg: EKFConfig, q_nominal: float, bounds: tuple[float, float], unbalance_walk: float
 ) -> np.ndarray:
-    """The ``SUMMARY_*`` settings array of :func:`estimator.step_kernel.step_summary`."""
+    """The ``SUMMARY_*`` settings array of :func:`oilwatch.estimator.step_kernel.step_summary`."""
     settings = np.zeros(N_SUMMARY_SETTINGS)
     settings[SUMMARY_Q_NOMINAL] = q_nominal
     settings[SUMMARY_Q_LOW], settings[SUMMARY_Q_HIGH] = bounds

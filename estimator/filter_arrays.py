@@ -1,11 +1,11 @@
 """The arrays of the compiled filter step, as one struct (the transient solver's ``StepArrays`` pattern).
 
 :class:`FilterArrays` names every array the compiled step reads or advances in place
-(:func:`estimator.kernels.filter_step`, :func:`estimator.step_kernel.ekf_step`), so that its layout is
-written once, here, instead of as argument lists repeated by each kernel.
+(:func:`oilwatch.estimator.kernels.filter_step`, :func:`oilwatch.estimator.step_kernel.ekf_step`), so that its
+layout is written once, here, instead of as argument lists repeated by each kernel.
 
-The filter builds it at each reset (:meth:`estimator.ekf.OilFlowEKF.reset`) and hands it to the compiled
-entries as ``tuple(arrays)``; they rebuild the struct inside (``FilterArrays(*packed)``, free once
+The filter builds it at each reset (:meth:`oilwatch.estimator.ekf.OilFlowEKF.reset`) and hands it to the
+compiled entries as ``tuple(arrays)``; they rebuild the struct inside (``FilterArrays(*packed)``, free once
 compiled). A plain tuple is dispatched by numba's C fingerprint; a NamedTuple goes through Python-level
 typing, about 5 us more per call for these 25 arrays (measured with numba 0.68), a fifth of the step.
 """
@@ -26,11 +26,12 @@ class FilterArrays(NamedTuple):
     augmented_jacobian, work (N, N) : scratch of the covariance prediction. stacked (8,) : scratch.
     observation4 (4, N), noise4 (4, 4) : H_a and R of the displacements; observation8 (8, N), noise8 (8, 8)
     with the differentiated velocities, or (0, N) and (0, 0) in displacement-only mode.
-    settings : :func:`estimator.kernels.filter_step`'s. health, health_values, channel_settings : the
-    probe records (:mod:`estimator.channels`). accepted (4,) bool, changing (2,) bool : out.
-    counters (int64) : the ``COUNT_*`` of :mod:`estimator.step_kernel`. nis_window (C, 2), nis_sums (2,),
-    history (W, 2) : the consistency and convergence ring buffers. summary_settings : the ``SUMMARY_*``.
-    alarm_record, alarm_settings : :class:`estimator.alarm.StarvationAlarm`'s. report (REPORT_SIZE,) : out.
+    settings : :func:`oilwatch.estimator.kernels.filter_step`'s. health, health_values, channel_settings : the
+    probe records (:mod:`oilwatch.estimator.channels`). accepted (4,) bool, changing (2,) bool : out.
+    counters (int64) : the ``COUNT_*`` of :mod:`oilwatch.estimator.step_kernel`. nis_window (C, 2), nis_sums
+    (2,), history (W, 2) : the consistency and convergence ring buffers. summary_settings : the ``SUMMARY_*``.
+    alarm_record, alarm_settings : :class:`oilwatch.estimator.alarm.StarvationAlarm`'s. report (REPORT_SIZE,)
+    : out.
     """
 
     state: np.ndarray

@@ -1,7 +1,7 @@
 """Numba kernels of the EKF hot path: covariance propagation and the Joseph-form measurement update.
 
-:func:`filter_step` is one sample's predict and update in place; :mod:`estimator.step_kernel` wraps it
-with the summary and the alarm into the one compiled call per sample. The covariance prediction's two large
+:func:`filter_step` is one sample's predict and update in place; :mod:`oilwatch.estimator.step_kernel` wraps
+it with the summary and the alarm into the one compiled call per sample. The covariance prediction's two large
 products go to BLAS through ``np.dot``; the update's thin (m <= 8) products are loops. No matrix is ever
 inverted: the gain comes from a hand-written Cholesky factorization of the (at most 8 x 8) innovation
 covariance and triangular solves.
@@ -305,17 +305,17 @@ def filter_step(
 ) -> tuple[int, float, int, int]:
     """One complete EKF step after the model's transition, in place: the hot path in one compiled call.
 
-    a : the filter's arrays (:class:`estimator.filter_arrays.FilterArrays`; this step reads and advances
-    those up to ``changing``). predict : whether ``next_state`` and the Jacobians are to be applied (False
-    on the first sample); the flowrate columns of the Jacobian are per ``flowrate_scale`` [m^3/s].
+    a : the filter's arrays (:class:`oilwatch.estimator.filter_arrays.FilterArrays`; this step reads and
+    advances those up to ``changing``). predict : whether ``next_state`` and the Jacobians are to be applied
+    (False on the first sample); the flowrate columns of the Jacobian are per ``flowrate_scale`` [m^3/s].
     displacement : (4,) sample [m]; non-finite entries drop their channels. ``a.settings`` : [1/dt, flowrate
     low, flowrate high, change-test null variance, change-test threshold, flowrate process variance, extra
     variance while changing] (filter units). ``a.accepted`` : (4,) bool out, the displacement channels
     used. ``a.changing`` : (2,) bool out, the change test of :func:`detect_change`.
 
-    Every screened channel that passes its own gate is used (:mod:`estimator.channels`); a differentiated
-    velocity channel only when its displacement channel was accepted in this and the previous sample.
-    Returns ``(status, nis, rows used, channels rejected by the gate)``; status is one of the UPDATE_*
+    Every screened channel that passes its own gate is used (:mod:`oilwatch.estimator.channels`); a
+    differentiated velocity channel only when its displacement channel was accepted in this and the previous
+    sample. Returns ``(status, nis, rows used, channels rejected by the gate)``; status is one of the UPDATE_*
     constants (UPDATE_SKIPPED when no channel was usable, UPDATE_GATED when all usable ones were rejected).
     """
     state, covariance, process_noise, settings = a.state, a.covariance, a.process_noise, a.settings
@@ -394,8 +394,8 @@ def detect_change(
     settings: np.ndarray,
     changing: np.ndarray,
 ) -> None:
-    """The per-bearing mean-innovation test (:mod:`estimator.ekf`); sets the flowrate process noise of the
-    next prediction in ``process_noise`` and the flags ``changing`` (2,); the flowrates are
+    """The per-bearing mean-innovation test (:mod:`oilwatch.estimator.ekf`); sets the flowrate process noise
+    of the next prediction in ``process_noise`` and the flags ``changing`` (2,); the flowrates are
     ``state[first : first + 2]``.
 
     Each channel's mean is compared with its null spread scaled by the channel's observed innovation power

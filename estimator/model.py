@@ -2,12 +2,12 @@
 
 The estimator never builds physics itself: it drives any object that satisfies :class:`AugmentedModel`.
 The system-model issue implements it in ``models/`` (full 168-state or reduced order); the tests use the toy
-oscillator of :mod:`estimator.toy_model`.
+oscillator of :mod:`oilwatch.estimator.toy_model`.
 
 State convention: the dynamic state ``s`` is absolute, i.e. the measured displacements ``H @ s`` are measured
 from the bearing centre with the static eccentricity included, because gravity and the ``K(q) e0(q)`` term are
 inputs of the model. The flowrates ``q = [q1, q2]`` (m^3/s) are the augmented states; the filter rescales them
-internally (see :mod:`estimator.ekf`), the model always sees SI units.
+internally (see :mod:`oilwatch.estimator.ekf`), the model always sees SI units.
 
 Beyond the four members requested at the start (``n_states``, ``dt_s``, ``output_matrix``,
 ``flowrate_bounds_m3_s``, ``transition``) the estimator needs two more, because the state may be a set of
@@ -20,11 +20,11 @@ reduced (modal or Craig-Bampton) coordinates whose meaning only the model knows:
   P0 with it.
 
 An optional third, ``static_state(flowrate)``, gives the static equilibrium for the ``initial_state="static"``
-option of :class:`estimator.config.EKFConfig`; models without it support only the paper's zero initial state.
-Two optional attributes carry the machine facts a configuration may leave open (``EKFConfig.for_model``):
-``nominal_flowrate_m3_s`` (the machine file's nominal supply flowrate) and ``speed_hz`` (the model's speed).
-An optional attribute ``clearance_m`` (the bearings' radial clearance [m]) sets the probes' physical range
-(``EKFConfig.probe_range_m``); without it there is no range check.
+option of :class:`oilwatch.estimator.config.EKFConfig`; models without it support only the paper's zero
+initial state. Two optional attributes carry the machine facts a configuration may leave open
+(``EKFConfig.for_model``): ``nominal_flowrate_m3_s`` (the machine file's nominal supply flowrate) and
+``speed_hz`` (the model's speed). An optional attribute ``clearance_m`` (the bearings' radial clearance [m])
+sets the probes' physical range (``EKFConfig.probe_range_m``); without it there is no range check.
 """
 
 from __future__ import annotations

@@ -2,7 +2,7 @@
 
 One :class:`NuisanceOutput` row per nuisance (its estimate and std per component, in user units); the
 estimator FMU and ``oilwatch estimate`` generate their variables and columns from these rows, so a new
-nuisance is one row here and one prior row in :data:`estimator.boundary_parameters.NUISANCE_PRIORS`.
+nuisance is one row here and one prior row in :data:`oilwatch.estimator.boundary_parameters.NUISANCE_PRIORS`.
 """
 
 from __future__ import annotations
@@ -17,9 +17,9 @@ class NuisanceOutput:
     """One estimated nuisance as outputs: per label, the estimate ``<stem>_<label>[_<unit>]`` and its std
     ``<stem>_<label>_std[_<unit>]`` (no unit suffix for unit "1").
 
-    estimate, std : names of the :class:`estimator.ekf.OilFlowEKF` properties giving the (n,) SI values;
-    scale : user value = scale x SI value; description : with ``{label}`` for the component; known : the
-    estimates' values (user unit) while the nuisance is known (not estimated; None: zeros).
+    estimate, std : names of the :class:`oilwatch.estimator.ekf.OilFlowEKF` properties giving the (n,) SI
+    values; scale : user value = scale x SI value; description : with ``{label}`` for the component; known :
+    the estimates' values (user unit) while the nuisance is known (not estimated; None: zeros).
     """
 
     stem: str

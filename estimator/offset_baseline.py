@@ -7,13 +7,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from models.validation import InputError, require_finite, require_in_range, require_positive
+from oilwatch.models.validation import InputError, require_finite, require_in_range, require_positive
 
 
 @dataclass(frozen=True)
 class OffsetBaseline:
-    """A commissioning baseline (:mod:`estimator.baseline`): the nuisances' estimates at a known healthy
-    condition, which become the estimator's prior.
+    """A commissioning baseline (:mod:`oilwatch.estimator.baseline`): the nuisances' estimates at a known
+    healthy condition, which become the estimator's prior.
 
     offsets_m, std_m : (x1, y1, x2, y2) probe zero offsets and their stds [m], std > 0.
     viscosity_factor, viscosity_factor_std : (2,) each bearing's viscosity factor and its std, or None (the

@@ -1,9 +1,9 @@
 """What the filter reports: a :class:`StepReport` per sample and an :class:`EstimateTrace` per record.
 
-Both are read from the filter's report array (:mod:`estimator.step_kernel`, ``REPORT_*`` layout), which the
-compiled step fills. :meth:`estimator.ekf.OilFlowEKF.step` returns a :class:`ReportView`, a StepReport whose
-fields are built from one copy of that array when they are read (a sample whose report nobody reads costs
-one copy), and a record's trace is filled from one row per sample.
+Both are read from the filter's report array (:mod:`oilwatch.estimator.step_kernel`, ``REPORT_*`` layout),
+which the compiled step fills. :meth:`oilwatch.estimator.ekf.OilFlowEKF.step` returns a :class:`ReportView`, a
+StepReport whose fields are built from one copy of that array when they are read (a sample whose report nobody
+reads costs one copy), and a record's trace is filled from one row per sample.
 """
 
 from __future__ import annotations
@@ -42,9 +42,9 @@ class StepReport:
     [m^3/s]. nis : normalized innovation squared of this sample (0 when no update was made).
     n_measurements : rows used by the update (0 when no channel was usable or all were rejected).
     converged : see module docstring. measurement_ok : the update used at least one channel.
-    starved : (2,) bool alarm flags. probe_status : (4,) int codes of :mod:`estimator.channels` (0 healthy).
-    model_consistent : the windowed NIS test passes. changing : (2,) bool, the change test fires on the
-    bearing. starved_consistent : (2,) bool, alarm raised while the model was consistent.
+    starved : (2,) bool alarm flags. probe_status : (4,) int codes of :mod:`oilwatch.estimator.channels` (0
+    healthy). model_consistent : the windowed NIS test passes. changing : (2,) bool, the change test fires on
+    the bearing. starved_consistent : (2,) bool, alarm raised while the model was consistent.
     viscosity_factor, viscosity_factor_std : (2,) each bearing's estimated viscosity factor and its std
     (1 and 0 when the factors are not estimated).
     """
@@ -82,8 +82,9 @@ class ReportView(StepReport):
 
     @property
     def values(self) -> np.ndarray:
-        """The whole report (REPORT_SIZE,) in the ``REPORT_*`` layout of :mod:`estimator.step_kernel`, read
-        only (e.g. for publishing every output from one ``tolist()``)."""
+        """The whole report (REPORT_SIZE,) in the ``REPORT_*`` layout of
+        :mod:`oilwatch.estimator.step_kernel`, read only (e.g. for publishing every output from one
+        ``tolist()``)."""
         view = self._values.view()
         view.flags.writeable = False
         return view
@@ -194,7 +195,7 @@ class EstimateTrace:
         )
 
     def fill(self, table: np.ndarray, count: int) -> None:
-        """Rows ``[:count]`` from the filter's report rows (:mod:`estimator.step_kernel` layout)."""
+        """Rows ``[:count]`` from the filter's report rows (:mod:`oilwatch.estimator.step_kernel` layout)."""
         rows = table[:count]
         for name, first, size in _TRACE_COLUMNS:
             target = getattr(self, name)[:count]

@@ -8,8 +8,8 @@ reads at 1x and 2x there IS its runout. The field measures these slow-roll vecto
 at the keyphasor phase, from every later reading ("slow-roll vector compensation").
 
 Here each probe's runout is ``Re(V1 exp(i theta)) + Re(V2 exp(2 i theta))`` with complex vectors V1, V2 [m]
-(``V = a exp(i phi)`` is the plant's ``a cos(theta + phi)``, :mod:`models.system.measurement`), along the
-probe's own axis and in its own (possibly mis-scaled) units, as the probe reads it.
+(``V = a exp(i phi)`` is the plant's ``a cos(theta + phi)``, :mod:`oilwatch.models.system.measurement`), along
+the probe's own axis and in its own (possibly mis-scaled) units, as the probe reads it.
 
 * :func:`fit_slow_roll` fits V1, V2 per probe to a slow-roll record by linear least squares on
   ``[1, t, cos theta, sin theta, cos 2 theta, sin 2 theta]`` (the constant and the slope absorb the static
@@ -30,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from models.validation import InputError, require_finite, require_non_negative
+from oilwatch.models.validation import InputError, require_finite, require_non_negative
 
 PROBES = ("x1", "y1", "x2", "y2")
 
@@ -198,7 +198,8 @@ class RunoutCompensation:
 
 
 def runout_of_probes(probes) -> SlowRollVectors | None:
-    """The runout vectors the machine file's ``[probes]`` gives (``models.probes.Probes.runout``), or None."""
+    """The runout vectors the machine file's ``[probes]`` gives (``oilwatch.models.probes.Probes.runout``), or
+    None."""
     if probes.runout is None:
         return None
     return SlowRollVectors.from_document(probes.runout, "machine file [probes]")

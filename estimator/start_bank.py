@@ -22,8 +22,8 @@ stays None).
 
 The bank has the filter's public interface (:meth:`step`, :meth:`run`, :meth:`run_batch`, :meth:`reset`,
 the reports, the nuisance estimates, :meth:`get_state` / :meth:`set_state`), so that every caller builds its
-estimator with :func:`estimator.factory.make_estimator` and does not care which one it holds: ``oilwatch
-estimate``, the estimator FMU and the robustness report run the same estimator.
+estimator with :func:`oilwatch.estimator.factory.make_estimator` and does not care which one it holds:
+``oilwatch estimate``, the estimator FMU and the robustness report run the same estimator.
 """
 
 from __future__ import annotations
@@ -35,7 +35,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from models.validation import InputError
+from oilwatch.models.validation import InputError
 
 from .reports import EstimateTrace, StepReport
 
@@ -52,15 +52,15 @@ follow its own point)."""
 def _of_active(name: str):
     return property(
         lambda bank: getattr(bank.active, name),
-        doc=f"The followed filter's ``{name}`` (:class:`estimator.ekf.OilFlowEKF`).",
+        doc=f"The followed filter's ``{name}`` (:class:`oilwatch.estimator.ekf.OilFlowEKF`).",
     )
 
 
 class StartBank:
     """Filters from :data:`START_FRACTIONS` of the initial flowrate; the smallest accumulated NIS at
     ``select_s`` continues (module docstring). Every method takes what the same method of
-    :class:`estimator.ekf.OilFlowEKF` takes and gives what the filter followed gives (the nominal start's
-    until the choice)."""
+    :class:`oilwatch.estimator.ekf.OilFlowEKF` takes and gives what the filter followed gives (the nominal
+    start's until the choice)."""
 
     def __init__(
         self,
@@ -172,7 +172,7 @@ class StartBank:
         speed_hz: np.ndarray | None = None,
         oil_temperature_c: np.ndarray | None = None,
     ) -> EstimateTrace:
-        """:meth:`estimator.ekf.OilFlowEKF.run` through the bank (``progress`` every 100 samples)."""
+        """:meth:`oilwatch.estimator.ekf.OilFlowEKF.run` through the bank (``progress`` every 100 samples)."""
         record = _checked(displacements_m)
         count = record.shape[0]
         trace = EstimateTrace.empty(count)
@@ -195,7 +195,7 @@ class StartBank:
         oil_temperature_c: np.ndarray | None = None,
         out: EstimateTrace | None = None,
     ) -> EstimateTrace:
-        """:meth:`estimator.ekf.OilFlowEKF.run_batch` through the bank (bit-identical to as many
+        """:meth:`oilwatch.estimator.ekf.OilFlowEKF.run_batch` through the bank (bit-identical to as many
         :meth:`step` calls)."""
         if self.chosen is not None:
             return self.active.run_batch(displacements_m, speed_hz, oil_temperature_c, out)
@@ -240,7 +240,7 @@ class StartBank:
 
     def grid_batch_arguments(self) -> None:
         """None: a bank is several filters, never one compiled call (as
-        :meth:`estimator.ekf.OilFlowEKF.grid_batch_arguments`)."""
+        :meth:`oilwatch.estimator.ekf.OilFlowEKF.grid_batch_arguments`)."""
         return None
 
     def current_report(self) -> StepReport:

@@ -1,5 +1,5 @@
 """Export and import of the complete EKF state, so that an FMU can save and restore it bit-identically:
-the :class:`FilterStateIO` half of :class:`estimator.ekf.OilFlowEKF`.
+the :class:`FilterStateIO` half of :class:`oilwatch.estimator.ekf.OilFlowEKF`.
 
 The state is a flat ``dict[str, numpy.ndarray]`` (scalars as 0-d arrays), every array a copy:
 
@@ -8,7 +8,7 @@ key                   shape       meaning
 ====================  ==========  =====================================================================
 x                     (N,)        [s; q / q_nominal; offsets, viscosity factors, unbalance if estimated]
 P                     (N, N)      its covariance
-health                (4, 6)      int: probe records (:mod:`estimator.channels`)
+health                (4, 6)      int: probe records (:mod:`oilwatch.estimator.channels`)
 health_values         (4, 4)      float: last reading, innovation power and mean, last accepted reading
 step                  ()          int: samples processed
 since_update          ()          int: samples since the last update that used a channel
@@ -18,7 +18,7 @@ nis_sums              (2,)        their running sums
 process_noise_q       (2,)        the flowrate process variances of the next prediction (change test)
 changing              (2,)        bool: change test firing per bearing
 last                  (5,)        float: nis, n_measurements, measurement_ok, converged, model_consistent
-alarm_*               (2,)        the alarm flags and hold counters (see :mod:`estimator.alarm`)
+alarm_*               (2,)        the alarm flags and hold counters (see :mod:`oilwatch.estimator.alarm`)
 operating             (4,)        (given?, speed [Hz], given?, oil temperature [degC]) last measured
 model_*               ...         a model's operating state, when it follows the operating point
 ====================  ==========  =====================================================================
@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from models.validation import InputError
+from oilwatch.models.validation import InputError
 
 from .step_kernel import COUNT_SINCE_UPDATE, COUNT_STEP
 
@@ -43,7 +43,8 @@ def _checked(state: dict[str, np.ndarray], key: str, shape: tuple[int, ...]) -> 
 
 
 class FilterStateIO:
-    """The state half of :class:`estimator.ekf.OilFlowEKF` (which sets up the attributes used here)."""
+    """The state half of :class:`oilwatch.estimator.ekf.OilFlowEKF` (which sets up the attributes used
+    here)."""
 
     def _export_state(self) -> dict[str, np.ndarray]:
         """The filter's state as a dict of array copies."""

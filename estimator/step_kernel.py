@@ -1,16 +1,16 @@
 """The whole filter step after the model's transition in one compiled call: update, summary, alarm.
 
-:func:`sample_step` runs :func:`estimator.kernels.filter_step` (predict, screen, gate, Joseph update,
-projection), then what :mod:`estimator.ekf` reports of the sample (:func:`step_summary`: the windowed NIS
-test, the convergence rule, the SI estimates and the nuisances' estimates and stds), the unbalance's
+:func:`sample_step` runs :func:`oilwatch.estimator.kernels.filter_step` (predict, screen, gate, Joseph update,
+projection), then what :mod:`oilwatch.estimator.ekf` reports of the sample (:func:`step_summary`: the windowed
+NIS test, the convergence rule, the SI estimates and the nuisances' estimates and stds), the unbalance's
 process noise of the next prediction (wider while the model is inconsistent) and the starvation alarm
-(:func:`estimator.alarm.update_alarm`). Everything the step reports lands in one float array laid out by
-the ``REPORT_*`` slices below, so that the per-sample Python work is one call and one copy, and a batch of
-samples (:meth:`estimator.ekf.OilFlowEKF.run_batch`) stores a row per sample. For a model on a flowrate
-grid at one speed (``GridAugmentedModel.batch_transition``) :func:`grid_batch` runs a whole record in one
-call: the grid's compiled transition, then :func:`sample_step`, sample after sample. Both take the filter's
-arrays as one :class:`estimator.filter_arrays.FilterArrays`; :func:`ekf_step` is the one-sample entry
-from Python.
+(:func:`oilwatch.estimator.alarm.update_alarm`). Everything the step reports lands in one float array laid out
+by the ``REPORT_*`` slices below, so that the per-sample Python work is one call and one copy, and a batch of
+samples (:meth:`oilwatch.estimator.ekf.OilFlowEKF.run_batch`) stores a row per sample. For a model on a
+flowrate grid at one speed (``GridAugmentedModel.batch_transition``) :func:`grid_batch` runs a whole record in
+one call: the grid's compiled transition, then :func:`sample_step`, sample after sample. Both take the
+filter's arrays as one :class:`oilwatch.estimator.filter_arrays.FilterArrays`; :func:`ekf_step` is the
+one-sample entry from Python.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from models.system.flowrate_grid import interpolate_map
+from oilwatch.models.system.flowrate_grid import interpolate_map
 
 from .alarm import RAISED_CONSISTENT, STARVED, update_alarm
 from .channels import STATUS
@@ -76,7 +76,7 @@ def step_summary(
     report: np.ndarray,
 ) -> tuple[bool, bool]:
     """What the filter reports after the update of sample ``counters[COUNT_STEP]``, in place: the windowed
-    NIS test and the convergence rule of :mod:`estimator.ekf`, and the SI estimates.
+    NIS test and the convergence rule of :mod:`oilwatch.estimator.ekf`, and the SI estimates.
 
     counters : COUNT_* (the state's layout: index of q1 / q_nominal, first viscosity factor, unbalance and
     offset, -1 when not estimated; since_update: samples since the last accepted update, this one
@@ -163,7 +163,7 @@ def ekf_step(
     packed: tuple,
 ) -> None:
     """:func:`sample_step` on ``packed``, the filter's arrays as ``tuple(FilterArrays)``: the entry from
-    Python (a plain tuple dispatches faster than the NamedTuple: :mod:`estimator.filter_arrays`)."""
+    Python (a plain tuple dispatches faster than the NamedTuple: :mod:`oilwatch.estimator.filter_arrays`)."""
     sample_step(FilterArrays(*packed), predict, next_state, state_jacobian, flowrate_jacobian, displacement)
 
 
@@ -179,9 +179,10 @@ def sample_step(
 ) -> None:
     """One sample after the model's transition (module docstring), in place on the filter's arrays ``a``;
     advances ``a.counters[COUNT_STEP]`` and ``a.counters[COUNT_SINCE_UPDATE]``. The other arguments are the
-    sample's: the transition (``next_state`` and its Jacobians, see :func:`estimator.kernels.filter_step`,
-    whose flowrate scale is ``a.summary_settings[SUMMARY_Q_NOMINAL]``) and the measured displacements;
-    ``a.report`` (REPORT_SIZE,) out."""
+    sample's: the transition (``next_state`` and its Jacobians, see
+    :func:`oilwatch.estimator.kernels.filter_step`, whose flowrate scale is
+    ``a.summary_settings[SUMMARY_Q_NOMINAL]``) and the measured displacements; ``a.report`` (REPORT_SIZE,)
+    out."""
     summary_settings, counters, report = a.summary_settings, a.counters, a.report
     process_noise, changing, health = a.process_noise, a.changing, a.health
     alarm_record = a.alarm_record
@@ -265,8 +266,8 @@ def grid_batch(
     packed: tuple,
 ) -> None:
     """:func:`sample_step` for every sample of ``record`` (K, 4), each report into ``table[k]``, with the grid
-    model's transition (:func:`models.system.flowrate_grid.interpolate_map` from the current estimate at
-    ``w = [1, cos(Omega t), sin(Omega t)]``, ``t = (first_step + k - 1) dt``, as
+    model's transition (:func:`oilwatch.models.system.flowrate_grid.interpolate_map` from the current estimate
+    at ``w = [1, cos(Omega t), sin(Omega t)]``, ``t = (first_step + k - 1) dt``, as
     ``GridAugmentedModel.transition``) before every sample but the filter's first. ``packed``: the
     filter's arrays as ``tuple(FilterArrays)``."""
     a = FilterArrays(*packed)

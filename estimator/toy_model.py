@@ -1,5 +1,5 @@
-"""A small rotor-like reference implementation of :class:`estimator.model.AugmentedModel`, and its truth
-simulator.
+"""A small rotor-like reference implementation of :class:`oilwatch.estimator.model.AugmentedModel`, and its
+truth simulator.
 
 Two journal masses (x, y each), joined by a shaft spring, each carried by a fluid-film-like bearing whose
 linearized coefficients and static position depend on that bearing's supply flowrate q_i:
@@ -28,9 +28,9 @@ import numpy as np
 from numba import njit
 from scipy.linalg import expm
 
-from models.machine import load_machine
-from models.rotor.assembly import Rotor
-from models.validation import InputError
+from oilwatch.models.machine import load_machine
+from oilwatch.models.rotor.assembly import Rotor
+from oilwatch.models.validation import InputError
 
 from .config import ML_MIN
 
@@ -178,7 +178,7 @@ def _interpolated_map(
 
 
 class ToyRotor:
-    """The toy model of the module docstring; satisfies :class:`estimator.model.AugmentedModel`.
+    """The toy model of the module docstring; satisfies :class:`oilwatch.estimator.model.AugmentedModel`.
 
     State ``s = [x1, y1, x2, y2, vx1, vy1, vx2, vy2]`` [m, m/s], absolute (static position included).
 

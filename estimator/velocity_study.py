@@ -1,8 +1,9 @@
 """Which treatment of the differentiated velocities is best? A study on the toy rotor.
 
-For each velocity-noise mode of :mod:`estimator.measurement`, each process-noise setting and each constant
-flowrate case, the EKF runs on a record simulated by :func:`estimator.toy_model.simulate` (RK4 truth, not the
-filter's own discrete model) and the study reports, over the last ``window_s`` of the record:
+For each velocity-noise mode of :mod:`oilwatch.estimator.measurement`, each process-noise setting and each
+constant flowrate case, the EKF runs on a record simulated by :func:`oilwatch.estimator.toy_model.simulate`
+(RK4 truth, not the filter's own discrete model) and the study reports, over the last ``window_s`` of the
+record:
 
 * ``nis_ratio``: mean NIS divided by the number of channels used (1 for a consistent filter);
 * ``bias_pct``: mean estimate minus truth, in % of the truth (worse of the two bearings);

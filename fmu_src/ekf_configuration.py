@@ -1,8 +1,8 @@
 """The estimator FMU's estimator from its parameters: their checks, the model, the configuration (field units
 -> SI) and the commissioning baseline.
 
-The estimator itself is :func:`estimator.factory.make_estimator`'s for that model and configuration (one
-filter, or the start bank where it applies), as ``oilwatch estimate`` and the robustness report build it.
+The estimator itself is :func:`oilwatch.estimator.factory.make_estimator`'s for that model and configuration
+(one filter, or the start bank where it applies), as ``oilwatch estimate`` and the robustness report build it.
 """
 
 from __future__ import annotations
@@ -10,8 +10,8 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from estimator.baseline import load_baseline, load_runout
-from estimator.config import (
+from oilwatch.estimator.baseline import load_baseline, load_runout
+from oilwatch.estimator.config import (
     ESTIMATOR_PARAMETERS,
     INITIAL_FLOWRATE_STD_FRACTION,
     ML_MIN,
@@ -20,13 +20,13 @@ from estimator.config import (
     EKFConfig,
     config_from_parameters,
 )
-from estimator.runout import runout_of_probes
-from fmu_src.ekf_variables import GRID_TOLERANCE
-from fmu_src.machine_parameters import probe_angle_deg
-from models.probes import read_probes
-from models.system.augmented import GridAugmentedModel
-from models.system.operating_model import build_operating_model
-from models.validation import InputError
+from oilwatch.estimator.runout import runout_of_probes
+from oilwatch.fmu_src.ekf_variables import GRID_TOLERANCE
+from oilwatch.fmu_src.machine_parameters import probe_angle_deg
+from oilwatch.models.probes import read_probes
+from oilwatch.models.system.augmented import GridAugmentedModel
+from oilwatch.models.system.operating_model import build_operating_model
+from oilwatch.models.validation import InputError
 
 SECONDS_PER_DAY = 86400.0
 VELOCITY_MODES = ("displacement-only", "paper", "correlated")

@@ -1,9 +1,10 @@
 """The estimator FMU's plain step as one compiled C function, called by the loader without the GIL.
 
 In the plain configuration (``bearing_table`` 0: the grid model at one speed, no unbalance, viscosity or
-runout states, so that ``OilFlowEKF.step`` is one :func:`estimator.step_kernel.grid_batch` call) a doStep of
-:class:`fmu_src.oilwatch_ekf_slave.OilFlowEKF` is: read the inputs from the fast path's input array, scale
-the positions to metres, run the compiled filter step on the filter's arrays, write the report into the
+runout states, so that ``OilFlowEKF.step`` is one :func:`oilwatch.estimator.step_kernel.grid_batch` call) a
+doStep of
+:class:`oilwatch.fmu_src.oilwatch_ekf_slave.OilFlowEKF` is: read the inputs from the fast path's input array,
+scale the positions to metres, run the compiled filter step on the filter's arrays, write the report into the
 output array. :func:`plain_step` does exactly that, in the slave's order and with its arithmetic, and
 :data:`plain_step_entry` is its C entry (a numba ``cfunc``): the loader (``oilwatch/cosim/native/
 fmi2_loader.c``) calls it before it would take the GIL. It answers :data:`KERNEL_DONE` only for the plain
@@ -27,8 +28,8 @@ import math
 import numpy as np
 from numba import carray, cfunc, njit, types
 
-from estimator.filter_arrays import FilterArrays
-from estimator.step_kernel import COUNT_STEP, REPORT_SIZE, grid_batch
+from oilwatch.estimator.filter_arrays import FilterArrays
+from oilwatch.estimator.step_kernel import COUNT_STEP, REPORT_SIZE, grid_batch
 
 KERNEL_DECLINED, KERNEL_DONE, KERNEL_FAILED = 0, 1, 2
 """:func:`plain_step`'s answers (as ``oilwatch/cosim/native/fmi2_loader.c`` reads them)."""
@@ -86,8 +87,8 @@ FILTER_VIEWS = (
     ("alarm_settings", np.float64, 1),
     ("report", np.float64, 1),
 )
-"""The filter's arrays (:class:`estimator.filter_arrays.FilterArrays` order) as :func:`plain_step` views
-them: name, dtype, dimensions."""
+"""The filter's arrays (:class:`oilwatch.estimator.filter_arrays.FilterArrays` order) as :func:`plain_step`
+views them: name, dtype, dimensions."""
 N_ENTRIES = T_FILTER + len(FILTER_VIEWS)
 F_COUNTERS = T_FILTER + [name for name, _, _ in FILTER_VIEWS].index("counters")
 
@@ -211,9 +212,9 @@ def plain_step_entry(table):
 
 class PlainStepTable:
     """The table of addresses :data:`plain_step_entry` reads (module docstring). ``arguments``: the filter's
-    :meth:`estimator.ekf.OilFlowEKF.grid_batch_arguments`; ``slave_arrays``: the slave's input and output
-    arrays, its measurement row (1, 4) and its keyphasor cell (1,). :attr:`address` is what the loader passes
-    to :attr:`function` (the C entry's address). It holds every array it points to."""
+    :meth:`oilwatch.estimator.ekf.OilFlowEKF.grid_batch_arguments`; ``slave_arrays``: the slave's input and
+    output arrays, its measurement row (1, 4) and its keyphasor cell (1,). :attr:`address` is what the loader
+    passes to :attr:`function` (the C entry's address). It holds every array it points to."""
 
     def __init__(
         self, arguments, slave_arrays, constants, columns, divisors, time_index: int, t_estimate_index: int

@@ -5,11 +5,12 @@ Beside the filter's own convergence (``converged``: both flowrate stds below 3 %
 1 % over 1 s), two starts of the estimator make an estimate not yet the one to act on. Both run only where
 the flowrates are estimated beside viscosity factors that no baseline primed (``bearing_table`` 1,
 ``viscosity_factor_prior_std`` > 0, no ``baseline_file`` with factors), the nearly unobservable direction
-of :mod:`estimator.nuisance_start`:
+of :mod:`oilwatch.estimator.nuisance_start`:
 
-* the settling start (:mod:`estimator.nuisance_start`): for ``settling_steps`` samples the flowrates and
+* the settling start (:mod:`oilwatch.estimator.nuisance_start`): for ``settling_steps`` samples the flowrates
+and
   nuisances stay out of the Jacobian while the dynamic states settle; then they restart from their prior;
-* the start bank (:mod:`estimator.start_bank`): five filters from fractions 1.1 to 0.7 of the initial
+* the start bank (:mod:`oilwatch.estimator.start_bank`): five filters from fractions 1.1 to 0.7 of the initial
   flowrate run through the first ``SELECT_S`` (20 s); the one with the least accumulated NIS continues
   alone. Until the choice the estimates are the nominal start's, which on the robustness ramps at 80/90 %
   ended 8-11 % low where a lower start ended within 0.3 % (README, robustness section, session 6).
@@ -18,11 +19,11 @@ The outputs (:data:`START_OUTPUTS`) say where the estimator is: ``start_choosing
 ``start_choice_in_s``, ``settling_start_left_s`` and ``estimate_settled``, which is ``converged`` once both
 starts are over and false before. With one filter and no settling start (every other configuration) they
 are constant but for ``estimate_settled``, which is then ``converged``: the compiled plain step
-(:mod:`fmu_src.ekf_plain_step`) writes it from the report's converged column, so the start outputs cost it
-nothing. Whether the machine still matches the model is ``model_consistent``'s, not these outputs'.
+(:mod:`oilwatch.fmu_src.ekf_plain_step`) writes it from the report's converged column, so the start outputs
+cost it nothing. Whether the machine still matches the model is ``model_consistent``'s, not these outputs'.
 
-The values live in the fast path's output array (:data:`fmu_src.ekf_variables.STEP_OUTPUTS`), so the loader
-serves them in C, fmi2GetFMUstate saves them and fmi2SetFMUstate restores them with the other outputs.
+The values live in the fast path's output array (:data:`oilwatch.fmu_src.ekf_variables.STEP_OUTPUTS`), so the
+loader serves them in C, fmi2GetFMUstate saves them and fmi2SetFMUstate restores them with the other outputs.
 """
 
 from __future__ import annotations
@@ -94,8 +95,9 @@ def declare_start_outputs(slave) -> None:
 
 
 def start_values(estimator, period_s: float) -> tuple[float, float, float, float]:
-    """The values of :data:`START_OUTPUTS` for ``estimator`` (:func:`estimator.factory.make_estimator`'s:
-    a filter or the start bank) now, with ``period_s`` its sampling period [s]."""
+    """The values of :data:`START_OUTPUTS` for ``estimator``
+    (:func:`oilwatch.estimator.factory.make_estimator`'s: a filter or the start bank) now, with ``period_s``
+    its sampling period [s]."""
     settling = estimator.settling_steps
     left = (
         max(0, settling + 1 - estimator.step_count) if settling > 0 else 0

@@ -3,22 +3,22 @@ fast path's arrays, and their declarations (names, units, ranges, descriptions: 
 modelDescription and of the README's variable table, ``python -m oilwatch.cosim.fmu_docs``).
 
 The step's outputs are written with one numpy division of the step report's columns (:data:`REPORT_COLUMNS`,
-:data:`REPORT_DIVISORS`), on the Python path (:mod:`fmu_src.oilwatch_ekf_slave`) and in the compiled plain
-step (:mod:`fmu_src.ekf_plain_step`) alike.
+:data:`REPORT_DIVISORS`), on the Python path (:mod:`oilwatch.fmu_src.oilwatch_ekf_slave`) and in the compiled
+plain step (:mod:`oilwatch.fmu_src.ekf_plain_step`) alike.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from estimator.channels import STATUS_NAMES
-from estimator.config import (
+from oilwatch.estimator.channels import STATUS_NAMES
+from oilwatch.estimator.config import (
     ESTIMATOR_PARAMETERS,
     ML_MIN,
     RECOMMENDED_DISPLACEMENT_PROCESS_STD_M,
     nuisance_names,
 )
-from estimator.step_kernel import (
+from oilwatch.estimator.step_kernel import (
     REPORT_CONSISTENT,
     REPORT_CONVERGED,
     REPORT_FLOWRATE,
@@ -29,8 +29,8 @@ from estimator.step_kernel import (
     REPORT_STATUS,
     REPORT_STD,
 )
-from fmu_src.ekf_start_outputs import SETTLED_OUTPUT, START_OUTPUTS, declare_start_outputs
-from fmu_src.machine_parameters import declare_machine_parameters
+from oilwatch.fmu_src.ekf_start_outputs import SETTLED_OUTPUT, START_OUTPUTS, declare_start_outputs
+from oilwatch.fmu_src.machine_parameters import declare_machine_parameters
 
 SAMPLING_PERIOD_S = 1e-3
 POSITIONS = ("x1", "y1", "x2", "y2")
@@ -60,8 +60,8 @@ REPORT_OUTPUTS = (
     *((f"probe_status_{name}", REPORT_STATUS + i, 1.0) for i, name in enumerate(POSITIONS)),
     (SETTLED_OUTPUT.name, REPORT_CONVERGED, 1.0),  # cleared during the starts (fmu_src.ekf_start_outputs)
 )
-"""The outputs taken from the step report: name, report column (``estimator.step_kernel`` REPORT_* layout),
-divisor (SI -> field units; flags and counts as 0/1 and whole numbers)."""
+"""The outputs taken from the step report: name, report column (``oilwatch.estimator.step_kernel`` REPORT_*
+layout), divisor (SI -> field units; flags and counts as 0/1 and whole numbers)."""
 STEP_OUTPUTS = (
     *(name for name, _, _ in REPORT_OUTPUTS),
     "t_estimate_s",
@@ -74,7 +74,7 @@ START_CHOOSING_INDEX = STEP_OUTPUTS.index("start_choosing")
 START_SETTLING_INDEX = STEP_OUTPUTS.index("settling_start_left_s")
 """Nonzero while a start is under way (the slave's step then writes the start outputs)."""
 START_SLICE = slice(T_ESTIMATE_INDEX + 1, T_ESTIMATE_INDEX + 1 + len(START_OUTPUTS))
-"""Where :data:`fmu_src.ekf_start_outputs.START_OUTPUTS` lie in the output array."""
+"""Where :data:`oilwatch.fmu_src.ekf_start_outputs.START_OUTPUTS` lie in the output array."""
 REPORT_COLUMNS = np.array([column for _, column, _ in REPORT_OUTPUTS])
 REPORT_DIVISORS = np.array([divisor for _, _, divisor in REPORT_OUTPUTS])
 OWN_REALS = (
@@ -93,8 +93,8 @@ OWN_REALS = (
      "filter inconsistent (NIS/m 0.14)"),
 )  # fmt: skip
 """Real parameters of this FMU that are not in the estimator's configuration table: name, start, unit, min,
-max, description. The others (:data:`estimator.config.ESTIMATOR_PARAMETERS`: noise, process noise, gate,
-alarm) are generated from the configuration classes."""
+max, description. The others (:data:`oilwatch.estimator.config.ESTIMATOR_PARAMETERS`: noise, process noise,
+gate, alarm) are generated from the configuration classes."""
 
 
 def declare_parameters(slave) -> None:

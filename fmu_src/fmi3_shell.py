@@ -1,8 +1,8 @@
 """FMI 3.0 co-simulation shells (pythonfmu3) around the FMI 2.0 slaves: one definition of each FMU.
 
 An FMI 3.0 slave here declares nothing of its own. :class:`Fmi3Shell` creates the FMI 2.0 slave named by
-:attr:`Fmi3Shell.fmi2_slave` (an :class:`fmu_src.slave_base.OilwatchSlave`) as a plain Python object and
-exposes its declared variables as FMI 3.0 variables (Real -> Float64 with the same unit, min, max, start
+:attr:`Fmi3Shell.fmi2_slave` (an :class:`oilwatch.fmu_src.slave_base.OilwatchSlave`) as a plain Python object
+and exposes its declared variables as FMI 3.0 variables (Real -> Float64 with the same unit, min, max, start
 and description; Integer -> Int32; Boolean; String), in the same order, and its unit definitions,
 model description, author and default experiment. Every FMI 3.0 call goes to that object: initialization
 (the same parameter checks and messages), ``do_step``, the full state (``_get_fmu_state`` with the

@@ -111,7 +111,7 @@ class UnitReal(Real):
     """A pythonfmu ``Real`` that also writes ``unit``, ``min`` and ``max``.
 
     ``minimum``/``maximum`` of None mean unbounded; they are checked by the slave at initialization
-    for parameters (see :class:`fmu_src.slave_base.OilwatchSlave`).
+    for parameters (see :class:`oilwatch.fmu_src.slave_base.OilwatchSlave`).
     """
 
     def __init__(

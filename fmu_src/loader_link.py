@@ -1,7 +1,7 @@
 """The link between an oilwatch slave and its FMU's own binary, oilwatch's loader
 (``oilwatch/cosim/native/fmi2_loader.c``; FMI 3.0: ``native/fmi3_refusal.c``), found through the slave's
 resources folder with ctypes: the refusal flag (fmi2Error for the user's input) and the fast path's binding
-(:mod:`fmu_src.slave_base`, module docstring)."""
+(:mod:`oilwatch.fmu_src.slave_base`, module docstring)."""
 
 from __future__ import annotations
 
@@ -17,7 +17,7 @@ REFUSED_CALL_ENTRY = "oilwatch_loader_refused_call"
 BIND_ENTRY = "oilwatch_loader_bind_buffers"
 """The FMI 2.0 loader's entry point of the fast path (module docstring)."""
 BIND_STEP_ENTRY = "oilwatch_loader_bind_plain_step"
-"""The FMI 2.0 loader's entry point of the compiled plain step (:mod:`fmu_src.ekf_plain_step`)."""
+"""The FMI 2.0 loader's entry point of the compiled plain step (:mod:`oilwatch.fmu_src.ekf_plain_step`)."""
 FAST_PATH_VARIABLE = "OILWATCH_FMU_FAST_PATH"
 """Environment variable: ``0`` keeps every FMI call on the Python path; ``python`` binds the buffers but not
 a compiled step (every doStep calls the slave's Python step)."""
@@ -130,8 +130,9 @@ def bind_buffers(slave, step) -> bool:
 
 
 def bind_plain_step(slave, table) -> bool:
-    """Hand the loader a compiled step for its fmi2DoStep (e.g. :mod:`fmu_src.ekf_plain_step`: ``table``'s
-    ``function``, ``int f(void *)``, and its argument ``address``, which the slave keeps alive), after
+    """Hand the loader a compiled step for its fmi2DoStep (e.g. :mod:`oilwatch.fmu_src.ekf_plain_step`:
+    ``table``'s ``function``, ``int f(void *)``, and its argument ``address``, which the slave keeps alive),
+    after
     :func:`bind_buffers`; return whether it took it (not with ``OILWATCH_FMU_FAST_PATH`` ``0`` or
     ``python``, nor without a loader of this version)."""
     if os.environ.get(FAST_PATH_VARIABLE) in ("0", "python"):

@@ -5,8 +5,8 @@ Both the plant and the estimator build the same rotor-bearing system from the sa
 must know the machine, the unbalance and the probes the plant has), so they declare, resolve and build it
 here: one declaration and one description per fact. Machine facts are never start values: 0 (speed,
 flowrates), -1 (unbalance), -300 (oil temperature) or -999 (probe angle: the machine file's ``[probes]``
-layout, :mod:`models.probes`) stand for "the machine file's value", resolved at initialization from the
-machine file, which is the FMU's own bundled one unless ``machine_file`` names another. The inputs' values
+layout, :mod:`oilwatch.models.probes`) stand for "the machine file's value", resolved at initialization from
+the machine file, which is the FMU's own bundled one unless ``machine_file`` names another. The inputs' values
 at initialization (their start values, settable like a parameter: ``--set plant.speed_hz=80``) are the start
 speed and oil temperature. The estimator FMU also reads ``[probes]`` for the offsets' prior and drift.
 
@@ -20,12 +20,12 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from fmu_src.fmi_variables import UnitDefinition, register_unit
-from models.machine import BUNDLED_MACHINE, Machine, load_machine
-from models.probes import read_probes
-from models.system.factory import build_system
-from models.system.rotor_bearing import RotorBearingSystem
-from models.validation import InputError
+from oilwatch.fmu_src.fmi_variables import UnitDefinition, register_unit
+from oilwatch.models.machine import BUNDLED_MACHINE, Machine, load_machine
+from oilwatch.models.probes import read_probes
+from oilwatch.models.system.factory import build_system
+from oilwatch.models.system.rotor_bearing import RotorBearingSystem
+from oilwatch.models.validation import InputError
 
 MACHINE_FOLDER = "machine"
 """Folder of the FMU's own machine file and its tables, inside the relocated ``fmu_src`` package."""
@@ -149,12 +149,11 @@ def bundled_machine_file(resources: str | None) -> Path:
     """
     if not resources:
         return BUNDLED_MACHINE
-    own = Path(resources) / __name__.split(".")[0] / MACHINE_FOLDER
+    own = Path(resources, *__name__.split(".")[:-1], MACHINE_FOLDER)
     machines = sorted(own.glob("*.toml")) if own.is_dir() else []
     if machines:
         return machines[0]
-    package = load_machine.__module__.split(".")[0]
-    return Path(resources) / package / BUNDLED_MACHINE.name
+    return Path(resources, *load_machine.__module__.split(".")[:-1], BUNDLED_MACHINE.name)
 
 
 def machine_of(machine_file: str, resources: str | None) -> Machine:

@@ -1,12 +1,12 @@
 """OilFlowEKF: the oil-flow Extended Kalman Filter (paper section 2.4, Eqs. 17-24) as an FMU.
 
 A thin FMI 2.0 co-simulation shell (pythonfmu) around ``estimator.OilFlowEKF`` running on
-``models.system.augmented.GridAugmentedModel``, the fast (q1, q2)-grid map of the Craig-Bampton reduced
-rotor-bearing system built from the machine file at the start speed with the plant's unbalance
+``oilwatch.models.system.augmented.GridAugmentedModel``, the fast (q1, q2)-grid map of the Craig-Bampton
+reduced rotor-bearing system built from the machine file at the start speed with the plant's unbalance
 (``bearing_table = 0``), or, with ``bearing_table = 1``, on
-``models.system.operating_model.OperatingAugmentedModel``, which follows the measured inputs ``speed_hz`` and
-``oil_temperature_c`` (the same inputs as the plant's, held over each step) and can estimate a viscosity
-factor per bearing (``viscosity_factor_prior_std > 0``). It takes the four
+``oilwatch.models.system.operating_model.OperatingAugmentedModel``, which follows the measured inputs
+``speed_hz`` and ``oil_temperature_c`` (the same inputs as the plant's, held over each step) and can estimate
+a viscosity factor per bearing (``viscosity_factor_prior_std > 0``). It takes the four
 measured bearing positions (named as the RotorBearingPlant's outputs, so a master connects them by name) and
 outputs both supply-flowrate estimates with their standard deviations from P, the normalized innovation
 squared, a convergence flag, one starvation alarm per bearing and whether the sample was used.
@@ -33,17 +33,17 @@ through), never an error.
 
 Outputs and the fast path. The per-step inputs (positions, ``t_sample_s``, ``rotor_angle_deg``,
 ``speed_hz``, ``oil_temperature_c``) and the outputs published with every step
-(:data:`fmu_src.ekf_variables.STEP_OUTPUTS`) live in the base class's arrays, which oilwatch's FMI 2.0
-loader serves in C (:mod:`fmu_src.slave_base`: the fast path). Each step writes its report into the output
-array with one numpy division (:data:`fmu_src.ekf_variables.REPORT_COLUMNS`); the nuisance estimates cost
-a covariance read and are published only when a host reads one of them (after the filter stepped). With
-``bearing_table`` 0 the loader runs the plain sample (the next one on the grid, the operating point
-unchanged) in one compiled C function without the GIL (:mod:`fmu_src.ekf_plain_step`, the
+(:data:`oilwatch.fmu_src.ekf_variables.STEP_OUTPUTS`) live in the base class's arrays, which oilwatch's FMI
+2.0 loader serves in C (:mod:`oilwatch.fmu_src.slave_base`: the fast path). Each step writes its report into
+the output array with one numpy division (:data:`oilwatch.fmu_src.ekf_variables.REPORT_COLUMNS`); the nuisance
+estimates cost a covariance read and are published only when a host reads one of them (after the filter
+stepped). With ``bearing_table`` 0 the loader runs the plain sample (the next one on the grid, the operating
+point unchanged) in one compiled C function without the GIL (:mod:`oilwatch.fmu_src.ekf_plain_step`, the
 same arithmetic); every other sample goes through :meth:`OilFlowEKF.step` here.
 
 Where the rest lives: the variables (names, units, descriptions, the order of the fast path's arrays) in
-:mod:`fmu_src.ekf_variables`; the parameters' checks, the model and the estimator's configuration in
-:mod:`fmu_src.ekf_configuration`; the compiled plain step in :mod:`fmu_src.ekf_plain_step`.
+:mod:`oilwatch.fmu_src.ekf_variables`; the parameters' checks, the model and the estimator's configuration in
+:mod:`oilwatch.fmu_src.ekf_configuration`; the compiled plain step in :mod:`oilwatch.fmu_src.ekf_plain_step`.
 
 The estimator's numba kernels compile on first use in a process (5-10 s); ``setup`` warms them up during
 initialization and logs the time, so that no ``doStep`` pays for it.
@@ -58,19 +58,19 @@ import numpy as np
 from pythonfmu import DefaultExperiment
 from pythonfmu.enums import Fmi2Causality
 
-from estimator.config import nuisance_names, nuisance_values
-from estimator.factory import make_estimator
-from estimator.reports import ReportView
-from fmu_src.blas_threads import limit_blas_threads
-from fmu_src.ekf_configuration import (
+from oilwatch.estimator.config import nuisance_names, nuisance_values
+from oilwatch.estimator.factory import make_estimator
+from oilwatch.estimator.reports import ReportView
+from oilwatch.fmu_src.blas_threads import limit_blas_threads
+from oilwatch.fmu_src.ekf_configuration import (
     baseline_prior,
     check_parameters,
     estimator_config,
     estimator_model,
     flowrates_ml_min,
 )
-from fmu_src.ekf_start_outputs import start_values
-from fmu_src.ekf_variables import (
+from oilwatch.fmu_src.ekf_start_outputs import start_values
+from oilwatch.fmu_src.ekf_variables import (
     GRID_TOLERANCE,
     REPORT_COLUMNS,
     REPORT_DIVISORS,
@@ -86,16 +86,16 @@ from fmu_src.ekf_variables import (
     declare_inputs_outputs,
     declare_parameters,
 )
-from fmu_src.loader_link import bind_plain_step
-from fmu_src.machine_parameters import (
+from oilwatch.fmu_src.loader_link import bind_plain_step
+from oilwatch.fmu_src.machine_parameters import (
     held_operating_point,
     machine_of,
     operating_conditions,
     require_oil,
     rotor_bearing_system,
 )
-from fmu_src.slave_base import OilwatchSlave
-from models.validation import InputError
+from oilwatch.fmu_src.slave_base import OilwatchSlave
+from oilwatch.models.validation import InputError
 
 
 class OilFlowEKF(OilwatchSlave):
@@ -115,7 +115,7 @@ class OilFlowEKF(OilwatchSlave):
     def __init__(self, **kwargs):
         limit_blas_threads()
         super().__init__(**kwargs)
-        self.filter = None  # estimator.factory.make_estimator's: a filter, or the start bank
+        self.filter = None  # oilwatch.estimator.factory.make_estimator's: a filter, or the start bank
         self._measurement = np.zeros(4)
         self._measurement_row = self._measurement.reshape(1, 4)  # the compiled plain step's view
         self._missing = np.full(4, np.nan)
@@ -210,7 +210,7 @@ class OilFlowEKF(OilwatchSlave):
             self.filter.step(sample, *self._operating_point(self.speed_hz, self.oil_temperature_c))
         self.filter.reset()
         if self._has_plain_step():
-            from fmu_src import ekf_plain_step  # noqa: F401 - compiles its C entry on import
+            from oilwatch.fmu_src import ekf_plain_step  # noqa: F401 - compiles its C entry on import
 
     def _operating_point(self, speed: float, temperature: float) -> tuple[float | None, float | None]:
         """(speed [Hz], oil temperature [degC]) for the filter from the inputs ``speed`` and ``temperature``
@@ -235,12 +235,14 @@ class OilFlowEKF(OilwatchSlave):
         return self.filter.grid_batch_arguments() is not None
 
     def plain_step_table(self):
-        """The compiled plain step on this slave's arrays (:class:`fmu_src.ekf_plain_step.PlainStepTable`),
-        None unless its library step is one compiled call (``bearing_table`` 0, no nuisance in the
-        transition)."""
+        """The compiled plain step on this slave's arrays
+        (:class:`oilwatch.fmu_src.ekf_plain_step.PlainStepTable`), None unless its library step is one
+        compiled call (``bearing_table`` 0, no nuisance in the transition)."""
         if not self._has_plain_step():
             return None
-        from fmu_src.ekf_plain_step import PlainStepTable  # compiled in _warm_up, for this configuration only
+        from oilwatch.fmu_src.ekf_plain_step import (
+            PlainStepTable,  # compiled in _warm_up, for this configuration only
+        )
 
         constants = (self._first_sample_time_s, self.sample_period_s, *self._start_inputs, GRID_TOLERANCE)
         return PlainStepTable(
@@ -306,8 +308,8 @@ class OilFlowEKF(OilwatchSlave):
         self._publish_nuisances()
 
     def _publish_start(self) -> None:
-        """Write the start outputs (:mod:`fmu_src.ekf_start_outputs`) after the report: during a start the
-        estimate is not settled, whatever converged says."""
+        """Write the start outputs (:mod:`oilwatch.fmu_src.ekf_start_outputs`) after the report: during a
+        start the estimate is not settled, whatever converged says."""
         values = start_values(self.filter, self.sample_period_s)
         self._outputs[START_SLICE] = values
         choosing, _, _, settling_left_s = values

@@ -1,20 +1,20 @@
 """RotorBearingPlant as an FMI 3.0 co-simulation FMU: the FMI 2.0 slave behind a pythonfmu3 facade.
 
 Variables, units, descriptions, checks and behaviour are those of ``fmu_src/oilwatch_plant_slave.py``
-(see :mod:`fmu_src.fmi3_shell`); nothing is declared here.
+(see :mod:`oilwatch.fmu_src.fmi3_shell`); nothing is declared here.
 """
 
 from __future__ import annotations
 
 from pythonfmu3 import Fmi3Slave
 
-from fmu_src.fmi3_shell import Fmi3Shell
-from fmu_src.oilwatch_plant_slave import RotorBearingPlant as Fmi2RotorBearingPlant
+from oilwatch.fmu_src.fmi3_shell import Fmi3Shell
+from oilwatch.fmu_src.oilwatch_plant_slave import RotorBearingPlant as Fmi2RotorBearingPlant
 
 
 # Fmi3Slave is named again because pythonfmu3's builder finds the slave class by a regular expression
 # on this file's text ("class X(... Fmi3Slave ...)"), not by inheritance.
 class RotorBearingPlant(Fmi3Shell, Fmi3Slave):
-    """FMI 3.0 shell of :class:`fmu_src.oilwatch_plant_slave.RotorBearingPlant`."""
+    """FMI 3.0 shell of :class:`oilwatch.fmu_src.oilwatch_plant_slave.RotorBearingPlant`."""
 
     fmi2_slave = Fmi2RotorBearingPlant

@@ -1,8 +1,8 @@
 """RotorBearingPlant: the rotor on its fluid-film bearings, with a sigmoid oil-flow fault, as an FMU.
 
-A thin FMI 2.0 co-simulation shell (pythonfmu) around ``models.system.plant.RotorBearingPlant``: it declares
-the variables in the field's units, checks the parameters at initialization and maps them to SI, and steps
-the plant. The plant integrates the full finite-element model with its own sub-stepped trapezoidal rule,
+A thin FMI 2.0 co-simulation shell (pythonfmu) around ``oilwatch.models.system.plant.RotorBearingPlant``: it
+declares the variables in the field's units, checks the parameters at initialization and maps them to SI, and
+steps the plant. The plant integrates the full finite-element model with its own sub-stepped trapezoidal rule,
 not with the estimator's discrete map, and starts in the steady orbit of its initial flowrates.
 
 Fault: each bearing's supply flowrate follows ``q(t) = q_initial + (q_final - q_initial) /
@@ -11,7 +11,7 @@ the 10 %-90 % transition time. ``flow_source = 1`` replaces the schedule with th
 and ``q2_in_ml_min`` (held over each communication step), so that an oil-system model can drive them.
 Every flowrate and the speed default to 0, which stands for the machine file's nominal value (machine facts
 live in the machine file, not in start values). The FMU limits the process's OpenBLAS threads to one when it
-is instantiated (:mod:`fmu_src.blas_threads`).
+is instantiated (:mod:`oilwatch.fmu_src.blas_threads`).
 
 Operating point: the inputs ``speed_hz`` and ``oil_temperature_c`` (held over each step; their values at
 initialization are the start speed and oil temperature, 0 and -300 the machine's nominal ones) set the spin
@@ -20,11 +20,11 @@ dimensionless table (the oil's ASTM D341 law times ``viscosity_factor`` gives th
 unbalance turns with the integral of the speed and the gyroscopic terms follow it; with ``bearing_table = 0``
 (default: the estimator's own table, so that every earlier result stands) the flowrate table at the start
 speed is used and both inputs must stay at their start values. Measurement chain
-(``models.system.measurement``): probe mounting angle, per-probe zero offset, sensitivity error, 1x/2x
-runout and fault; an unbalance change at a given time; the true positions and each bearing's eccentricity
-ratio and minimum film thickness are outputs. ``film_model =
+(``oilwatch.models.system.measurement``): probe mounting angle, per-probe zero offset, sensitivity error,
+1x/2x runout and fault; an unbalance change at a given time; the true positions and each bearing's
+eccentricity ratio and minimum film thickness are outputs. ``film_model =
 "transient-film"`` replaces the linearized films by the transient p-theta films
-(``models.system.nonlinear_plant``: high fidelity, about 10^3 times slower than real time).
+(``oilwatch.models.system.nonlinear_plant``: high fidelity, about 10^3 times slower than real time).
 """
 
 from __future__ import annotations
@@ -33,8 +33,8 @@ import math
 
 from pythonfmu import DefaultExperiment
 
-from fmu_src.blas_threads import limit_blas_threads
-from fmu_src.machine_parameters import (
+from oilwatch.fmu_src.blas_threads import limit_blas_threads
+from oilwatch.fmu_src.machine_parameters import (
     declare_machine_parameters,
     held_operating_point,
     machine_of,
@@ -43,14 +43,20 @@ from fmu_src.machine_parameters import (
     require_oil,
     rotor_bearing_system,
 )
-from fmu_src.slave_base import OilwatchSlave
-from models.bearing.supply import ML_MIN_PER_M3_S
-from models.system.fault import SigmoidFlowrate
-from models.system.measurement import FAULT_KINDS, PROBE_NAMES, MeasurementChain, ProbeErrors, UnbalanceChange
-from models.system.nonlinear_plant import FILM_MODELS, check_film_model, make_plant
-from models.system.operating_point import operating_system
-from models.system.plant import publish_initial_sample
-from models.validation import InputError
+from oilwatch.fmu_src.slave_base import OilwatchSlave
+from oilwatch.models.bearing.supply import ML_MIN_PER_M3_S
+from oilwatch.models.system.fault import SigmoidFlowrate
+from oilwatch.models.system.measurement import (
+    FAULT_KINDS,
+    PROBE_NAMES,
+    MeasurementChain,
+    ProbeErrors,
+    UnbalanceChange,
+)
+from oilwatch.models.system.nonlinear_plant import FILM_MODELS, check_film_model, make_plant
+from oilwatch.models.system.operating_point import operating_system
+from oilwatch.models.system.plant import publish_initial_sample
+from oilwatch.models.validation import InputError
 
 # Per-probe parameters: (suffix, ProbeErrors field, unit, SI per unit, minimum, maximum, description).
 PROBE_PARAMETERS = (

@@ -66,7 +66,7 @@ from pythonfmu import Fmi2Slave
 from pythonfmu.enums import Fmi2Causality, Fmi2Status, Fmi2Variability
 from pythonfmu.variables import Boolean, Integer, Real, String
 
-from models.validation import InputError
+from oilwatch.models.validation import InputError
 
 from .fmi_variables import (
     DescribedBoolean,
@@ -366,7 +366,7 @@ class OilwatchSlave(Fmi2Slave):
     def refresh_outputs(self, vrs) -> None:
         """Bring the outputs among the value references ``vrs`` up to date before they are read: a slave that
         computes its outputs only when asked overrides this. Every read goes through it: the Get calls, the
-        FMU state and the FMI 3.0 shell (:mod:`fmu_src.fmi3_shell`)."""
+        FMU state and the FMI 3.0 shell (:mod:`oilwatch.fmu_src.fmi3_shell`)."""
 
     def _get(self, kind: type, convert, vrs) -> list:
         self.refresh_outputs(vrs)

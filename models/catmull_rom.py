@@ -5,7 +5,8 @@ interpolant in each cell is the cubic Hermite whose node slopes are the central 
 neighbouring values (Catmull & Rom 1974; Keys 1981): C1, exact at the nodes, fourth-order accurate
 between them for smooth data, and linear in the data (so derivatives of the interpolant are the
 derivatives of a fixed linear combination of node values). Used over the two flowrates
-(``models.system.flowrate_grid``) and over (Sommerfeld number, flowrate) (``models.bearing.operating_table``).
+(``oilwatch.models.system.flowrate_grid``) and over (Sommerfeld number, flowrate)
+(``oilwatch.models.bearing.operating_table``).
 """
 
 from __future__ import annotations

@@ -6,11 +6,11 @@ Every physical value carries its unit in its key (``element_length_mm``); :func:
 converts to SI and returns a frozen :class:`Machine`.
 
 Quantities that need the finite-element model (rotor mass, weight, bearing loads, unbalance moment)
-are not stored here: see ``models.rotor.assembly.Rotor.from_machine``.
+are not stored here: see ``oilwatch.models.rotor.assembly.Rotor.from_machine``.
 
-The sections' data and readers (:mod:`models.machine_sections`: material, discs, unbalance, bearings, oil,
-lubrication) and the field readers they share (:mod:`models.machine_fields`) live in their own modules;
-the sections' types are re-exported here, the import path callers use.
+The sections' data and readers (:mod:`oilwatch.models.machine_sections`: material, discs, unbalance, bearings,
+oil, lubrication) and the field readers they share (:mod:`oilwatch.models.machine_fields`) live in their own
+modules; the sections' types are re-exported here, the import path callers use.
 """
 
 from __future__ import annotations
@@ -84,8 +84,8 @@ class Machine:
     raw : the parsed file, for sections owned by other models.
     oil : the lubricating oil (``[oil]``), None when the file gives ``bearings.viscosity_pa_s`` instead.
     dynamic_coefficients : which linearized film coefficients the machine's tables hold and the plant's and
-        estimator's models use (``bearings.dynamic_coefficients``, :mod:`models.bearing.coefficient_kinds`):
-        "synchronous" (default) or "quasi-static".
+        estimator's models use (``bearings.dynamic_coefficients``,
+        :mod:`oilwatch.models.bearing.coefficient_kinds`): "synchronous" (default) or "quasi-static".
     nominal_oil_temperature_c : oil supply temperature [degC] at which ``bearing.viscosity_pa_s`` holds
         (None without ``[oil]``).
     """

@@ -1,7 +1,7 @@
 """Readers of one field of a parsed machine file: each checks its value and names the field in its error.
 
-A TOML machine file (:mod:`models.machine`) carries its unit in every key; these read a table, a key, a
-number with its bounds, a list of positive numbers or a node number, and raise
+A TOML machine file (:mod:`oilwatch.models.machine`) carries its unit in every key; these read a table, a key,
+a number with its bounds, a list of positive numbers or a node number, and raise
 :class:`~models.validation.InputError` naming ``section.key`` and the allowed range.
 """
 

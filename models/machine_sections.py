@@ -1,7 +1,7 @@
 """The parts of a machine file: material, discs, unbalance, bearings, oil and lubrication, and their readers.
 
-Each reader validates one section of a parsed machine file (:mod:`models.machine`) with the field readers
-of :mod:`models.machine_fields` and converts it to SI.
+Each reader validates one section of a parsed machine file (:mod:`oilwatch.models.machine`) with the field
+readers of :mod:`oilwatch.models.machine_fields` and converts it to SI.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """The machine file's ``[probes]`` section: how the proximity probes are mounted and what is known of them.
 
-Read from :attr:`models.machine.Machine.raw` (the section is optional; every key has a default)::
+Read from :attr:`oilwatch.models.machine.Machine.raw` (the section is optional; every key has a default)::
 
     [probes]
     layout = "xy"                    # the probes' mounting: "xy" (X at 0 deg, Y at 90 deg from horizontal)
@@ -22,16 +22,16 @@ the key that replaces it.
 
 The offsets' prior: the bearing centre is known only from the cold-rest position and a clearance with a
 tolerance, so zero offsets of 10-25 um are ordinary. A baseline's offsets are widened by
-``offset_drift_um_per_day`` times the days since it (``estimator.config.OffsetBaseline``): the within-run
-random walk is no model of months (0.2 um/sqrt(s) is 59 um after a day). The default drift bound, 0.1
-um/day: API 670 allows a probe, cable and driver set a deviation from its straight line of +-25 um (1 mil)
+``offset_drift_um_per_day`` times the days since it (``oilwatch.estimator.config.OffsetBaseline``): the
+within-run random walk is no model of months (0.2 um/sqrt(s) is 59 um after a day). The default drift bound,
+0.1 um/day: API 670 allows a probe, cable and driver set a deviation from its straight line of +-25 um (1 mil)
 over 0-45 degC, and a seasonal swing of about 20 degC over about 90 days moves a zero by up to
 25 um x 20/45 / 90 days = 0.12 um/day; a baseline a month old is then trusted to 3 um (``oilwatch
 robustness``'s offsets-step case).
 
 Runout: :attr:`Probes.runout` holds the per-probe ``runout_*`` keys as the lists a baseline file stores
-(``estimator.runout.SlowRollVectors.from_document`` reads it: :func:`estimator.runout.runout_of_probes`);
-None when no probe has one. A probe's missing keys are 0.
+(``oilwatch.estimator.runout.SlowRollVectors.from_document`` reads it:
+:func:`oilwatch.estimator.runout.runout_of_probes`); None when no probe has one. A probe's missing keys are 0.
 """
 
 from __future__ import annotations

@@ -2,12 +2,13 @@
 (``oilwatch study``).
 
 Each is a frozen dataclass whose fields carry their unit, allowed range and description as field metadata
-(as :mod:`estimator.config` does for the estimator): the defaults live here once, the scenario and study
-code read them, and the CLI options and their help are generated from them
+(as :mod:`oilwatch.estimator.config` does for the estimator): the defaults live here once, the scenario and
+study code read them, and the CLI options and their help are generated from them
 (:func:`oilwatch.cli.config_options.add_config_options`). These are settings of an experiment, not facts of
 a machine: a machine's nominal flowrate and speed come from its machine file.
 
-The module imports only the standard library and :mod:`models.validation`, so that ``--help`` stays fast.
+The module imports only the standard library and :mod:`oilwatch.models.validation`, so that ``--help`` stays
+fast.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ import math
 from dataclasses import dataclass, field, fields
 from numbers import Real
 
-from models.validation import InputError, require_in_range
+from oilwatch.models.validation import InputError, require_in_range
 
 
 def setting(

@@ -39,11 +39,11 @@ def alarm_time(trace, times: np.ndarray) -> float:
 def main() -> None:
     from fixtures.plant_records import plant_run
 
-    from estimator.config import ML_MIN
-    from estimator.ekf import OilFlowEKF
-    from estimator.measurement import probe_rotation
-    from models.machine import load_machine
-    from models.probes import read_probes
+    from oilwatch.estimator.config import ML_MIN
+    from oilwatch.estimator.ekf import OilFlowEKF
+    from oilwatch.estimator.measurement import probe_rotation
+    from oilwatch.models.machine import load_machine
+    from oilwatch.models.probes import read_probes
     from oilwatch.monitoring.estimate import estimator_config, estimator_model
     from oilwatch.records.signal import GridResampler
 

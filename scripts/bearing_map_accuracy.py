@@ -17,13 +17,13 @@ import time
 
 import numpy as np
 
-from models.bearing.grid import Mesh
-from models.bearing.operating_accuracy import table_error
-from models.bearing.operating_table import OperatingTable, operating_table_path
-from models.bearing.table import CoefficientTable
-from models.machine import load_machine
-from models.rotor.assembly import Rotor
-from models.system.factory import flowrate_table_path
+from oilwatch.models.bearing.grid import Mesh
+from oilwatch.models.bearing.operating_accuracy import table_error
+from oilwatch.models.bearing.operating_table import OperatingTable, operating_table_path
+from oilwatch.models.bearing.table import CoefficientTable
+from oilwatch.models.machine import load_machine
+from oilwatch.models.rotor.assembly import Rotor
+from oilwatch.models.system.factory import flowrate_table_path
 
 ISSUE_POINTS = [(60.0, 0.07, 0.8), (60.0, 0.07, 1.0), (90.0, 0.12, 0.8), (90.0, 0.12, 1.0)]
 SPREAD = [

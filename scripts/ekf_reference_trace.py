@@ -33,12 +33,12 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np
 
-from estimator.config import EKFConfig
-from estimator.ekf import OilFlowEKF
-from models.machine import load_machine
-from models.system.augmented import GridAugmentedModel
-from models.system.factory import load_system
-from models.system.operating_model import build_operating_model
+from oilwatch.estimator.config import EKFConfig
+from oilwatch.estimator.ekf import OilFlowEKF
+from oilwatch.models.machine import load_machine
+from oilwatch.models.system.augmented import GridAugmentedModel
+from oilwatch.models.system.factory import load_system
+from oilwatch.models.system.operating_model import build_operating_model
 
 STEPS = 1500
 FIELDS = ("q_m3_s", "q_std_m3_s", "nis", "n_measurements", "converged", "starved", "model_consistent")

@@ -24,11 +24,11 @@ def run(out: str, samples: int, robustness: bool) -> None:
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
     from ekf_step import plant_ramp_record
 
-    from estimator.config import EKFConfig
-    from estimator.ekf import OilFlowEKF
-    from models.machine import load_machine
-    from models.system.factory import load_system
-    from models.system.operating_model import build_operating_model
+    from oilwatch.estimator.config import EKFConfig
+    from oilwatch.estimator.ekf import OilFlowEKF
+    from oilwatch.models.machine import load_machine
+    from oilwatch.models.system.factory import load_system
+    from oilwatch.models.system.operating_model import build_operating_model
 
     model = build_operating_model(load_system(reduced=True), load_machine())
     ramp, speed, temperature = (a[:samples] for a in plant_ramp_record(60.0))

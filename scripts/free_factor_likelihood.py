@@ -22,7 +22,7 @@ import time
 
 import numpy as np
 
-from estimator.ekf import OilFlowEKF
+from oilwatch.estimator.ekf import OilFlowEKF
 from oilwatch.robustness.cases import case_by_name
 from oilwatch.robustness.runner import REPORT_SETTINGS, RobustnessRun
 

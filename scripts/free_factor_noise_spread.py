@@ -12,7 +12,7 @@ error of the mean of the last 30 s [% of the truth]. ``--own-model`` replaces th
 the estimator's own operating model (default thresholds) run at the truth (factors 1, the case's
 unbalance) along the same speed and temperature, from rest (the first second is its settling): the same
 noise draws on a record without any plant/model difference. ``--recentring`` builds the estimator's
-operating model with these thresholds of :class:`models.system.operating_model.Recentring` (speed and
+operating model with these thresholds of :class:`oilwatch.models.system.operating_model.Recentring` (speed and
 flowrate as fractions of nominal, ln mu, the least steps between re-centrings) instead of the defaults.
 ``--single-start`` runs the configured start's filter alone (the start bank's member 1.0) where the row
 runs the bank.
@@ -31,9 +31,9 @@ from pathlib import Path
 
 import numpy as np
 
-from models.system.factory import build_system
-from models.system.measurement import MeasurementChain
-from models.system.operating_model import Recentring, build_operating_model
+from oilwatch.models.system.factory import build_system
+from oilwatch.models.system.measurement import MeasurementChain
+from oilwatch.models.system.operating_model import Recentring, build_operating_model
 from oilwatch.robustness.cases import case_by_name
 from oilwatch.robustness.runner import DT_S, REPORT_SETTINGS, RobustnessRun
 

@@ -17,9 +17,9 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np
 
-from models.machine import load_machine
-from models.system.factory import build_system
-from models.system.nuisance_bound import nuisance_bound, viscosity_derivative
+from oilwatch.models.machine import load_machine
+from oilwatch.models.system.factory import build_system
+from oilwatch.models.system.nuisance_bound import nuisance_bound, viscosity_derivative
 
 RECORDS_S = (10, 60, 600)
 POINTS = ((100.0, 100.0), (80.0, 90.0))

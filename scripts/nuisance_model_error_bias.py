@@ -9,8 +9,8 @@ factors 1 the centre moves as the model's thresholds say (``Recentring``, times 
 and at every 0.1 s the steady static position and 1x orbit of the model's map (``discrete_map``) are
 compared with those of the exact map (``OperatingMaps.discrete_map``, which the plant of these cases
 shares). The error e(t) (12 numbers) gives the least-squares bias of the constant parameters
-(``models.system.identifiability``: ``(sum J^T W J)^-1 sum J^T W e``), with the offsets, unbalance and
-factors unknown and with the factors known.
+(``oilwatch.models.system.identifiability``: ``(sum J^T W J)^-1 sum J^T W e``), with the offsets, unbalance
+and factors unknown and with the factors known.
 """
 
 from __future__ import annotations
@@ -24,15 +24,15 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np
 
-from models.machine import load_machine
-from models.system.factory import build_system
-from models.system.identifiability import (
+from oilwatch.models.machine import load_machine
+from oilwatch.models.system.factory import build_system
+from oilwatch.models.system.identifiability import (
     OperatingSegment,
     map_response,
     map_sensitivity,
     parameter_columns,
 )
-from models.system.operating_model import Recentring, build_operating_model
+from oilwatch.models.system.operating_model import Recentring, build_operating_model
 
 DT = 1e-3
 WEIGHTS = np.r_[np.ones(4), np.full(8, 0.5)]

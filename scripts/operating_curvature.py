@@ -24,11 +24,11 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import numpy as np
 from operating_model_error import CASES, held_model, model_errors
 
-from models.machine import load_machine
-from models.system.factory import load_system
-from models.system.operating_correction import SECOND_ORDER_PAIRS
-from models.system.operating_maps import AXES
-from models.system.operating_model import Recentring, build_operating_model
+from oilwatch.models.machine import load_machine
+from oilwatch.models.system.factory import load_system
+from oilwatch.models.system.operating_correction import SECOND_ORDER_PAIRS
+from oilwatch.models.system.operating_maps import AXES
+from oilwatch.models.system.operating_model import Recentring, build_operating_model
 
 CROSS_PAIRS = ((0, 1), (3, 4), (0, 4), (1, 3))
 """Second-order pairs across the bearings: (q1, q2), (ln mu1, ln mu2), (q1, ln mu2), (q2, ln mu1)."""

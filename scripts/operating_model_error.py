@@ -23,9 +23,9 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np
 
-from models.machine import load_machine
-from models.system.factory import load_system
-from models.system.operating_model import (
+from oilwatch.models.machine import load_machine
+from oilwatch.models.system.factory import load_system
+from oilwatch.models.system.operating_model import (
     REFERENCE_TABLES,
     OperatingAugmentedModel,
     Recentring,

@@ -2,9 +2,10 @@
 
 The plant FMU (``bearing_table = 1``) follows a speed ramp 72 -> 78 Hz over 10 s and an oil-temperature ramp
 of +10 degC over 60 s (from the nominal); both are measured and fed to the estimator FMU's inputs of the same
-names, whose model follows them (``bearing_table = 1``: ``models.system.operating_model``). ``--baseline``
-gives the estimator its nominal model instead (``bearing_table = 0``, the inputs not connected): how far off
-an estimator is that does not follow them (-16 % with false alarms on main before issue 13's estimator side).
+names, whose model follows them (``bearing_table = 1``: ``oilwatch.models.system.operating_model``).
+``--baseline`` gives the estimator its nominal model instead (``bearing_table = 0``, the inputs not
+connected): how far off an estimator is that does not follow them (-16 % with false alarms on main before
+issue 13's estimator side).
 
     nice -n 10 python scripts/ramp_identification.py [--duration-s 20] [--constant] [--baseline]
 
@@ -21,10 +22,10 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np
 
-from models.bearing.supply import ML_MIN_PER_M3_S
-from models.machine import load_machine
-from models.system.profiles import OperatingProfile
 from oilwatch.cosim import Master
+from oilwatch.models.bearing.supply import ML_MIN_PER_M3_S
+from oilwatch.models.machine import load_machine
+from oilwatch.models.system.profiles import OperatingProfile
 from oilwatch.scenarios.fmus import ensure_fmus, plant_and_estimator
 
 NOMINAL_ML_MIN = load_machine().lubrication.nominal_flowrate_m3_s * ML_MIN_PER_M3_S

@@ -16,7 +16,7 @@ from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-from models.machine import load_machine
+from oilwatch.models.machine import load_machine
 from oilwatch.scenarios import PAPER_TUNING, SCENARIOS, make_run
 from oilwatch.scenarios.fmus import ensure_fmus
 from oilwatch.scenarios.runner import run_scenario

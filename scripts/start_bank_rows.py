@@ -2,7 +2,8 @@
 
 The records ``<records>/<case>_<q1>_<q2>_60.npz`` are the robustness plant's (``RobustnessRun.record``
 at the report's settings: 60 s, 1 um, seed 1); each row is ``RobustnessRun.run_case`` on its record, so
-the row is the report's row (the runner uses :class:`estimator.start_bank.StartBank` where it applies).
+the row is the report's row (the runner uses :class:`oilwatch.estimator.start_bank.StartBank` where it
+applies).
 
     python scripts/start_bank_rows.py docs/robustness/n14r2/ramps
 """

@@ -12,7 +12,7 @@ import time
 
 import numpy as np
 
-from estimator.start_bank import START_FRACTIONS, StartBank
+from oilwatch.estimator.start_bank import START_FRACTIONS, StartBank
 from oilwatch.robustness.cases import Case, case_by_name
 from oilwatch.robustness.runner import REPORT_SETTINGS, RobustnessRun
 

@@ -3,7 +3,7 @@
 At the nominal speed and flowrates from 50 % to 125 % of nominal, the largest real part of the state
 matrix's eigenvalues (and that mode's frequency) of the rotor on constant quasi-static coefficients and on
 constant synchronous K(Omega), C(Omega); then the exact roots of the rotor on the linearized transient films
-(impedance Z(s), models.system.frequency_stability.film_roots) at 100 % and 75 %, the reference.
+(impedance Z(s), oilwatch.models.system.frequency_stability.film_roots) at 100 % and 75 %, the reference.
 
     OPENBLAS_NUM_THREADS=1 python scripts/synchronous_stability.py [--mesh 60x16]
 """
@@ -17,12 +17,12 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np
 
-from models.bearing.coefficient_kinds import QUASI_STATIC
-from models.bearing.grid import Mesh
-from models.machine import load_machine
-from models.rotor.assembly import Rotor
-from models.system.factory import build_system, flowrate_table_path
-from models.system.frequency_stability import film_impedances, film_roots, least_stable
+from oilwatch.models.bearing.coefficient_kinds import QUASI_STATIC
+from oilwatch.models.bearing.grid import Mesh
+from oilwatch.models.machine import load_machine
+from oilwatch.models.rotor.assembly import Rotor
+from oilwatch.models.system.factory import build_system, flowrate_table_path
+from oilwatch.models.system.frequency_stability import film_impedances, film_roots, least_stable
 
 FRACTIONS = (0.5, 0.75, 0.8, 0.95, 1.0, 1.25)
 

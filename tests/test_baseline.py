@@ -5,15 +5,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from estimator.baseline import load_baseline
-from estimator.config import EKFConfig
-from estimator.ekf import OilFlowEKF
-from estimator.toy_model import NOMINAL_FLOWRATE_M3_S
-from models.system.augmented import GridAugmentedModel
-from models.system.factory import load_system
-from models.system.plant import RotorBearingPlant
-from models.validation import InputError
 from oilwatch.cli import main
+from oilwatch.estimator.baseline import load_baseline
+from oilwatch.estimator.config import EKFConfig
+from oilwatch.estimator.ekf import OilFlowEKF
+from oilwatch.estimator.toy_model import NOMINAL_FLOWRATE_M3_S
+from oilwatch.models.system.augmented import GridAugmentedModel
+from oilwatch.models.system.factory import load_system
+from oilwatch.models.system.plant import RotorBearingPlant
+from oilwatch.models.validation import InputError
 
 QN = NOMINAL_FLOWRATE_M3_S
 DT = 1e-3

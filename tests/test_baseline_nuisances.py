@@ -11,17 +11,17 @@ import json
 import numpy as np
 import pytest
 
-from estimator.baseline import baseline_prior
-from estimator.config import EKFConfig, OffsetBaseline
-from estimator.ekf import OilFlowEKF
-from models.machine import load_machine
-from models.rotor.assembly import Rotor
-from models.system.factory import load_system
-from models.system.measurement import MeasurementChain, ProbeErrors
-from models.system.operating_model import build_operating_model
-from models.system.operating_point import operating_system
-from models.system.plant import RotorBearingPlant
 from oilwatch.cli import main
+from oilwatch.estimator.baseline import baseline_prior
+from oilwatch.estimator.config import EKFConfig, OffsetBaseline
+from oilwatch.estimator.ekf import OilFlowEKF
+from oilwatch.models.machine import load_machine
+from oilwatch.models.rotor.assembly import Rotor
+from oilwatch.models.system.factory import load_system
+from oilwatch.models.system.measurement import MeasurementChain, ProbeErrors
+from oilwatch.models.system.operating_model import build_operating_model
+from oilwatch.models.system.operating_point import operating_system
+from oilwatch.models.system.plant import RotorBearingPlant
 
 MACHINE = load_machine()
 QN = MACHINE.lubrication.nominal_flowrate_m3_s

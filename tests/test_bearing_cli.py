@@ -6,10 +6,10 @@ import json
 
 import pytest
 
-from models.bearing.grid import Mesh
-from models.bearing.table import CoefficientTable, flooded_threshold
-from models.machine import load_machine
 from oilwatch.cli import main
+from oilwatch.models.bearing.grid import Mesh
+from oilwatch.models.bearing.table import CoefficientTable, flooded_threshold
+from oilwatch.models.machine import load_machine
 
 COARSE = ("--mesh", "60", "16")
 KEYS = {

@@ -12,7 +12,7 @@ import math
 import numpy as np
 import pytest
 
-from models.bearing.equilibrium import (
+from oilwatch.models.bearing.equilibrium import (
     DISPLACEMENT_STEP_RATIO,
     coefficients_at,
     linearized_coefficients,
@@ -20,11 +20,11 @@ from models.bearing.equilibrium import (
     one_sided_coefficients,
     static_equilibrium,
 )
-from models.bearing.film import solve_film
-from models.bearing.geometry import JournalBearing
-from models.bearing.grid import PRODUCTION_MESH, Mesh
-from models.bearing.supply import ML_MIN_PER_M3_S, SupplyFlow
-from models.bearing.table import flooded_threshold
+from oilwatch.models.bearing.film import solve_film
+from oilwatch.models.bearing.geometry import JournalBearing
+from oilwatch.models.bearing.grid import PRODUCTION_MESH, Mesh
+from oilwatch.models.bearing.supply import ML_MIN_PER_M3_S, SupplyFlow
+from oilwatch.models.bearing.table import flooded_threshold
 
 BEARING = JournalBearing(0.045, 0.070, 120e-6, 0.094, 0.0, 16.2e-3, 35e-3)
 LOAD_N, SPEED_HZ = 3272.8, 75.0

@@ -7,11 +7,11 @@ import math
 import numpy as np
 import pytest
 
-from models.bearing.film import solve_film
-from models.bearing.gauss_seidel import gauss_seidel_film
-from models.bearing.geometry import JournalBearing
-from models.bearing.grid import Mesh
-from models.bearing.supply import ML_MIN_PER_M3_S, SupplyFlow, SupplyPressure
+from oilwatch.models.bearing.film import solve_film
+from oilwatch.models.bearing.gauss_seidel import gauss_seidel_film
+from oilwatch.models.bearing.geometry import JournalBearing
+from oilwatch.models.bearing.grid import Mesh
+from oilwatch.models.bearing.supply import ML_MIN_PER_M3_S, SupplyFlow, SupplyPressure
 
 BEARING = JournalBearing(0.045, 0.070, 120e-6, 0.094, 0.0, 16.2e-3, 35e-3)
 SPEED_HZ = 75.0

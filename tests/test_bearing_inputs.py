@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import pytest
 
-from models.bearing.equilibrium import static_equilibrium
-from models.bearing.film import solve_film
-from models.bearing.geometry import JournalBearing
-from models.bearing.grid import Mesh
-from models.bearing.supply import SupplyFlow, SupplyPressure
-from models.validation import InputError
+from oilwatch.models.bearing.equilibrium import static_equilibrium
+from oilwatch.models.bearing.film import solve_film
+from oilwatch.models.bearing.geometry import JournalBearing
+from oilwatch.models.bearing.grid import Mesh
+from oilwatch.models.bearing.supply import SupplyFlow, SupplyPressure
+from oilwatch.models.validation import InputError
 
 BEARING = JournalBearing(0.045, 0.070, 120e-6, 0.094, 0.0, 16.2e-3, 35e-3)
 MESH = Mesh(48, 12)

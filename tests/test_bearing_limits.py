@@ -16,11 +16,11 @@ import pytest
 from scipy.integrate import quad
 from scipy.optimize import brentq
 
-from models.bearing.equilibrium import coefficients_at, static_equilibrium
-from models.bearing.film import solve_film
-from models.bearing.geometry import JournalBearing
-from models.bearing.grid import Mesh
-from models.bearing.supply import SupplyPressure
+from oilwatch.models.bearing.equilibrium import coefficients_at, static_equilibrium
+from oilwatch.models.bearing.film import solve_film
+from oilwatch.models.bearing.geometry import JournalBearing
+from oilwatch.models.bearing.grid import Mesh
+from oilwatch.models.bearing.supply import SupplyPressure
 
 R, C, MU, SPEED_HZ = 0.045, 120e-6, 0.094, 75.0
 LINE_FEED_M = 0.5e-3

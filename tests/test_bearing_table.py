@@ -7,12 +7,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from models.bearing.equilibrium import coefficients_at, static_equilibrium
-from models.bearing.geometry import JournalBearing
-from models.bearing.grid import Mesh
-from models.bearing.supply import SupplyFlow
-from models.bearing.table import CoefficientTable
-from models.validation import InputError
+from oilwatch.models.bearing.equilibrium import coefficients_at, static_equilibrium
+from oilwatch.models.bearing.geometry import JournalBearing
+from oilwatch.models.bearing.grid import Mesh
+from oilwatch.models.bearing.supply import SupplyFlow
+from oilwatch.models.bearing.table import CoefficientTable
+from oilwatch.models.validation import InputError
 
 COMMITTED = Path(__file__).resolve().parents[1] / "models" / "tables" / "turbine_bearing_75hz.json"
 

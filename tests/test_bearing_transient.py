@@ -7,14 +7,14 @@ import math
 import numpy as np
 import pytest
 
-from models.bearing.dynamic import FilmImpedance, bdf_symbol
-from models.bearing.equilibrium import coefficients_at, static_equilibrium
-from models.bearing.film import solve_film
-from models.bearing.geometry import JournalBearing
-from models.bearing.grid import Mesh
-from models.bearing.supply import ML_MIN_PER_M3_S, SupplyFlow
-from models.bearing.transient import TransientFilm, mass_balance_error
-from models.validation import InputError
+from oilwatch.models.bearing.dynamic import FilmImpedance, bdf_symbol
+from oilwatch.models.bearing.equilibrium import coefficients_at, static_equilibrium
+from oilwatch.models.bearing.film import solve_film
+from oilwatch.models.bearing.geometry import JournalBearing
+from oilwatch.models.bearing.grid import Mesh
+from oilwatch.models.bearing.supply import ML_MIN_PER_M3_S, SupplyFlow
+from oilwatch.models.bearing.transient import TransientFilm, mass_balance_error
+from oilwatch.models.validation import InputError
 
 BEARING = JournalBearing(0.045, 0.070, 120e-6, 0.094, 0.0, 16.2e-3, 35e-3)
 SPEED_HZ = 75.0

@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import pytest
 
-from models.bearing.coefficient_kinds import COEFFICIENT_KINDS
 from oilwatch.cli import main
+from oilwatch.models.bearing.coefficient_kinds import COEFFICIENT_KINDS
 
 
 @pytest.mark.parametrize("command", ["bearing-table", "bearing-map"])

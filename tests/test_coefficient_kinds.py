@@ -12,16 +12,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from models.bearing.coefficient_kinds import QUASI_STATIC, SYNCHRONOUS, table_kind
-from models.bearing.dynamic import FilmImpedance
-from models.bearing.equilibrium import coefficients_at, static_equilibrium
-from models.bearing.grid import Mesh
-from models.bearing.supply import SupplyFlow
-from models.bearing.table import compute_table
-from models.machine import BUNDLED_MACHINE, load_machine
-from models.rotor.assembly import Rotor
-from models.system.factory import build_system, flowrate_table_name, load_tables, table_command
-from models.validation import InputError
+from oilwatch.models.bearing.coefficient_kinds import QUASI_STATIC, SYNCHRONOUS, table_kind
+from oilwatch.models.bearing.dynamic import FilmImpedance
+from oilwatch.models.bearing.equilibrium import coefficients_at, static_equilibrium
+from oilwatch.models.bearing.grid import Mesh
+from oilwatch.models.bearing.supply import SupplyFlow
+from oilwatch.models.bearing.table import compute_table
+from oilwatch.models.machine import BUNDLED_MACHINE, load_machine
+from oilwatch.models.rotor.assembly import Rotor
+from oilwatch.models.system.factory import build_system, flowrate_table_name, load_tables, table_command
+from oilwatch.models.validation import InputError
 
 TABLES = BUNDLED_MACHINE.parent / "tables"
 LOAD_N = 3272.8248078061615

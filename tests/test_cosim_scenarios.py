@@ -16,9 +16,9 @@ import pytest
 from fixtures.fmu_subprocess import run_json
 from fixtures.xdist_units import session_root
 
-from models.system.fault import SCENARIO_DURATIONS_S, SigmoidFlowrate
-from models.validation import InputError
 from oilwatch.cli.run import SCENARIO_NAMES
+from oilwatch.models.system.fault import SCENARIO_DURATIONS_S, SigmoidFlowrate
+from oilwatch.models.validation import InputError
 from oilwatch.scenarios import SCENARIOS, make_run
 from oilwatch.scenarios.summary import first_alarm_s, settle_time_s, summarize, window_error_pct
 

@@ -78,8 +78,8 @@ with Master(SystemDescription(fmus)) as master:
     after = drop["time"] > 13.0
     result["drop_after"] = [float(np.abs(drop["ekf.q1_est_ml_min"][after] / (0.75 * QN) - 1).max()),
                             float(np.abs(drop["ekf.q2_est_ml_min"][after] / QN - 1).max())]
-    result["ekf_module"] = sys.modules["oilwatch_ekf_estimator.ekf"].__file__
-    result["repo_estimator_loaded"] = "estimator" in sys.modules
+    result["ekf_module"] = sys.modules["oilwatch_ekf_oilwatch.estimator.ekf"].__file__
+    result["repo_estimator_loaded"] = "oilwatch.estimator" in sys.modules
 with Master(SystemDescription(fmus, connections=untimed)) as master:
     result["gs_untimed_identical"] = bool(
         np.array_equal(simulate(master, 6.0, flows(q))["ekf.q1_est_ml_min"], gs["ekf.q1_est_ml_min"]))
@@ -296,7 +296,7 @@ def test_a_communication_step_of_two_periods_is_predicted_through(cosim):
 
 def test_the_fmu_runs_its_own_bundled_code_in_a_process_that_did_not_build_it(cosim):
     assert "oilwatch_OilFlowEKF" not in cosim["ekf_module"]  # not the builder's staging folder
-    assert "oilwatch_ekf_estimator" in cosim["ekf_module"] and not cosim["repo_estimator_loaded"]
+    assert "oilwatch_ekf_oilwatch.estimator" in cosim["ekf_module"] and not cosim["repo_estimator_loaded"]
     assert any("numba kernels compiled" in line for line in cosim["init_log"])
 
 

@@ -15,8 +15,8 @@ from fixtures.fmu_subprocess import run_json
 RUN = """
 import math
 import numpy as np
-from fmu_src.oilwatch_ekf_slave import OilFlowEKF
-from fmu_src.ekf_plain_step import KERNEL_DECLINED, KERNEL_DONE
+from oilwatch.fmu_src.oilwatch_ekf_slave import OilFlowEKF
+from oilwatch.fmu_src.ekf_plain_step import KERNEL_DECLINED, KERNEL_DONE
 
 def initialized():
     slave = OilFlowEKF(instance_name="ekf")

@@ -13,11 +13,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from estimator.config import EKFConfig
-from estimator.ekf import EstimateTrace, OilFlowEKF
-from models.machine import load_machine
-from models.system.factory import load_system
-from models.system.operating_model import build_operating_model
+from oilwatch.estimator.config import EKFConfig
+from oilwatch.estimator.ekf import EstimateTrace, OilFlowEKF
+from oilwatch.models.machine import load_machine
+from oilwatch.models.system.factory import load_system
+from oilwatch.models.system.operating_model import build_operating_model
 
 STORED = Path(__file__).parent / "data" / "ekf_reference_trace.npz"
 FIELDS = ("q_m3_s", "q_std_m3_s", "nis", "n_measurements", "converged", "measurement_ok", "starved",
@@ -106,7 +106,7 @@ def test_an_operating_model_s_batches_equal_its_steps_with_nan_as_not_given(oper
 
 
 def test_a_step_report_s_values_are_its_fields_in_the_report_layout(operating, record):
-    from estimator import step_kernel as layout
+    from oilwatch.estimator import step_kernel as layout
 
     ekf = OilFlowEKF(operating.reference, EKFConfig.recommended(offset_prior_std_m=10e-6))
     for z in record[:50]:

@@ -12,8 +12,8 @@ import pytest
 from fixtures.plant_records import plant_run, read_estimates
 from test_misuse import one_line_error
 
-from models.validation import InputError
 from oilwatch.cli import main
+from oilwatch.models.validation import InputError
 from oilwatch.monitoring.baseline_age import baseline_age_days
 from oilwatch.records.writers import write_record
 

@@ -17,10 +17,10 @@ import pytest
 from fixtures.fmu_subprocess import REPO_ROOT, run_json
 from fixtures.plant_records import REST_GAP_V, gap_voltages, keyphasor, plant_run, read_estimates
 
-from estimator.config import ML_MIN
-from estimator.ekf import OilFlowEKF
-from estimator.measurement import probe_rotation
 from oilwatch.cli import main
+from oilwatch.estimator.config import ML_MIN
+from oilwatch.estimator.ekf import OilFlowEKF
+from oilwatch.estimator.measurement import probe_rotation
 from oilwatch.monitoring.estimate import estimator_config, estimator_model
 from oilwatch.records.writers import write_record
 

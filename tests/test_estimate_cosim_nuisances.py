@@ -21,8 +21,8 @@ from fixtures.plant_records import (
 )
 from test_ekf_fmu import FMPY_PRELUDE
 
-from estimator.measurement import probe_rotation
 from oilwatch.cli import main
+from oilwatch.estimator.measurement import probe_rotation
 from oilwatch.records.writers import write_record
 
 NOMINAL = 596.3
@@ -47,8 +47,8 @@ def _onsets(flags, times):
 def test_the_nuisance_variables_have_units_descriptions_and_the_probe_status_codes(built_fmus):
     from fmpy import read_model_description
 
-    from estimator.channels import STATUS_NAMES
-    from estimator.config import NUISANCE_PRIORS, nuisance_names
+    from oilwatch.estimator.channels import STATUS_NAMES
+    from oilwatch.estimator.config import NUISANCE_PRIORS, nuisance_names
 
     variables = {v.name: v for v in read_model_description(str(built_fmus / "OilFlowEKF.fmu")).modelVariables}
     for name, unit, _, start in nuisance_names():

@@ -14,10 +14,10 @@ from pathlib import Path
 
 import numpy as np
 
-from estimator.ekf import OilFlowEKF
-from models.machine import load_machine
-from models.system.factory import load_system
-from models.system.operating_model import build_operating_model
+from oilwatch.estimator.ekf import OilFlowEKF
+from oilwatch.models.machine import load_machine
+from oilwatch.models.system.factory import load_system
+from oilwatch.models.system.operating_model import build_operating_model
 from oilwatch.monitoring.estimate import ESTIMATOR_DT_S, estimator_config, estimator_model
 
 STORED = Path(__file__).parent / "data" / "ekf_reference_trace.npz"

@@ -31,8 +31,8 @@ def ramp_cosim(built_fmus):
     return run_json(
         f"""
 from pathlib import Path
-from models.machine import load_machine
-from models.system.profiles import OperatingProfile
+from oilwatch.models.machine import load_machine
+from oilwatch.models.system.profiles import OperatingProfile
 from oilwatch.cosim import Master
 from oilwatch.scenarios.fmus import plant_and_estimator
 t0 = load_machine().nominal_oil_temperature_c

@@ -12,8 +12,8 @@ import pytest
 from fixtures.fmu_subprocess import REPO_ROOT
 from fixtures.plant_records import SPEED_HZ, plant_run, read_estimates
 
-from estimator.runout import SlowRollVectors
 from oilwatch.cli import main
+from oilwatch.estimator.runout import SlowRollVectors
 from oilwatch.records.writers import write_record
 
 PROBES = ("x1", "y1", "x2", "y2")

@@ -1,5 +1,6 @@
-"""``oilwatch estimate`` runs the product's estimator (estimator.factory.make_estimator): with the viscosity
-factors free and no baseline for them, the start bank, exactly as the robustness runner's path runs it.
+"""``oilwatch estimate`` runs the product's estimator (oilwatch.estimator.factory.make_estimator): with the
+viscosity factors free and no baseline for them, the start bank, exactly as the robustness runner's path runs
+it.
 
 The record is the estimator's own operating model in its steady motion at 80 % flow (as
 tests/test_start_bank.py), written as a Parquet record (exact doubles) with the speed and oil temperature, so
@@ -16,10 +17,10 @@ import json
 import numpy as np
 import pytest
 
-from estimator import start_bank
-from estimator.config import ML_MIN
-from estimator.factory import make_estimator
-from models.machine import load_machine
+from oilwatch.estimator import start_bank
+from oilwatch.estimator.config import ML_MIN
+from oilwatch.estimator.factory import make_estimator
+from oilwatch.models.machine import load_machine
 from oilwatch.monitoring.estimate import EstimateOptions, EstimateRun, estimator_model
 from oilwatch.records.writers import write_record
 from tests.test_nuisance_start import DT, _record

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from estimator.alarm import StarvationAlarm
-from estimator.config import AlarmConfig, EKFConfig
-from estimator.ekf import OilFlowEKF
-from estimator.toy_model import NOMINAL_FLOWRATE_M3_S, ToyRotor, simulate
+from oilwatch.estimator.alarm import StarvationAlarm
+from oilwatch.estimator.config import AlarmConfig, EKFConfig
+from oilwatch.estimator.ekf import OilFlowEKF
+from oilwatch.estimator.toy_model import NOMINAL_FLOWRATE_M3_S, ToyRotor, simulate
 
 QN = NOMINAL_FLOWRATE_M3_S
 DT = 1e-3

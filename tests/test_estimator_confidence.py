@@ -2,10 +2,10 @@
 test tells when the machine no longer matches the model.
 
 Truth: the plant's Newmark integration of the full model, 1 um; filter: the reduced grid model, recommended
-tuning (change detection on, see :mod:`estimator.ekf`). Measured when written, sudden 25 % drop of both
-bearings (80 % of the change within 0.1 s) centred at 3 s of a 6 s record: truth within +-2 std for 94 / 94 %
-of the samples from 0.5 s before the centre to 2 s after it (without the change detection: 71 / 74 %); the
-test fired on 4 samples in the second before the drop; the unbalance phase 180 deg off in the plant:
+tuning (change detection on, see :mod:`oilwatch.estimator.ekf`). Measured when written, sudden 25 % drop of
+both bearings (80 % of the change within 0.1 s) centred at 3 s of a 6 s record: truth within +-2 std for 94 /
+94 % of the samples from 0.5 s before the centre to 2 s after it (without the change detection: 71 / 74 %);
+the test fired on 4 samples in the second before the drop; the unbalance phase 180 deg off in the plant:
 model_consistent false after the first window, and true again once the unbalance is a state (found -0.995).
 """
 
@@ -16,13 +16,13 @@ import dataclasses
 import numpy as np
 import pytest
 
-from estimator.config import EKFConfig
-from estimator.ekf import OilFlowEKF
-from estimator.toy_model import NOMINAL_FLOWRATE_M3_S
-from models.system.augmented import GridAugmentedModel
-from models.system.factory import load_system
-from models.system.fault import SigmoidFlowrate
-from models.system.plant import RotorBearingPlant
+from oilwatch.estimator.config import EKFConfig
+from oilwatch.estimator.ekf import OilFlowEKF
+from oilwatch.estimator.toy_model import NOMINAL_FLOWRATE_M3_S
+from oilwatch.models.system.augmented import GridAugmentedModel
+from oilwatch.models.system.factory import load_system
+from oilwatch.models.system.fault import SigmoidFlowrate
+from oilwatch.models.system.plant import RotorBearingPlant
 
 QN = NOMINAL_FLOWRATE_M3_S
 DT = 1e-3

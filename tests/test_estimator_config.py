@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from estimator.config import ML_MIN, AlarmConfig, EKFConfig
-from estimator.ekf import OilFlowEKF
-from estimator.model import AugmentedModel
-from estimator.toy_model import ToyRotor
-from models.validation import InputError
+from oilwatch.estimator.config import ML_MIN, AlarmConfig, EKFConfig
+from oilwatch.estimator.ekf import OilFlowEKF
+from oilwatch.estimator.model import AugmentedModel
+from oilwatch.estimator.toy_model import ToyRotor
+from oilwatch.models.validation import InputError
 
 
 @pytest.mark.parametrize(
@@ -84,7 +84,7 @@ def test_recommended_velocity_noise_follows_the_model_speed():
 
 
 def test_estimator_parameters_are_generated_from_the_config_classes():
-    from estimator.config import ESTIMATOR_PARAMETERS, config_from_parameters
+    from oilwatch.estimator.config import ESTIMATOR_PARAMETERS, config_from_parameters
 
     by_name = {p.name: p for p in ESTIMATOR_PARAMETERS}
     assert by_name["alarm_on_fraction"].default == AlarmConfig().on_fraction

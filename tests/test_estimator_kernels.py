@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from estimator.kernels import (
+from oilwatch.estimator.kernels import (
     UPDATE_ACCEPTED,
     UPDATE_GATED,
     UPDATE_NOT_POSITIVE,

@@ -10,14 +10,14 @@ estimator that did not follow (the nominal model, also run here) is off by sever
 import numpy as np
 import pytest
 
-from estimator.config import EKFConfig
-from estimator.ekf import OilFlowEKF
-from models.machine import load_machine
-from models.system.factory import load_system
-from models.system.operating_model import build_operating_model
-from models.system.operating_point import operating_system
-from models.system.plant import RotorBearingPlant
-from models.system.profiles import OperatingProfile
+from oilwatch.estimator.config import EKFConfig
+from oilwatch.estimator.ekf import OilFlowEKF
+from oilwatch.models.machine import load_machine
+from oilwatch.models.system.factory import load_system
+from oilwatch.models.system.operating_model import build_operating_model
+from oilwatch.models.system.operating_point import operating_system
+from oilwatch.models.system.plant import RotorBearingPlant
+from oilwatch.models.system.profiles import OperatingProfile
 
 MACHINE = load_machine()
 QN = MACHINE.lubrication.nominal_flowrate_m3_s

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from estimator.config import ML_MIN
-from estimator.toy_model import NOMINAL_FLOWRATE_M3_S, TABLE_BOUNDS_M3_S, ToyRotor, simulate
+from oilwatch.estimator.config import ML_MIN
+from oilwatch.estimator.toy_model import NOMINAL_FLOWRATE_M3_S, TABLE_BOUNDS_M3_S, ToyRotor, simulate
 
 
 @pytest.fixture(scope="module")

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import pytest
 
-from estimator.velocity_study import velocity_noise_study
+from oilwatch.estimator.velocity_study import velocity_noise_study
 
 
 @pytest.fixture(scope="module")

@@ -9,11 +9,11 @@ from dataclasses import fields
 
 import pytest
 
-from models.validation import InputError
 from oilwatch.cli import run as run_cli
 from oilwatch.cli import study as study_cli
 from oilwatch.cli.config_options import option_help
 from oilwatch.experiment_config import SCENARIO_DEFAULTS, STUDY_DEFAULTS, ScenarioConfig, StudyConfig, flag
+from oilwatch.models.validation import InputError
 from oilwatch.scenarios import make_run
 from oilwatch.study import make_cases
 from oilwatch.study.case_cosim import case_labels, case_parameters

@@ -25,8 +25,8 @@ def test_both_slaves_initialize_step_and_refuse_a_fixed_parameter_after_initiali
         """
 import math
 from pythonfmu.enums import Fmi2Causality, Fmi2Status
-from fmu_src.oilwatch_ekf_slave import OilFlowEKF
-from fmu_src.oilwatch_plant_slave import RotorBearingPlant
+from oilwatch.fmu_src.oilwatch_ekf_slave import OilFlowEKF
+from oilwatch.fmu_src.oilwatch_plant_slave import RotorBearingPlant
 result = {}
 for cls, output in ((RotorBearingPlant, "x1_um"), (OilFlowEKF, "q1_est_ml_min")):
     slave = cls(instance_name="shell")
@@ -85,8 +85,8 @@ def test_the_fmi3_shells_mirror_the_fmi2_slaves_and_step():
     result = run_json(
         """
 import math
-from fmu_src.oilwatch_ekf_fmi3_slave import OilFlowEKF
-from fmu_src.oilwatch_plant_fmi3_slave import RotorBearingPlant
+from oilwatch.fmu_src.oilwatch_ekf_fmi3_slave import OilFlowEKF
+from oilwatch.fmu_src.oilwatch_plant_fmi3_slave import RotorBearingPlant
 result = {}
 for cls, output in ((RotorBearingPlant, "x1_um"), (OilFlowEKF, "q1_est_ml_min")):
     shell = cls(instance_name="shell")

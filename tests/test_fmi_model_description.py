@@ -73,18 +73,18 @@ def test_bundled_packages_are_relocated_and_carry_data(toys):
     with zipfile.ZipFile(toys / "ToyPlant.fmu") as archive:
         names = archive.namelist()
         slave = archive.read("resources/toy_plant_slave.py").decode()
-        base = archive.read("resources/toyplant_fmu_src/slave_base.py").decode()
-    assert "resources/toyplant_models/validation.py" in names
-    assert "resources/toyplant_models/turbine.toml" in names
+        base = archive.read("resources/toyplant_oilwatch/fmu_src/slave_base.py").decode()
+    assert "resources/toyplant_oilwatch/models/validation.py" in names
+    assert "resources/toyplant_oilwatch/models/turbine.toml" in names
     assert not any(n.startswith("resources/models/") or n.startswith("resources/fmu_src/") for n in names)
-    assert "from toyplant_fmu_src.slave_base import OilwatchSlave" in slave
-    assert "from toyplant_models.validation import InputError" in slave
-    assert "from toyplant_models.validation import InputError" in base
-    assert not any(n.endswith("_slave.py") and "toyplant_fmu_src" in n for n in names)
+    assert "from toyplant_oilwatch.fmu_src.slave_base import OilwatchSlave" in slave
+    assert "from toyplant_oilwatch.models.validation import InputError" in slave
+    assert "from toyplant_oilwatch.models.validation import InputError" in base
+    assert not any(n.endswith("_slave.py") and "toyplant_oilwatch/fmu_src" in n for n in names)
 
 
 def test_unit_real_requires_a_known_unit_and_a_description():
-    from fmu_src.fmi_variables import UNITS, UnitDefinition, UnitReal, register_unit
+    from oilwatch.fmu_src.fmi_variables import UNITS, UnitDefinition, UnitReal, register_unit
 
     with pytest.raises(ValueError, match="unit 'furlong'"):
         UnitReal("x", unit="furlong", description="d")

@@ -142,15 +142,15 @@ system = SystemDescription([FmuSpec("plant", {plant!r}), FmuSpec("filt", {filt!r
 with Master(system) as master:
     run = master.run(stop_time=0.01, step_size=1e-3)
     files = {{name: sys.modules[name].__file__ for name in
-             ("toyplant_fmu_src.slave_base", "toyfilter_fmu_src.slave_base",
-              "toyplant_models.validation", "toyfilter_models.validation")}}
-result = {{"files": files, "fmu_src_loaded": "fmu_src" in sys.modules,
+             ("toyplant_oilwatch.fmu_src.slave_base", "toyfilter_oilwatch.fmu_src.slave_base",
+              "toyplant_oilwatch.models.validation", "toyfilter_oilwatch.models.validation")}}
+result = {{"files": files, "fmu_src_loaded": "oilwatch.fmu_src" in sys.modules,
           "rows": len(run.recorder.rows)}}
 """.format(plant=str(toys / "ToyPlant.fmu"), filt=str(toys / "ToyFilter.fmu"))
     )
     files = result["files"]
-    assert files["toyplant_fmu_src.slave_base"] != files["toyfilter_fmu_src.slave_base"]
-    assert "oilwatch_plant_" in files["toyplant_fmu_src.slave_base"]
-    assert "oilwatch_filt_" in files["toyfilter_fmu_src.slave_base"]
+    assert files["toyplant_oilwatch.fmu_src.slave_base"] != files["toyfilter_oilwatch.fmu_src.slave_base"]
+    assert "oilwatch_plant_" in files["toyplant_oilwatch.fmu_src.slave_base"]
+    assert "oilwatch_filt_" in files["toyfilter_oilwatch.fmu_src.slave_base"]
     assert not result["fmu_src_loaded"]
     assert result["rows"] == 11

@@ -139,10 +139,10 @@ def test_the_fast_path_changes_no_output_status_or_message(built_fmus):
 
 BASELINE = """
 import json, math
-from fmu_src.oilwatch_ekf_slave import OilFlowEKF
-from estimator.runout import SlowRollVectors, runout_of_probes
-from models.machine import load_machine
-from models.probes import read_probes
+from oilwatch.fmu_src.oilwatch_ekf_slave import OilFlowEKF
+from oilwatch.estimator.runout import SlowRollVectors, runout_of_probes
+from oilwatch.models.machine import load_machine
+from oilwatch.models.probes import read_probes
 ONE = {"format": "oilwatch commissioning baseline", "format_version": 1,
        "offsets_um": [1.0, -2.0, 3.0, -4.0], "offset_std_um": [0.5, 0.5, 0.5, 0.5]}
 RUNOUT = {f"runout_{n}_{key}": [value] * 4

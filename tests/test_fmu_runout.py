@@ -3,9 +3,9 @@
 The plant FMU's probes read a 2 um 1x and a 1 um 2x runout on every probe (its ``<probe>_runout_*``
 parameters, phases 30 and -100 deg from the keyphasor). The same runout is written into a copy of the bundled
 machine file's ``[probes]``. An estimator FMU given that machine file subtracts it at the model's rotor angle
-(``estimator.runout.runout_of_probes``, as ``oilwatch robustness`` does); one on the bundled machine, which
-knows no runout, takes the 1x and 2x lines for the shaft's motion. Noise 1 um, 100 / 100 % flow, 3 s; the
-FMUs run in a fresh process shared with ``tests/test_fmu_keyphasor.py``'s co-simulation (the
+(``oilwatch.estimator.runout.runout_of_probes``, as ``oilwatch robustness`` does); one on the bundled machine,
+which knows no runout, takes the 1x and 2x lines for the shaft's motion. Noise 1 um, 100 / 100 % flow, 3 s;
+the FMUs run in a fresh process shared with ``tests/test_fmu_keyphasor.py``'s co-simulation (the
 ``probe_nuisance_cosims`` fixture of tests/conftest.py).
 """
 

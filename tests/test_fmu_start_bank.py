@@ -1,5 +1,6 @@
-"""The estimator FMU runs the product's estimator (estimator.factory.make_estimator): with the viscosity
-factors free (``bearing_table = 1``, ``viscosity_factor_prior_std = 0.1``) and no baseline, the start bank.
+"""The estimator FMU runs the product's estimator (oilwatch.estimator.factory.make_estimator): with the
+viscosity factors free (``bearing_table = 1``, ``viscosity_factor_prior_std = 0.1``) and no baseline, the
+start bank.
 
 In a fresh process (tests/fixtures/fmu_subprocess.py) the slave is driven through its FMI calls with the
 estimator model's own steady motion at 80 % flow (as tests/test_start_bank.py), its window shortened to 1 s
@@ -24,14 +25,14 @@ from test_estimate_model_cache import STORED
 
 RUN = """
 import numpy as np
-from estimator import start_bank
+from oilwatch.estimator import start_bank
 start_bank.SELECT_S = 1.0  # before the slave builds its estimator
-from estimator.factory import make_estimator
-from estimator.config import ML_MIN
-from fmu_src.oilwatch_ekf_slave import OilFlowEKF
-from models.machine import load_machine
-from models.system.factory import build_system
-from models.system.operating_model import build_operating_model
+from oilwatch.estimator.factory import make_estimator
+from oilwatch.estimator.config import ML_MIN
+from oilwatch.fmu_src.oilwatch_ekf_slave import OilFlowEKF
+from oilwatch.models.machine import load_machine
+from oilwatch.models.system.factory import build_system
+from oilwatch.models.system.operating_model import build_operating_model
 from tests.test_nuisance_start import DT, _record
 
 machine = load_machine()

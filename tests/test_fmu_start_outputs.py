@@ -26,14 +26,14 @@ from test_estimate_model_cache import STORED
 SELECT_S = 1.2
 RUN = f"""
 import numpy as np
-from estimator import start_bank
+from oilwatch.estimator import start_bank
 start_bank.SELECT_S = {SELECT_S}  # before the slave builds its estimator
 """
 RUN += """
-from fmu_src.oilwatch_ekf_slave import OilFlowEKF
-from models.machine import load_machine
-from models.system.factory import build_system
-from models.system.operating_model import build_operating_model
+from oilwatch.fmu_src.oilwatch_ekf_slave import OilFlowEKF
+from oilwatch.models.machine import load_machine
+from oilwatch.models.system.factory import build_system
+from oilwatch.models.system.operating_model import build_operating_model
 from tests.test_nuisance_start import DT, _record
 
 machine = load_machine()
@@ -137,7 +137,7 @@ def initialize(slave, reals, integers):
         slave.setReal([vr[key]], [value])
     for key, value in integers.items():
         slave.setInteger([vr[key]], [value])
-    bank = [m for name, m in sys.modules.items() if name.endswith("_estimator.start_bank")]
+    bank = [m for name, m in sys.modules.items() if name.endswith("_oilwatch.estimator.start_bank")]
     for module in bank:  # the FMU's own relocated start bank: a window the record outlasts
         module.SELECT_S = 0.3
     slave.exitInitializationMode()

@@ -1,10 +1,11 @@
-"""models.system.frechet: the exponential and its Frechet derivatives in many directions, against scipy's."""
+"""oilwatch.models.system.frechet: the exponential and its Frechet derivatives in many directions, against
+scipy's."""
 
 import numpy as np
 import pytest
 from scipy.linalg import expm_frechet
 
-from models.system.frechet import expm_frechet_many
+from oilwatch.models.system.frechet import expm_frechet_many
 
 
 def _stiff_block(rng, size=12):

@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 from scipy.optimize import least_squares
 
-from models.machine import load_machine
-from models.rotor.assembly import Rotor
-from models.system.factory import load_system
-from models.system.identifiability import (
+from oilwatch.models.machine import load_machine
+from oilwatch.models.rotor.assembly import Rotor
+from oilwatch.models.system.factory import load_system
+from oilwatch.models.system.identifiability import (
     M3_S_TO_ML_MIN,
     OrbitSensitivity,
     cramer_rao_bound,
@@ -24,8 +24,8 @@ from models.system.identifiability import (
     orbit_sensitivity,
     record_sensitivity,
 )
-from models.system.rotor_bearing import RotorBearingSystem
-from models.validation import InputError
+from oilwatch.models.system.rotor_bearing import RotorBearingSystem
+from oilwatch.models.validation import InputError
 from oilwatch.study.case_cosim import ModelCrlb
 from oilwatch.study.grid import Case
 

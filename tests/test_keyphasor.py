@@ -10,13 +10,13 @@ the phase is right at every sample and the filter stays consistent.
 import numpy as np
 import pytest
 
-from estimator.config import EKFConfig
-from estimator.ekf import OilFlowEKF
-from models.machine import load_machine
-from models.system.factory import load_system
-from models.system.operating_model import build_operating_model
-from models.system.operating_point import operating_system
-from models.system.plant import RotorBearingPlant
+from oilwatch.estimator.config import EKFConfig
+from oilwatch.estimator.ekf import OilFlowEKF
+from oilwatch.models.machine import load_machine
+from oilwatch.models.system.factory import load_system
+from oilwatch.models.system.operating_model import build_operating_model
+from oilwatch.models.system.operating_point import operating_system
+from oilwatch.models.system.plant import RotorBearingPlant
 
 MACHINE = load_machine()
 QN = MACHINE.lubrication.nominal_flowrate_m3_s

@@ -9,9 +9,9 @@ import tomllib
 import numpy as np
 import pytest
 
-from models.machine import BUNDLED_MACHINE, load_machine, machine_from_dict
-from models.rotor.assembly import Rotor
-from models.validation import InputError
+from oilwatch.models.machine import BUNDLED_MACHINE, load_machine, machine_from_dict
+from oilwatch.models.rotor.assembly import Rotor
+from oilwatch.models.validation import InputError
 
 SMALL_MACHINE = """
 [machine]

@@ -10,19 +10,19 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from estimator.ekf import OilFlowEKF
-from estimator.toy_model import ToyRotor
-from models.bearing.supply import ML_MIN_PER_M3_S
-from models.machine import BUNDLED_MACHINE, load_machine
-from models.rotor.assembly import Rotor
-from models.system.factory import (
+from oilwatch.estimator.ekf import OilFlowEKF
+from oilwatch.estimator.toy_model import ToyRotor
+from oilwatch.models.bearing.supply import ML_MIN_PER_M3_S
+from oilwatch.models.machine import BUNDLED_MACHINE, load_machine
+from oilwatch.models.rotor.assembly import Rotor
+from oilwatch.models.system.factory import (
     flowrate_table_path,
     load_speed_sweeps,
     load_tables,
     speed_sweep_path,
     table_command,
 )
-from models.validation import InputError
+from oilwatch.models.validation import InputError
 from oilwatch.scenarios import make_run
 from oilwatch.study import make_cases
 

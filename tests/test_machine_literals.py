@@ -13,9 +13,9 @@ import io
 import tokenize
 from pathlib import Path
 
-from models.bearing.supply import ML_MIN_PER_M3_S
-from models.machine import load_machine
-from models.rotor.assembly import Rotor
+from oilwatch.models.bearing.supply import ML_MIN_PER_M3_S
+from oilwatch.models.machine import load_machine
+from oilwatch.models.rotor.assembly import Rotor
 
 REPO = Path(__file__).resolve().parent.parent
 FOLDERS = ("models", "estimator", "fmu_src", "oilwatch", "benchmarks", "scripts")

@@ -16,13 +16,13 @@ from types import SimpleNamespace
 import pytest
 from fixtures.fmu_subprocess import REPO_ROOT, run_json
 
-from models.bearing.table import CoefficientTable
-from models.machine import BUNDLED_MACHINE, load_machine
-from models.validation import InputError
 from oilwatch.cli import main
 from oilwatch.cli.run import parameter_labels, parse_settings
 from oilwatch.cosim.errors import SystemDescriptionError
 from oilwatch.cosim.values import FMI2_INTEGER_RANGE, fmi_value
+from oilwatch.models.bearing.table import CoefficientTable
+from oilwatch.models.machine import BUNDLED_MACHINE, load_machine
+from oilwatch.models.validation import InputError
 from oilwatch.study.storage import study_lock, write_json_atomic
 
 TABLE = BUNDLED_MACHINE.parent / "tables" / "turbine_bearing_75hz.json"
@@ -178,7 +178,7 @@ def test_a_coefficient_table_of_the_wrong_structure_is_named(capsys, tmp_path, m
 
 
 def test_a_speed_sweep_of_the_wrong_shape_is_named(tmp_path):
-    from models.system.speed_sweep import SpeedSweep
+    from oilwatch.models.system.speed_sweep import SpeedSweep
 
     data = json.loads((TABLE.parent / "turbine_speed_sweep.json").read_text())
     data["stiffness_n_per_m"] = data["stiffness_n_per_m"][:-1]

@@ -1,7 +1,7 @@
-"""Cramer-Rao bound with the machine's nuisances unknown (models.system.nuisance_bound).
+"""Cramer-Rao bound with the machine's nuisances unknown (oilwatch.models.system.nuisance_bound).
 
-Checked against the plain bound of :mod:`models.system.identifiability` (all known, offsets unknown), the
-per-sample Fisher sum, the Sommerfeld scaling of the film (viscosity = inverse load) and the behaviour a
+Checked against the plain bound of :mod:`oilwatch.models.system.identifiability` (all known, offsets unknown),
+the per-sample Fisher sum, the Sommerfeld scaling of the film (viscosity = inverse load) and the behaviour a
 prior must have (a baseline only helps; drift takes the help away).
 """
 
@@ -15,19 +15,19 @@ import numpy as np
 import pytest
 from test_identifiability import Q_NOMINAL, StandInTable
 
-from models.bearing.equilibrium import coefficients_at, static_equilibrium
-from models.bearing.supply import SupplyFlow
-from models.machine import load_machine
-from models.rotor.assembly import Rotor
-from models.system.identifiability import cramer_rao_bound, fisher_information
-from models.system.nuisance_bound import (
+from oilwatch.models.bearing.equilibrium import coefficients_at, static_equilibrium
+from oilwatch.models.bearing.supply import SupplyFlow
+from oilwatch.models.machine import load_machine
+from oilwatch.models.rotor.assembly import Rotor
+from oilwatch.models.system.identifiability import cramer_rao_bound, fisher_information
+from oilwatch.models.system.nuisance_bound import (
     harmonic_fisher,
     harmonic_sensitivity,
     nuisance_bound,
     viscosity_derivative,
 )
-from models.system.rotor_bearing import RotorBearingSystem
-from models.validation import InputError
+from oilwatch.models.system.rotor_bearing import RotorBearingSystem
+from oilwatch.models.validation import InputError
 
 SIGMA = 1e-6
 Q = np.array([0.9, 0.8]) * Q_NOMINAL
@@ -119,7 +119,7 @@ def test_viscosity_derivative_obeys_the_sommerfeld_scaling():
         metadata={"bearing": dataclasses.asdict(bearing), "mesh": mesh}, load_n=load, speed_hz=speed
     )
     derivative = viscosity_derivative(table, q)
-    from models.bearing.grid import Mesh
+    from oilwatch.models.bearing.grid import Mesh
 
     values = []
     for sign in (1.0, -1.0):
@@ -143,8 +143,8 @@ def test_synchronous_viscosity_derivative_obeys_the_sommerfeld_scaling_too():
     """At whirl = spin the film's K(Omega), C(Omega) scale with mu as the quasi-static ones (the whirl ratio
     is fixed), so the synchronous part equals K - W dK/dW, C - W dC/dW from load re-solves; the quasi-static
     part is the plain derivative's."""
-    from models.bearing.dynamic import synchronous_coefficients
-    from models.bearing.grid import Mesh
+    from oilwatch.models.bearing.dynamic import synchronous_coefficients
+    from oilwatch.models.bearing.grid import Mesh
 
     bearing = load_machine().bearing
     load, speed, q, mesh = 3272.8, 75.0, 0.9 * Q_NOMINAL, {"n_circ": 60, "n_axial": 12}

@@ -19,11 +19,11 @@ import dataclasses
 import numpy as np
 import pytest
 
-from estimator.config import EKFConfig
-from estimator.ekf import OilFlowEKF
-from models.machine import load_machine
-from models.system.factory import build_system
-from models.system.operating_model import OperatingAugmentedModel, Recentring, build_operating_model
+from oilwatch.estimator.config import EKFConfig
+from oilwatch.estimator.ekf import OilFlowEKF
+from oilwatch.models.machine import load_machine
+from oilwatch.models.system.factory import build_system
+from oilwatch.models.system.operating_model import OperatingAugmentedModel, Recentring, build_operating_model
 
 DT = 1e-3
 
@@ -129,11 +129,11 @@ def _alarms_at_80_percent(model):
 def test_the_floor_s_update_spread_over_steps_is_the_whole_update_of_the_due_step(model):
     """The floor's first update from the prior is done whole in its due step (it sets the alarm's timing);
     the next ones run half an exact-map response per step (nuisance_start.STAGES steps). Either way the
-    bound is, bit for bit, the information recursion over models.system.identifiability.map_sensitivity at
-    the estimates the due step took; a staged one is applied at its last stage only, and a state saved in
-    between continues to it."""
-    from estimator.nuisance_start import STAGES, InformationFloor
-    from models.system.identifiability import OperatingSegment, map_sensitivity, parameter_columns
+    bound is, bit for bit, the information recursion over
+    oilwatch.models.system.identifiability.map_sensitivity at the estimates the due step took; a staged one is
+    applied at its last stage only, and a state saved in between continues to it."""
+    from oilwatch.estimator.nuisance_start import STAGES, InformationFloor
+    from oilwatch.models.system.identifiability import OperatingSegment, map_sensitivity, parameter_columns
 
     config = free_config().for_model(model)
     floor = InformationFloor(model, config, model.n_states, 4, 2)

@@ -4,9 +4,9 @@ import math
 
 import pytest
 
-from models.machine import load_machine, machine_from_dict
-from models.oil import Oil, nu100_from_viscosity_index, reference_oils_l_h, viscosity_index
-from models.validation import InputError
+from oilwatch.models.machine import load_machine, machine_from_dict
+from oilwatch.models.oil import Oil, nu100_from_viscosity_index, reference_oils_l_h, viscosity_index
+from oilwatch.models.validation import InputError
 
 # ASTM D2270 Table 1: Y = nu(100 degC), L and H = nu(40 degC) of the VI 0 and VI 100 oils [cSt].
 D2270_TABLE_1 = [

@@ -1,12 +1,13 @@
-"""models.system.operating_maps: a re-centring's stacked blocks and derivatives against direct evaluations."""
+"""oilwatch.models.system.operating_maps: a re-centring's stacked blocks and derivatives against direct
+evaluations."""
 
 import numpy as np
 import pytest
 
-from models.machine import load_machine
-from models.system.factory import load_system
-from models.system.operating_maps import AXES
-from models.system.operating_model import build_operating_model
+from oilwatch.models.machine import load_machine
+from oilwatch.models.system.factory import load_system
+from oilwatch.models.system.operating_maps import AXES
+from oilwatch.models.system.operating_model import build_operating_model
 
 MACHINE = load_machine()
 

@@ -1,19 +1,19 @@
-"""The estimator's operating-point model (models.system.operating_model) against exact maps."""
+"""The estimator's operating-point model (oilwatch.models.system.operating_model) against exact maps."""
 
 import math
 
 import numpy as np
 import pytest
 
-from models.machine import load_machine
-from models.system.factory import load_system
-from models.system.operating_model import (
+from oilwatch.models.machine import load_machine
+from oilwatch.models.system.factory import load_system
+from oilwatch.models.system.operating_model import (
     OperatingAugmentedModel,
     Recentring,
     build_operating_model,
     map_response,
 )
-from models.validation import InputError
+from oilwatch.models.validation import InputError
 
 MACHINE = load_machine()
 T0 = MACHINE.nominal_oil_temperature_c

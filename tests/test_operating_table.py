@@ -11,15 +11,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from models.bearing.equilibrium import coefficients_at, static_equilibrium
-from models.bearing.grid import Mesh
-from models.bearing.operating_accuracy import table_error
-from models.bearing.operating_table import OperatingTable, couette_flow_m3_s, operating_table_path
-from models.bearing.supply import SupplyFlow
-from models.bearing.table import BearingCoefficients, CoefficientTable
-from models.machine import load_machine
-from models.validation import InputError
 from oilwatch.cli import main
+from oilwatch.models.bearing.equilibrium import coefficients_at, static_equilibrium
+from oilwatch.models.bearing.grid import Mesh
+from oilwatch.models.bearing.operating_accuracy import table_error
+from oilwatch.models.bearing.operating_table import OperatingTable, couette_flow_m3_s, operating_table_path
+from oilwatch.models.bearing.supply import SupplyFlow
+from oilwatch.models.bearing.table import BearingCoefficients, CoefficientTable
+from oilwatch.models.machine import load_machine
+from oilwatch.models.validation import InputError
 
 MACHINE = load_machine()
 LOAD_N = 3272.8248078061615  # W / 2 of the bundled turbine (as in the committed tables)

@@ -10,17 +10,17 @@ import math
 import numpy as np
 import pytest
 
-from models.bearing.coefficient_kinds import SYNCHRONOUS, table_kind
-from models.bearing.dynamic import synchronous_coefficients
-from models.bearing.equilibrium import static_equilibrium
-from models.bearing.grid import Mesh
-from models.bearing.operating_accuracy import table_error
-from models.bearing.operating_table import couette_flow_m3_s
-from models.bearing.supply import SupplyFlow
-from models.machine import load_machine
-from models.rotor.assembly import Rotor
-from models.system.factory import load_tables
-from models.system.operating_point import operating_table_of
+from oilwatch.models.bearing.coefficient_kinds import SYNCHRONOUS, table_kind
+from oilwatch.models.bearing.dynamic import synchronous_coefficients
+from oilwatch.models.bearing.equilibrium import static_equilibrium
+from oilwatch.models.bearing.grid import Mesh
+from oilwatch.models.bearing.operating_accuracy import table_error
+from oilwatch.models.bearing.operating_table import couette_flow_m3_s
+from oilwatch.models.bearing.supply import SupplyFlow
+from oilwatch.models.machine import load_machine
+from oilwatch.models.rotor.assembly import Rotor
+from oilwatch.models.system.factory import load_tables
+from oilwatch.models.system.operating_point import operating_table_of
 
 MACHINE = load_machine()
 LOAD_N = 3272.8248078061615

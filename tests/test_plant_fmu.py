@@ -57,7 +57,7 @@ def test_orbit_after_the_transient_matches_the_harmonic_unbalance_response(fmu):
     result = _run(
         fmu,
         """
-from models.system.factory import load_system
+from oilwatch.models.system.factory import load_system
 q = (0.9 * 596.3 * ML, 0.85 * 596.3 * ML)
 params = {"noise_um": 0.0, "q1_initial_ml_min": 0.9 * 596.3, "q1_final_ml_min": 0.9 * 596.3,
           "q2_initial_ml_min": 0.85 * 596.3, "q2_final_ml_min": 0.85 * 596.3}
@@ -116,7 +116,7 @@ def test_a_flowrate_step_moves_the_static_position_by_the_table_prediction(fmu):
     result = _run(
         fmu,
         """
-from models.system.factory import load_system
+from oilwatch.models.system.factory import load_system
 params = {"q1_final_ml_min": 0.8 * 596.3, "fault_time_s": 0.5, "fault_duration_s": 0.02, "noise_um": 0.0}
 t, out = simulate(params, 3.0, TRUE_NAMES)
 revolutions = 40  # 3 revolutions at 75 Hz: the orbit averages out

@@ -5,10 +5,10 @@ import math
 import numpy as np
 import pytest
 
-from models.system.factory import load_system
-from models.system.measurement import MeasurementChain, ProbeErrors, UnbalanceChange
-from models.system.plant import RotorBearingPlant
-from models.validation import InputError
+from oilwatch.models.system.factory import load_system
+from oilwatch.models.system.measurement import MeasurementChain, ProbeErrors, UnbalanceChange
+from oilwatch.models.system.plant import RotorBearingPlant
+from oilwatch.models.validation import InputError
 
 ML = 1e-6 / 60.0
 NOMINAL = 596.3 * ML

@@ -6,11 +6,11 @@ import math
 import numpy as np
 import pytest
 
-from models.machine import load_machine
-from models.system.factory import load_system
-from models.system.operating_point import operating_system, operating_table_of
-from models.system.plant import RotorBearingPlant
-from models.validation import InputError
+from oilwatch.models.machine import load_machine
+from oilwatch.models.system.factory import load_system
+from oilwatch.models.system.operating_point import operating_system, operating_table_of
+from oilwatch.models.system.plant import RotorBearingPlant
+from oilwatch.models.validation import InputError
 
 MACHINE = load_machine()
 Q = 596.3e-6 / 60.0

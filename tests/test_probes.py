@@ -6,9 +6,9 @@ import dataclasses
 
 import pytest
 
-from models.machine import load_machine
-from models.probes import read_probes
-from models.validation import InputError
+from oilwatch.models.machine import load_machine
+from oilwatch.models.probes import read_probes
+from oilwatch.models.validation import InputError
 
 
 def test_the_turbine_declares_its_probes_and_a_file_without_the_section_gets_the_defaults():
@@ -55,13 +55,13 @@ def test_one_key_gives_the_probe_angle_to_the_estimator_and_the_records_reader(s
 
 def test_runout_vectors_and_the_drift_rate_come_from_the_probes_section():
     """The machine file's runout keys give the vectors the estimator subtracts, in the plant's convention
-    (``a cos(theta + phi)``, models.system.measurement); the reader of records accepts the keys."""
+    (``a cos(theta + phi)``, oilwatch.models.system.measurement); the reader of records accepts the keys."""
     import math
 
     import numpy as np
 
-    from estimator.runout import runout_of_probes
-    from models.system.measurement import MeasurementChain, ProbeErrors
+    from oilwatch.estimator.runout import runout_of_probes
+    from oilwatch.models.system.measurement import MeasurementChain, ProbeErrors
     from oilwatch.records.probes import probe_setup
 
     section = {

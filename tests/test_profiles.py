@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from models.system.profiles import OperatingProfile, parse_profile
-from models.validation import InputError
+from oilwatch.models.system.profiles import OperatingProfile, parse_profile
+from oilwatch.models.validation import InputError
 
 
 def test_shapes():

@@ -6,9 +6,9 @@ import json
 
 import pytest
 
-from models.validation import InputError
 from oilwatch.cli import main
 from oilwatch.cli.readme_block import replace_block
+from oilwatch.models.validation import InputError
 from oilwatch.study.readme_tables import main as study_tables
 
 

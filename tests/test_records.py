@@ -9,8 +9,8 @@ import re
 import numpy as np
 import pytest
 
-from models.validation import InputError
 from oilwatch.cli import main
+from oilwatch.models.validation import InputError
 from oilwatch.records import PositionConverter, RecordStream, probe_setup
 from oilwatch.records.signal import GridResampler, Keyphasor, anti_alias_taps
 from oilwatch.records.writers import write_record
@@ -55,7 +55,7 @@ def test_square_probe_pairs_at_one_angle_feed_the_estimator_along_their_axes_as_
     with EKFConfig.probe_angle_deg = the X probes' angle, as the estimator FMU does (the innovation gate and
     the fault checks are per probe: fed (x, y), a gap-voltage record alarmed 33 ms after the FMU on the same
     samples); any other mounting gives (x, y) positions."""
-    from estimator.measurement import probe_rotation
+    from oilwatch.estimator.measurement import probe_rotation
 
     api670 = PositionConverter(probe_setup({"layout": "api670"}), CLEARANCE_M)
     assert api670.pair_angle_deg == 45.0
@@ -278,8 +278,8 @@ def test_parquet_and_tdms_readers_give_the_csv_reader_s_samples(tmp_path):
 def test_further_fields_of_the_estimator_s_step_report_become_estimate_columns_in_field_units():
     from dataclasses import dataclass, fields
 
-    from estimator.config import nuisance_names
-    from estimator.ekf import StepReport
+    from oilwatch.estimator.config import nuisance_names
+    from oilwatch.estimator.ekf import StepReport
     from oilwatch.monitoring.columns import estimate_columns
 
     @dataclass(slots=True)

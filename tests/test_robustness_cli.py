@@ -50,7 +50,7 @@ def test_a_chain_applied_to_the_shared_true_motion_is_the_plant_with_that_chain(
     record must be bit-identical to a plant built with the case's measurement chain."""
     import dataclasses
 
-    from models.system.plant import RotorBearingPlant
+    from oilwatch.models.system.plant import RotorBearingPlant
     from oilwatch.robustness import case_by_name
     from oilwatch.robustness.runner import DT_S, RobustnessRun
 
@@ -68,9 +68,9 @@ def test_a_chain_applied_to_the_shared_true_motion_is_the_plant_with_that_chain(
 
 
 def test_the_offset_step_case_moves_the_offsets_since_a_baseline_its_age_trusts_to_3_um():
-    from estimator.config import OffsetBaseline
-    from models.machine import load_machine
-    from models.probes import read_probes
+    from oilwatch.estimator.config import OffsetBaseline
+    from oilwatch.models.machine import load_machine
+    from oilwatch.models.probes import read_probes
     from oilwatch.robustness.cases import BASELINE_AGE_DAYS, DRIFT_M, case_by_name, probe_errors
 
     case = case_by_name("offsets-step")

@@ -6,8 +6,8 @@ import json
 
 import pytest
 
-from models.machine import BUNDLED_MACHINE
 from oilwatch.cli import main
+from oilwatch.models.machine import BUNDLED_MACHINE
 
 
 def run_cli(capsys, *argv):

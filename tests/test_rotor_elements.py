@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from models.machine import Material, load_machine
-from models.rotor.assembly import Rotor
-from models.rotor.disc import RigidDisc
-from models.rotor.supports import LinearBearing, bearing_matrices
-from models.rotor.timoshenko import (
+from oilwatch.models.machine import Material, load_machine
+from oilwatch.models.rotor.assembly import Rotor
+from oilwatch.models.rotor.disc import RigidDisc
+from oilwatch.models.rotor.supports import LinearBearing, bearing_matrices
+from oilwatch.models.rotor.timoshenko import (
     cowper_shear_coefficient,
     element_gyroscopic,
     element_mass,

@@ -5,17 +5,17 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from models.machine import load_machine
-from models.rotor.assembly import Rotor
-from models.rotor.modal import campbell_diagram, damped_modes
-from models.rotor.response import (
+from oilwatch.models.machine import load_machine
+from oilwatch.models.rotor.assembly import Rotor
+from oilwatch.models.rotor.modal import campbell_diagram, damped_modes
+from oilwatch.models.rotor.response import (
     orbit_semi_axes,
     static_deflection,
     unbalance_response,
     unbalance_response_sweep,
 )
-from models.rotor.supports import LinearBearing, isotropic_bearings
-from models.validation import InputError
+from oilwatch.models.rotor.supports import LinearBearing, isotropic_bearings
+from oilwatch.models.validation import InputError
 
 
 @pytest.fixture(scope="module")
@@ -111,7 +111,7 @@ def test_unbalance_response_satisfies_equation_of_motion(rotor):
     speed = 75.0
     omega = 2 * np.pi * speed
     response = unbalance_response(rotor, speed, supports)
-    from models.rotor.supports import bearing_matrices
+    from oilwatch.models.rotor.supports import bearing_matrices
 
     k_b, c_b = bearing_matrices(rotor.n_dof, supports)
     for t in (0.0, 0.0031, 0.0107):

@@ -11,12 +11,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from models.machine import Material, load_machine
-from models.rotor.assembly import Rotor
-from models.rotor.modal import damped_modes, undamped_natural_frequencies_hz
-from models.rotor.response import static_deflection
-from models.rotor.supports import isotropic_bearings
-from models.rotor.timoshenko import cowper_shear_coefficient
+from oilwatch.models.machine import Material, load_machine
+from oilwatch.models.rotor.assembly import Rotor
+from oilwatch.models.rotor.modal import damped_modes, undamped_natural_frequencies_hz
+from oilwatch.models.rotor.response import static_deflection
+from oilwatch.models.rotor.supports import isotropic_bearings
+from oilwatch.models.rotor.timoshenko import cowper_shear_coefficient
 
 STEEL = Material(210e9, 0.3, 7850.0)
 

@@ -38,7 +38,7 @@ def test_command_line_profiles_replace_the_scenarios():
 
 
 def run_nominal_temperature():
-    from models.machine import load_machine
+    from oilwatch.models.machine import load_machine
 
     return load_machine().nominal_oil_temperature_c
 

@@ -8,11 +8,11 @@ import math
 import numpy as np
 import pytest
 
-from estimator.baseline import load_runout
-from estimator.runout import RunoutCompensation, SlowRollVectors, fit_slow_roll
-from models.system.measurement import MeasurementChain, ProbeErrors
-from models.validation import InputError
 from oilwatch.cli import main
+from oilwatch.estimator.baseline import load_runout
+from oilwatch.estimator.runout import RunoutCompensation, SlowRollVectors, fit_slow_roll
+from oilwatch.models.system.measurement import MeasurementChain, ProbeErrors
+from oilwatch.models.validation import InputError
 from oilwatch.robustness.slow_roll import slow_roll_record
 
 ONCE_UM = (2.0, 1.5, 0.7, 2.4)
@@ -118,9 +118,9 @@ def test_too_short_a_slow_roll_record_is_refused():
 def test_under_a_speed_ramp_the_compensation_angle_is_the_integral_of_the_measured_speed():
     """The estimator subtracts the runout at the operating model's rotor angle, the phase its unbalance
     forcing uses (the integral of the measured speed, or the keyphasor's), not nominal Omega t."""
-    from models.machine import load_machine
-    from models.system.factory import load_system
-    from models.system.operating_model import build_operating_model
+    from oilwatch.models.machine import load_machine
+    from oilwatch.models.system.factory import load_system
+    from oilwatch.models.system.operating_model import build_operating_model
 
     machine = load_machine()
     model = build_operating_model(load_system(reduced=True), machine)

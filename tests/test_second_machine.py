@@ -17,8 +17,8 @@ import time
 import pytest
 from fixtures.venvs import REPO_ROOT, build_wheel, clean_env, make_venv
 
-from models.bearing.supply import ML_MIN_PER_M3_S
-from models.machine import load_machine
+from oilwatch.models.bearing.supply import ML_MIN_PER_M3_S
+from oilwatch.models.machine import load_machine
 
 pytestmark = pytest.mark.slow
 

@@ -15,14 +15,14 @@ import dataclasses
 import numpy as np
 import pytest
 
-from estimator.config import OffsetBaseline
-from estimator.ekf import OilFlowEKF
-from estimator.factory import make_estimator
-from estimator.reports import EstimateTrace
-from estimator.start_bank import START_FRACTIONS, StartBank
-from models.machine import load_machine
-from models.system.factory import build_system
-from models.system.operating_model import build_operating_model
+from oilwatch.estimator.config import OffsetBaseline
+from oilwatch.estimator.ekf import OilFlowEKF
+from oilwatch.estimator.factory import make_estimator
+from oilwatch.estimator.reports import EstimateTrace
+from oilwatch.estimator.start_bank import START_FRACTIONS, StartBank
+from oilwatch.models.machine import load_machine
+from oilwatch.models.system.factory import build_system
+from oilwatch.models.system.operating_model import build_operating_model
 from tests.test_nuisance_start import DT, _record, free_config
 
 

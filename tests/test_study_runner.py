@@ -14,7 +14,7 @@ from pathlib import Path
 import cloudpickle
 import pytest
 
-from models.validation import InputError
+from oilwatch.models.validation import InputError
 from oilwatch.study import CaseModel, SyntheticCase, make_cases, run_study
 from oilwatch.study.runner import dask_client
 from oilwatch.study.storage import CaseStore

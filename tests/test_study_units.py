@@ -8,8 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from models.validation import InputError
 from oilwatch.cli import main
+from oilwatch.models.validation import InputError
 from oilwatch.study import Case, SyntheticCase, grid_percents, make_cases, reduce_record
 from oilwatch.study.cases import CaseFailure
 from oilwatch.study.storage import COLUMNS, CaseStore, check_manifest

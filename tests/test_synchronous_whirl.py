@@ -9,9 +9,13 @@ import math
 import numpy as np
 import pytest
 
-from models.machine import load_machine
-from models.system.operating_maps import OperatingMaps
-from models.system.operating_point import operating_system, operating_table_of, set_operating_conditions
+from oilwatch.models.machine import load_machine
+from oilwatch.models.system.operating_maps import OperatingMaps
+from oilwatch.models.system.operating_point import (
+    operating_system,
+    operating_table_of,
+    set_operating_conditions,
+)
 
 MACHINE = load_machine()
 MU = MACHINE.bearing.viscosity_pa_s

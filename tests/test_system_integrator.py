@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-from models.system.factory import load_system
-from models.system.fault import SigmoidFlowrate
-from models.system.newmark import NewmarkIntegrator
-from models.validation import InputError
+from oilwatch.models.system.factory import load_system
+from oilwatch.models.system.fault import SigmoidFlowrate
+from oilwatch.models.system.newmark import NewmarkIntegrator
+from oilwatch.models.validation import InputError
 
 ML = 1e-6 / 60.0
 NOMINAL = 596.3 * ML

@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from models.system.augmented import ExactAugmentedModel, GridAugmentedModel
-from models.system.factory import load_system
-from models.validation import InputError
+from oilwatch.models.system.augmented import ExactAugmentedModel, GridAugmentedModel
+from oilwatch.models.system.factory import load_system
+from oilwatch.models.validation import InputError
 
 ML = 1e-6 / 60.0
 NOMINAL = 596.3 * ML

@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from models.bearing.grid import Mesh
-from models.machine import load_machine
-from models.system.fault import SigmoidFlowrate
-from models.system.nonlinear_plant import TransientFilmPlant, check_film_model
-from models.validation import InputError
+from oilwatch.models.bearing.grid import Mesh
+from oilwatch.models.machine import load_machine
+from oilwatch.models.system.fault import SigmoidFlowrate
+from oilwatch.models.system.nonlinear_plant import TransientFilmPlant, check_film_model
+from oilwatch.models.validation import InputError
 
 MACHINE = load_machine(None)
 Q = MACHINE.lubrication.nominal_flowrate_m3_s
@@ -40,9 +40,9 @@ def test_film_model_names_are_checked():
 
 
 def test_make_plant_picks_the_film_model():
-    from models.system.factory import build_system
-    from models.system.nonlinear_plant import make_plant
-    from models.system.plant import RotorBearingPlant
+    from oilwatch.models.system.factory import build_system
+    from oilwatch.models.system.nonlinear_plant import make_plant
+    from oilwatch.models.system.plant import RotorBearingPlant
 
     system = build_system(MACHINE)
     linear = make_plant(
@@ -56,9 +56,9 @@ def test_make_plant_picks_the_film_model():
 
 def test_transient_film_plant_takes_the_fmu_default_probes_and_refuses_probe_errors():
     """The FMU's probes without a fault (fault time 1e9 s) are ideal; an offset is refused in one line."""
-    from models.system.factory import build_system
-    from models.system.measurement import MeasurementChain, ProbeErrors, UnbalanceChange
-    from models.system.nonlinear_plant import _refuse_chain_options, make_plant
+    from oilwatch.models.system.factory import build_system
+    from oilwatch.models.system.measurement import MeasurementChain, ProbeErrors, UnbalanceChange
+    from oilwatch.models.system.nonlinear_plant import _refuse_chain_options, make_plant
 
     _refuse_chain_options(
         {

@@ -5,14 +5,14 @@ import json
 import numpy as np
 import pytest
 
-from models.bearing.equilibrium import coefficients_at, static_equilibrium
-from models.bearing.grid import Mesh
-from models.bearing.supply import SupplyFlow
-from models.machine import load_machine
-from models.rotor.assembly import Rotor
-from models.system.factory import load_speed_sweeps, load_system
-from models.system.reproduction import paper_comparison
 from oilwatch.cli import main
+from oilwatch.models.bearing.equilibrium import coefficients_at, static_equilibrium
+from oilwatch.models.bearing.grid import Mesh
+from oilwatch.models.bearing.supply import SupplyFlow
+from oilwatch.models.machine import load_machine
+from oilwatch.models.rotor.assembly import Rotor
+from oilwatch.models.system.factory import load_speed_sweeps, load_system
+from oilwatch.models.system.reproduction import paper_comparison
 
 ROW_KEYS = {
     "interval_pct",

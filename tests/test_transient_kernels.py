@@ -7,12 +7,12 @@ import math
 import numpy as np
 import pytest
 
-from models.bearing.discretization import film_operator
-from models.bearing.film import side_leakage
-from models.bearing.geometry import JournalBearing
-from models.bearing.grid import Mesh, film_grid
-from models.bearing.transient_kernels import StepAssembly
-from models.bearing.transient_sweep import (
+from oilwatch.models.bearing.discretization import film_operator
+from oilwatch.models.bearing.film import side_leakage
+from oilwatch.models.bearing.geometry import JournalBearing
+from oilwatch.models.bearing.grid import Mesh, film_grid
+from oilwatch.models.bearing.transient_kernels import StepAssembly
+from oilwatch.models.bearing.transient_sweep import (
     _relax,
     conserve_mass,
     projected_sweep_residual,
@@ -149,8 +149,8 @@ def test_mass_correction_zeroes_the_residual_sum():
 def test_incremental_coarse_operators_are_the_full_build():
     """Updating the Galerkin hierarchy for the volumes that switched state gives bitwise the coarse
     operators (and masks, coarsest inverse) of a build from scratch, over several switch rounds."""
-    from models.bearing.transient_galerkin import build, update
-    from models.bearing.transient_multigrid import CoarseCorrection
+    from oilwatch.models.bearing.transient_galerkin import build, update
+    from oilwatch.models.bearing.transient_multigrid import CoarseCorrection
 
     grid = film_grid(BEARING, Mesh(120, 36), half=True)
     arrays = StepAssembly(grid, BEARING.viscosity_pa_s, OMEGA, P_REF).fill(20e-6, -80e-6)

@@ -7,17 +7,21 @@ import json
 import numpy as np
 import pytest
 
-from models.bearing.dynamic_table import synchronous_coefficients
-from models.bearing.equilibrium import static_equilibrium
-from models.bearing.grid import Mesh
-from models.bearing.supply import SupplyFlow
-from models.bearing.table import CoefficientTable
-from models.machine import load_machine
-from models.rotor.assembly import Rotor
-from models.system.frequency_stability import film_impedances, film_roots, least_stable
-from models.system.nonlinear import NonlinearRotorBearing
-from models.system.nonlinear_studies import SAMPLE_STEPS, linear_orbits, orbit_setup
-from models.system.transient_comparison import results_path, synchronous_table_path, transient_figures
+from oilwatch.models.bearing.dynamic_table import synchronous_coefficients
+from oilwatch.models.bearing.equilibrium import static_equilibrium
+from oilwatch.models.bearing.grid import Mesh
+from oilwatch.models.bearing.supply import SupplyFlow
+from oilwatch.models.bearing.table import CoefficientTable
+from oilwatch.models.machine import load_machine
+from oilwatch.models.rotor.assembly import Rotor
+from oilwatch.models.system.frequency_stability import film_impedances, film_roots, least_stable
+from oilwatch.models.system.nonlinear import NonlinearRotorBearing
+from oilwatch.models.system.nonlinear_studies import SAMPLE_STEPS, linear_orbits, orbit_setup
+from oilwatch.models.system.transient_comparison import (
+    results_path,
+    synchronous_table_path,
+    transient_figures,
+)
 
 MACHINE = load_machine(None)
 RESULTS = json.loads(results_path(MACHINE).read_text()) if results_path(MACHINE).exists() else {}

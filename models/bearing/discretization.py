@@ -12,7 +12,7 @@ Every control volume k balances its volume flow (Ausas, Jai & Buscaglia, J. Trib
   exactly at the face and theta taken upwind (the shaft drags oil in +psi), which keeps the
   full-film scheme second-order accurate and the cavitated one stable;
 * ``squeeze_k = theta_k * integral(dh/dt dA)`` of the volume, with dh/dt = -(v_x cos a + v_y sin a)
-  for a journal moving at (v_x, v_y); see :mod:`models.bearing.film` for where it is applied.
+  for a journal moving at (v_x, v_y); see :mod:`oilwatch.models.bearing.film` for where it is applied.
 
 The same cell integrals give the film force: F = sum_k p_k w_k with w = (wx, wy) per node, and
 integral(dh/dt dA) = v_x wx + v_y wy, so pressure and squeeze use one quadrature (this is what makes

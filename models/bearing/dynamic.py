@@ -3,7 +3,7 @@
 About a steady film (journal at e0, partition and unknowns p0, theta0), a small harmonic journal
 motion ``e = e0 + de exp(s t)`` moves the unknowns by ``du exp(s t)`` on the held partition
 (full volumes: dp, cavitated ones: d theta). Linearizing the transient balance of
-:mod:`models.bearing.transient`, ``d(V theta)/dt + Ap p + At theta = q``, gives one complex sparse
+:mod:`oilwatch.models.bearing.transient`, ``d(V theta)/dt + Ap p + At theta = q``, gives one complex sparse
 system per frequency:
 
     [Ap | At + s diag(V0) on the theta columns] du = -(dAp/de p0 + dAt/de theta0) de - s theta0 w.de
@@ -14,7 +14,7 @@ K(omega) = Re Z, C(omega) = Im Z / omega (Lund's convention, F = F0 - K de - C d
 
 The fluid-fraction transport is in the theta columns: in the cavitated zone the content lags the
 journal. Limits (tested): at omega -> 0, K is the held-partition stiffness of
-:func:`models.bearing.equilibrium.coefficients_at`; as omega -> infinity the cavitated content
+:func:`oilwatch.models.bearing.equilibrium.coefficients_at`; as omega -> infinity the cavitated content
 freezes and C tends to the ``squeeze="full-film"`` damping. Neither quasi-static choice is the
 response at a finite whirl frequency; this is.
 
@@ -122,8 +122,8 @@ class FilmImpedance:
 def synchronous_coefficients(film, eccentricity_m, speed_hz: float, supply) -> tuple[np.ndarray, np.ndarray]:
     """K(Omega), C(Omega) of a steady film at whirl frequency = spin speed ``speed_hz`` [Hz].
 
-    On the flooded threshold (:func:`~models.bearing.equilibrium.on_flooded_threshold`) the mean of the
-    starved and flooded one-sided impedances, as the quasi-static coefficients take there.
+    On the flooded threshold (:func:`~oilwatch.models.bearing.equilibrium.on_flooded_threshold`) the mean of
+    the starved and flooded one-sided impedances, as the quasi-static coefficients take there.
     """
     omega = 2.0 * math.pi * speed_hz
     if not on_flooded_threshold(film, supply, speed_hz):

@@ -3,7 +3,7 @@
 The unbalance response, the plant's linearized model and the estimator's model all see the film at
 the synchronous frequency. This table holds, at each flowrate of a quasi-static table (same
 equilibria, same file format, so every consumer of :class:`CoefficientTable` reads it unchanged),
-the frequency-dependent coefficients of :mod:`models.bearing.dynamic` at omega = Omega. At the
+the frequency-dependent coefficients of :mod:`oilwatch.models.bearing.dynamic` at omega = Omega. At the
 flooded-threshold node the mean of the starved and flooded one-sided impedances is stored, as the
 quasi-static table does.
 """

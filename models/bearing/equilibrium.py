@@ -232,7 +232,7 @@ def coefficients_at(
     order (the held stiffness agrees with free re-solves at moderate steps and converges with the
     mesh; tests/test_bearing_coefficients.py). Velocity steps are ``step_ratio * c * Omega``.
     With ``squeeze="full-film"`` the velocity response is taken on the equilibrium partition with
-    the film content frozen (see :mod:`models.bearing.film`); it is linear in the velocity and the
+    the film content frozen (see :mod:`oilwatch.models.bearing.film`); it is linear in the velocity and the
     central difference is exact. With ``squeeze="everywhere"`` the quasi-steady film is re-solved on
     the held partition (a free re-solve would scatter like the free stiffness).
 

@@ -1,6 +1,6 @@
 """Mass-conserving p-theta film solver: complementarity form solved by a semi-smooth Newton method.
 
-The discrete problem (see :mod:`models.bearing.discretization`) is a mixed linear complementarity
+The discrete problem (see :mod:`oilwatch.models.bearing.discretization`) is a mixed linear complementarity
 problem (Giacopini et al., J. Tribol. 132, 041702, 2010): for every control volume k
 
     Ap p + At theta + squeeze = source,    p_k >= 0,  1 - theta_k >= 0,  p_k (1 - theta_k) = 0.
@@ -68,7 +68,7 @@ class FilmSolution:
     Attributes
     ----------
     pressure_pa : (n_circ, n_axial) gauge pressure [Pa], cell i at psi from the groove's upstream
-        edge (see :mod:`models.bearing.grid`), groove cells at the groove pressure.
+        edge (see :mod:`oilwatch.models.bearing.grid`), groove cells at the groove pressure.
     fill_fraction : (n_circ, n_axial) theta [-].
     force_n : (2,) film force on the journal (F_x, F_y) [N].
     side_leakage_m3_s : flow out of both bearing ends [m^3/s].
@@ -168,7 +168,7 @@ def solve_film(
     ``hold_partition``: keep the partition of the reference film ``warm_start`` (groove state
     included) instead of settling a new one: one sparse solve on that partition, pressures and
     fills not clipped, i.e. the smooth branch of the discrete solution through ``warm_start``,
-    whose derivative is the stiffness (see :mod:`models.bearing.equilibrium`). Required without a
+    whose derivative is the stiffness (see :mod:`oilwatch.models.bearing.equilibrium`). Required without a
     velocity. With a velocity and ``squeeze="full-film"`` every steady-full volume also stays
     pressurized, so the response is linear in the velocity: the small-velocity limit used for the
     damping; with ``squeeze="everywhere"`` the quasi-steady film is solved on that partition.

@@ -3,8 +3,8 @@
 Each volume in turn is first assumed full (theta = 1) and its pressure solved from its own balance;
 if that pressure is negative the volume is cavitated (p = 0) and its fill solved instead. This is
 the classical Elrod-Adams / Ausas relaxation (no over-relaxation), compiled with numba. It shares
-:func:`models.bearing.discretization.film_operator` with the fast solver, so both converge to the
-same discrete solution; it exists to check :func:`models.bearing.film.solve_film` and to measure
+:func:`oilwatch.models.bearing.discretization.film_operator` with the fast solver, so both converge to the
+same discrete solution; it exists to check :func:`oilwatch.models.bearing.film.solve_film` and to measure
 how much faster that is (``benchmarks/bearing_solve.py``). Steady films only (no journal velocity).
 """
 

@@ -18,7 +18,7 @@ class JournalBearing:
     length_m : axial bearing length L [m].
     clearance_m : radial clearance c [m].
     viscosity_pa_s : dynamic viscosity of the oil mu [Pa s].
-    groove_angle_rad : angular position of the groove centre [rad] (see ``models.bearing`` for the
+    groove_angle_rad : angular position of the groove centre [rad] (see ``oilwatch.models.bearing`` for the
         convention of where 0 lies).
     groove_circumferential_m : groove extent along the circumference [m].
     groove_axial_m : groove extent along the axis [m], centred on the bearing mid-plane.

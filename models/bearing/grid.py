@@ -1,6 +1,6 @@
 """The finite-volume grid of the unwrapped film and its fixed connectivity (shared by both solvers).
 
-Angle convention (documented once, used everywhere in ``models.bearing``)
+Angle convention (documented once, used everywhere in ``oilwatch.models.bearing``)
 -------------------------------------------------------------------------
 x is horizontal, y vertical up, the static load pushes the journal along -y and the shaft spins about
 +z, from +x towards +y. A point of the bearing bore is located by its polar angle ``alpha`` measured

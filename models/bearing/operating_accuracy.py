@@ -3,7 +3,7 @@
 The measures are those the table is held to: the largest error of the eight stiffness entries relative to
 the largest stiffness entry (and the same for damping), and the relative error of the eccentricity ratio.
 The direct solve takes the coefficients of the table's own kind (quasi-static or synchronous,
-:mod:`models.bearing.coefficient_kinds`).
+:mod:`oilwatch.models.bearing.coefficient_kinds`).
 """
 
 from __future__ import annotations

@@ -12,17 +12,17 @@ are therefore functions of two numbers only (Lund 1987; Childs 1993, ch. 3):
 
 oilwatch's solver reproduces this scaling to round-off (tests/test_operating_table.py solves one point at two
 speeds). :func:`compute_operating_table` solves the equilibrium and the eight coefficients with the
-project's conventions (:func:`models.bearing.table.compute_table`: held-partition stiffness, default
+project's conventions (:func:`oilwatch.models.bearing.table.compute_table`: held-partition stiffness, default
 full-film squeeze, mean of the one-sided limits on f = 1) on a grid uniform in ln S and in f.
-:class:`OperatingTable` interpolates it by tensor-product Catmull-Rom (:mod:`models.catmull_rom`: C1,
+:class:`OperatingTable` interpolates it by tensor-product Catmull-Rom (:mod:`oilwatch.models.catmull_rom`: C1,
 exact at the nodes, linear in the data), and gives dimensional values and their derivatives with respect
 to the flowrate and the viscosity at any (speed, viscosity, load, flowrate) inside the grid; outside,
 :class:`~models.validation.InputError` (no extrapolation).
 
 The parts live in their own modules and are re-exported here, the import path callers use: the scaling
-(:mod:`models.bearing.sommerfeld`), the solve (:mod:`models.bearing.operating_table_solve`) and the
-compiled interpolation with the table's slice at one operating point
-(:mod:`models.bearing.operating_table_interpolation`).
+(:mod:`oilwatch.models.bearing.sommerfeld`), the solve (:mod:`oilwatch.models.bearing.operating_table_solve`)
+and the compiled interpolation with the table's slice at one operating point
+(:mod:`oilwatch.models.bearing.operating_table_interpolation`).
 """
 
 from __future__ import annotations

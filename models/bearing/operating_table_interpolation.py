@@ -1,8 +1,8 @@
 """The compiled Catmull-Rom kernels of the dimensionless bearing table, and its slice at one operating point.
 
-:class:`~models.bearing.operating_table.OperatingTable` pads its (ln S, f) grid with ghost nodes
-(:mod:`models.catmull_rom`); :func:`interpolate_point` evaluates it and its two derivatives at any point.
-A filter or a plant that evaluates many flowrates at one (speed, viscosity, load) interpolates in S
+:class:`~oilwatch.models.bearing.operating_table.OperatingTable` pads its (ln S, f) grid with ghost nodes
+(:mod:`oilwatch.models.catmull_rom`); :func:`interpolate_point` evaluates it and its two derivatives at any
+point. A filter or a plant that evaluates many flowrates at one (speed, viscosity, load) interpolates in S
 once (:func:`interpolate_column`, :class:`TableSlice`) and then only in f per call (:func:`interpolate_rows`).
 """
 

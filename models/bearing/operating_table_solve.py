@@ -1,10 +1,10 @@
 """Solving the dimensionless bearing table: the p-theta equilibrium and coefficients over (ln S, f).
 
 At one speed and load every Sommerfeld node is reached by the viscosity, mu = S W / (N L D (R/c)^2)
-(:mod:`models.bearing.sommerfeld`); at each node the flooded threshold q_t and
-:func:`models.bearing.table.compute_table` at the flowrates f q_t (the project's conventions: held-partition
-stiffness, default full-film squeeze, mean of the one-sided limits on f = 1) give the node's row. A long
-run keeps its finished nodes in a checkpoint file, so a stopped run resumes.
+(:mod:`oilwatch.models.bearing.sommerfeld`); at each node the flooded threshold q_t and
+:func:`oilwatch.models.bearing.table.compute_table` at the flowrates f q_t (the project's conventions:
+held-partition stiffness, default full-film squeeze, mean of the one-sided limits on f = 1) give the node's
+row. A long run keeps its finished nodes in a checkpoint file, so a stopped run resumes.
 """
 
 from __future__ import annotations
@@ -44,8 +44,8 @@ def compute_operating_table(
     """Solve the dimensionless table at ``speed_hz`` and ``load_n``, setting each S by the viscosity.
 
     At each Sommerfeld node the viscosity is mu = S W / (N L D (R/c)^2); the flooded threshold and
-    then :func:`~models.bearing.table.compute_table` at the flowrates f q_t give the node's row.
-    ``coefficients`` is the kind of K, C (:data:`~models.bearing.table.COEFFICIENT_KINDS`): at whirl
+    then :func:`~oilwatch.models.bearing.table.compute_table` at the flowrates f q_t give the node's row.
+    ``coefficients`` is the kind of K, C (:data:`~oilwatch.models.bearing.table.COEFFICIENT_KINDS`): at whirl
     frequency = spin speed the whirl ratio is 1, so the synchronous K c / W and C c Omega / W are functions
     of (S, f) too. ``progress(n)`` is called after each solved point (n = 1) and each threshold (n = 0).
     ``checkpoint``: a JSON file that holds every finished Sommerfeld node; a stopped run started again
@@ -103,7 +103,8 @@ def compute_operating_table(
             },
         }
     )
-    # Imported at run time: models.bearing.operating_table re-exports this function (its old import path).
+    # Imported at run time: oilwatch.models.bearing.operating_table re-exports this function (its old import
+    # path).
     from .operating_table import OperatingTable
 
     return OperatingTable(s_nodes, f_nodes, values, threshold, dataclasses.asdict(bearing), meta)

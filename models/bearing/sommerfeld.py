@@ -3,7 +3,7 @@
 For a given bearing geometry (R, L, c, groove) the steady mass-conserving film scales exactly: pressure with
 mu Omega (R/c)^2, force with mu Omega R L (R/c)^2, flow with the film's Couette flow q_c = Omega R c L / 2
 (Lund 1987; Childs 1993, ch. 3). These are the units of the dimensionless bearing table
-(:mod:`models.bearing.operating_table`), whose grid is uniform in ln S (:func:`sommerfeld_grid`).
+(:mod:`oilwatch.models.bearing.operating_table`), whose grid is uniform in ln S (:func:`sommerfeld_grid`).
 """
 
 from __future__ import annotations
@@ -34,7 +34,8 @@ def couette_flow_m3_s(bearing: JournalBearing, speed_hz: float) -> float:
 
 
 def dimensionless_row(bearing: JournalBearing, row: dict, speed_hz: float, load_n: float) -> np.ndarray:
-    """The 11 dimensionless quantities of one row of a :class:`~models.bearing.table.CoefficientTable`."""
+    """The 11 dimensionless quantities of one row of a
+    :class:`~oilwatch.models.bearing.table.CoefficientTable`."""
     c = bearing.clearance_m
     omega = 2.0 * math.pi * speed_hz
     k = [row["stiffness_n_per_m"][p] * c / load_n for p in _PAIRS]

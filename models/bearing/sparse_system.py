@@ -1,7 +1,7 @@
 """The film's sparse linear systems: imposing the groove pressure and the direct solve.
 
-Every film problem of :mod:`models.bearing.film` (steady active-set iterations, held-partition re-solves,
-squeeze responses) assembles its matrix as CSR data on the grid's fixed sparsity pattern; these two
+Every film problem of :mod:`oilwatch.models.bearing.film` (steady active-set iterations, held-partition
+re-solves, squeeze responses) assembles its matrix as CSR data on the grid's fixed sparsity pattern; these two
 functions finish and solve it.
 """
 

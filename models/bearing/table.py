@@ -253,10 +253,10 @@ def compute_table(
     coefficients (K and C jump across q_t, see ``coefficients_at``) and also stores both limits
     under ``one_sided_at_flooded_threshold``.
 
-    ``coefficients`` (:data:`~models.bearing.coefficient_kinds.COEFFICIENT_KINDS`): ``"quasi-static"``
-    (:func:`coefficients_at`) or ``"synchronous"``: K(Omega), C(Omega) of the transient film at whirl
-    frequency = spin speed (:func:`models.bearing.dynamic.synchronous_coefficients`; on q_t the mean of
-    the one-sided impedances).
+    ``coefficients`` (:data:`~oilwatch.models.bearing.coefficient_kinds.COEFFICIENT_KINDS`):
+    ``"quasi-static"`` (:func:`coefficients_at`) or ``"synchronous"``: K(Omega), C(Omega) of the transient
+    film at whirl frequency = spin speed (:func:`oilwatch.models.bearing.dynamic.synchronous_coefficients`; on
+    q_t the mean of the one-sided impedances).
     """
     mesh = PRODUCTION_MESH if mesh is None else mesh
     require_kind(coefficients)

@@ -2,7 +2,7 @@
 
 Method (Ausas, Jai & Buscaglia, J. Tribol. 131, 031702, 2009, in the complementarity form of
 Giacopini et al., J. Tribol. 132, 041702, 2010): every control volume k of the steady solver's
-finite-volume grid (:mod:`models.bearing.discretization`) balances its film content
+finite-volume grid (:mod:`oilwatch.models.bearing.discretization`) balances its film content
 ``m_k = V_k(e) theta_k`` [m^3], with ``V_k(e) = integral(h dA) = A_k c + e_x wx_k + e_y wy_k`` the
 volume of the gap over it (exact for the rigid journal, the same quadrature as the force and the
 squeeze term), against the Poiseuille and Couette fluxes and the groove's supply flow q:
@@ -19,17 +19,17 @@ Newton) iteration, warm-started from the previous step's partition and unknowns.
 Per step the discrete balance summed over all volumes is exact (the fluxes telescope):
 supply - side leakage - d(film content)/dt = 0 to the linear solver's tolerance (tested).
 
-Fast path: the step is solved by projected multigrid cycles (:mod:`models.bearing.transient_multigrid`:
-the projected Gauss-Seidel sweep of Ausas et al. as smoother, an aggregation coarse correction of the
-pressurized region) on large meshes, by projected SOR sweeps (:mod:`models.bearing.transient_sweep`) on
-small ones, warm-started from the film extrapolated linearly in time; a step is accepted only when
-every volume's residual and the step's mass balance meet the tolerances, else the active set
-(:mod:`models.bearing.transient_active_set`, an LU-preconditioned GMRES per iteration) finishes it (the
-fallback).
+Fast path: the step is solved by projected multigrid cycles
+(:mod:`oilwatch.models.bearing.transient_multigrid`: the projected Gauss-Seidel sweep of Ausas et al. as
+smoother, an aggregation coarse correction of the pressurized region) on large meshes, by projected SOR sweeps
+(:mod:`oilwatch.models.bearing.transient_sweep`) on small ones, warm-started from the film extrapolated
+linearly in time; a step is accepted only when every volume's residual and the step's mass balance meet the
+tolerances, else the active set (:mod:`oilwatch.models.bearing.transient_active_set`, an LU-preconditioned
+GMRES per iteration) finishes it (the fallback).
 
 Symmetry: the journal is rigid and aligned and the groove axially centred, so the film is
 mirror-symmetric about the mid-plane; on an even ``n_axial`` only the half z < L/2 is solved (closed
-at the mid-plane, :func:`models.bearing.grid.film_grid` with ``half``) and forces, flows and content
+at the mid-plane, :func:`oilwatch.models.bearing.grid.film_grid` with ``half``) and forces, flows and content
 are doubled (tested against the whole film). It halves every solver's cost.
 """
 
@@ -95,8 +95,8 @@ SWEEP_MASS_TOLERANCE = 1e-10
 """... and the step's mass-balance error (the residuals' sum) below this times the supply flow."""
 SOLVERS = ("multigrid", "sweeps", "active-set")
 """``solver`` of :class:`TransientFilm`: projected multigrid cycles
-(:mod:`models.bearing.transient_multigrid`) or projected SOR sweeps
-(:mod:`models.bearing.transient_sweep`), each finished by the active set when it does not meet the
+(:mod:`oilwatch.models.bearing.transient_multigrid`) or projected SOR sweeps
+(:mod:`oilwatch.models.bearing.transient_sweep`), each finished by the active set when it does not meet the
 tolerances; or the active set alone. The default: multigrid above :data:`MULTIGRID_MIN_NODES` volumes."""
 MULTIGRID_CYCLE_LIMIT = 100
 """Multigrid cycles tried before the active set finishes a step."""
@@ -114,7 +114,8 @@ def default_sweep_limit(n_nodes: int) -> int:
 
 @dataclass(frozen=True, eq=False)
 class TransientFilmState:
-    """The film of one bearing at one instant (node arrays, see :class:`models.bearing.grid.FilmGrid`).
+    """The film of one bearing at one instant (node arrays, see
+    :class:`oilwatch.models.bearing.grid.FilmGrid`).
 
     pressure_pa, fill_fraction (n_nodes,); full (n_nodes,) bool partition; content_m3 (n_nodes,)
     film content V theta; previous_content_m3 the content one step earlier (None before the first
@@ -266,7 +267,7 @@ class TransientFilm(ActiveSetStep):
 
         ``guess``: a state whose partition and unknowns start the iteration (default ``state``), e.g.
         the previous iterate of an implicit rotor-film coupling. The step is solved by projected SOR
-        sweeps (:mod:`models.bearing.transient_sweep`) when they meet the tolerances within
+        sweeps (:mod:`oilwatch.models.bearing.transient_sweep`) when they meet the tolerances within
         ``sweep_limit`` sweeps; otherwise the active-set solve finishes it from the sweeps' result.
         ``sweeps`` and ``sweep_residual`` of the result say how many were done and what they reached."""
         dt = require_positive("dt_s", dt_s, "s")
@@ -318,9 +319,10 @@ class TransientFilm(ActiveSetStep):
         )
 
     def _sweeps(self, arrays: StepArrays, state: TransientFilmState, guess, q: float):
-        """Projected SOR or multigrid (:mod:`models.bearing.transient_sweep`) from ``guess``, else from
-        ``state`` extrapolated in time (as :func:`~models.bearing.transient_active_set.extrapolated_start`,
-        compiled: ``sweep_start``): (p [Pa], theta, full, converged, sweeps, max |residual| / (U c L / 2))."""
+        """Projected SOR or multigrid (:mod:`oilwatch.models.bearing.transient_sweep`) from ``guess``, else
+        from ``state`` extrapolated in time (as
+        :func:`~oilwatch.models.bearing.transient_active_set.extrapolated_start`, compiled: ``sweep_start``):
+        (p [Pa], theta, full, converged, sweeps, max |residual| / (U c L / 2))."""
         n = self.grid.n_nodes
         p, theta = np.empty(n), np.empty(n)
         start = state if guess is None else guess

@@ -1,7 +1,7 @@
 """The active-set solve of one transient film step: the fallback that finishes what the sweeps did not.
 
-The step of :class:`models.bearing.transient.TransientFilm` is a mixed complementarity problem (p >= 0,
-theta <= 1, p (1 - theta) = 0), solved as the steady solver's by the primal-dual active-set (semi-smooth
+The step of :class:`oilwatch.models.bearing.transient.TransientFilm` is a mixed complementarity problem (p >=
+0, theta <= 1, p (1 - theta) = 0), solved as the steady solver's by the primal-dual active-set (semi-smooth
 Newton) iteration: each iteration solves the linear balance of the current full/cavitated partition and
 switches the volumes whose pressure went negative or whose fill fraction exceeded 1 (Ausas, Jai &
 Buscaglia, J. Tribol. 131, 031702, 2009; Giacopini et al., J. Tribol. 132, 041702, 2010). When a partition
@@ -40,8 +40,8 @@ class ActiveSetStart(NamedTuple):
 
 
 class ActiveSetStep:
-    """The active-set solve of :class:`~models.bearing.transient.TransientFilm` (a mixin: it uses the film's
-    ``grid``, ``p_ref`` and ``couette_scale_m3_s``, and keeps the reused LU in ``_lu`` and its count in
+    """The active-set solve of :class:`~oilwatch.models.bearing.transient.TransientFilm` (a mixin: it uses the
+    film's ``grid``, ``p_ref`` and ``couette_scale_m3_s``, and keeps the reused LU in ``_lu`` and its count in
     ``factorizations``)."""
 
     def _active_set(self, arrays: StepArrays, start, max_iterations: int):

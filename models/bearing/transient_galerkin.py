@@ -1,6 +1,6 @@
 """The masked Galerkin coarse operators of the transient multigrid: full build and incremental update.
 
-:mod:`models.bearing.transient_multigrid` corrects the pressure on the full volumes F with the
+:mod:`oilwatch.models.bearing.transient_multigrid` corrects the pressure on the full volumes F with the
 Galerkin hierarchy A_{l+1} = P^T A_l[F_l, F_l] P of piecewise-constant aggregation (F_{l+1}: the
 aggregates with a member in F_l; an aggregate without one gets a unit diagonal, its correction is
 zero). Within a step the Poiseuille matrix is fixed and only F moves, a few volumes per cycle near
@@ -9,8 +9,8 @@ entries that an entry of a switched volume (its row or its column) feeds, level 
 recomputed entries of one level are the changed entries the next level starts from. Every entry is
 recomputed from its members in the full build's order, so the update is bitwise the full build.
 
-The kernels take the hierarchy as :class:`models.bearing.transient_multigrid.LevelArrays` and the
-step's fine arrays as :class:`models.bearing.transient_kernels.StepArrays`.
+The kernels take the hierarchy as :class:`oilwatch.models.bearing.transient_multigrid.LevelArrays` and the
+step's fine arrays as :class:`oilwatch.models.bearing.transient_kernels.StepArrays`.
 """
 
 from __future__ import annotations

@@ -1,8 +1,8 @@
 """The arrays of one transient film step, shared by its three solvers, and their compiled assembly.
 
-Every solver of :class:`models.bearing.transient.TransientFilm` (the projected multigrid of
-:mod:`models.bearing.transient_multigrid`, the projected SOR sweeps of
-:mod:`models.bearing.transient_sweep` and the active-set fallback) works on the same balance of every
+Every solver of :class:`oilwatch.models.bearing.transient.TransientFilm` (the projected multigrid of
+:mod:`oilwatch.models.bearing.transient_multigrid`, the projected SOR sweeps of
+:mod:`oilwatch.models.bearing.transient_sweep` and the active-set fallback) works on the same balance of every
 control volume k,
 
     sum_j Ap[k, j] p_j + sum_j At[k, j] theta_j + S_k theta_k = b_k,    S_k = beta V_k / dt,
@@ -21,7 +21,7 @@ are bitwise those of the CSR rows (tested). The lumped groove, coupled to its wh
 CSR row.
 
 :class:`StepAssembly` fills Ap and At for a journal position with the same face quadrature as
-:func:`models.bearing.discretization.film_operator` (h^3 / (12 mu) at the faces, upwind Couette flow
+:func:`oilwatch.models.bearing.discretization.film_operator` (h^3 / (12 mu) at the faces, upwind Couette flow
 (U / 2) h), in one compiled pass over the faces instead of a numpy assembly per step (tested equal).
 """
 

@@ -1,7 +1,7 @@
 """Multigrid for the transient film step: projected Gauss-Seidel plus an aggregation coarse correction.
 
-The step of :class:`models.bearing.transient.TransientFilm` is the mixed complementarity problem of
-:mod:`models.bearing.transient_sweep` (pressure p >= 0 where the volume is full, fill fraction
+The step of :class:`oilwatch.models.bearing.transient.TransientFilm` is the mixed complementarity problem of
+:mod:`oilwatch.models.bearing.transient_sweep` (pressure p >= 0 where the volume is full, fill fraction
 theta <= 1 where it is cavitated). Projected SOR needs sweeps in proportion to the mesh's width
 (the pressure is elliptic); on the production mesh (240 x 72) that is hundreds of sweeps a step.
 
@@ -155,7 +155,7 @@ def _gauss_seidel(indptr, indices, data, diag, mask, x, b, forward):
     As in the projected sweep, the neighbour updated just before a row (the slot left of the diagonal
     forward, right of it backward) enters last and the division is a multiplication by the diagonal's
     inverse, computed off that chain: the sweep waits on it at every row. Unsigned indices, as in
-    :mod:`models.bearing.transient_sweep`."""
+    :mod:`oilwatch.models.bearing.transient_sweep`."""
     n = x.size
     one = np.uint64(1)
     for kk in range(n):
@@ -195,7 +195,7 @@ class LevelArrays(NamedTuple):
     first) its pattern, ``parent`` and ``slot_of`` maps and over-correction ``scale``, and the work
     arrays (Galerkin ``data``, ``mask`` of levels with a full member, ``x``, ``b``, ``r``);
     ``coarsest`` the Cholesky factor of the last level's operator. For the incremental update of
-    :mod:`models.bearing.transient_galerkin`: per level its entries' ``rows`` and ``transpose``
+    :mod:`oilwatch.models.bearing.transient_galerkin`: per level its entries' ``rows`` and ``transpose``
     slots, the ``member_ptr`` / ``member_slots`` of every entry, the full-member ``count`` of every
     node, and work arrays (``flag`` and ``affected`` entries, ``switched`` nodes)."""
 
@@ -295,11 +295,11 @@ def multigrid_solve(
 ):
     """Projected multigrid cycles in place on ``p`` (scaled pressure) and ``theta``.
 
-    Same acceptance as :func:`models.bearing.transient_sweep.sor_sweeps`, judged on the residual the
-    sweep leaves (:func:`~models.bearing.transient_sweep.projected_sweep_residual`) and confirmed by
+    Same acceptance as :func:`oilwatch.models.bearing.transient_sweep.sor_sweeps`, judged on the residual the
+    sweep leaves (:func:`~oilwatch.models.bearing.transient_sweep.projected_sweep_residual`) and confirmed by
     a fresh residual pass; when only the mass balance fails, the mass correction
-    (:func:`~models.bearing.transient_sweep.conserve_mass`) is tried. Returns (cycles, max |r|, sum r,
-    converged); a converged warm start costs one residual pass."""
+    (:func:`~oilwatch.models.bearing.transient_sweep.conserve_mass`) is tried. Returns (cycles, max |r|, sum
+    r, converged); a converged warm start costs one residual pass."""
     h = correction.arrays
     return _cycles(h, k, p, theta, residual_limit, mass_limit, max_cycles, relaxation, correction.smoothing)
 

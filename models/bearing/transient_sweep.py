@@ -1,6 +1,6 @@
 """The fast transient film step: projected SOR sweeps (Ausas, Jai & Buscaglia, J. Tribol. 131, 031702, 2009).
 
-The time step of :class:`models.bearing.transient.TransientFilm` is a mixed complementarity problem:
+The time step of :class:`oilwatch.models.bearing.transient.TransientFilm` is a mixed complementarity problem:
 every control volume k balances
 
     sum_j Ap[k, j] p_j + sum_j At[k, j] theta_j + S_k theta_k = b_k,    S_k = beta V_k / dt,
@@ -29,7 +29,7 @@ of the oil content, applied where it pays: on 240 x 72 at the plant's tolerances
 met its tolerance 1-3 cycles after the volumes met theirs (each cycle cutting the residuals about
 3-fold once the partition settled, by cycle 4). The step is accepted only on a fresh residual pass.
 
-The kernels take the step's arrays as one :class:`models.bearing.transient_kernels.StepArrays`.
+The kernels take the step's arrays as one :class:`oilwatch.models.bearing.transient_kernels.StepArrays`.
 Their hot loops index with unsigned integers: numba indexes an array with a signed one through a
 negative-index wraparound, which cost about half of a residual pass on 240 x 72 (the same arithmetic).
 """

@@ -1,6 +1,6 @@
 """The augmented map of Eqs. 14-16: the discrete rotor-bearing model whose inputs depend on the flowrates.
 
-Two implementations of the estimator's model contract (``estimator.model.AugmentedModel``):
+Two implementations of the estimator's model contract (``oilwatch.estimator.model.AugmentedModel``):
 
 * ``ExactAugmentedModel`` evaluates the matrix exponential and its Frechet derivative at every call: exact,
   and slow (milliseconds). It is the reference for tests and for the baseline filter.
@@ -89,7 +89,7 @@ class ExactAugmentedModel(_AugmentedModelBase):
     def transition(
         self, state: np.ndarray, flowrate_m3_s: np.ndarray, step: int
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``(s_next, df/ds, df/dq)`` at the flowrates (see ``estimator.model.AugmentedModel``)."""
+        """``(s_next, df/ds, df/dq)`` at the flowrates (see ``oilwatch.estimator.model.AugmentedModel``)."""
         q = np.asarray(flowrate_m3_s, dtype=float)
         a_d, forcing = self.system.discrete_map(q, self.dt_s, self.hold)
         w = self.exogenous(step)
@@ -194,8 +194,8 @@ class GridAugmentedModel(_AugmentedModelBase):
     def batch_transition(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, float]:
         """``(transition, forcing, axes, Omega [rad/s], dt [s])``: what a compiled loop needs to evaluate
         :meth:`transition` without calling back into Python: ``interpolate_map(transition, forcing, axes,
-        s, w, q1, q2, ...)`` of :mod:`models.system.flowrate_grid` with ``w = [1, cos(Omega t), sin(Omega
-        t)]``, ``t = step dt``."""
+        s, w, q1, q2, ...)`` of :mod:`oilwatch.models.system.flowrate_grid` with ``w = [1, cos(Omega t),
+        sin(Omega t)]``, ``t = step dt``."""
         return (*self.grid.kernel_arrays, float(self.system.omega_rad_s), float(self.dt_s))
 
     def harmonic_forcing(self, flowrate_m3_s: np.ndarray) -> np.ndarray:

@@ -60,7 +60,7 @@ def new_table_path(machine: Machine, name: str) -> Path:
 
 def flowrate_table_name(machine: Machine, speed_hz: float, coefficients: str | None = None) -> str:
     """File name of the machine's flowrate table at ``speed_hz`` holding ``coefficients`` (a kind of
-    :mod:`models.bearing.coefficient_kinds`; None: the machine file's ``dynamic_coefficients``)."""
+    :mod:`oilwatch.models.bearing.coefficient_kinds`; None: the machine file's ``dynamic_coefficients``)."""
     kind = machine.dynamic_coefficients if coefficients is None else coefficients
     return f"{machine.source_path.stem}_bearing_{speed_hz:g}hz{file_suffix(kind)}.json"
 
@@ -172,9 +172,10 @@ def build_system(
     static correction for gravity and unbalance); otherwise all physical dofs are kept. The unbalance
     arguments override the machine file's unbalance moment and phase. ``coefficients`` overrides the
     machine file's kind of bearing coefficients: "synchronous" keeps the quasi-static table for the dynamics
-    and takes the 1x unbalance response from the synchronous table (:mod:`models.system.rotor_bearing`:
-    constant K(Omega), C(Omega) would destabilize the free modes); "quasi-static" uses one table for both.
-    An explicit ``table_path`` is used for both, whatever it holds.
+    and takes the 1x unbalance response from the synchronous table
+    (:mod:`oilwatch.models.system.rotor_bearing`: constant K(Omega), C(Omega) would destabilize the free
+    modes); "quasi-static" uses one table for both. An explicit ``table_path`` is used for both, whatever it
+    holds.
     """
     speed = machine.nominal_speed_hz if speed_hz is None else require_positive("speed_hz", speed_hz, "Hz")
     rotor = Rotor.from_machine(machine)
@@ -199,7 +200,8 @@ def build_system(
 
 def table_kinds(machine: Machine, coefficients: str | None = None) -> tuple[str, ...]:
     """The kinds of flowrate table a system of the machine needs: the quasi-static one (its dynamics) and,
-    for ``"synchronous"`` coefficients, the synchronous one (its 1x response; models.system.rotor_bearing)."""
+    for ``"synchronous"`` coefficients, the synchronous one (its 1x response;
+    oilwatch.models.system.rotor_bearing)."""
     kind = machine.dynamic_coefficients if coefficients is None else coefficients
     return (QUASI_STATIC,) if kind == QUASI_STATIC else (QUASI_STATIC, kind)
 

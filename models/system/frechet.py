@@ -3,9 +3,9 @@
 ``scipy.linalg.expm_frechet(A, E)`` evaluates the scaling-Pade-squaring algorithm of Al-Mohy & Higham (2009,
 "Computing the Frechet derivative of the matrix exponential, with an application to condition number
 estimation", SIAM J. Matrix Anal. Appl. 30(4), 1639-1657, Algorithm 6.4) for one direction E. The operating
-model's re-centring (:mod:`models.system.operating_maps`) needs several directions at the same A, and in
-that algorithm everything but the terms linear in E depends on A only: the degree and scaling, the powers of
-A, the Pade numerator and denominator, the LU factor of the denominator and the squared exponentials.
+model's re-centring (:mod:`oilwatch.models.system.operating_maps`) needs several directions at the same A, and
+in that algorithm everything but the terms linear in E depends on A only: the degree and scaling, the powers
+of A, the Pade numerator and denominator, the LU factor of the denominator and the squared exponentials.
 :func:`expm_frechet_many` computes those once and carries all directions through each matrix product as one
 stacked product.
 

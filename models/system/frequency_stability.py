@@ -1,7 +1,7 @@
 """Stability of the rotor on films whose coefficients depend on the whirl frequency.
 
 A mode whirling at omega sees the film's coefficients at omega, K(omega) and C(omega)
-(:mod:`models.bearing.dynamic`), not the quasi-static ones. Each mode's eigenvalue is therefore found
+(:mod:`oilwatch.models.bearing.dynamic`), not the quasi-static ones. Each mode's eigenvalue is therefore found
 by a fixed-point iteration: start from the quasi-static (frozen-content) modes, evaluate K, C at the
 mode's damped frequency Im(lambda), recompute the modes, follow the one nearest in frequency, repeat
 until the frequency settles. At the instability threshold lambda = i omega exactly, so the
@@ -118,7 +118,7 @@ def film_roots(
     """Roots lambda of det(M l^2 + D l + K + sum_b P_b^T Z_b(l) P_b) = 0 near the subsynchronous modes.
 
     The exact eigenvalues of the rotor on the linearized transient films (Z analytic in s, see
-    :mod:`models.bearing.dynamic`), each found from a quasi-static mode by successive linearization:
+    :mod:`oilwatch.models.bearing.dynamic`), each found from a quasi-static mode by successive linearization:
     Z(l) ~ Z(l_k) + (l - l_k) Z'(l_k), a quadratic eigenproblem with complex coefficient matrices
     whose root nearest l_k is l_{k+1} (Newton-like, converges in a few steps). At the threshold the
     root is i omega, where it coincides with the real-frequency iteration of :func:`whirl_modes`.

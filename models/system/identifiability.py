@@ -2,9 +2,11 @@
 
 The two bounds live in their own modules and are re-exported here, the import path callers use:
 
-- :mod:`models.system.orbit_bound`: the steady unbalance orbit of the linear rotor-bearing model, only the
+- :mod:`oilwatch.models.system.orbit_bound`: the steady unbalance orbit of the linear rotor-bearing model,
+only the
   flowrates (and optionally the probes' constant offsets) unknown: :func:`cramer_rao_bound`;
-- :mod:`models.system.trajectory_bound`: along a speed / oil-temperature trajectory on the estimator's own
+- :mod:`oilwatch.models.system.trajectory_bound`: along a speed / oil-temperature trajectory on the
+estimator's own
   operating maps, with the viscosity factors, the unbalance and the offsets as nuisances
   (:func:`trajectory_information`, :func:`trajectory_bound_pct`) or random-walking as a filter models them
   (:func:`tracking_bound_pct`).

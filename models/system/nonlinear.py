@@ -1,8 +1,8 @@
 """The rotor on its two transient p-theta films: nonlinear time integration (the high-fidelity reference).
 
-The reduced rotor (Craig-Bampton, bearing dofs physical, see :mod:`models.system.reduction`) carries
+The reduced rotor (Craig-Bampton, bearing dofs physical, see :mod:`oilwatch.models.system.reduction`) carries
 gravity, the unbalance of Eqs. 5-6 and the film forces of both bearings, each computed by a
-:class:`models.bearing.transient.TransientFilm` from the journal's position and the film content of
+:class:`oilwatch.models.bearing.transient.TransientFilm` from the journal's position and the film content of
 the previous steps (no linearization anywhere):
 
     M r'' + (C_s + Omega G) r' + K_s r = g + Re(F_u exp(i Omega t)) + sum_b P_b^T F_b(film_b, P_b r)
@@ -63,7 +63,8 @@ class ReducedRotor:
 
 
 def reduced_rotor(machine: Machine, speed_hz: float, cutoff_hz: float = DEFAULT_CUTOFF_HZ) -> ReducedRotor:
-    """The machine's rotor reduced as in :func:`models.system.factory.build_system`, at ``speed_hz``."""
+    """The machine's rotor reduced as in :func:`oilwatch.models.system.factory.build_system`, at
+    ``speed_hz``."""
     speed = require_positive("speed_hz", speed_hz, "Hz")
     rotor = Rotor.from_machine(machine)
     dofs = [rotor.dof(node, axis) for node in rotor.bearing_nodes for axis in ("x", "y")]

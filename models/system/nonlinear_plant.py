@@ -1,14 +1,14 @@
 """The high-fidelity plant: the rotor on two transient p-theta films, with flowrate faults and noisy probes.
 
-The same interface as :class:`models.system.plant.RotorBearingPlant` (``step``, ``current_sample``,
+The same interface as :class:`oilwatch.models.system.plant.RotorBearingPlant` (``step``, ``current_sample``,
 ``flowrates``, ``snapshot``/``restore``, ``set_period``) so that a caller chooses the film model by
 name (:func:`make_plant`, ``film_model`` = "linearized-table" or "transient-film"). The truth then
 contains what the estimator's linearized model leaves out: the films' own dynamics (content transport
 in the cavitated zone, the lag of a starving film after a supply change) and their nonlinearity.
 
 Cost: every output period runs ``substeps`` implicit steps of both films (see
-:mod:`models.system.nonlinear`), each a few film steps of the rotor-film coupling: far slower than real
-time (:data:`TRANSIENT_PLANT_MESH`, ``benchmarks/transient_film.py`` and the README give the figures).
+:mod:`oilwatch.models.system.nonlinear`), each a few film steps of the rotor-film coupling: far slower than
+real time (:data:`TRANSIENT_PLANT_MESH`, ``benchmarks/transient_film.py`` and the README give the figures).
 """
 
 from __future__ import annotations

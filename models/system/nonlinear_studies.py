@@ -1,6 +1,6 @@
 """Direct simulations with the transient films: unbalance orbits, whirl growth rates, a starvation transient.
 
-Each study runs :class:`models.system.nonlinear.NonlinearRotorBearing` and reduces its record to the
+Each study runs :class:`oilwatch.models.system.nonlinear.NonlinearRotorBearing` and reduces its record to the
 figures the linear models are judged by:
 
 * ``unbalance_orbits``: the 1x orbit at the bearings (least-squares harmonic fit over the last

@@ -66,9 +66,9 @@ def viscosity_derivative(
 ):
     """d(e0, K, C)/d f at flowrate q for mu_eff = f mu, f = 1, by central differences of two film solves.
 
-    ``table`` is a :class:`models.bearing.table.CoefficientTable`: its metadata gives the bearing, mesh and
-    load it was computed for. Returns a :class:`BearingCoefficients` of derivatives (per unit of f); with
-    ``synchronous`` a pair ``(quasi-static, synchronous)`` of them, K and C of the second at whirl = spin
+    ``table`` is a :class:`oilwatch.models.bearing.table.CoefficientTable`: its metadata gives the bearing,
+    mesh and load it was computed for. Returns a :class:`BearingCoefficients` of derivatives (per unit of f);
+    with ``synchronous`` a pair ``(quasi-static, synchronous)`` of them, K and C of the second at whirl = spin
     (from the same two equilibria).
     """
     require_in_range("relative_step", relative_step, 1e-4, 0.1)

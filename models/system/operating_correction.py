@@ -1,7 +1,7 @@
 """The operating model's correction at a centre: its first- and second-order terms from the exact maps, and
 when the centre moves (:class:`Recentring`).
 
-:class:`models.system.operating_model.OperatingAugmentedModel` adds to the exact (q1, q2) grid at the
+:class:`oilwatch.models.system.operating_model.OperatingAugmentedModel` adds to the exact (q1, q2) grid at the
 reference operating point p0 the difference ``D(q, p) = A(q, p) - A(q, p0)`` (and the same for G) expanded
 about a centre ``x_c = (q_c, p_c)``, ``x = (q1, q2, speed, ln mu1, ln mu2)``, ``d = x - x_c``::
 
@@ -16,8 +16,8 @@ term is ``d2A/dq_b2 (x_c) - d2A/dq_b2 (q_c, p0)``; the others are A's at x_c.
 Second derivatives are forward differences of the exact first derivatives (Frechet derivatives of the
 block exponential, :meth:`OperatingMaps.derivatives`) at the centre and one step along the first axis
 (:meth:`OperatingMaps.second_derivatives`): one more exponential per axis i, with its Frechet derivatives
-along the pairs' j. The step (:data:`models.system.operating_maps.SECOND_STEP`: 1e-4 of q, 1e-4 in ln mu,
-the first derivatives' own) is chosen on the measured error (``scripts/operating_curvature.py``, against
+along the pairs' j. The step (:data:`oilwatch.models.system.operating_maps.SECOND_STEP`: 1e-4 of q, 1e-4 in ln
+mu, the first derivatives' own) is chosen on the measured error (``scripts/operating_curvature.py``, against
 central differences): the truncation error, half a step times the third derivative, is 3.8 h relative
 (3.8e-3 at h = 1e-3, 4e-4 at 1e-4, 4e-5 at 1e-5: linear in h down to 1e-5, so the round-off of the first
 derivatives, themselves central differences of 1e-4, stays below 1e-5 relative there); at 1e-4 it is
@@ -39,7 +39,7 @@ from .operating_maps import AXES, OperatingMaps
 FIRST_ORDER_TERMS = 6
 """Correction terms before the second-order ones: D_c and the first derivatives along the five axes."""
 SECOND_ORDER_PAIRS = ((0, 0), (0, 3), (3, 3), (1, 1), (1, 4), (4, 4))
-"""Axis pairs (i, j) of :data:`models.system.operating_maps.AXES` with second-order terms (module
+"""Axis pairs (i, j) of :data:`oilwatch.models.system.operating_maps.AXES` with second-order terms (module
 docstring)."""
 
 

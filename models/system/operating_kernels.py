@@ -1,14 +1,14 @@
 """The operating model's compiled transition and the one struct of arrays it reads.
 
-:class:`models.system.operating_model.OperatingAugmentedModel` builds :class:`OperatingArrays` once: the
-reference grid's kernel arrays, the correction's matrices (6 first-order ones and one per second-order axis
-pair, :mod:`models.system.operating_correction`; refilled in place at each re-centring), the pairs, the
-output arrays and one float array ``held`` of what the transition depends on besides its arguments (the held
-operating point, the correction's centre and the re-centring thresholds; layout ``HELD_*``). A transition is
-then one compiled call, :func:`operating_transition`, which also makes the per-step decisions (whether the
-correction applies, whether the centre must move first) that used to be Python. It is a plain tuple, not a
-NamedTuple or a structref: numba types a tuple of arrays on its fast dispatch path and caches the functions
-that take it.
+:class:`oilwatch.models.system.operating_model.OperatingAugmentedModel` builds :class:`OperatingArrays` once:
+the reference grid's kernel arrays, the correction's matrices (6 first-order ones and one per second-order
+axis pair, :mod:`oilwatch.models.system.operating_correction`; refilled in place at each re-centring), the
+pairs, the output arrays and one float array ``held`` of what the transition depends on besides its arguments
+(the held operating point, the correction's centre and the re-centring thresholds; layout ``HELD_*``). A
+transition is then one compiled call, :func:`operating_transition`, which also makes the per-step decisions
+(whether the correction applies, whether the centre must move first) that used to be Python. It is a plain
+tuple, not a NamedTuple or a structref: numba types a tuple of arrays on its fast dispatch path and caches the
+functions that take it.
 """
 
 from __future__ import annotations

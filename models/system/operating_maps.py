@@ -1,12 +1,12 @@
 """Exact one-step maps of the rotor-bearing system at any operating point (q1, q2, speed, mu1, mu2).
 
 ``RotorBearingSystem.discrete_map`` holds one speed and the viscosity of its flowrate tables. The estimator
-that follows the measured speed and oil temperature (:mod:`models.system.operating_model`) needs the exact map
-``s_{k+1} = A_d s_k + G w_k`` and its derivatives anywhere in the operating space, for its re-centred
-corrections. :class:`OperatingMaps` assembles the continuous block of Van Loan's exponential
-(:func:`models.system.discretization.harmonic_input_map`) from the system's rotor matrices and the
-dimensionless bearing table (:mod:`models.bearing.operating_table`: each bearing at its own Sommerfeld
-number and flowrate over its Couette flow), with
+that follows the measured speed and oil temperature (:mod:`oilwatch.models.system.operating_model`) needs the
+exact map ``s_{k+1} = A_d s_k + G w_k`` and its derivatives anywhere in the operating space, for its
+re-centred corrections. :class:`OperatingMaps` assembles the continuous block of Van Loan's exponential
+(:func:`oilwatch.models.system.discretization.harmonic_input_map`) from the system's rotor matrices and the
+dimensionless bearing table (:mod:`oilwatch.models.bearing.operating_table`: each bearing at its own
+Sommerfeld number and flowrate over its Couette flow), with
 
 * the gyroscopic matrix at the speed (``C_s + Omega G``);
 * the unbalance load at the speed, ``m e Omega^2`` (the system's unbalance force scaled by ``(Omega /
@@ -224,7 +224,7 @@ class OperatingMaps:
 
         Derivatives are per m^3/s (q1, q2), per Hz (speed) and per unit of ln(mu_b): the Frechet
         derivatives of the exponential in the central differences of the block along each axis, all at once
-        (:func:`models.system.frechet.expm_frechet_many`).
+        (:func:`oilwatch.models.system.frechet.expm_frechet_many`).
         """
         return self.derivatives_many([(flowrates_m3_s, speed_hz, viscosities_pa_s, axes)])[0]
 
@@ -288,7 +288,7 @@ class OperatingMaps:
         """``(d2A_d (P, 2n, 2n), d2G (P, 2n, 3))`` along the axis pairs ``(i, j)`` of :data:`AXES` at the
         operating point, given ``first = (dA_d, dG)`` there (row j along ``AXES[j]``): forward differences
         of the exact first derivatives at the point and one step along i (:meth:`second_order_plan`). Why
-        forward and this step: :mod:`models.system.operating_correction`."""
+        forward and this step: :mod:`oilwatch.models.system.operating_correction`."""
         plan = self.second_order_plan(flowrates_m3_s, speed_hz, viscosities_pa_s, pairs, step)
         shifted = self.derivatives_many([request for request, _, _ in plan])
         return self.forward_differences(first, shifted, plan, len(pairs))

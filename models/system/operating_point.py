@@ -1,10 +1,10 @@
 """Bearing tables at the machine's instantaneous operating point (speed, oil viscosity), for the plant.
 
-:class:`ConditionedTable` presents the dimensionless table (:mod:`models.bearing.operating_table`) at one
-bearing load as the flowrate table the rotor-bearing system and the integrator consume (``evaluate``,
+:class:`ConditionedTable` presents the dimensionless table (:mod:`oilwatch.models.bearing.operating_table`) at
+one bearing load as the flowrate table the rotor-bearing system and the integrator consume (``evaluate``,
 ``evaluate_many``, ``flowrate_range_m3_s``), at the operating conditions last set with
 :meth:`ConditionedTable.set_conditions`. :func:`operating_system` builds the full-order plant system on
-such tables, so that speed and viscosity can change during a run (``models.system.newmark`` takes the
+such tables, so that speed and viscosity can change during a run (``oilwatch.models.system.newmark`` takes the
 gyroscopic and unbalance terms to the instantaneous speed).
 """
 
@@ -98,7 +98,7 @@ def operating_system(
 
     ``table`` None: the machine's quasi-static table for the dynamics and, for a machine of synchronous
     ``dynamic_coefficients``, the synchronous table for the 1x response (as
-    :func:`models.system.factory.build_system`); a given ``table`` serves both. ``coefficients``
+    :func:`oilwatch.models.system.factory.build_system`); a given ``table`` serves both. ``coefficients``
     overrides the machine file's kind."""
     synchronous = None
     if table is None:

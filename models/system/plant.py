@@ -232,7 +232,8 @@ class RotorBearingPlant:
 
 def publish_initial_sample(plant) -> PlantSample:
     """Start a plant (:class:`RotorBearingPlant` or the transient-film plant of
-    :mod:`models.system.nonlinear_plant`) as the plant FMU does: publish the sample at the start time.
+    :mod:`oilwatch.models.system.nonlinear_plant`) as the plant FMU does: publish the sample at the start
+    time.
 
     The FMU's outputs exist from initialization on, so that sample takes the noise generator's first draw
     and the samples of the steps continue the sequence after it. Anything that must see the FMU's noise

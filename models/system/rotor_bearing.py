@@ -2,7 +2,7 @@
 
 Each bearing's film force on the journal is linearized about the equilibrium ``e0(q)`` that the
 coefficient table gives for the bearing's share of the static load ``W_b`` (Lund's convention, see
-``models.bearing``)::
+``oilwatch.models.bearing``)::
 
     f = f0 - K(q) (r_b - e0(q)) - C(q) dr_b/dt,    f0 = (0, W_b).
 
@@ -19,8 +19,8 @@ table's equilibrium under the load the table was computed for, so it is kept her
 With a ``ReductionBasis`` the coordinates are ``r = T eta``; the bearing dofs are its first coordinates.
 
 Synchronous 1x response (``synchronous_tables``). A p-theta film's coefficients depend on the whirl
-frequency (:mod:`models.bearing.dynamic`); constant coefficients are exact at one frequency only. The 1x
-unbalance orbit whirls at Omega, where K(Omega), C(Omega) are right (within 1-2 % of the transient film),
+frequency (:mod:`oilwatch.models.bearing.dynamic`); constant coefficients are exact at one frequency only. The
+1x unbalance orbit whirls at Omega, where K(Omega), C(Omega) are right (within 1-2 % of the transient film),
 but the same constant coefficients applied to the free modes make the 75 Hz turbine unstable below 95 % of
 nominal flow (a 47-51 Hz mode growing at up to +15 1/s) although the transient film and its exact roots
 are stable there (least log decrement 0.10-0.13 at 75-100 %). So the state-space model keeps the

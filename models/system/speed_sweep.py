@@ -120,7 +120,7 @@ def compute_speed_sweep(
 ) -> SpeedSweep:
     """Equilibrium and coefficients at each speed of ``speeds_hz`` [Hz] for supply flowrate [m^3/s].
 
-    ``squeeze`` selects the squeeze-term model of the film solver (see ``models.bearing.film``);
+    ``squeeze`` selects the squeeze-term model of the film solver (see ``oilwatch.models.bearing.film``);
     ``progress(done, total)`` is called after each speed.
     """
     speeds = np.asarray(speeds_hz, dtype=float)

@@ -29,7 +29,7 @@ def fluid_film_bearings(
             f"need one flowrate per bearing ({len(rotor.bearing_nodes)}), got {len(flowrates_m3_s)}"
         )
     # The modes' own coefficients: quasi-static (constant synchronous ones are right for the 1x orbit only,
-    # and destabilize the free modes: models.system.rotor_bearing).
+    # and destabilize the free modes: oilwatch.models.system.rotor_bearing).
     if flowrate_table_path(machine, speed_hz, QUASI_STATIC).exists():
         tables = load_tables(machine, rotor, speed_hz, coefficients=QUASI_STATIC)
         coefficients = [table.evaluate(q) for table, q in zip(tables, flowrates_m3_s, strict=True)]

@@ -13,7 +13,7 @@ constant parameters, below any filter that lets them walk).
 
 Beside that constant-parameter bound, :func:`tracking_bound_pct` is the posterior bound at the end of a
 record whose parameters random-walk as a filter models them. The steady-orbit bound with only the
-flowrates (and optionally the probes' offsets) unknown is :mod:`models.system.orbit_bound`.
+flowrates (and optionally the probes' offsets) unknown is :mod:`oilwatch.models.system.orbit_bound`.
 """
 
 from __future__ import annotations
@@ -58,7 +58,8 @@ def map_response(
     maps, output_matrix, dt_s: float, flowrates_m3_s, segment: OperatingSegment, factors, unbalance
 ):
     """(12,) [m] steady static position (4), 1x orbit cosine (4) and sine (4) parts at the probes of the exact
-    map ``maps.discrete_map`` (:class:`models.system.operating_maps.OperatingMaps`) at the segment's point:
+    map ``maps.discrete_map`` (:class:`oilwatch.models.system.operating_maps.OperatingMaps`) at the segment's
+    point:
     :func:`block_response` of :func:`map_block`."""
     block = map_block(maps, flowrates_m3_s, segment, factors)
     return block_response(maps, output_matrix, dt_s, block, segment, unbalance)

@@ -10,7 +10,7 @@ import argparse
 import importlib
 import sys
 
-from models.validation import InputError
+from oilwatch.models.validation import InputError
 
 # Subcommand modules under oilwatch.cli, in the order --help lists them.
 SUBCOMMANDS: tuple[str, ...] = (

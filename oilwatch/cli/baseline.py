@@ -78,7 +78,7 @@ def read_record(path: str | Path, dt_s: float):
     columns (speed_hz, oil_temperature_c) that it has; rows with a non-finite time are skipped."""
     import numpy as np
 
-    from models.validation import InputError
+    from oilwatch.models.validation import InputError
 
     try:
         with open(path, newline="") as handle:
@@ -117,7 +117,7 @@ def read_slow_roll_record(path: str | Path):
     pulse)."""
     import numpy as np
 
-    from models.validation import InputError
+    from oilwatch.models.validation import InputError
 
     try:
         with open(path, newline="") as handle:
@@ -150,14 +150,14 @@ def read_slow_roll_record(path: str | Path):
 
 def run(args: argparse.Namespace) -> int:
 
-    from estimator.baseline import FORMAT, FORMAT_VERSION, estimate_baseline, save_baseline
-    from estimator.config import ML_MIN, EKFConfig
-    from estimator.runout import fit_slow_roll
-    from models.machine import load_machine
-    from models.probes import read_probes
-    from models.system.augmented import GridAugmentedModel
-    from models.system.factory import build_system
-    from models.validation import InputError, require_in_range
+    from oilwatch.estimator.baseline import FORMAT, FORMAT_VERSION, estimate_baseline, save_baseline
+    from oilwatch.estimator.config import ML_MIN, EKFConfig
+    from oilwatch.estimator.runout import fit_slow_roll
+    from oilwatch.models.machine import load_machine
+    from oilwatch.models.probes import read_probes
+    from oilwatch.models.system.augmented import GridAugmentedModel
+    from oilwatch.models.system.factory import build_system
+    from oilwatch.models.validation import InputError, require_in_range
 
     require_in_range("--noise-um", args.noise_um, 0.01, 100.0, "um")
     if args.record is None and args.slow_roll_record is None:
@@ -194,7 +194,7 @@ def run(args: argparse.Namespace) -> int:
     require_in_range("--viscosity-prior", args.viscosity_prior, 0.0, 0.5)
     reduced = build_system(machine, reduced=True)
     if args.viscosity_prior > 0.0:  # the factors need the model that follows the operating point
-        from models.system.operating_model import build_operating_model
+        from oilwatch.models.system.operating_model import build_operating_model
 
         model = build_operating_model(reduced, machine)
     else:

@@ -62,7 +62,7 @@ def register(subparsers) -> None:
 
 def operating_viscosity(args, machine) -> float:
     """The film viscosity [Pa s] from --viscosity-pa-s, --oil-temperature-c or the machine's nominal."""
-    from models.validation import InputError, require_positive
+    from oilwatch.models.validation import InputError, require_positive
 
     if args.viscosity_pa_s is not None:
         return require_positive("--viscosity-pa-s", args.viscosity_pa_s, "Pa s")
@@ -89,10 +89,10 @@ def add_common_arguments(parser: argparse.ArgumentParser) -> None:
 
 def machine_setup(args) -> dict:
     """Bearing, load [N], speed [Hz], mesh and nominal supply from the arguments and machine file."""
-    from models.bearing.grid import PRODUCTION_MESH, Mesh
-    from models.machine import load_machine
-    from models.rotor.assembly import Rotor
-    from models.validation import require_positive
+    from oilwatch.models.bearing.grid import PRODUCTION_MESH, Mesh
+    from oilwatch.models.machine import load_machine
+    from oilwatch.models.rotor.assembly import Rotor
+    from oilwatch.models.validation import require_positive
 
     machine = load_machine(args.machine)
     if args.load_n is None:
@@ -117,9 +117,9 @@ def run(args) -> int:
     """Solve and print one operating point."""
     import dataclasses
 
-    from models.bearing.equilibrium import coefficients_at, static_equilibrium
-    from models.bearing.supply import ML_MIN_PER_M3_S, SupplyFlow, SupplyPressure
-    from models.validation import require_non_negative, require_positive
+    from oilwatch.models.bearing.equilibrium import coefficients_at, static_equilibrium
+    from oilwatch.models.bearing.supply import ML_MIN_PER_M3_S, SupplyFlow, SupplyPressure
+    from oilwatch.models.validation import require_non_negative, require_positive
 
     setup = machine_setup(args)
     viscosity = operating_viscosity(args, setup["machine"])
@@ -157,7 +157,7 @@ def run(args) -> int:
 
 def result_dict(q, regime, pressure, ratio, attitude, e, leakage, stiffness, damping) -> dict:
     """The printed operating point (user units in the keys)."""
-    from models.bearing.supply import ML_MIN_PER_M3_S
+    from oilwatch.models.bearing.supply import ML_MIN_PER_M3_S
 
     pairs = ("xx", "xy", "yx", "yy")
     return {
@@ -178,9 +178,9 @@ def from_table(args, setup) -> dict:
     """The dimensionless table's interpolated operating point (steady: side leakage = supply flowrate)."""
     from pathlib import Path
 
-    from models.bearing.operating_table import OperatingTable, operating_table_path
-    from models.bearing.supply import ML_MIN_PER_M3_S
-    from models.validation import InputError, require_positive
+    from oilwatch.models.bearing.operating_table import OperatingTable, operating_table_path
+    from oilwatch.models.bearing.supply import ML_MIN_PER_M3_S
+    from oilwatch.models.validation import InputError, require_positive
 
     if args.q_ml_min is None:
         raise InputError("--from-table needs --q-ml-min (the table is over supply flowrate)")

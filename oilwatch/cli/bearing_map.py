@@ -72,7 +72,7 @@ def fraction_nodes(low: float, high: float, count: int):
     """``count`` uniform nodes over [low, high] with one exactly on 1 (the flooded threshold)."""
     import numpy as np
 
-    from models.validation import InputError
+    from oilwatch.models.validation import InputError
 
     if count < 3:
         raise InputError(f"--fractions must be >= 3, got {count}")
@@ -91,14 +91,14 @@ def run(args) -> int:
     """Compute and write the table."""
     from tqdm import tqdm
 
-    from models.bearing.grid import PRODUCTION_MESH, Mesh
-    from models.bearing.operating_table import (
+    from oilwatch.models.bearing.grid import PRODUCTION_MESH, Mesh
+    from oilwatch.models.bearing.operating_table import (
         compute_operating_table,
         operating_table_path,
         sommerfeld_grid,
         sommerfeld_number,
     )
-    from models.rotor.assembly import Rotor
+    from oilwatch.models.rotor.assembly import Rotor
 
     check_fraction_range("--speed-range", args.speed_range)
     check_fraction_range("--viscosity-range", args.viscosity_range)

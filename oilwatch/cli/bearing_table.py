@@ -5,11 +5,11 @@ the eight coefficients at ``--points`` flowrates evenly spread between the machi
 fractions of q_t (paper: 7 points, 50 % to 150 %), and writes them with units and provenance as
 JSON, by default next to the machine file as
 ``tables/<machine stem>_bearing_<speed>hz[_synchronous].json``, where
-``models.system`` looks for it (the bundled turbine: into the user cache, $OILWATCH_CACHE/tables, never
-into the installed package; its committed models/tables/turbine_bearing_75hz*.json were made with ``--out``).
-``--coefficients`` (default: the machine file's ``bearings.dynamic_coefficients``, "synchronous" for the
-turbine) chooses K, C at whirl frequency = spin speed (the transient film's small-signal response,
-``models.bearing.dynamic``; file suffix ``_synchronous``) or the quasi-static ones (no suffix).
+``oilwatch.models.system`` looks for it (the bundled turbine: into the user cache, $OILWATCH_CACHE/tables,
+never into the installed package; its committed models/tables/turbine_bearing_75hz*.json were made with
+``--out``). ``--coefficients`` (default: the machine file's ``bearings.dynamic_coefficients``, "synchronous"
+for the turbine) chooses K, C at whirl frequency = spin speed (the transient film's small-signal response,
+``oilwatch.models.bearing.dynamic``; file suffix ``_synchronous``) or the quasi-static ones (no suffix).
 Commands that need a missing table (``run``, ``demo``, ``orbits``, ...) compute it the same way.
 """
 
@@ -46,8 +46,8 @@ def register(subparsers) -> None:
 
 def run(args) -> int:
     """Compute, write and optionally plot the table."""
-    from models.bearing.supply import ML_MIN_PER_M3_S
-    from models.validation import InputError
+    from oilwatch.models.bearing.supply import ML_MIN_PER_M3_S
+    from oilwatch.models.validation import InputError
 
     if args.points < 2:
         raise InputError(f"--points must be >= 2, got {args.points}")
@@ -93,7 +93,7 @@ def plot_table(table, q_t: float, path: str) -> None:
     import matplotlib.pyplot as plt
     import numpy as np
 
-    from models.bearing.supply import ML_MIN_PER_M3_S
+    from oilwatch.models.bearing.supply import ML_MIN_PER_M3_S
 
     q_lo, q_hi = table.flowrate_range_m3_s
     fine = np.linspace(q_lo, q_hi, 200)

@@ -103,8 +103,8 @@ def run(args: argparse.Namespace) -> int:
     """Compute, plot and summarize the Campbell diagram; returns the exit code."""
     import numpy as np
 
-    from models.rotor.modal import campbell_diagram
-    from models.validation import InputError, require_non_negative
+    from oilwatch.models.rotor.modal import campbell_diagram
+    from oilwatch.models.validation import InputError, require_non_negative
 
     from .progress import progress_bar
 
@@ -163,6 +163,6 @@ def run(args: argparse.Namespace) -> int:
 
 def _sweep_start_hz(machine, rotor) -> float:
     """Lowest speed of the machine's speed sweep [Hz]."""
-    from models.system.factory import load_speed_sweeps
+    from oilwatch.models.system.factory import load_speed_sweeps
 
     return float(load_speed_sweeps(machine, rotor)[0].speeds_hz[0])

@@ -111,7 +111,7 @@ def register(subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Check the arguments, then run one record in-process or several on Dask."""
-    from models.validation import InputError, require_in_range
+    from oilwatch.models.validation import InputError, require_in_range
     from oilwatch.monitoring.estimate import EstimateOptions
     from oilwatch.records.readers import STDIN
 
@@ -121,7 +121,7 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("- (standard input) must be the only record")
     live = args.records == [STDIN]
     if args.baseline is not None:
-        from estimator.baseline import load_baseline
+        from oilwatch.estimator.baseline import load_baseline
 
         try:
             load_baseline(args.baseline)  # a bad file fails here, before any record is read
@@ -203,7 +203,7 @@ def _run_many(args, options) -> int:
     from distributed import as_completed
     from tqdm import tqdm
 
-    from models.validation import InputError
+    from oilwatch.models.validation import InputError
     from oilwatch.records.readers import open_record
     from oilwatch.study.runner import check_cluster_options, dask_client
 

@@ -3,9 +3,9 @@
 A machine file is a TOML file with units in its keys (``models/machine.py``); without ``--machine`` a command
 uses the bundled generic turbine. Its coefficient tables live in ``tables/`` beside the file (the bundled
 turbine: its committed tables, and new ones in the user cache ``$OILWATCH_CACHE/tables``; see
-``models.system.factory``). A command that needs a flowrate table that does not exist computes it here
-(about 20 s, with a progress bar); a missing speed sweep (a few minutes) is not computed silently: the error
-names the one command that makes it.
+``oilwatch.models.system.factory``). A command that needs a flowrate table that does not exist computes it
+here (about 20 s, with a progress bar); a missing speed sweep (a few minutes) is not computed silently: the
+error names the one command that makes it.
 """
 
 from __future__ import annotations
@@ -25,9 +25,9 @@ def add_machine_option(parser: argparse.ArgumentParser) -> None:
 
 
 def add_coefficients_option(parser: argparse.ArgumentParser, default_file: str) -> None:
-    """Add ``--coefficients KIND``, the kinds of :mod:`models.bearing.coefficient_kinds` (default: the
-    machine file's ``bearings.dynamic_coefficients``); ``default_file`` says which file that writes."""
-    from models.bearing.coefficient_kinds import COEFFICIENT_KINDS, QUASI_STATIC, SYNCHRONOUS
+    """Add ``--coefficients KIND``, the kinds of :mod:`oilwatch.models.bearing.coefficient_kinds` (default:
+    the machine file's ``bearings.dynamic_coefficients``); ``default_file`` says which file that writes."""
+    from oilwatch.models.bearing.coefficient_kinds import COEFFICIENT_KINDS, QUASI_STATIC, SYNCHRONOUS
 
     parser.add_argument(
         "--coefficients",
@@ -55,7 +55,7 @@ def add_fraction_range_option(
 
 def check_fraction_range(option: str, value: tuple[float, float]) -> tuple[float, float]:
     """``value`` of a :func:`add_fraction_range_option` option, or InputError naming ``option``."""
-    from models.validation import InputError
+    from oilwatch.models.validation import InputError
 
     low, high = value
     if not 0 < low <= 1.0 <= high:
@@ -65,7 +65,7 @@ def check_fraction_range(option: str, value: tuple[float, float]) -> tuple[float
 
 def load_machine_option(args: argparse.Namespace):
     """The machine of ``--machine`` (an InputError names a bad file)."""
-    from models.machine import load_machine
+    from oilwatch.models.machine import load_machine
 
     return load_machine(args.machine)
 
@@ -88,9 +88,9 @@ def compute_flowrate_table(
     of K, C (None: the machine file's ``bearings.dynamic_coefficients``)."""
     import numpy as np
 
-    from models.bearing.table import compute_table, flooded_threshold
-    from models.rotor.assembly import Rotor
-    from models.system.factory import flowrate_table_name, new_table_path, table_command
+    from oilwatch.models.bearing.table import compute_table, flooded_threshold
+    from oilwatch.models.rotor.assembly import Rotor
+    from oilwatch.models.system.factory import flowrate_table_name, new_table_path, table_command
 
     from .progress import progress_bar
 
@@ -126,7 +126,7 @@ def compute_flowrate_table(
 def ensure_flowrate_tables(machine, speeds_hz, command: str, progress: bool = True) -> list[Path]:
     """The machine's flowrate tables at ``speeds_hz`` (every kind its models need: ``table_kinds``), each
     computed first (said on stderr) when missing."""
-    from models.system.factory import flowrate_table_path, table_command, table_kinds
+    from oilwatch.models.system.factory import flowrate_table_path, table_command, table_kinds
 
     paths = []
     for speed in sorted({float(s) for s in speeds_hz}):

@@ -47,8 +47,8 @@ def add_bearing_options(parser: argparse.ArgumentParser) -> None:
 
 def load_rotor(args: argparse.Namespace):
     """The machine and its assembled rotor from ``--machine`` (InputError on a bad file)."""
-    from models.machine import load_machine
-    from models.rotor.assembly import Rotor
+    from oilwatch.models.machine import load_machine
+    from oilwatch.models.rotor.assembly import Rotor
 
     machine = load_machine(args.machine)
     return machine, Rotor.from_machine(machine)
@@ -68,9 +68,9 @@ def bearings_for(args: argparse.Namespace, machine, rotor, over_speed: bool = Fa
     Campbell diagram has one source). With ``--bearing-k``/``--bearing-c``: isotropic linear bearings
     (kxx = kyy = k, cxx = cyy = c, no cross terms) at every bearing node.
     """
-    from models.rotor.supports import isotropic_bearings
-    from models.system.supports import fluid_film_bearings, fluid_film_bearings_over_speed
-    from models.validation import InputError, require_non_negative, require_positive
+    from oilwatch.models.rotor.supports import isotropic_bearings
+    from oilwatch.models.system.supports import fluid_film_bearings, fluid_film_bearings_over_speed
+    from oilwatch.models.validation import InputError, require_non_negative, require_positive
 
     if uses_fluid_film(args):
         pct = [require_positive(f"--q{b}-pct", getattr(args, f"q{b}_pct"), "%") for b in (1, 2)]
@@ -115,7 +115,7 @@ def describe_bearings(description: dict) -> str:
 
 def require_count(name: str, value: int, minimum: int) -> int:
     """An integer option >= minimum, else InputError."""
-    from models.validation import InputError
+    from oilwatch.models.validation import InputError
 
     if value < minimum:
         raise InputError(f"{name} must be an integer >= {minimum}, got {value}")
@@ -145,15 +145,15 @@ def register(subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Compute and print the modes; returns the exit code."""
-    from models.rotor.modal import damped_modes
-    from models.validation import require_non_negative
+    from oilwatch.models.rotor.modal import damped_modes
+    from oilwatch.models.validation import require_non_negative
 
     machine, rotor = load_rotor(args)
     speed_hz = machine.nominal_speed_hz if args.speed_hz is None else args.speed_hz
     speed_hz = require_non_negative("--speed-hz", speed_hz, "Hz")
     n_modes = require_count("--n-modes", args.n_modes, 1)
     if uses_fluid_film(args) and speed_hz > 0.0:
-        from models.system.factory import flowrate_table_path, speed_sweep_path
+        from oilwatch.models.system.factory import flowrate_table_path, speed_sweep_path
 
         from .machine_option import ensure_flowrate_tables
 

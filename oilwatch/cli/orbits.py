@@ -41,8 +41,8 @@ def run(args: argparse.Namespace) -> int:
     import matplotlib.pyplot as plt
     import numpy as np
 
-    from models.system.factory import build_system
-    from models.system.sensitivity import steady_orbit
+    from oilwatch.models.system.factory import build_system
+    from oilwatch.models.system.sensitivity import steady_orbit
 
     from .machine_option import ensure_flowrate_tables, load_machine_option
 

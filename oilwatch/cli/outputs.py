@@ -13,7 +13,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from models.validation import InputError
+from oilwatch.models.validation import InputError
 
 
 def check_output(flag: str, value: str | Path, kind: str) -> Path:

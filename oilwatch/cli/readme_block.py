@@ -10,7 +10,7 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from models.validation import InputError
+from oilwatch.models.validation import InputError
 
 
 def replace_block(readme: str | Path, name: str, body: str, command: str) -> None:

@@ -41,7 +41,7 @@ def register(subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Compute and print the comparison."""
-    from models.system.reproduction import paper_comparison
+    from oilwatch.models.system.reproduction import paper_comparison
 
     from .machine_option import ensure_flowrate_tables, load_machine_option
 

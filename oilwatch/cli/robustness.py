@@ -87,7 +87,7 @@ def register(subparsers) -> None:
 def _rows_from_json(paths) -> list[dict]:
     import json
 
-    from models.validation import InputError
+    from oilwatch.models.validation import InputError
 
     rows: dict[tuple, dict] = {}
     for path in paths:
@@ -109,7 +109,7 @@ def _rows_from_json(paths) -> list[dict]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from models.validation import InputError, require_in_range
+    from oilwatch.models.validation import InputError, require_in_range
     from oilwatch.robustness import CASES, case_by_name, format_table, run_robustness
 
     from .readme_block import replace_block
@@ -125,8 +125,8 @@ def run(args: argparse.Namespace) -> int:
     require_in_range("--duration-s", args.duration_s, 1.0, 3600.0, "s")
     require_in_range("--noise-um", args.noise_um, 0.01, 100.0, "um")
     if args.offset_prior_um is None:
-        from models.machine import load_machine
-        from models.probes import read_probes
+        from oilwatch.models.machine import load_machine
+        from oilwatch.models.probes import read_probes
 
         args.offset_prior_um = read_probes(load_machine(args.machine)).offset_prior_std_m * 1e6
     require_in_range("--offset-prior-um", args.offset_prior_um, 0.0, 1000.0, "um")

@@ -28,7 +28,7 @@ SCENARIO_NAMES = (
 
 def estimator_parameters_help() -> str:
     """The estimator's settable parameters with defaults and ranges, generated from its configuration."""
-    from estimator.config import ESTIMATOR_PARAMETERS
+    from oilwatch.estimator.config import ESTIMATOR_PARAMETERS
 
     def bounds(p) -> str:
         low = "" if p.low is None else f"{p.low:g}"
@@ -199,7 +199,7 @@ def parse_settings(items: list[str]) -> dict[str, dict[str, object]]:
     """``["ekf.alarm_hold_on_s=0.5", ...]`` -> ``{"ekf": {"alarm_hold_on_s": 0.5}}`` (integers as int,
     other numbers as float, the rest as text; the master checks each against its variable's FMI type,
     :mod:`oilwatch.cosim.values`, and names it ``--set ekf.alarm_hold_on_s``)."""
-    from models.validation import InputError
+    from oilwatch.models.validation import InputError
 
     result: dict[str, dict[str, object]] = {}
     for item in items:

@@ -7,7 +7,7 @@ import shlex
 import sys
 from pathlib import Path
 
-from models.validation import InputError, require_positive
+from oilwatch.models.validation import InputError, require_positive
 
 from .machine_option import add_machine_option
 from .modes import load_rotor
@@ -44,9 +44,9 @@ def run(args: argparse.Namespace) -> int:
     """Compute and write the sweep."""
     import numpy as np
 
-    from models.bearing.supply import ML_MIN_PER_M3_S
-    from models.system.factory import new_table_path, speed_sweep_name
-    from models.system.speed_sweep import compute_speed_sweep
+    from oilwatch.models.bearing.supply import ML_MIN_PER_M3_S
+    from oilwatch.models.system.factory import new_table_path, speed_sweep_name
+    from oilwatch.models.system.speed_sweep import compute_speed_sweep
 
     from .progress import progress_bar
 

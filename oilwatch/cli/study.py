@@ -65,7 +65,7 @@ def register(subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run (or continue) the study and print its Table 6."""
-    from models.validation import InputError
+    from oilwatch.models.validation import InputError
     from oilwatch.study import get_case_model, make_cases, run_study
     from oilwatch.study.runner import check_cluster_options
 

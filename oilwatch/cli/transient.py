@@ -67,8 +67,8 @@ def register(subparsers) -> None:
 
 
 def _mesh(text: str):
-    from models.bearing.grid import Mesh
-    from models.validation import InputError
+    from oilwatch.models.bearing.grid import Mesh
+    from oilwatch.models.validation import InputError
 
     try:
         n_circ, n_axial = (int(v) for v in text.lower().split("x"))
@@ -83,15 +83,15 @@ def run(args: argparse.Namespace) -> int:
 
     from tqdm import tqdm
 
-    from models import __version__
-    from models.bearing.dynamic_table import synchronous_table
-    from models.machine import load_machine
-    from models.rotor.assembly import Rotor
-    from models.system import nonlinear_studies as studies
-    from models.system.factory import load_tables
-    from models.system.frequency_stability import frequency_dependent_threshold
-    from models.system.transient_comparison import results_path, synchronous_table_path
-    from models.validation import InputError, require_positive
+    from oilwatch.models import __version__
+    from oilwatch.models.bearing.dynamic_table import synchronous_table
+    from oilwatch.models.machine import load_machine
+    from oilwatch.models.rotor.assembly import Rotor
+    from oilwatch.models.system import nonlinear_studies as studies
+    from oilwatch.models.system.factory import load_tables
+    from oilwatch.models.system.frequency_stability import frequency_dependent_threshold
+    from oilwatch.models.system.transient_comparison import results_path, synchronous_table_path
+    from oilwatch.models.validation import InputError, require_positive
 
     machine = load_machine(args.machine)
     mesh = _mesh(args.mesh)
@@ -168,7 +168,10 @@ def run(args: argparse.Namespace) -> int:
             duration = args.duration_s or 0.6
             options = {}
             if args.plant_tolerances:
-                from models.system.nonlinear_plant import PLANT_FILM_OPTIONS, PLANT_POSITION_TOLERANCE_M
+                from oilwatch.models.system.nonlinear_plant import (
+                    PLANT_FILM_OPTIONS,
+                    PLANT_POSITION_TOLERANCE_M,
+                )
 
                 options = {
                     "position_tolerance_m": PLANT_POSITION_TOLERANCE_M,
@@ -209,7 +212,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _speeds(text: str, option: str) -> list[float]:
     """Comma-separated speeds [Hz], each > 0."""
-    from models.validation import InputError, require_positive
+    from oilwatch.models.validation import InputError, require_positive
 
     try:
         return [require_positive(option, float(v), "Hz") for v in text.split(",")]

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from models.validation import InputError
+from oilwatch.models.validation import InputError
 
 
 class SystemDescriptionError(InputError):

@@ -30,7 +30,7 @@ from pathlib import Path
 
 from fmpy import extract
 
-from models.cache import user_cache_dir
+from oilwatch.models.cache import user_cache_dir
 
 try:
     import fcntl

@@ -1,6 +1,6 @@
 """Build the FMI 3.0 co-simulation twins of oilwatch's FMUs with pythonfmu3.
 
-Each FMI 3.0 FMU is the FMI 2.0 slave of the same name behind :class:`fmu_src.fmi3_shell.Fmi3Shell`:
+Each FMI 3.0 FMU is the FMI 2.0 slave of the same name behind :class:`oilwatch.fmu_src.fmi3_shell.Fmi3Shell`:
 the shell script (``fmu_src/*_fmi3_slave.py``) is staged like an FMI 2.0 slave (packages relocated under
 their own prefix, see :mod:`oilwatch.cosim.packaging`), and the FMI 2.0 slave script it wraps is staged
 inside the relocated ``fmu_src`` with its imports rewritten, together with pythonfmu itself (the FMI 2.0
@@ -24,7 +24,7 @@ import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
-from models.validation import InputError
+from oilwatch.models.validation import InputError
 
 from .fmu_build import REGISTRY, FmuEntry
 from .native_loader import install_fmi3_refusal
@@ -68,7 +68,7 @@ def build_fmi3_fmu(entry: Fmi3Entry, out_dir: Path, machine=None) -> Path:
     import pythonfmu
     from pythonfmu3.builder import FmuBuilder
 
-    from models.machine import load_machine
+    from oilwatch.models.machine import load_machine
 
     from .fmu_build import _forget_modules, bundle_machine, document_and_validate, package_dir, package_root
 
@@ -79,14 +79,14 @@ def build_fmi3_fmu(entry: Fmi3Entry, out_dir: Path, machine=None) -> Path:
             raise InputError(f"{entry.name} (FMI 3.0): slave script {path} does not exist")
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    mapping = {package: relocated_name(entry.prefix, package) for package in entry.packages}
+    mapping = {"oilwatch": relocated_name(entry.prefix, "oilwatch")}
     staged_names = {script.stem, "pythonfmu", *mapping.values()}
     with tempfile.TemporaryDirectory(prefix=f"oilwatch_fmi3_{entry.name}_") as tmp:
         staging = Path(tmp)
         folders_of = {package: package_dir(package) for package in entry.packages}
         staged_script, folders = stage_sources(staging, folders_of, script, entry.prefix, entry.data_globs)
-        bundle_machine(machine, staging / mapping["fmu_src"])
-        wrapped = staging / mapping["fmu_src"] / fmi2_script.name
+        bundle_machine(machine, staging / mapping["oilwatch"] / "fmu_src")
+        wrapped = staging / mapping["oilwatch"] / "fmu_src" / fmi2_script.name
         source = fmi2_script.read_text(encoding="utf-8")
         wrapped.write_text(rewrite_imports(source, mapping, str(fmi2_script)), encoding="utf-8")
         fmi2_base = staging / "pythonfmu"  # its Python files, as pythonfmu's own builder bundles them

@@ -11,14 +11,14 @@ wrapper in a source tree) builds every FMU in :data:`REGISTRY` (or only the name
 For each FMU (see :func:`build_fmu`):
 
 1. Staging: the slave script and the packages it needs are copied to a temporary folder, each package renamed
-   ``<prefix>_<package>`` (for example ``oilwatch_plant_models``) and every ``from models... import``
+   ``<prefix>_<package>`` (for example ``oilwatch_plant_models``) and every ``from oilwatch.models... import``
    rewritten to match (:mod:`oilwatch.cosim.packaging`). Two FMUs in one process therefore share no module
    name. An ``import models`` form, which cannot be relocated, fails the build with file and line. The data
    files the packages carry (``*.toml``, ``*.json``, or the entry's ``data_globs``) are bundled too; code must
    find them with ``Path(__file__).parent``, never by package name.
 2. The machine: its file and every table of it (``tables/<stem>_*.json`` beside it, and for the bundled
    turbine also the user cache's) are copied into ``<prefix>_fmu_src/machine/``; the FMU's empty
-   ``machine_file`` parameter means this machine (:mod:`fmu_src.machine_parameters`).
+   ``machine_file`` parameter means this machine (:mod:`oilwatch.fmu_src.machine_parameters`).
 3. pythonfmu's ``FmuBuilder.build_FMU`` builds the FMU from the staging folder, with the entry's FMI
    capability flags (by default ``canGetAndSetFMUstate`` and ``canSerializeFMUstate``).
 4. ``documentation/index.html`` (variables with causality, unit, min, max, start, description, and fmpy
@@ -42,7 +42,7 @@ import zipfile
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from models.validation import InputError
+from oilwatch.models.validation import InputError
 
 DEFAULT_OPTIONS = {"canGetAndSetFMUstate": True, "canSerializeFMUstate": True}
 FMU_PACKAGES = ("models", "estimator", "fmu_src")
@@ -50,7 +50,7 @@ FMU_PACKAGES = ("models", "estimator", "fmu_src")
 
 def package_dir(package: str) -> Path:
     """The folder of an importable top-level package (installed or in a source tree)."""
-    spec = importlib.util.find_spec(package)
+    spec = importlib.util.find_spec(f"oilwatch.{package}")
     if spec is None or not spec.submodule_search_locations:
         raise InputError(f"package {package!r} is not importable: install oilwatch")
     return Path(next(iter(spec.submodule_search_locations))).resolve()
@@ -157,7 +157,7 @@ def write_system(entry: SspEntry, fmus: dict[str, Path], out_dir: Path) -> Path:
 
 def machine_files(machine) -> list[Path]:
     """The machine file and every table of it (``<stem>_*.json`` in each of its table folders)."""
-    from models.system.factory import table_folders
+    from oilwatch.models.system.factory import table_folders
 
     stem = machine.source_path.stem
     tables = {}
@@ -169,7 +169,7 @@ def machine_files(machine) -> list[Path]:
 
 def bundle_machine(machine, fmu_src_folder: Path) -> None:
     """Copy the machine file to ``<fmu_src_folder>/machine/`` and its tables to ``machine/tables/``."""
-    from fmu_src.machine_parameters import MACHINE_FOLDER
+    from oilwatch.fmu_src.machine_parameters import MACHINE_FOLDER
 
     target = fmu_src_folder / MACHINE_FOLDER
     (target / "tables").mkdir(parents=True, exist_ok=True)
@@ -190,9 +190,9 @@ def build_fmu(entry: FmuEntry, out_dir: Path, machine=None, root: Path | None = 
     """Build one FMU into ``out_dir`` for ``machine`` (default: the bundled turbine) and return its path."""
     from pythonfmu.builder import FmuBuilder
 
-    from models.machine import load_machine
     from oilwatch.cosim.native_loader import install_loader
     from oilwatch.cosim.packaging import relocated_name, stage_sources
+    from oilwatch.models.machine import load_machine
 
     machine = machine if machine is not None else load_machine()
     script = entry.script_path(root)
@@ -200,13 +200,13 @@ def build_fmu(entry: FmuEntry, out_dir: Path, machine=None, root: Path | None = 
         raise InputError(f"{entry.name}: slave script {script} does not exist")
     out_dir.mkdir(parents=True, exist_ok=True)
     fmu_path = out_dir / f"{entry.name}.fmu"
-    staged_names = {script.stem} | {relocated_name(entry.prefix, p) for p in entry.packages}
+    staged_names = {script.stem, relocated_name(entry.prefix, "oilwatch")}
     folders_of = {package: package_dir(package) for package in entry.packages}
     with tempfile.TemporaryDirectory(prefix=f"oilwatch_{entry.name}_") as tmp:
         staging = Path(tmp)
         staged_script, folders = stage_sources(staging, folders_of, script, entry.prefix, entry.data_globs)
         if "fmu_src" in entry.packages:
-            bundle_machine(machine, staging / relocated_name(entry.prefix, "fmu_src"))
+            bundle_machine(machine, staging / relocated_name(entry.prefix, "oilwatch") / "fmu_src")
         saved_path = list(sys.path)
         try:
             built = FmuBuilder.build_FMU(staged_script, dest=fmu_path, project_files=folders, **entry.options)
@@ -252,10 +252,10 @@ def build_fmus(
     machine=None,
 ) -> list[Path]:
     """Build the registered FMUs (plus ``extra``), or only those named in ``only``, for ``machine`` (a
-    :class:`models.machine.Machine` or a machine file; default: the bundled turbine), then every SSP system
-    of ``systems`` (default: the machine's OilStarvation) whose FMUs were all built in this call. Returns the
-    files written."""
-    from models.machine import Machine, load_machine
+    :class:`oilwatch.models.machine.Machine` or a machine file; default: the bundled turbine), then every SSP
+    system of ``systems`` (default: the machine's OilStarvation) whose FMUs were all built in this call.
+    Returns the files written."""
+    from oilwatch.models.machine import Machine, load_machine
 
     if not isinstance(machine, Machine):
         machine = load_machine(machine)

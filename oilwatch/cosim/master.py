@@ -171,7 +171,7 @@ class Master:
         about it (a value of the wrong FMI type, a message in the FMU's log) name it so.
         input_signals: ``{"instance.input": f}``: each Real input is set to ``f(t)`` at the start of every
             step (t its start time; held over the step) and, before initialization, to ``f(start)``: the
-            scenario's speed and oil-temperature profiles (``models.system.profiles``).
+            scenario's speed and oil-temperature profiles (``oilwatch.models.system.profiles``).
         """
         system = self.system
         start = system.start_time if start_time is None else start_time

@@ -33,7 +33,7 @@ import tempfile
 import zipfile
 from pathlib import Path
 
-from models.validation import InputError
+from oilwatch.models.validation import InputError
 
 LOADER_SOURCE = Path(__file__).resolve().parent / "native" / "fmi2_loader.c"
 FMI3_SOURCE = Path(__file__).resolve().parent / "native" / "fmi3_refusal.c"

@@ -3,14 +3,14 @@
 A pythonfmu FMU runs inside the host's Python interpreter and puts its ``resources/`` folder first
 on ``sys.path``. Two FMUs that both bundle a package called ``models`` would share whichever copy
 was imported first (and an FMU rebuilt under the same names in one process runs the old code).
-So each FMU gets its own copy of the packages, renamed ``<prefix>_<package>``, and every absolute
-cross-package import ``from models.x import y`` is rewritten to ``from <prefix>_models.x import y``.
+So each FMU gets its own copy of the packages under the root ``<prefix>_oilwatch``, and every absolute
+import ``from oilwatch.models.x import y`` is rewritten to ``from <prefix>_oilwatch.models.x import y``.
 
 The team's import rule (absolute cross-package imports are written ``from pkg.x import y`` at
 module top level) makes this a reliable rewrite. The rewrite works on the syntax tree, not on text
 patterns, so a docstring that mentions ``from models`` is left alone. Forms that cannot be relocated
-(``import models``, ``import models.x``, or a string such as ``"models.x"`` passed to a call, as in
-``importlib.import_module("models.x")``) make the build fail with the file and line.
+(``import models``, ``import oilwatch.models.x``, or a string such as ``"oilwatch.models.x"`` passed to a
+call, as in ``importlib.import_module("oilwatch.models.x")``) make the build fail with the file and line.
 """
 
 from __future__ import annotations
@@ -20,9 +20,10 @@ import fnmatch
 import shutil
 from pathlib import Path
 
-from models.validation import InputError
+from oilwatch.models.validation import InputError
 
 SLAVE_SCRIPT_PATTERN = "*_slave.py"
+ROOT_PACKAGE = "oilwatch"
 
 
 class RelocationError(InputError):
@@ -63,7 +64,8 @@ def rewrite_imports(source: str, mapping: dict[str, str], filename: str) -> str:
             for argument in node.args:
                 value = getattr(argument, "value", None)
                 if isinstance(argument, ast.Constant) and isinstance(value, str):
-                    if _root(value) in mapping and value.replace(".", "").isidentifier():
+                    # a dotted name only: the bare root is also the distribution's name (metadata.version)
+                    if "." in value and _root(value) in mapping and value.replace(".", "").isidentifier():
                         raise RelocationError(
                             f"{filename}:{node.lineno}: the module name {value!r} passed to a call "
                             "cannot be relocated; use a relative import or Path(__file__)"
@@ -111,23 +113,25 @@ def stage_sources(
     prefix: str,
     data_globs: tuple[str, ...],
 ) -> tuple[Path, list[Path]]:
-    """Copy ``script`` and the packages of ``package_dirs`` (name -> folder, installed or in a source tree)
-    into ``staging`` with relocated names and imports.
+    """Copy ``script`` and the oilwatch subpackages of ``package_dirs`` (name -> folder, installed or in a
+    source tree) into ``staging`` under the relocated root package ``<prefix>_oilwatch``, imports rewritten.
 
-    Returns the staged script and the staged package folders (pythonfmu's ``project_files``).
+    Returns the staged script and the staged root folder (pythonfmu's ``project_files``).
     Slave scripts (``*_slave.py``) inside bundled packages are left out: each FMU carries only
     its own slave, at the top of ``resources/``.
     """
-    mapping = {package: relocated_name(prefix, package) for package in package_dirs}
+    mapping = {ROOT_PACKAGE: relocated_name(prefix, ROOT_PACKAGE)}
+    root = staging / mapping[ROOT_PACKAGE]
+    root.mkdir(parents=True)
+    (root / "__init__.py").write_text('"""The oilwatch packages one FMU bundles."""\n', encoding="utf-8")
     staged_script = staging / script.name
     shutil.copy2(script, staged_script)
-    folders, sources = [], [(staged_script, script)]
+    sources = [(staged_script, script)]
     for package, source in package_dirs.items():
-        folder = staging / mapping[package]
+        folder = root / package
         copied = copy_package(source, folder, data_globs, (SLAVE_SCRIPT_PATTERN,))
         sources += [(path, source / path.relative_to(folder)) for path in copied if path.suffix == ".py"]
-        folders.append(folder)
     for staged, original in sources:
         text = staged.read_text(encoding="utf-8")
         staged.write_text(rewrite_imports(text, mapping, str(original)), encoding="utf-8")
-    return staged_script, folders
+    return staged_script, [root]

@@ -1,5 +1,5 @@
 """The columns of ``oilwatch estimate``'s estimates.csv: their names from the estimator's step report and
-:data:`estimator.config.NUISANCE_OUTPUTS` (SI suffixes ``_m`` and ``_m3_s`` converted to ``_um`` and
+:data:`oilwatch.estimator.config.NUISANCE_OUTPUTS` (SI suffixes ``_m`` and ``_m3_s`` converted to ``_um`` and
 ``_ml_min``), their decimals, and the nuisance columns read from the filter after each step."""
 
 from __future__ import annotations
@@ -8,8 +8,8 @@ import dataclasses
 
 import numpy as np
 
-from estimator.config import ML_MIN, NUISANCE_OUTPUTS, nuisance_names
-from estimator.ekf import StepReport
+from oilwatch.estimator.config import ML_MIN, NUISANCE_OUTPUTS, nuisance_names
+from oilwatch.estimator.ekf import StepReport
 
 BASE_FIELDS = (
     "step",
@@ -91,9 +91,10 @@ def estimate_columns(report: StepReport) -> tuple[list[str], list[tuple[str, flo
 
 class TraceRows:
     """estimates.csv rows of a block from the estimator's per-sample arrays (an
-    :class:`estimator.ekf.EstimateTrace`: fields named as the step report's and the nuisance properties
-    :data:`estimator.config.NUISANCE_OUTPUTS`), column block by column block: a few numpy copies per block,
-    nothing per sample."""
+    :class:`oilwatch.estimator.ekf.EstimateTrace`: fields named as the step report's and the nuisance
+    properties
+    :data:`oilwatch.estimator.config.NUISANCE_OUTPUTS`), column block by column block: a few numpy copies per
+    block, nothing per sample."""
 
     def __init__(self, columns: list[str], extras: list[tuple[str, float, int]]) -> None:
         self.width = len(columns)

@@ -41,11 +41,11 @@ from typing import TextIO
 
 import numpy as np
 
-from estimator.factory import make_estimator
-from estimator.runout import SlowRollVectors, runout_of_probes
-from models.machine import Machine, load_machine
-from models.probes import read_probes
-from models.validation import InputError
+from oilwatch.estimator.factory import make_estimator
+from oilwatch.estimator.runout import SlowRollVectors, runout_of_probes
+from oilwatch.models.machine import Machine, load_machine
+from oilwatch.models.probes import read_probes
+from oilwatch.models.validation import InputError
 from oilwatch.records import RecordStream, probe_setup
 from oilwatch.records.probes import merged_section
 from oilwatch.records.readers import STDIN
@@ -88,7 +88,7 @@ class EstimateOptions:
     viscosity_factor_prior_std: float = 0.0
     """> 0: each bearing's viscosity factor is estimated with this prior std (the estimator FMU's
     ``viscosity_factor_prior_std``; needs the model that follows the operating point); with no baseline for
-    the factors the estimator is the start bank (:func:`estimator.factory.make_estimator`)."""
+    the factors the estimator is the start bank (:func:`oilwatch.estimator.factory.make_estimator`)."""
     probe_overrides: tuple[str, ...] = ()
     output_every: int = 1
     chunk_rows: int = 8192
@@ -146,7 +146,7 @@ class EstimateRun:
             )
         self.baseline, self.baseline_age_days = None, None
         if options.baseline_file is not None:
-            from estimator.baseline import load_baseline
+            from oilwatch.estimator.baseline import load_baseline
 
             from .baseline_age import baseline_age_days
 
@@ -176,7 +176,7 @@ class EstimateRun:
         # after the record's checks: errors come first
         self.model = estimator_model(options.machine_file, follow=self.follow)
         self.live_stream = live_stream
-        self.filter = None  # estimator.factory.make_estimator's: a filter, or the start bank
+        self.filter = None  # oilwatch.estimator.factory.make_estimator's: a filter, or the start bank
         # the estimator takes the readings along the probes' axes when it can (the FMU's probe_angle_deg)
         self.probe_angle_deg = self.stream.probe_angle_deg or 0.0
         self.runout, self.runout_source = self._runout()
@@ -198,7 +198,7 @@ class EstimateRun:
         readings along the probes' axes (square pairs at one angle)."""
         runout, source = None, None
         if self.options.baseline_file is not None:
-            from estimator.baseline import load_runout
+            from oilwatch.estimator.baseline import load_runout
 
             runout, source = load_runout(self.options.baseline_file), "baseline file"
         if runout is None:

@@ -11,10 +11,10 @@ from __future__ import annotations
 
 import functools
 
-from estimator.config import EKFConfig, OffsetBaseline
-from estimator.runout import SlowRollVectors
-from models.machine import load_machine
-from models.probes import Probes
+from oilwatch.estimator.config import EKFConfig, OffsetBaseline
+from oilwatch.estimator.runout import SlowRollVectors
+from oilwatch.models.machine import load_machine
+from oilwatch.models.probes import Probes
 
 ESTIMATOR_DT_S = 1e-3
 """The estimator's sampling period (its discrete model's step, as the FMU's default)."""
@@ -30,11 +30,11 @@ def estimator_model(machine_file: str | None, dt_s: float = ESTIMATOR_DT_S, foll
     key = (machine_file, dt_s, follow)
     if key not in _MODELS:
         if follow:
-            from models.system.operating_model import build_operating_model
+            from oilwatch.models.system.operating_model import build_operating_model
 
             model = build_operating_model(_reduced_system(machine_file), load_machine(machine_file), dt_s)
         else:
-            from models.system.augmented import GridAugmentedModel
+            from oilwatch.models.system.augmented import GridAugmentedModel
 
             model = GridAugmentedModel(_reduced_system(machine_file), dt_s)
         _MODELS[key] = model
@@ -43,7 +43,7 @@ def estimator_model(machine_file: str | None, dt_s: float = ESTIMATOR_DT_S, foll
 
 @functools.lru_cache(maxsize=4)
 def _reduced_system(machine_file: str | None):
-    from models.system.factory import load_system
+    from oilwatch.models.system.factory import load_system
 
     return load_system(machine_file, reduced=True)
 

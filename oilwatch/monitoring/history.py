@@ -283,7 +283,7 @@ def _finite(value: float) -> float | None:
 
 def offsets_in_model_frame(offsets_um: np.ndarray, probe_angle_deg: float) -> np.ndarray:
     """(4,) probe offsets along the axes of pairs at ``probe_angle_deg`` -> (x1, y1, x2, y2) offsets [um]
-    (the inverse of ``estimator.measurement.probe_rotation``)."""
+    (the inverse of ``oilwatch.estimator.measurement.probe_rotation``)."""
     angle = math.radians(probe_angle_deg)
     c, s = math.cos(angle), math.sin(angle)
     out = np.empty(4)

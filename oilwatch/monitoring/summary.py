@@ -7,7 +7,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from estimator.config import ML_MIN, nuisance_names, nuisance_values
+from oilwatch.estimator.config import ML_MIN, nuisance_names, nuisance_values
 
 SPEED_MISMATCH_FRACTION = 0.01
 """A recorded speed this far from a model that does not follow it gets a warning."""
@@ -21,7 +21,7 @@ def final_window(duration_s: float) -> float:
 def start_bank_summary(estimator) -> dict | None:
     """The start bank's starts, window and choice (None: one filter). A record that ends inside the window
     has no choice: its estimates are the nominal start's, as one filter's."""
-    from estimator.start_bank import StartBank
+    from oilwatch.estimator.start_bank import StartBank
 
     if not isinstance(estimator, StartBank):
         return None
@@ -110,9 +110,9 @@ def summarize(run, wall_s: float, csv_path: Path) -> dict:
 
 def _probe_summary(run) -> dict:
     """Per probe at the end of the record: the estimator's offset estimate and std [um] (along the probe's
-    axis when the estimator takes the readings so, ``estimator.probe_angle_deg``, else along x or y), its
-    status, and the time it was flagged faulty."""
-    from estimator.channels import STATUS_NAMES
+    axis when the estimator takes the readings so, ``oilwatch.estimator.probe_angle_deg``, else along x or y),
+    its status, and the time it was flagged faulty."""
+    from oilwatch.estimator.channels import STATUS_NAMES
 
     values = dict(zip((row[0] for row in nuisance_names()), nuisance_values(run.filter), strict=True))
     history = run.history

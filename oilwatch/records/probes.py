@@ -34,8 +34,8 @@ from dataclasses import dataclass, field, replace
 import numba
 import numpy as np
 
-from models.probes import LAYOUTS  # one key for the reader, the estimator and the plant
-from models.validation import InputError
+from oilwatch.models.probes import LAYOUTS  # one key for the reader, the estimator and the plant
+from oilwatch.models.validation import InputError
 
 PROBE_NAMES = ("x1", "y1", "x2", "y2")
 UNITS = ("um", "V")
@@ -130,7 +130,7 @@ def _text(value: object, key: str) -> str:
 
 def merged_section(table: Mapping[str, object], overrides: Iterable[str]) -> dict:
     """The [probes] table with the ``KEY=VALUE`` overrides applied (dotted keys reach the probe tables): what
-    the reader and the estimator's probe model (``models.probes.read_probes``) both read."""
+    the reader and the estimator's probe model (``oilwatch.models.probes.read_probes``) both read."""
     merged = {key: (dict(value) if isinstance(value, Mapping) else value) for key, value in table.items()}
     for item in overrides:
         key, equals, text = item.partition("=")

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from models.validation import InputError
+from oilwatch.models.validation import InputError
 
 STDIN = "-"
 SMALL_CHUNK = 64

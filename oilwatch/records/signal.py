@@ -22,7 +22,7 @@ import math
 import numpy as np
 from scipy import signal
 
-from models.validation import InputError
+from oilwatch.models.validation import InputError
 
 PASS_FRACTION = 0.35
 """Pass-band edge as a fraction of the grid's sampling rate."""

@@ -8,10 +8,10 @@ known) as a prior on those nuisances, widened by the offsets' drift since (3 um 
 ``offsets-step``). The truth is the case's plant: its unbalance (size and phase) and film viscosity factor.
 
 * Cases at constant conditions: the full model at the machine's speed
-  (:func:`models.system.nuisance_bound.nuisance_bound`, closed-form harmonic Fisher information).
+  (:func:`oilwatch.models.system.nuisance_bound.nuisance_bound`, closed-form harmonic Fisher information).
 * Operating-point cases (viscosity, ramps, all at once): the estimator's own operating maps on the
   dimensionless table, which the plant of these cases shares, summed along the case's speed and oil
-  temperature trajectory (:func:`models.system.identifiability.trajectory_information`, quasi-steady
+  temperature trajectory (:func:`oilwatch.models.system.identifiability.trajectory_information`, quasi-steady
   segments).
 
 Both treat the nuisances and flowrates as constant over the record: the filter's random walks make its own
@@ -24,14 +24,14 @@ import math
 
 import numpy as np
 
-from models.system.factory import build_system
-from models.system.identifiability import (
+from oilwatch.models.system.factory import build_system
+from oilwatch.models.system.identifiability import (
     OperatingSegment,
     nuisance_prior,
     trajectory_bound_pct,
     trajectory_information,
 )
-from models.system.nuisance_bound import nuisance_bound
+from oilwatch.models.system.nuisance_bound import nuisance_bound
 
 from .cases import DRIFT_M, Case
 
@@ -122,7 +122,7 @@ class CaseBounds:
     def operating_maps(self):
         """(maps, output matrix) of the estimator's operating model (built once)."""
         if self._maps is None:
-            from models.system.operating_model import build_operating_model
+            from oilwatch.models.system.operating_model import build_operating_model
 
             model = build_operating_model(build_system(self.machine, reduced=True), self.machine, self.dt_s)
             self._maps = (model.maps, np.asarray(model.output_matrix))

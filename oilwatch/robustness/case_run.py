@@ -1,7 +1,7 @@
 """One robustness case at one truth point: the plant with the case's discrepancy against the estimator.
 
-Per case and truth point: the plant (:class:`models.system.plant.RotorBearingPlant`, full model, Newmark,
-constant flowrates) makes the record through its own measurement chain with the case's probe errors,
+Per case and truth point: the plant (:class:`oilwatch.models.system.plant.RotorBearingPlant`, full model,
+Newmark, constant flowrates) makes the record through its own measurement chain with the case's probe errors,
 unbalance, viscosity and operating point; the EKF (reduced grid model; recommended tuning; probe offsets and
 the complex unbalance as states with the configured priors; the baseline and the slow-roll vectors when the
 case has them) estimates; the identified value is the mean estimate over the second half of the record.
@@ -11,10 +11,10 @@ detections (the alarm set at the end for a bearing below 90 %), the probes flagg
 second half with a consistent model, whether every alarm was raised under a consistent model, and the error
 over the nuisance Cramer-Rao bound of the case's own configuration (:mod:`.bounds`: the nuisances its
 estimator estimates, its baseline, its speed and temperature trajectory; the whole record). The estimator is
-the product's, built by :func:`estimator.factory.make_estimator` and run through ``run_batch`` as ``oilwatch
-estimate`` runs it: with the viscosity factors free and no baseline for them the start bank
-(:class:`estimator.start_bank.StartBank`: several starts along the flowrates' prior, the record's NIS picks
-one), else one :class:`estimator.ekf.OilFlowEKF`.
+the product's, built by :func:`oilwatch.estimator.factory.make_estimator` and run through ``run_batch`` as
+``oilwatch estimate`` runs it: with the viscosity factors free and no baseline for them the start bank
+(:class:`oilwatch.estimator.start_bank.StartBank`: several starts along the flowrates' prior, the record's NIS
+picks one), else one :class:`oilwatch.estimator.ekf.OilFlowEKF`.
 """
 
 from __future__ import annotations
@@ -25,19 +25,19 @@ import math
 
 import numpy as np
 
-from estimator.baseline import baseline_prior, estimate_baseline
-from estimator.config import EKFConfig
-from estimator.ekf import OilFlowEKF
-from estimator.factory import make_estimator
-from estimator.runout import runout_of_probes
-from models.machine import load_machine
-from models.probes import read_probes
-from models.rotor.assembly import Rotor
-from models.system.augmented import GridAugmentedModel
-from models.system.factory import build_system
-from models.system.measurement import MeasurementChain, UnbalanceChange
-from models.system.operating_point import operating_system
-from models.system.plant import RotorBearingPlant
+from oilwatch.estimator.baseline import baseline_prior, estimate_baseline
+from oilwatch.estimator.config import EKFConfig
+from oilwatch.estimator.ekf import OilFlowEKF
+from oilwatch.estimator.factory import make_estimator
+from oilwatch.estimator.runout import runout_of_probes
+from oilwatch.models.machine import load_machine
+from oilwatch.models.probes import read_probes
+from oilwatch.models.rotor.assembly import Rotor
+from oilwatch.models.system.augmented import GridAugmentedModel
+from oilwatch.models.system.factory import build_system
+from oilwatch.models.system.measurement import MeasurementChain, UnbalanceChange
+from oilwatch.models.system.operating_point import operating_system
+from oilwatch.models.system.plant import RotorBearingPlant
 
 from .bounds import CaseBounds, configuration_label
 from .cases import BASELINE_AGE_DAYS, Case, probe_errors
@@ -258,7 +258,7 @@ class RobustnessRun:
         """The estimator's model that follows speed and temperature (issue 13), built once (or the one given
         to :meth:`use_operating_model`)."""
         if not hasattr(self, "_operating"):
-            from models.system.operating_model import build_operating_model
+            from oilwatch.models.system.operating_model import build_operating_model
 
             reduced = build_system(self.machine, reduced=True)
             self._operating = build_operating_model(reduced, self.machine, DT_S)

@@ -1,11 +1,11 @@
 """The discrepancies between a real machine and the estimator's model that ``oilwatch robustness`` plays.
 
 Each case changes the PLANT: its unbalance, its film viscosity, its speed and oil temperature, and its
-measurement chain (issue 13's :mod:`models.system.measurement`: probe zero offsets, sensitivity errors,
-1x/2x runout, faults, the probes' mounting angle). The estimator's model never changes; the estimator gets
-only what a user would configure: the probes' mounting angle, the nuisances' priors, a commissioning baseline
-(:mod:`estimator.baseline`, from another plant record at 100/100 % with the same probes) and the slow-roll
-runout vectors (:mod:`oilwatch.robustness.slow_roll`: the same measurement chain at slow roll).
+measurement chain (issue 13's :mod:`oilwatch.models.system.measurement`: probe zero offsets, sensitivity
+errors, 1x/2x runout, faults, the probes' mounting angle). The estimator's model never changes; the estimator
+gets only what a user would configure: the probes' mounting angle, the nuisances' priors, a commissioning
+baseline (:mod:`oilwatch.estimator.baseline`, from another plant record at 100/100 % with the same probes) and
+the slow-roll runout vectors (:mod:`oilwatch.robustness.slow_roll`: the same measurement chain at slow roll).
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from models.system.measurement import ProbeErrors
+from oilwatch.models.system.measurement import ProbeErrors
 
 OFFSET_RANGE_M = 25e-6
 """Probe zero offsets are drawn uniformly from +-25 um (ordinary: the bearing centre is known only from the
@@ -264,7 +264,7 @@ sensitivity errors)."""
 
 def case_by_name(name: str) -> Case:
     """The case called ``name`` (InputError naming the choices otherwise)."""
-    from models.validation import InputError
+    from oilwatch.models.validation import InputError
 
     for case in CASES:
         if case.name == name:

@@ -8,7 +8,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from models.machine import load_machine
+from oilwatch.models.machine import load_machine
 
 from .bounds import CaseBounds, configuration_label
 from .case_run import DT_S

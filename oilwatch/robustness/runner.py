@@ -15,7 +15,7 @@ from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
-from models.validation import InputError
+from oilwatch.models.validation import InputError
 
 from .case_run import ALARM_LEVEL_PCT, DT_S, HEALTHY_PCT, RobustnessRun
 from .cases import Case, case_by_name

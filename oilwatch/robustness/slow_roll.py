@@ -3,8 +3,8 @@
 At slow roll the field measures each probe's runout: the 1x and 2x vectors a probe reads when the shaft turns
 so slowly that its dynamic response is negligible (API 670; Bently Nevada's slow-roll compensation). This
 module produces that record honestly with the plant's own measurement chain
-(:class:`models.system.measurement.MeasurementChain`: the same probes, runout, sensitivity errors, offsets and
-noise as the run), on a shaft assumed at rest in its bearings at slow roll:
+(:class:`oilwatch.models.system.measurement.MeasurementChain`: the same probes, runout, sensitivity errors,
+offsets and noise as the run), on a shaft assumed at rest in its bearings at slow roll:
 
 * speed ``SLOW_ROLL_FRACTION`` (5 %) of nominal, 60 s by default (about 225 revolutions for the turbine);
 * true journal position constant at 70 % of the clearance below the centre (a slow-roll journal sits low
@@ -14,7 +14,7 @@ noise as the run), on a shaft assumed at rest in its bearings at slow roll:
   bearing-and-shaft static stiffness (order 1e7-1e8 N/m) that moves the journal by 0.02-0.2 nm, far below
   the runout (um) and the fit's own std (about 0.01 um at 1 um noise over 60 s).
 
-:func:`estimator.runout.fit_slow_roll` then fits the vectors with their stds.
+:func:`oilwatch.estimator.runout.fit_slow_roll` then fits the vectors with their stds.
 """
 
 from __future__ import annotations
@@ -24,8 +24,8 @@ import math
 
 import numpy as np
 
-from estimator.runout import SlowRollVectors, fit_slow_roll
-from models.system.measurement import MeasurementChain
+from oilwatch.estimator.runout import SlowRollVectors, fit_slow_roll
+from oilwatch.models.system.measurement import MeasurementChain
 
 SLOW_ROLL_FRACTION = 0.05
 REST_ECCENTRICITY = 0.7

@@ -5,7 +5,7 @@ bundled turbine: the paper's 0.5 bar groove pressure) and every scenario runs at
 Each bearing's
 supply flowrate follows the plant FMU's sigmoid from its initial to its final value, centred at half the
 record (``fault_time_s = duration_s / 2``: 10 s for the paper's 20 s) with the 10 %-90 % transition time
-``fault_duration_s`` of :data:`models.system.fault.SCENARIO_DURATIONS_S` (slow 4 s, intermediate 1 s,
+``fault_duration_s`` of :data:`oilwatch.models.system.fault.SCENARIO_DURATIONS_S` (slow 4 s, intermediate 1 s,
 sudden 0.1 s).
 
 =====================  ==========================  ==========================  =============
@@ -21,8 +21,8 @@ operating-ramps        --q1-pct (100)              --q2-pct (100)              n
 =====================  ==========================  ==========================  =============
 
 Operating point: a scenario runs at the machine's nominal speed and oil temperature unless it carries
-profiles (``models.system.profiles``; ``operating-ramps``: issue 13's speed ramp nominal -3 -> +3 Hz over
-10 s and oil temperature ramp +10 degC over 60 s) or ``oilwatch run`` gives them (``--speed-profile``,
+profiles (``oilwatch.models.system.profiles``; ``operating-ramps``: issue 13's speed ramp nominal -3 -> +3 Hz
+over 10 s and oil temperature ramp +10 degC over 60 s) or ``oilwatch run`` gives them (``--speed-profile``,
 ``--oil-temperature-profile``). With a profile both FMUs run on the dimensionless bearing table
 (``bearing_table = 1``) and their inputs ``speed_hz`` and ``oil_temperature_c`` follow it.
 
@@ -39,12 +39,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from models.bearing.supply import ML_MIN_PER_M3_S
-from models.machine import BUNDLED_MACHINE, Machine, load_machine
-from models.system.fault import SCENARIO_DURATIONS_S
-from models.system.profiles import OperatingProfile, parse_profile
-from models.validation import InputError
 from oilwatch.experiment_config import SCENARIO_DEFAULTS, ScenarioConfig
+from oilwatch.models.bearing.supply import ML_MIN_PER_M3_S
+from oilwatch.models.machine import BUNDLED_MACHINE, Machine, load_machine
+from oilwatch.models.system.fault import SCENARIO_DURATIONS_S
+from oilwatch.models.system.profiles import OperatingProfile, parse_profile
+from oilwatch.models.validation import InputError
 
 STARVED_PCT = 75.0
 FLOODED_PCT = 125.0
@@ -77,8 +77,8 @@ class Scenario:
     speed: str
     speed_profile: str | None = None
     oil_temperature_profile: str | None = None
-    """Operating-point profiles (``models.system.profiles`` text, relative values from the machine's nominal
-    speed [Hz] and oil temperature [degC]); None: constant at nominal."""
+    """Operating-point profiles (``oilwatch.models.system.profiles`` text, relative values from the machine's
+    nominal speed [Hz] and oil temperature [degC]); None: constant at nominal."""
 
 
 _DROP = (100.0, STARVED_PCT)
@@ -245,7 +245,7 @@ def make_run(
     (flowrates, fault timing, noise, seed, nominal flowrate) cannot be overridden. The FMU checks names
     and values when the run starts.
 
-    speed_profile, oil_temperature_profile: ``models.system.profiles`` texts (``--speed-profile``,
+    speed_profile, oil_temperature_profile: ``oilwatch.models.system.profiles`` texts (``--speed-profile``,
     ``--oil-temperature-profile``) replacing the scenario's own; values may be relative to the machine's
     nominal (``+d``/``-d``).
 

@@ -18,7 +18,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from models.validation import InputError
+from oilwatch.models.validation import InputError
 
 from ..cosim.extraction import cache_root, prune
 from ..cosim.fmu_build import build_in_subprocess
@@ -34,7 +34,7 @@ KEEP_BUILDS = 4
 
 def build_inputs(machine=None) -> list[tuple[str, Path]]:
     """Every file that goes into the FMUs of ``machine`` (default: the bundled turbine), with its name."""
-    from models.machine import load_machine
+    from oilwatch.models.machine import load_machine
 
     from ..cosim.fmu_build import FMU_PACKAGES, machine_files, package_dir
 

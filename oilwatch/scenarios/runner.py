@@ -113,7 +113,7 @@ def _operating_columns(plant, machine_file: str) -> dict[str, tuple[str, float]]
     FMU (a master's :class:`~oilwatch.cosim.loading.Slave`) has as inputs (the oil temperature only for a
     machine with an oil); the nominal value replaces the input's "the machine's nominal" sentinel (speed 0,
     temperature -300) in result.csv."""
-    from models.machine import load_machine
+    from oilwatch.models.machine import load_machine
 
     machine = load_machine(machine_file or None)
     nominal = {"speed_hz": machine.nominal_speed_hz, "oil_temperature_c": machine.nominal_oil_temperature_c}

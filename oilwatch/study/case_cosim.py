@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from models.system.identifiability import cramer_rao_bound
+from oilwatch.models.system.identifiability import cramer_rao_bound
 
 from ..cosim.values import FMI2_INTEGER_RANGE
 from .cases import CaseFailure, CaseResult, reduce_record
@@ -40,7 +40,7 @@ def full_system(machine_file: str | None = None, table_path: str | None = None):
     """The full-order (all dofs) rotor-bearing system of a machine file, built once per process."""
     key = (machine_file, table_path)
     if key not in _SYSTEMS:
-        from models.system.factory import load_system
+        from oilwatch.models.system.factory import load_system
 
         _SYSTEMS[key] = load_system(machine_file, reduced=False, table_path=table_path)
     return _SYSTEMS[key]

@@ -3,10 +3,12 @@
 The same physics and estimator the two FMUs wrap, called directly, so that the study's accuracy figures can be
 measured (and the FMU path later cross-checked against them) without the co-simulation:
 
-* truth: ``models.system.plant.RotorBearingPlant`` on the FULL model (Newmark trapezoidal integration with
+* truth: ``oilwatch.models.system.plant.RotorBearingPlant`` on the FULL model (Newmark trapezoidal integration
+with
   sub-steps, started in the steady orbit of the case's flowrates), white noise of ``case.noise_um`` on each
   of the four displacement probes, seeded with ``case.rng_seed``; flowrates held constant;
-* estimator: ``estimator.ekf.OilFlowEKF`` on ``GridAugmentedModel`` of the REDUCED model (the estimator's own
+* estimator: ``oilwatch.estimator.ekf.OilFlowEKF`` on ``GridAugmentedModel`` of the REDUCED model (the
+estimator's own
   discrete map, not the truth's), configured by ``EKFConfig.recommended`` with the case's noise level, the
   first sample at t = dt (the plant's first output is its state after one step), initial estimate the paper's
   (zero states, q = the machine's nominal flowrate);
@@ -21,10 +23,10 @@ import time
 
 import numpy as np
 
-from estimator.config import EKFConfig
-from estimator.ekf import OilFlowEKF
-from models.system.augmented import GridAugmentedModel
-from models.system.plant import RotorBearingPlant, publish_initial_sample
+from oilwatch.estimator.config import EKFConfig
+from oilwatch.estimator.ekf import OilFlowEKF
+from oilwatch.models.system.augmented import GridAugmentedModel
+from oilwatch.models.system.plant import RotorBearingPlant, publish_initial_sample
 
 from .case_cosim import FMI_SEED_MODULUS, ML_MIN_TO_M3_S, full_system
 from .cases import CaseResult, reduce_record
@@ -39,7 +41,7 @@ def estimator_model(machine_file: str | None = None, table_path: str | None = No
     """The EKF's model (reduced system, flowrate grid of exact discrete maps), built once per process."""
     key = (machine_file, table_path)
     if key not in _ESTIMATOR_MODELS:
-        from models.system.factory import load_system
+        from oilwatch.models.system.factory import load_system
 
         reduced = load_system(machine_file, reduced=True, table_path=table_path)
         _ESTIMATOR_MODELS[key] = GridAugmentedModel(reduced, SAMPLE_DT_S)
@@ -66,8 +68,8 @@ def nuisance_settings(machine_file: str | None) -> dict:
     machine file's ``[probes]`` prior and drift, and the complex unbalance (prior std 2, relative to the
     machine file's: ``oilwatch robustness``'s default). The plant has none of them: the study then shows the
     price of not knowing them (the nuisance Cramer-Rao bound), not a discrepancy."""
-    from models.machine import load_machine
-    from models.probes import read_probes
+    from oilwatch.models.machine import load_machine
+    from oilwatch.models.probes import read_probes
 
     probes = read_probes(load_machine(machine_file))
     return {

@@ -15,11 +15,11 @@ from functools import cache
 
 import numpy as np
 
-from models.bearing.supply import ML_MIN_PER_M3_S
-from models.machine import Machine, load_machine
-from models.system.factory import is_bundled
-from models.validation import InputError, require_positive
 from oilwatch.experiment_config import STUDY_DEFAULTS
+from oilwatch.models.bearing.supply import ML_MIN_PER_M3_S
+from oilwatch.models.machine import Machine, load_machine
+from oilwatch.models.system.factory import is_bundled
+from oilwatch.models.validation import InputError, require_positive
 
 
 @cache

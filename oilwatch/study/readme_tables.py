@@ -19,7 +19,7 @@ import shlex
 import sys
 from pathlib import Path
 
-from models.validation import InputError
+from oilwatch.models.validation import InputError
 
 from ..cli.readme_block import replace_block
 

@@ -12,7 +12,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from models.validation import InputError
+from oilwatch.models.validation import InputError
 
 from .case_cosim import CosimCase, ModelCrlb
 from .case_direct import run_direct_case, run_direct_case_nuisances_unknown

@@ -22,7 +22,7 @@ from uuid import uuid4
 
 import numpy as np
 
-from models.validation import InputError
+from oilwatch.models.validation import InputError
 
 from .cases import CaseResult
 from .grid import Case

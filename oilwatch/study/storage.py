@@ -25,7 +25,7 @@ from contextlib import contextmanager
 from dataclasses import fields
 from pathlib import Path
 
-from models.validation import InputError
+from oilwatch.models.validation import InputError
 
 from .cases import CaseResult
 
