@@ -18,7 +18,8 @@ flowrate
   evaluation), when its coefficient table is found (``--table``, default: the machine's table next to the
   machine file). Here the model's own evaluation is part of each step, as it would be in the estimator.
 
-The FMU is ``--fmu`` (default: built into a temporary folder with ``build.build_fmus``); its line needs the
+The FMU is ``--fmu`` (default: built into a temporary folder with ``oilwatch.cosim.fmu_build.build_fmus``);
+its line needs the
 system family, whose reduced-model response feeds it. ``benchmarks/ekf_fmu_step.py`` splits the FMU's step
 into the library step, the shell's Python and the FMI floor (its :class:`FmuLoop` is the loop timed here).
 

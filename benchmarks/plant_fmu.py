@@ -128,7 +128,7 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=3)
     args = parser.parse_args()
     sys.path.insert(0, str(REPO_ROOT))
-    from build import build_fmus
+    from oilwatch.cosim.fmu_build import build_fmus
 
     with tempfile.TemporaryDirectory() as folder:
         build_fmus(Path(folder), only=["RotorBearingPlant"], systems=())
