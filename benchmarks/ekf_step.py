@@ -59,8 +59,8 @@ from ekf_step_ramps import operating_rows, plant_ramp_record
 from filterpy.kalman import ExtendedKalmanFilter
 from step_timing import time_per_step, use_process_time
 
-from oilwatch.estimator.config import EKFConfig
 from oilwatch.estimator.ekf import OilFlowEKF
+from oilwatch.estimator.ekf_config import EKFConfig
 from oilwatch.estimator.toy_model import NOMINAL_FLOWRATE_M3_S, SPEED_HZ
 from oilwatch.models.machine import load_machine
 from oilwatch.models.system.augmented import GridAugmentedModel

@@ -1,7 +1,7 @@
 """What the operating model's re-centrings cost on the free-factor ramp rows of the robustness report.
 
 For each ``--cases`` row at 100/100 (the report's settings and record: its plant motion from
-``--motion-cache``, as ``scripts/free_factor_noise_spread.py`` keeps it, with the report's noise draw,
+``--motion-cache``, kept there by the first run, with the report's noise draw,
 seed 1), the row's estimator (the start bank, fed the measured speed and oil temperature) runs the 60 s
 record.
 Printed per pass: the process CPU of the run, the re-centrings (every filter's, counted by wrapping
@@ -14,18 +14,38 @@ on ``PYTHONPATH`` (e.g. a baseline from ``git archive``), alternating, for a sam
 from __future__ import annotations
 
 import argparse
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
-from free_factor_noise_spread import measured, plant_motion
-
 from oilwatch.models.system import operating_model
+from oilwatch.models.system.measurement import MeasurementChain
+from oilwatch.robustness.case_run import DT_S, RobustnessRun
 from oilwatch.robustness.cases import case_by_name
-from oilwatch.robustness.runner import DT_S, REPORT_SETTINGS, RobustnessRun
+from oilwatch.robustness.runner import REPORT_SETTINGS
+
+
+def plant_motion(run: RobustnessRun, case, point, cache: Path | None):
+    """(true (K, 4), rotor angle (K,), times (K,)) of the case's plant, from ``cache`` when there."""
+    path = None if cache is None else cache / f"{case.name}_{point[0]:g}_{point[1]:g}_motion.npz"
+    if path is not None and path.exists():
+        data = np.load(path)
+        return data["true"], data["angle"], data["clock"]
+    true, angle, clock = run.true_motion(case, point, run.seed)
+    if path is not None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        np.savez(path, true=true, angle=angle, clock=clock)
+    return true, angle, clock
+
+
+def measured(run: RobustnessRun, case, true, angle, clock, seed: int | None) -> np.ndarray:
+    """The case's probes on ``true``: noise from ``default_rng(seed)`` as the plant draws it (None: none)."""
+    chain = run.chain(case, True)
+    if seed is None:
+        chain = MeasurementChain(chain.probes, chain.mounting_angle_rad, 0.0)
+    rng, held = np.random.default_rng(run.seed if seed is None else seed), np.zeros(4)
+    return np.array([chain.measure(true[k], angle[k], clock[k], rng, held) for k in range(len(clock))])
 
 
 def counted_recentring() -> list[float]:

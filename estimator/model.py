@@ -20,7 +20,7 @@ reduced (modal or Craig-Bampton) coordinates whose meaning only the model knows:
   P0 with it.
 
 An optional third, ``static_state(flowrate)``, gives the static equilibrium for the ``initial_state="static"``
-option of :class:`oilwatch.estimator.config.EKFConfig`; models without it support only the paper's zero
+option of :class:`oilwatch.estimator.ekf_config.EKFConfig`; models without it support only the paper's zero
 initial state. Two optional attributes carry the machine facts a configuration may leave open
 (``EKFConfig.for_model``): ``nominal_flowrate_m3_s`` (the machine file's nominal supply flowrate) and
 ``speed_hz`` (the model's speed). An optional attribute ``clearance_m`` (the bearings' radial clearance [m])

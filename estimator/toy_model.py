@@ -32,7 +32,7 @@ from oilwatch.models.machine import load_machine
 from oilwatch.models.rotor.assembly import Rotor
 from oilwatch.models.validation import InputError
 
-from .config import ML_MIN
+from .ekf_config import ML_MIN
 
 STIFFNESS_N_M = 4.0e7
 SHAFT_STIFFNESS_N_M = 3.0e7

@@ -25,12 +25,8 @@ from collections.abc import Callable
 
 import numpy as np
 
-from .config import (
-    RECOMMENDED_DISPLACEMENT_PROCESS_STD_M,
-    VELOCITY_NOISE_MODES,
-    EKFConfig,
-)
 from .ekf import OilFlowEKF
+from .ekf_config import RECOMMENDED_DISPLACEMENT_PROCESS_STD_M, VELOCITY_NOISE_MODES, EKFConfig
 from .toy_model import NOMINAL_FLOWRATE_M3_S, SPEED_HZ, ToyRotor, simulate
 
 _OMEGA = 2.0 * np.pi * SPEED_HZ

@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 
 from oilwatch.estimator.alarm import StarvationAlarm
-from oilwatch.estimator.config import AlarmConfig, EKFConfig
+from oilwatch.estimator.alarm_config import AlarmConfig
 from oilwatch.estimator.ekf import OilFlowEKF
+from oilwatch.estimator.ekf_config import EKFConfig
 from oilwatch.estimator.toy_model import NOMINAL_FLOWRATE_M3_S, ToyRotor, simulate
 
 QN = NOMINAL_FLOWRATE_M3_S

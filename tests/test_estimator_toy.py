@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from oilwatch.estimator.config import ML_MIN
+from oilwatch.estimator.ekf_config import ML_MIN
 from oilwatch.estimator.toy_model import NOMINAL_FLOWRATE_M3_S, TABLE_BOUNDS_M3_S, ToyRotor, simulate
 
 

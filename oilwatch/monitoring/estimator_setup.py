@@ -11,7 +11,8 @@ from __future__ import annotations
 
 import functools
 
-from oilwatch.estimator.config import EKFConfig, OffsetBaseline
+from oilwatch.estimator.ekf_config import EKFConfig
+from oilwatch.estimator.offset_baseline import OffsetBaseline
 from oilwatch.estimator.runout import SlowRollVectors
 from oilwatch.models.machine import load_machine
 from oilwatch.models.probes import Probes
