@@ -14,7 +14,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from ekf_step import plant_ramp_record
+from ekf_step_ramps import plant_ramp_record
 
 from oilwatch import estimator
 from oilwatch.estimator.ekf import OilFlowEKF

@@ -1,8 +1,8 @@
 """The contract between the estimator and a rotor-bearing system model (paper Eqs. 14-16).
 
 The estimator never builds physics itself: it drives any object that satisfies :class:`AugmentedModel`.
-The system-model issue implements it in ``models/`` (full 168-state or reduced order); the tests use the toy
-oscillator of :mod:`oilwatch.estimator.toy_model`.
+``oilwatch.models.system`` implements it (full 168-state or reduced order); the tests use the toy
+oscillator of ``tests/fixtures/toy_model.py``.
 
 State convention: the dynamic state ``s`` is absolute, i.e. the measured displacements ``H @ s`` are measured
 from the bearing centre with the static eccentricity included, because gravity and the ``K(q) e0(q)`` term are

@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from fixtures.toy_model import ToyRotor
 
 from oilwatch.estimator.alarm_config import AlarmConfig
 from oilwatch.estimator.ekf import OilFlowEKF
 from oilwatch.estimator.ekf_config import ML_MIN, EKFConfig
 from oilwatch.estimator.model import AugmentedModel
-from oilwatch.estimator.toy_model import ToyRotor
 from oilwatch.models.validation import InputError
 
 
