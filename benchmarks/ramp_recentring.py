@@ -8,7 +8,8 @@ Printed per pass: the process CPU of the run, the re-centrings (every filter's, 
 ``OperatingAugmentedModel._recentre``) per minute of record and their median CPU each. Run it once per tree
 on ``PYTHONPATH`` (e.g. a baseline from ``git archive``), alternating, for a same-run ratio::
 
-    OPENBLAS_NUM_THREADS=1 python benchmarks/ramp_recentring.py --motion-cache DIR [--repeats 2]
+    OPENBLAS_NUM_THREADS=1 python benchmarks/ramp_recentring.py --motion-cache DIR [--repeats 2] \\
+        [--duration-s 60]
 """
 
 from __future__ import annotations
@@ -28,7 +29,8 @@ from oilwatch.robustness.runner import REPORT_SETTINGS
 
 def plant_motion(run: RobustnessRun, case, point, cache: Path | None):
     """(true (K, 4), rotor angle (K,), times (K,)) of the case's plant, from ``cache`` when there."""
-    path = None if cache is None else cache / f"{case.name}_{point[0]:g}_{point[1]:g}_motion.npz"
+    name = f"{case.name}_{point[0]:g}_{point[1]:g}_{run.duration_s:g}s_motion.npz"
+    path = None if cache is None else cache / name
     if path is not None and path.exists():
         data = np.load(path)
         return data["true"], data["angle"], data["clock"]
@@ -67,9 +69,10 @@ def main() -> None:
     parser.add_argument("--motion-cache", type=Path, required=True)
     parser.add_argument("--cases", nargs="+", default=["speed-ramp", "temperature-ramp"])
     parser.add_argument("--repeats", type=int, default=1)
+    parser.add_argument("--duration-s", type=float, default=REPORT_SETTINGS["duration_s"], help="record [s]")
     args = parser.parse_args()
     costs = counted_recentring()
-    run = RobustnessRun(REPORT_SETTINGS)
+    run = RobustnessRun({**REPORT_SETTINGS, "duration_s": args.duration_s})
     print(f"tree {Path(operating_model.__file__).resolve().parents[2]}")
     for name in args.cases:
         case, point = case_by_name(name), (100.0, 100.0)
