@@ -23,18 +23,18 @@ then update with the measured displacements (Eqs. 22-24, Joseph form, Cholesky s
 update uses
   every channel that passed (a NaN on one probe drops that channel, not the update). A probe that is dead,
   stuck, out of its physical range or persistently rejected alone is flagged (``probe_status``) and excluded
-  until it has looked healthy for ``probe_recover_s``. Nothing is ever forced through the gate.
+  until it has looked healthy for ``PROBE_RECOVER_S``. Nothing is ever forced through the gate.
 * Differentiated velocities (eight-channel modes) use a channel's two consecutive accepted samples.
 * Change detection and adaptive process noise: a fading-memory mean of each channel's standardized
-  innovation (time constant ``change_window_s``; white and N(0, a / (2 - a)) per channel under the model,
+  innovation (time constant ``CHANGE_WINDOW_S``; white and N(0, a / (2 - a)) per channel under the model,
   ``a`` its weight) is tested per bearing against the chi-square(2) quantile of
-  ``change_tail_probability``; while it fires, that bearing's flowrate gets the extra process noise
+  ``CHANGE_TAIL_PROBABILITY``; while it fires, that bearing's flowrate gets the extra process noise
   ``change_flowrate_std_fraction`` of nominal per step (Bar-Shalom, Li & Kirubarajan 2001, sec. 11.2: a
   process-noise level switched by an innovation test). A flowrate change shows first as a persistent mean
   innovation of its bearing's probes; the filter's std then widens at once so that it covers the lag of the
   estimate, and shrinks again with the data once the innovation is white.
-* ``model_consistent``: the sum of the NIS over the last ``consistency_window_s`` does not exceed the
-  chi-square quantile ``1 - consistency_tail_probability`` of its degrees of freedom (Bar-Shalom et al.
+* ``model_consistent``: the sum of the NIS over the last ``CONSISTENCY_WINDOW_S`` does not exceed the
+  chi-square quantile ``1 - CONSISTENCY_TAIL_PROBABILITY`` of its degrees of freedom (Bar-Shalom et al.
   sec. 5.4.2, the time-average NIS test; Wilson-Hilferty approximation of the quantile). A discrepancy that
   the states can absorb (an offset that looks like a flow change) stays invisible to it; one they cannot
   (a wrong 1x orbit) shows. The alarm records whether the model was consistent when it was raised.
@@ -43,8 +43,8 @@ update uses
   active bound holds exactly), which also moves the correlated dynamic states; P is left unchanged, a
   conservative choice that keeps the flowrate free to leave the bound (the projected covariance would have
   zero variance there). The model is therefore never evaluated outside its table.
-* ``converged``: both flowrate stds below ``converged_std_fraction`` of nominal, both estimates changed by
-  less than ``converged_drift_fraction`` of nominal over the last ``converged_window_s``, and some channel
+* ``converged``: both flowrate stds below ``CONVERGED_STD_FRACTION`` of nominal, both estimates changed by
+  less than ``CONVERGED_DRIFT_FRACTION`` of nominal over the last ``CONVERGED_WINDOW_S``, and some channel
   updated the filter within that window.
 """
 
@@ -59,7 +59,14 @@ from oilwatch.models.validation import InputError
 from . import channels
 from .alarm import StarvationAlarm
 from .ekf_batch import BatchRuns
-from .ekf_config import EKFConfig
+from .ekf_config import (
+    CONSISTENCY_WINDOW_S,
+    CONVERGED_WINDOW_S,
+    INITIAL_DISPLACEMENT_STD_M,
+    INITIAL_VELOCITY_STD_M_S,
+    UNBALANCE_RANDOM_WALK_SQRT_S,
+    EKFConfig,
+)
 from .ekf_prediction import ModelPrediction
 from .ekf_reporting import FilterReporting
 from .ekf_setup import (
@@ -158,8 +165,8 @@ class OilFlowEKF(FilterReporting, BatchRuns, ModelPrediction, FilterStateIO):
         self._channel_settings = channel_settings(cfg, model, self._dt)
         self._q_var = (cfg.flowrate_process_std_m3_s / self._q_nominal) ** 2
         self._settings = step_settings(cfg, self._dt, bounds_scaled, self._q_var)
-        self._consistency_steps = max(1, round(cfg.consistency_window_s / self._dt))
-        unbalance_walk = cfg.unbalance_random_walk_sqrt_s**2 * self._dt
+        self._consistency_steps = max(1, round(CONSISTENCY_WINDOW_S / self._dt))
+        unbalance_walk = UNBALANCE_RANDOM_WALK_SQRT_S**2 * self._dt
         self._summary_settings = summary_settings(cfg, self._q_nominal, self._bounds, unbalance_walk)
         self._report = np.zeros(REPORT_SIZE)
         self._batch_table = np.empty((0, REPORT_SIZE))
@@ -179,7 +186,7 @@ class OilFlowEKF(FilterReporting, BatchRuns, ModelPrediction, FilterStateIO):
         self._work = np.zeros((self._size, self._size))
         self._z8 = np.zeros(8)
         self._accepted = np.zeros(4, dtype=bool)
-        self._window = max(1, round(cfg.converged_window_s / self._dt))
+        self._window = max(1, round(CONVERGED_WINDOW_S / self._dt))
         self.alarm = StarvationAlarm(cfg.alarm, self._dt, self._q_nominal)
         # shadow Jacobian and settling start while the flowrates are estimated beside viscosity factors
         # that no baseline primed: the nearly unobservable direction (estimator/nuisance_start.py)
@@ -207,7 +214,7 @@ class OilFlowEKF(FilterReporting, BatchRuns, ModelPrediction, FilterStateIO):
         self._x[n : n + 2] = q0 / self._q_nominal
         self._P = np.zeros((self._size, self._size))
         self._P[:n, :n] = physical_covariance(
-            self.model, n, cfg.initial_displacement_std_m, cfg.initial_velocity_std_m_s
+            self.model, n, INITIAL_DISPLACEMENT_STD_M, INITIAL_VELOCITY_STD_M_S
         )
         self._P[n : n + 2, n : n + 2] = (cfg.initial_flowrate_std_m3_s / self._q_nominal) ** 2 * np.eye(2)
         baseline = cfg.offset_baseline
