@@ -121,7 +121,7 @@ class EKFConfig:
         (from
             ``oilwatch baseline --slow-roll-record``): subtracted from each sample at its rotor angle, their
             fit's uncertainty added to the measurement noise (None: no compensation).
-    Viscosity factors (issue 14 item 1)
+    Viscosity factors
         viscosity_factor_prior_std : prior std of each bearing's effective viscosity factor ``f_b`` (the
             film's viscosity over the oil law's at the measured oil temperature: film heating and model error;
             prior 1); 0 (the paper's calibrated setting) keeps both factors at 1 and out of the state, > 0
@@ -224,10 +224,9 @@ class EKFConfig:
 
         Dynamic process-noise stds of 0.1 um and 0.1 um x Omega per step (Omega = 2 pi speed_hz; None: the
         model's speed, resolved by :meth:`for_model`). The truth
-        has no process noise; what Q must cover is the model error, far below the paper's 10 um per step.
-        Measured on the issue-4 plant (Newmark full model; reduced grid model in the filter; sigma 1 um):
-        NIS/m 0.99 against 0.14 with the paper's values, mean |error| of constant flowrates 0.09 % against
-        0.59 %, starvation alarm 0.45-0.6 s after the centre of a sudden 25 % drop against 1.2-1.5 s.
+        has no process noise; what Q must cover is the model error, far below the paper's 10 um per step:
+        with the paper's values the filter is conservative (NIS far below its degrees of freedom), biased
+        and slow to alarm (the docs' tuning table).
         ``overrides`` replace any other field.
         """
         velocity = None

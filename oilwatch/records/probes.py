@@ -55,7 +55,7 @@ TOP_KEYS = (
     "keyphasor_angle_deg",
 )
 FOREIGN_KEYS_PREFIX = ("offset_", "prior_")
-"""[probes] keys of the estimator's nuisance priors (issue 14): accepted here, not used by the reader."""
+"""[probes] keys of the estimator's nuisance priors: accepted here, not used by the reader."""
 
 
 @dataclass(frozen=True)
@@ -203,7 +203,7 @@ def probe_setup(table: Mapping[str, object] | None = None, overrides: Iterable[s
 
 def _probe(name: str, table: Mapping[str, object], default_angle: float) -> Probe:
     for key in table:
-        if key not in PROBE_KEYS and not key.startswith("runout_"):  # runout_*: the estimator's (issue 14)
+        if key not in PROBE_KEYS and not key.startswith("runout_"):  # runout_*: the estimator's
             raise InputError(f"probes.{name}.{key}: unknown key; allowed: {', '.join(PROBE_KEYS)}")
     unit = _text(table.get("unit", "um"), f"{name}.unit")
     if unit not in UNITS:

@@ -38,7 +38,7 @@ def with_case_bounds(rows: Sequence[dict], settings: dict) -> list[dict]:
 
 
 def coverage_line(rows: Sequence[dict]) -> str:
-    """How many rows have the truth within +-2 std at the end (issue 14 asks 90 % of its listed cases)."""
+    """How many rows have the truth within +-2 std at the end (the target is 90 % of the listed cases)."""
     from .cases import CASES
 
     listed = {case.name for case in CASES if case.listed}
