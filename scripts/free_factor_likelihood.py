@@ -1,6 +1,6 @@
 """Is the free-factor ramp rows' wrong end point a local optimum of the record's likelihood, or the EKF's?
 
-For one cached robustness record (``/work/cache/m14/records/<case>_<q1>_<q2>_60.npz``, the robustness
+For one cached robustness record (``RECORDS/<case>_<q1>_<q2>_60.npz``, the robustness
 plant's measured samples, speed and oil temperature) this runs the row's filter (viscosity factors free,
 no baseline) from its nominal start, and as a diagnostic from ``q_initial`` at the case's truth point (the
 only use of the truth: to get the other end point to compare; never a start of the method). Each run's
@@ -88,7 +88,7 @@ def main() -> None:
     parser.add_argument("q1", type=float)
     parser.add_argument("q2", type=float)
     parser.add_argument("--along", type=float, nargs="*", default=[0.0, 0.5, 1.0])
-    parser.add_argument("--records", default="/work/cache/m14/records")
+    parser.add_argument("--records", required=True, help="folder of the cached robustness records")
     args = parser.parse_args()
     case = case_by_name(args.case)
     runner = RobustnessRun(SETTINGS)

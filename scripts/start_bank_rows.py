@@ -5,7 +5,7 @@ at the report's settings: 60 s, 1 um, seed 1); each row is ``RobustnessRun.run_c
 the row is the report's row (the runner uses :class:`oilwatch.estimator.start_bank.StartBank` where it
 applies).
 
-    python scripts/start_bank_rows.py docs/robustness/n14r2/ramps
+    python scripts/start_bank_rows.py RECORDS OUT
 """
 
 from __future__ import annotations
@@ -31,7 +31,8 @@ ROWS = [
 class CachedRun(RobustnessRun):
     """The run with each record read from the cache."""
 
-    records = Path("/work/cache/m14/records")
+    records = Path(".")
+    """The folder of the cached records (the script's first argument)."""
 
     def record(self, case, point_pct, seed, after_baseline=True):
         data = np.load(self.records / f"{case.name}_{point_pct[0]:g}_{point_pct[1]:g}_60.npz")
@@ -39,7 +40,8 @@ class CachedRun(RobustnessRun):
 
 
 def main() -> None:
-    out = Path(sys.argv[1])
+    CachedRun.records = Path(sys.argv[1])
+    out = Path(sys.argv[2])
     out.mkdir(parents=True, exist_ok=True)
     run = CachedRun(SETTINGS)
     rows = []

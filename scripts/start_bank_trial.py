@@ -25,7 +25,7 @@ def main() -> None:
     parser.add_argument("case", help="a robustness case, or 'const' (free factors at constant conditions)")
     parser.add_argument("q1", type=float)
     parser.add_argument("q2", type=float)
-    parser.add_argument("--records", default="/work/cache/m14/records")
+    parser.add_argument("--records", required=True, help="folder of the cached robustness records")
     args = parser.parse_args()
     if args.case == "const":
         case = Case("const", "free factors, constant conditions", operating_point=True)
