@@ -135,7 +135,7 @@ def run(args) -> int:
             checkpoint=checkpoint,
             provenance={
                 "command_line": command_line(args),
-                "machine_file": str(machine.source_path),
+                "machine_file": machine.source_path.name,  # its name: no folder of the machine that made it
                 "nominal_sommerfeld": nominal,
             },
         )
