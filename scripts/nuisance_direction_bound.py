@@ -22,8 +22,8 @@ import os
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np
-from oilwatch.estimator.config import EKFConfig
 
+from oilwatch.estimator.ekf_config import EKFConfig
 from oilwatch.models.machine import load_machine
 from oilwatch.models.probes import read_probes
 from oilwatch.models.system.factory import build_system

@@ -60,8 +60,8 @@ def _command_lines(text: str) -> list[str]:
     and ``nice`` dropped."""
     joined = text.replace("\\\n", " ")
     out = []
-    for line in (part for line in joined.splitlines() for part in line.split("&&")):
-        words = line.split()
+    for command in (part for line in joined.splitlines() for part in line.split("&&")):
+        words = command.split()
         while words and (re.fullmatch(r"[A-Z_]+=\S*", words[0]) or words[0] in ("nice", "-n", "10")):
             words = words[1:]
         out.append(" ".join(words))

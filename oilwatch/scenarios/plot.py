@@ -23,7 +23,7 @@ def plot_estimates(run: ScenarioRun, columns: dict[str, np.ndarray], summary: di
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from oilwatch.estimator.config import AlarmConfig
+    from oilwatch.estimator.alarm_config import AlarmConfig
 
     time_s = columns["time_s"]
     nominal = run.nominal_ml_min
