@@ -23,7 +23,8 @@ from oilwatch.cosim.values import FMI2_INTEGER_RANGE, fmi_value
 from oilwatch.models.bearing.table import CoefficientTable
 from oilwatch.models.machine import BUNDLED_MACHINE, load_machine
 from oilwatch.models.validation import InputError
-from oilwatch.study.storage import study_lock, write_json_atomic
+from oilwatch.outputs.atomic import write_json_atomic
+from oilwatch.outputs.lock import output_lock
 
 TABLE = BUNDLED_MACHINE.parent / "tables" / "turbine_bearing_75hz.json"
 
@@ -214,8 +215,8 @@ def test_a_run_that_starts_removes_the_previous_runs_files_and_keeps_its_own_row
 HOLDER = """
 import sys, time
 from pathlib import Path
-from oilwatch.study.storage import study_lock
-with study_lock(Path(sys.argv[1])):
+from oilwatch.outputs.lock import output_lock
+with output_lock(Path(sys.argv[1]), "study"):
     print("locked", flush=True)
     time.sleep(60)
 """
@@ -232,20 +233,21 @@ def test_a_second_study_into_the_same_folder_is_refused_and_a_dead_holders_lock_
     try:
         assert holder.stdout.readline().strip() == "locked"
         with pytest.raises(InputError) as error:
-            with study_lock(tmp_path):
+            with output_lock(tmp_path, "estimate"):
                 pass
-        assert f"another oilwatch study (pid {holder.pid}) is running in this folder" in str(error.value)
+        assert f"oilwatch study (pid {holder.pid}, started " in str(error.value)
+        assert "is writing this folder" in str(error.value)
         line = one_line_error(
             capsys, ["study", "--out", str(tmp_path), "--case", "synthetic", "--workers", "1"]
         )
-        assert f"(pid {holder.pid})" in line and not (tmp_path / "cases.csv").exists()
+        assert f"(pid {holder.pid}, started " in line and not (tmp_path / "cases.csv").exists()
     finally:
         holder.kill()
         holder.wait()
-    assert (tmp_path / "study.lock").read_text().strip() == str(holder.pid)  # killed: its pid stays
-    with study_lock(tmp_path):
-        assert (tmp_path / "study.lock").read_text().strip() == str(os.getpid())
-    assert (tmp_path / "study.lock").read_text() == ""
+    assert json.loads((tmp_path / "oilwatch.lock").read_text())["pid"] == holder.pid  # killed: it stays
+    with output_lock(tmp_path, "study"):
+        assert json.loads((tmp_path / "oilwatch.lock").read_text())["pid"] == os.getpid()
+    assert (tmp_path / "oilwatch.lock").read_text() == ""
 
 
 def test_concurrent_atomic_writes_never_lose_their_temporary_file(tmp_path):

@@ -8,6 +8,8 @@ import html
 import json
 from pathlib import Path
 
+from oilwatch.outputs.atomic import write_text_atomic
+
 from .views import VIEW_FILES
 
 CAPTIONS = {
@@ -117,8 +119,7 @@ def write_report(summary: dict, out_dir: Path) -> Path:
         "</body></html>\n"
     )
     path = out_dir / "report.html"
-    path.write_text(page, encoding="utf-8")
-    return path
+    return write_text_atomic(path, page)
 
 
 def _without_views(summary: dict) -> dict:
