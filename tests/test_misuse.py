@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 import subprocess
 import sys
 import threading
@@ -23,6 +24,7 @@ from oilwatch.cosim.values import FMI2_INTEGER_RANGE, fmi_value
 from oilwatch.models.bearing.table import CoefficientTable
 from oilwatch.models.machine import BUNDLED_MACHINE, load_machine
 from oilwatch.models.validation import InputError
+from oilwatch.outputs import interrupts
 from oilwatch.outputs.atomic import write_json_atomic
 from oilwatch.outputs.lock import output_lock
 
@@ -192,8 +194,9 @@ def test_a_speed_sweep_of_the_wrong_shape_is_named(tmp_path):
 # ------------------------------------------------------------------ stale outputs of an interrupted run
 def test_a_run_that_starts_removes_the_previous_runs_files_and_keeps_its_own_rows(tmp_path):
     """The scenario runner's recorder: the previous run's files go when the new run's recording starts
-    (all FMUs initialized), the rows written before a stop stay (the end-to-end Ctrl-C case is in
-    test_cli_run; a run refused at initialization keeps the previous files: the slow test below)."""
+    (all FMUs initialized; summary.json then says the run is not complete), the rows written before a
+    stop stay (the end-to-end Ctrl-C case is in test_cli_run; a run refused at initialization keeps the
+    previous files: the slow test below)."""
     from oilwatch.cosim import CsvRecorder
     from oilwatch.scenarios.runner import OUTPUT_FILES, _StopBetweenSteps
 
@@ -203,11 +206,12 @@ def test_a_run_that_starts_removes_the_previous_runs_files_and_keeps_its_own_row
     recorder = _StopBetweenSteps(CsvRecorder(tmp_path / "result.csv"), stale)
     recorder.start(["q1"])
     recorder.record(0.0, [596.3])
-    recorder.stop_requested = True
-    with pytest.raises(KeyboardInterrupt):
+    with pytest.raises(KeyboardInterrupt), interrupts.held():
+        os.kill(os.getpid(), signal.SIGTERM)  # held back until the row is whole
         recorder.record(0.001, [596.3])
     recorder.close()
-    assert sorted(path.name for path in tmp_path.iterdir()) == ["result.csv"]
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["result.csv", "summary.json"]
+    assert json.loads((tmp_path / "summary.json").read_text())["completed"] is False
     assert (tmp_path / "result.csv").read_text().splitlines()[1:] == ["0.0,596.3", "0.001,596.3"]
 
 
@@ -330,4 +334,6 @@ def test_misused_run_flags_give_one_line_naming_the_flag(built_fmus, tmp_path):
         lines = process.stderr.strip().splitlines()
         assert process.returncode == 2, (args, process.stderr)
         assert len(lines) == 1 and message in lines[0], (args, lines, time.perf_counter() - start)
-        assert sorted(path.name for path in out.iterdir()) == ["summary.json"], args
+        # the previous run's summary kept, beside the (empty) lock file of the folder
+        assert sorted(path.name for path in out.iterdir()) == ["oilwatch.lock", "summary.json"], args
+        assert (out / "summary.json").read_text() == "{}\n"

@@ -51,6 +51,9 @@ OUTPUTS: dict[str, dict[str, str]] = {
     "campbell": {"out": "file"},
     "speed-sweep": {"out": "file"},
     "bearing-table": {"out": "file", "plot": "file"},
+    "build-fmus": {"out": "folder"},
+    "robustness": {"out": "folder"},
+    "baseline": {"out": "file"},
 }
 """Each command's output options (argparse dest -> ``folder`` or ``file``), checked by :func:`main` before
 the command runs (:mod:`oilwatch.cli.outputs`). A new command with an output option adds its line here."""
@@ -86,7 +89,7 @@ def main(argv: list[str] | None = None) -> int:
     130 SIGINT, 143 SIGTERM (one line saying what was kept). docs/operations.md.
     """
     from oilwatch.outputs import interrupts, ledger
-    from oilwatch.outputs.rows import describe_os_error
+    from oilwatch.outputs.rows import OutputError, describe_os_error
 
     ledger.clear()
     command = "oilwatch"
@@ -96,6 +99,9 @@ def main(argv: list[str] | None = None) -> int:
         command = f"oilwatch {args.command}"
         check_outputs(args)
         return int(args.func(args) or 0)
+    except OutputError as error:
+        print(f"{command}: error: {error}; {ledger.kept()}", file=sys.stderr)
+        return 2
     except InputError as error:
         print(f"{command}: error: {error}", file=sys.stderr)
         return 2

@@ -92,6 +92,25 @@ def deferred() -> Iterator[None]:
         checkpoint()
 
 
+@contextmanager
+def held() -> Iterator[None]:
+    """:func:`deferred` for a block that calls :func:`checkpoint` where it may stop (a co-simulation, between
+    macro steps); the handlers are installed for the block when the console script did not install them
+    (a library caller), and the caller's restored after it."""
+    previous = None
+    if not _State.installed and threading.current_thread() is threading.main_thread():
+        previous = {signum: signal.getsignal(signum) for signum in SIGNALS}
+        install()
+    try:
+        with deferred():
+            yield
+    finally:
+        if previous is not None:
+            for signum, handler in previous.items():
+                signal.signal(signum, handler)
+            _State.installed = False
+
+
 def exit_code(error: BaseException) -> int:
     """The exit code of a stop: 130 for SIGINT (or a plain KeyboardInterrupt), 143 for SIGTERM."""
     return error.exit_code if isinstance(error, Interrupted) else 128 + signal.SIGINT

@@ -31,8 +31,8 @@ WRITE_ERRORS = {
 
 
 class OutputError(InputError):
-    """An output could not be written: one line naming the path, the reason and what was kept (exit code
-    2, as every InputError)."""
+    """An output could not be written: the path and the reason (:func:`oilwatch.cli.main` adds what was
+    kept, :mod:`.ledger`; exit code 2, as every InputError)."""
 
 
 def describe_os_error(error: OSError) -> str:
@@ -92,10 +92,7 @@ class RowFile:
                     os.fsync(self._fd)
             except OSError as error:
                 self._cut_back()
-                raise OutputError(
-                    f"cannot write {self.path}: {describe_os_error(error)}; it keeps its {self.lines} whole "
-                    "lines written before"
-                ) from None
+                raise OutputError(f"cannot write {self.path}: {describe_os_error(error)}") from None
             self.committed += len(data)
             self.lines += data.count(b"\n")
 
