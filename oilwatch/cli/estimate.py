@@ -32,8 +32,10 @@ def register(subparsers) -> None:
             "records run as Dask tasks, one output folder each (DIR/<record name>/). One run per output "
             "folder at a time; every file appears whole; summary.json, written last, says whether the run "
             "completed. Exit code 2 on a bad record (one line naming the column and the row) or an output "
-            "that cannot be written, 130 / 143 when interrupted by SIGINT / SIGTERM (estimates.csv keeps "
-            "whole rows; rerun to resume). See docs/operations.md."
+            "that cannot be written, 3 when the estimate sat at a coefficient-table limit or was "
+            "inconsistent with the model for over 10 % of the record (summary.json 'trust'), 130 / 143 "
+            "when interrupted by SIGINT / SIGTERM (estimates.csv keeps whole rows; rerun to resume). See "
+            "docs/operations.md."
         ),
     )
     parser.add_argument(
@@ -167,10 +169,17 @@ def run(args: argparse.Namespace) -> int:
     if live:
         summary = _run_one(source, out, options, progress=False, live=sys.stdout)
         print(_describe(summary), file=sys.stderr)
-        return 0
+        return _exit_code(summary)
     summary = _run_one(source, out, options, progress=not args.no_progress)
     print(json.dumps(summary, indent=2) if args.json else _describe(summary))
-    return 0
+    return _exit_code(summary)
+
+
+def _exit_code(summary: dict) -> int:
+    """0, or :data:`oilwatch.monitoring.trust.UNTRUSTED_EXIT_CODE` when the estimate is not trustworthy."""
+    from oilwatch.monitoring.trust import UNTRUSTED_EXIT_CODE
+
+    return 0 if summary.get("trust", {}).get("trusted", True) else UNTRUSTED_EXIT_CODE
 
 
 def _stem(source: str) -> str:
@@ -219,7 +228,7 @@ def _run_many(args, options) -> int:
     for source in args.records:
         open_record(source, "time_s").close()  # a missing or unknown file fails here, before the cluster
     base = Path(args.out) if args.out else Path("estimates")
-    failed = []
+    failed, untrusted = [], 0
     with dask_client(args.scheduler, args.workers) as client:
         futures = {
             client.submit(estimate_task, source, str(base / stem), options, pure=False): source
@@ -236,7 +245,8 @@ def _run_many(args, options) -> int:
                 print(f"oilwatch estimate: error: {error}", file=sys.stderr)
                 continue
             print(json.dumps(summary, indent=2) if args.json else _describe(summary))
-    return 2 if failed else 0
+            untrusted += _exit_code(summary) != 0
+    return 2 if failed else _exit_code({"trust": {"trusted": not untrusted}})
 
 
 def _describe(summary: dict) -> str:

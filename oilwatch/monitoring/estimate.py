@@ -41,6 +41,7 @@ from typing import TextIO
 
 import numpy as np
 
+from oilwatch.estimator.config import ML_MIN
 from oilwatch.estimator.factory import make_estimator
 from oilwatch.estimator.runout import SlowRollVectors, runout_of_probes
 from oilwatch.models.machine import Machine, load_machine
@@ -69,6 +70,7 @@ from .resume import (
     save_point,
 )
 from .timing import CpuMarks, LatencyHistogram
+from .trust import TrustShares, apply_to_verdict
 
 GC_BLOCKS = 64
 """Blocks between the collections of young objects while the automatic collector is off (below)."""
@@ -193,6 +195,8 @@ class EstimateRun:
         # after the record's checks: errors come first
         self.model = estimator_model(options.machine_file, follow=self.follow)
         self.live_stream = live_stream
+        low, high = self.model.flowrate_bounds_m3_s
+        self.trust = TrustShares((low / ML_MIN, high / ML_MIN))
         self.filter = None  # oilwatch.estimator.factory.make_estimator's: a filter, or the start bank
         # the estimator takes the readings along the probes' axes when it can (the FMU's probe_angle_deg)
         self.probe_angle_deg = self.stream.probe_angle_deg or 0.0
@@ -300,6 +304,8 @@ class EstimateRun:
         summary = summarize(self, wall, csv_path)
         summary["identity"] = self.identity
         summary["resumed_from_time_s"] = self.resumed_from_s
+        summary["trust"] = self.trust.summary()
+        apply_to_verdict(summary)
         try:
             if self.options.views:
                 from .report import write_report
@@ -367,6 +373,7 @@ class EstimateRun:
                 if self.options.live and not first:  # from the arrival of the line to its estimate written
                     self.latency.add(time.perf_counter() - self.stream.reader.received_s)
                 self.history.add(block, rows, self._columns)
+                self.trust.add(rows)
                 spent["history"] += clock() - t3
                 self._boundary = True
                 self._k_next = int(block.k[-1]) + 1
@@ -380,6 +387,7 @@ class EstimateRun:
         """Continue from a resume point: the estimator's state, the history and the rows counted."""
         self.filter.set_state(point["filter"])
         self.history = point["history"]
+        self.trust = point["trust"]
         writer.samples = point["samples"]
         self._k_next = point["k_next"]
         self.resumed_from_s = point["time_s"]
@@ -400,6 +408,7 @@ class EstimateRun:
                 "samples": writer.samples,
                 "filter": self.filter.get_state(),
                 "history": self.history,
+                "trust": self.trust,
             },
         )
         self._writer = writer
@@ -490,6 +499,7 @@ class EstimateRun:
         report = self.filter.current_report()
         self._columns, extras = estimate_columns(report)
         self._rows = TraceRows(self._columns, extras)
+        self.trust.columns(self._columns)
         self._trace = None
         writer.header(self._columns, column_decimals(self._columns, report), to_file=header)
 

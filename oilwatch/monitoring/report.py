@@ -39,7 +39,7 @@ def write_report(summary: dict, out_dir: Path) -> Path:
     rows = []
     for b in (1, 2):
         verdict = summary["verdict"][f"bearing{b}"]
-        css = "ok" if verdict.startswith("healthy") else "bad"
+        css = "ok" if verdict.startswith("healthy") and "NOT TRUSTWORTHY" not in verdict else "bad"
         q = summary[f"q{b}_final_ml_min"]
         pct = None if q is None else 100.0 * q / nominal
         rows.append(

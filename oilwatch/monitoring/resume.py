@@ -84,6 +84,7 @@ class _StateUnpickler(pickle.Unpickler):
         ("oilwatch.monitoring.history", "History"),
         ("oilwatch.monitoring.history", "_Bins"),
         ("oilwatch.monitoring.history", "_Ring"),
+        ("oilwatch.monitoring.trust", "TrustShares"),
         ("builtins", "set"),
         ("builtins", "frozenset"),
         ("builtins", "slice"),
