@@ -41,7 +41,7 @@ from typing import TextIO
 
 import numpy as np
 
-from oilwatch.estimator.config import ML_MIN
+from oilwatch.estimator.ekf_config import ML_MIN
 from oilwatch.estimator.factory import make_estimator
 from oilwatch.estimator.runout import SlowRollVectors, runout_of_probes
 from oilwatch.models.machine import Machine, load_machine
