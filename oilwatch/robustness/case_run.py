@@ -39,6 +39,7 @@ from oilwatch.models.system.measurement import MeasurementChain, UnbalanceChange
 from oilwatch.models.system.operating_point import operating_system
 from oilwatch.models.system.plant import RotorBearingPlant
 from oilwatch.models.system.structure import structural_system
+from oilwatch.models.validation import InputError
 
 from .bounds import CaseBounds, configuration_label
 from .cases import BASELINE_AGE_DAYS, Case, probe_errors
@@ -326,8 +327,14 @@ class RobustnessRun:
     def run_case(self, case: Case, point_pct) -> dict:
         """The row of one case at one truth point (module docstring)."""
         signals, speed, temperature = self.record(case, point_pct, self.seed)
-        config = self.config(case)
-        trace, follows = self.estimate(case, config, signals, speed, temperature)
+        try:
+            config = self.config(case)
+        except InputError as error:
+            raise InputError(f"in the baseline or the configuration: {error}") from None
+        try:
+            trace, follows = self.estimate(case, config, signals, speed, temperature)
+        except InputError as error:
+            raise InputError(f"in the estimator's run: {error}") from None
         truth = np.array(point_pct) / 100.0 * self.nominal_m3_s
         half = len(signals) // 2
         error_pct = 100.0 * (trace.q_m3_s[half:].mean(axis=0) / truth - 1.0)

@@ -80,7 +80,7 @@ def format_table(rows: Sequence[dict]) -> list[str]:
     ]
     for r in rows:
         if "error" in r:
-            lines.append(f"| {r['case']} | {r['q1_pct']:g}/{r['q2_pct']:g} | not run: {r['error']} |")
+            lines.append(f"| {r['case']} | {r['q1_pct']:g}/{r['q2_pct']:g} | FAILED: {r['error']} |")
             continue
         detected = "-" if not r["detected"] else ("yes" if all(r["detected"]) else "NO")
         flagged = ",".join(("x1", "y1", "x2", "y2")[c] for c in r["flagged_probes"]) or "-"
