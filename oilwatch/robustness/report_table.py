@@ -54,6 +54,8 @@ def coverage_line(rows: Sequence[dict]) -> str:
         f"({share:.0f} %), {len(inside)} of {len(run)} with the extra cases."
     )
     structure_rows = [r for r in run if r["case"] in structural]
+    if not in_list:
+        line = f"Truth within +-2 std at the end: {len(inside)} of {len(run)} rows."
     if structure_rows:
         within = sum(r["within_2_std"] for r in structure_rows)
         tolerance = sum(r["within_tolerance"] for r in structure_rows)
