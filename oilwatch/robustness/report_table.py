@@ -55,21 +55,23 @@ def coverage_line(rows: Sequence[dict]) -> str:
     )
     structure_rows = [r for r in run if r["case"] in structural]
     if not in_list:
-        line = f"Truth within +-2 std at the end: {len(inside)} of {len(run)} rows."
-    if structure_rows:
+        line = f"Truth within +-2 std at the end: {len(inside)} of {len(run)} rows that ran."
+    failed = [r for r in rows if "error" in r]
+    structure_failed = [r for r in failed if r["case"] in structural]
+    if structure_rows or structure_failed:
+        total = len(structure_rows) + len(structure_failed)
         within = sum(r["within_2_std"] for r in structure_rows)
         tolerance = sum(r["within_tolerance"] for r in structure_rows)
         false_alarms = sum(r["false_alarm"] for r in structure_rows)
         low = [r for r in structure_rows if r["detected"]]
         detected = sum(all(r["detected"]) for r in low)
         line += (
-            f" Model-structure cases: truth within +-2 std in {within} of {len(structure_rows)} rows, error "
-            f"within 3 % (5 % all at once) in {tolerance}, a false alarm in {false_alarms}, the 80 % bearing "
-            f"alarmed in {detected} of {len(low)}."
+            f" Model-structure cases, {total} rows ({len(structure_failed)} failed): truth within +-2 std in "
+            f"{within}, error within 3 % (5 % all at once) in {tolerance}, a false alarm in {false_alarms}, "
+            f"the 80 % bearing alarmed in {detected} of the {len(low)} that ran."
         )
-    not_run = [r for r in rows if "error" in r]
-    if not_run:
-        line += f" {len(not_run)} rows could not run (reason in the row)."
+    if failed:
+        line += f" {len(failed)} rows failed (the reason in the row)."
     return line
 
 
