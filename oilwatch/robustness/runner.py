@@ -72,7 +72,7 @@ def run_robustness(
         "unbalance_prior": unbalance_prior,
         "viscosity_prior": viscosity_prior,
     }
-    jobs = [(case.name, point) for case in cases for point in POINTS_PCT]
+    jobs = [(case.name, point) for case in cases for point in (case.points_pct or POINTS_PCT)]
     order = {job: k for k, job in enumerate(jobs)}
     rows: dict[int, dict] = {}
     path = Path(out_dir) / "robustness.json" if out_dir is not None else None
