@@ -27,6 +27,7 @@ and the compiled interpolation with the table's slice at one operating point
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from dataclasses import dataclass
@@ -66,6 +67,7 @@ __all__ = [
     "compute_operating_table",
     "couette_flow_m3_s",
     "dimensionless_row",
+    "groove_layout",
     "operating_table_name",
     "operating_table_path",
     "sommerfeld_grid",
@@ -118,7 +120,7 @@ class OperatingTable:
         self.fraction_nodes = np.asarray(fraction_nodes, dtype=float)
         self.values = np.asarray(values, dtype=float)
         self.threshold_flow_ratio = np.asarray(threshold_flow_ratio, dtype=float)
-        self.geometry = {k: float(geometry[k]) for k in GEOMETRY_KEYS}
+        self.geometry = {k: float(geometry[k]) for k in GEOMETRY_KEYS} | groove_layout(geometry)
         self.metadata = metadata or {}
         n_s, n_f = self.sommerfeld_nodes.size, self.fraction_nodes.size
         if n_s < 3 or n_f < 3 or self.values.shape != (n_s, n_f, N_QUANTITIES):
@@ -167,6 +169,16 @@ class OperatingTable:
                     f"the dimensionless bearing table was computed for {key} = {want:g}, "
                     f"the bearing has {have:g}"
                 )
+        want = groove_layout(self.geometry)
+        have = groove_layout(dataclasses.asdict(bearing))
+        same = want.keys() == have.keys() and all(
+            np.allclose(want[k], have[k], rtol=1e-9, atol=1e-15) for k in want
+        )
+        if not same:
+            raise InputError(
+                "the dimensionless bearing table was computed for the grooves "
+                f"{want or 'of a one-groove bearing'}, the bearing has {have or 'one groove'}"
+            )
 
     def _sommerfeld_coordinate(self, sommerfeld: float, where: str) -> float:
         low, high = self.sommerfeld_range
@@ -321,6 +333,24 @@ class OperatingTable:
             data["geometry"],
             meta,
         )
+
+
+def groove_layout(geometry: dict) -> dict:
+    """The grooves beyond the first of a bearing's geometry (a :class:`JournalBearing` as a dict), as stored
+    in a table's geometry: empty for the one-groove bearing, so that its tables keep their form."""
+    more = [
+        [float(g[k]) for k in ("angle_rad", "circumferential_m", "axial_m")]
+        if isinstance(g, dict)
+        else [float(v) for v in g]
+        for g in geometry.get("more_grooves", ())
+    ]
+    band = float(geometry.get("circumferential_groove_m", 0.0))
+    layout = {}
+    if more:
+        layout["more_grooves"] = more
+    if band > 0.0:
+        layout["circumferential_groove_m"] = band
+    return layout
 
 
 def _coefficients(v: np.ndarray) -> BearingCoefficients:
