@@ -11,7 +11,6 @@ The published rows, the bearing and the frame conversion are those of the tests
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 from pathlib import Path
 
@@ -21,16 +20,13 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from fixtures.published_bearings import (
     COLUMNS,
     LUND_THOMSEN_1978,
-    ocvirk,
     published,
+    short_bearing,
     solve,
     two_groove_bearing,
 )
 
-from oilwatch.models.bearing.equilibrium import coefficients_at, static_equilibrium
-from oilwatch.models.bearing.geometry import JournalBearing
 from oilwatch.models.bearing.grid import Mesh
-from oilwatch.models.bearing.supply import SupplyPressure
 
 MESHES = (Mesh(72, 24), Mesh(144, 48))
 
@@ -63,17 +59,7 @@ def ocvirk_rows():
     rows = []
     for ld in (0.25, 0.125, 0.0625):
         for eps in (0.1, 0.3, 0.5, 0.7):
-            reference = ocvirk(eps)
-            r, c, mu, speed = 0.05, 100e-6, 0.02, 50.0
-            length = ld * 2 * r
-            bearing = JournalBearing(r, length, c, mu, math.radians(reference["phi"]), 0.5e-3, length)
-            load = mu * speed * length * 2 * r * (r / c) ** 2 * ld**2 / reference["s_ld2"]
-            mesh, supply = Mesh(120, 12), SupplyPressure(0.0)
-            eq = static_equilibrium(bearing, load, speed, supply, mesh)
-            k, b = coefficients_at(bearing, eq, speed, supply, mesh)
-            omega = 2 * math.pi * speed
-            k, b = k * c / load, b * c * omega / load
-            flow = eq.supply_flow_m3_s / (r * c * length * omega)
+            eq, k, b, flow, reference = short_bearing(ld, eps)
             rows.append(
                 (
                     ld,

@@ -23,23 +23,18 @@ Why the tolerances (docs/validation-bearing.md has the measured figures):
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
 from fixtures.published_bearings import (
     COLUMNS,
     LUND_THOMSEN_1978,
-    ocvirk,
     published,
+    short_bearing,
     solve,
     two_groove_bearing,
 )
 
-from oilwatch.models.bearing.equilibrium import coefficients_at, static_equilibrium
-from oilwatch.models.bearing.geometry import JournalBearing
 from oilwatch.models.bearing.grid import Mesh
-from oilwatch.models.bearing.supply import SupplyPressure
 
 ROWS = [(ld, row) for ld, rows in LUND_THOMSEN_1978.items() for row in rows]
 IDS = [f"LD{ld}-S{row[0]}" for ld, row in ROWS]
@@ -84,24 +79,6 @@ def test_the_squeeze_term_in_the_cavitated_zone_does_not_move_the_flooded_two_gr
     full_film, _, _ = solve(bearing, row[0], Mesh(72, 24))
     everywhere, _, _ = solve(bearing, row[0], Mesh(72, 24), squeeze="everywhere")
     assert max(abs(full_film[n] - everywhere[n]) for n in COLUMNS) < 1e-3
-
-
-R, C, MU, SPEED_HZ = 0.05, 100e-6, 0.02, 50.0
-
-
-def short_bearing(ld: float, eps: float):
-    """oilwatch at Ocvirk's Sommerfeld number for ``eps``, fed by an ambient line at the thickest film (the
-    half film starts there), K c / W, B c omega / W, flow / (R c L omega)."""
-    reference = ocvirk(eps)
-    length = ld * 2.0 * R
-    bearing = JournalBearing(R, length, C, MU, math.radians(reference["phi"]), 0.5e-3, length)
-    load = MU * SPEED_HZ * length * 2.0 * R * (R / C) ** 2 * ld**2 / reference["s_ld2"]
-    mesh, supply = Mesh(120, 12), SupplyPressure(0.0)
-    eq = static_equilibrium(bearing, load, SPEED_HZ, supply, mesh)
-    k, b = coefficients_at(bearing, eq, SPEED_HZ, supply, mesh)
-    omega = 2.0 * math.pi * SPEED_HZ
-    flow = eq.supply_flow_m3_s / (R * C * length * omega)
-    return eq, k * C / load, b * C * omega / load, flow, reference
 
 
 @pytest.mark.parametrize("eps", [0.1, 0.3, 0.5, 0.7])
