@@ -15,11 +15,8 @@ import pytest
 
 from oilwatch.models.bearing.grid import Mesh
 from oilwatch.models.bearing.operating_accuracy import table_error
-from oilwatch.models.bearing.operating_table import (
-    OperatingTable,
-    compute_operating_table,
-    operating_table_path,
-)
+from oilwatch.models.bearing.operating_table import OperatingTable, operating_table_path
+from oilwatch.models.bearing.operating_table_solve import compute_operating_table
 from oilwatch.models.bearing.sommerfeld import ON_THRESHOLD, sommerfeld_number
 from oilwatch.models.machine import load_machine
 from oilwatch.models.validation import InputError

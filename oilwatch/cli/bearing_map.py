@@ -98,13 +98,9 @@ def run(args) -> int:
     from tqdm import tqdm
 
     from oilwatch.models.bearing.grid import PRODUCTION_MESH, Mesh
-    from oilwatch.models.bearing.operating_table import (
-        OperatingTable,
-        compute_operating_table,
-        operating_table_path,
-        sommerfeld_grid,
-        sommerfeld_number,
-    )
+    from oilwatch.models.bearing.operating_table import OperatingTable, operating_table_path
+    from oilwatch.models.bearing.operating_table_solve import compute_operating_table
+    from oilwatch.models.bearing.sommerfeld import sommerfeld_grid, sommerfeld_number
     from oilwatch.models.rotor.assembly import Rotor
 
     check_fraction_range("--speed-range", args.speed_range)
@@ -146,7 +142,7 @@ def run(args) -> int:
             reuse=None if args.reuse is None else OperatingTable.load(args.reuse),
             provenance={
                 "command_line": command_line(args),
-                "machine_file": str(machine.source_path),
+                "machine_file": machine.source_path.name,  # its name: no folder of the machine that made it
                 "nominal_sommerfeld": nominal,
             },
         )
