@@ -26,7 +26,7 @@ def register(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Build the FMUs (in a separate process: building imports the relocated slave modules)."""
+    """Build the FMUs (in a separate process: building imports the slave modules)."""
     import sys
 
     from oilwatch.cosim.fmu_build import build_in_subprocess
