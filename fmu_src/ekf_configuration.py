@@ -11,14 +11,16 @@ import math
 from pathlib import Path
 
 from oilwatch.estimator.baseline import load_baseline, load_runout
-from oilwatch.estimator.config import (
+from oilwatch.estimator.boundary_parameters import (
     ESTIMATOR_PARAMETERS,
+    OFFSET_PRIOR_FROM_MACHINE,
+    config_from_parameters,
+)
+from oilwatch.estimator.ekf_config import (
     INITIAL_FLOWRATE_STD_FRACTION,
     ML_MIN,
-    OFFSET_PRIOR_FROM_MACHINE,
     RECOMMENDED_DISPLACEMENT_PROCESS_STD_M,
     EKFConfig,
-    config_from_parameters,
 )
 from oilwatch.estimator.runout import runout_of_probes
 from oilwatch.fmu_src.ekf_variables import GRID_TOLERANCE

@@ -174,7 +174,7 @@ class EstimateRun:
                 f"the model is {self.operating_reason}"
             )
         # after the record's checks: errors come first
-        self.model = estimator_model(options.machine_file, follow=self.follow)
+        self.model = estimator_model(options.machine_file, follow=self.follow, machine=self.machine)
         self.live_stream = live_stream
         self.filter = None  # oilwatch.estimator.factory.make_estimator's: a filter, or the start bank
         # the estimator takes the readings along the probes' axes when it can (the FMU's probe_angle_deg)
