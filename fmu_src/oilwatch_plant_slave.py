@@ -324,8 +324,13 @@ class RotorBearingPlant(OilwatchSlave):
         check_film_model(self.film_model)
 
     def _flowrate_m3_s(self, name: str) -> float:
-        """A flowrate variable [ml/min] in m^3/s; 0 stands for the machine's nominal flowrate."""
+        """A flowrate variable [ml/min] in m^3/s; 0 stands for the machine's nominal flowrate. NaN or a
+        negative value is refused (InputError naming it), never replaced."""
         value = getattr(self, name)
+        if not value >= 0.0:
+            raise InputError(
+                f"{name} must be a flowrate >= 0 ml/min (0: the machine's nominal), got {value!r}"
+            )
         return (value if value > 0.0 else self._nominal_ml_min) / ML_MIN_PER_M3_S
 
     def _inputs_m3_s(self) -> tuple[float, float]:
@@ -340,6 +345,12 @@ class RotorBearingPlant(OilwatchSlave):
         self._nominal_ml_min = system.nominal_flowrate_m3_s * ML_MIN_PER_M3_S
         schedules = None
         if self.flow_source == 0:
+            ignored = [f"q{b}_in_ml_min" for b in (1, 2) if getattr(self, f"q{b}_in_ml_min") != 0.0]
+            if ignored:  # refused, not ignored: the schedule would drive the flowrates
+                raise InputError(
+                    f"{ignored[0]} = {getattr(self, ignored[0])!r} is ignored while flow_source = 0 (the "
+                    "sigmoid schedule drives the flowrates): set flow_source = 1 or leave it at 0"
+                )
             schedules = tuple(
                 SigmoidFlowrate(
                     self._flowrate_m3_s(f"q{b}_initial_ml_min"),
