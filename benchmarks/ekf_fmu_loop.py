@@ -106,8 +106,6 @@ def bare_fmu(out_dir: str) -> Path:
     entry = FmuEntry(
         name="BareFilter",
         script=str(Path(__file__).resolve().parent / "fmus" / "bare_filter_slave.py"),
-        packages=(),
-        prefix="barefilter",
     )
     return next(p for p in build_fmus(out_dir, only=["BareFilter"], extra=(entry,)) if p.suffix == ".fmu")
 
@@ -117,6 +115,6 @@ def ekf_fmu(path: str | None, out_dir: str) -> Path:
     if path is not None:
         return Path(path)
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-    from build import build_fmus
+    from oilwatch.cosim.fmu_build import build_fmus
 
     return next(p for p in build_fmus(out_dir, only=["OilFlowEKF"]) if p.suffix == ".fmu")

@@ -12,11 +12,10 @@ import signal
 import subprocess
 import sys
 import time
-import zipfile
 
 import numpy as np
 import pytest
-from fixtures.fmu_subprocess import REPO_ROOT
+from fixtures.fmu_subprocess import REPO_ROOT, edited_archive
 from fixtures.xdist_units import session_root
 
 from oilwatch.scenarios.runner import COLUMNS, OPERATING_INPUTS
@@ -128,14 +127,12 @@ def test_ctrl_c_stops_the_run_and_result_csv_keeps_every_step_done(environment, 
 
 
 def _broken_ssp(built_fmus, folder):
-    path = folder / "Broken.ssp"
-    with zipfile.ZipFile(built_fmus / "OilStarvation.ssp") as source, zipfile.ZipFile(path, "w") as target:
-        for item in source.infolist():
-            data = source.read(item)
-            if item.filename == "SystemStructure.ssd":
-                data = data.replace(b'endConnector="t_sample_s"', b'endConnector="t_sample_ms"')
-            target.writestr(item, data)
-    return path
+    return edited_archive(
+        built_fmus / "OilStarvation.ssp",
+        folder / "Broken.ssp",
+        "SystemStructure.ssd",
+        lambda data: data.replace(b'endConnector="t_sample_s"', b'endConnector="t_sample_ms"'),
+    )
 
 
 def test_bad_inputs_give_one_line_errors_with_exit_code_2(environment, tmp_path, built_fmus):

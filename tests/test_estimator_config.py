@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from fixtures.toy_model import ToyRotor
 
-from oilwatch.estimator.config import ML_MIN, AlarmConfig, EKFConfig
+from oilwatch.estimator.alarm_config import AlarmConfig
 from oilwatch.estimator.ekf import OilFlowEKF
+from oilwatch.estimator.ekf_config import ML_MIN, EKFConfig
 from oilwatch.estimator.model import AugmentedModel
-from oilwatch.estimator.toy_model import ToyRotor
 from oilwatch.models.validation import InputError
 
 
@@ -26,15 +27,8 @@ from oilwatch.models.validation import InputError
         ("q_initial_m3_s", -1.0),
         ("q_initial_m3_s", (1e-5, 1e-5, 1e-5)),
         ("q_initial_m3_s", "lots"),
-        ("initial_displacement_std_m", 0.0),
         ("initial_flowrate_std_m3_s", -1.0),
         ("gate_tail_probability", 0.7),
-        ("probe_range_m", -1.0),
-        ("probe_dead_s", 0.0),
-        ("change_tail_probability", 0.0),
-        ("consistency_window_s", float("nan")),
-        ("converged_window_s", 0.0),
-        ("converged_std_fraction", -0.1),
         ("alarm", {"on_fraction": 0.9}),
     ],
 )
@@ -84,7 +78,7 @@ def test_recommended_velocity_noise_follows_the_model_speed():
 
 
 def test_estimator_parameters_are_generated_from_the_config_classes():
-    from oilwatch.estimator.config import ESTIMATOR_PARAMETERS, config_from_parameters
+    from oilwatch.estimator.boundary_parameters import ESTIMATOR_PARAMETERS, config_from_parameters
 
     by_name = {p.name: p for p in ESTIMATOR_PARAMETERS}
     assert by_name["alarm_on_fraction"].default == AlarmConfig().on_fraction

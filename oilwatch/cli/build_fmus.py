@@ -27,7 +27,7 @@ def register(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Build the FMUs (in a separate process: building imports the relocated slave modules)."""
+    """Build the FMUs (in a separate process: building imports the slave modules)."""
     import shutil
     import sys
     from pathlib import Path

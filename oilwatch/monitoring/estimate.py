@@ -41,7 +41,7 @@ from typing import TextIO
 
 import numpy as np
 
-from oilwatch.estimator.config import ML_MIN
+from oilwatch.estimator.ekf_config import ML_MIN
 from oilwatch.estimator.factory import make_estimator
 from oilwatch.estimator.runout import SlowRollVectors, runout_of_probes
 from oilwatch.models.machine import Machine, load_machine
@@ -193,7 +193,7 @@ class EstimateRun:
                 f"the model is {self.operating_reason}"
             )
         # after the record's checks: errors come first
-        self.model = estimator_model(options.machine_file, follow=self.follow)
+        self.model = estimator_model(options.machine_file, follow=self.follow, machine=self.machine)
         self.live_stream = live_stream
         low, high = self.model.flowrate_bounds_m3_s
         self.trust = TrustShares((low / ML_MIN, high / ML_MIN))
