@@ -1,8 +1,9 @@
-"""No input accepted and ignored by the FMUs (slow: the real FMUs): a plant flowrate input that is NaN or
-negative is refused at the step (fmi2Error naming it), not held at nominal; a flowrate input set while the
-schedule drives the flowrates is refused at initialization; fmi2DoStep before initialization is fmi2Error
-naming the state; a garbage FMU state is refused with a message; q_nominal_ml_min out of the table is named
-as given. (``--set plant.q1_in_ml_min=1`` through ``oilwatch run``: test_misuse.)"""
+"""No input accepted and ignored by the FMUs (slow: the real FMUs): a plant flowrate input that is NaN,
+negative or absurd is refused at the step (fmi2Error naming it), not held at nominal; a flowrate input set
+while the schedule drives the flowrates is refused at initialization; fmi2DoStep before initialization is
+fmi2Error naming the state; a garbage FMU state is refused with a message; q_nominal_ml_min out of the table
+is named as given; a parameter above its physical maximum (noise_um = 1e30) is refused naming it.
+(``--set plant.q1_in_ml_min=1`` through ``oilwatch run``: test_misuse.)"""
 
 from __future__ import annotations
 
@@ -35,7 +36,7 @@ def _errors(outcome: dict) -> list[str]:
     return [message for status, message in outcome["log"] if status >= 3]
 
 
-@pytest.mark.parametrize("value", ["float('nan')", "-5.0"])
+@pytest.mark.parametrize("value", ["float('nan')", "-5.0", "1e6"])
 def test_a_plant_flowrate_input_out_of_range_is_refused_at_the_step(built_fmus, value):
     result = _case(
         built_fmus,
@@ -48,7 +49,7 @@ result = attempt(lambda: plant.doStep(1e-3, 1e-3))
 """,
     )
     assert result["status"] == 3, result  # fmi2Error, not OK with the nominal held
-    assert any("q1_in_ml_min must be a flowrate >= 0 ml/min" in m for m in _errors(result)), result
+    assert any("q1_in_ml_min must be a flowrate in [0, 100000] ml/min" in m for m in _errors(result)), result
 
 
 def test_wrong_state_garbage_state_ignored_input_and_misnamed_nominal(built_fmus):
@@ -63,8 +64,10 @@ garbage = attempt(lambda: plant.deSerializeFMUstate(b"garbage bytes, not a state
 plant, vr = load(FOLDER + "/RotorBearingPlant.fmu", "ignored")
 ignored = attempt(lambda: init(plant, vr, {"q1_in_ml_min": 1.0}))
 ekf, vr = load(FOLDER + "/OilFlowEKF.fmu", "nominal")
-nominal = attempt(lambda: init(ekf, vr, {"q_nominal_ml_min": 1e30}))
-result = {"early": early, "garbage": garbage, "ignored": ignored, "nominal": nominal}
+nominal = attempt(lambda: init(ekf, vr, {"q_nominal_ml_min": 1e4}))
+plant, vr = load(FOLDER + "/RotorBearingPlant.fmu", "noise")
+noise = attempt(lambda: init(plant, vr, {"noise_um": 1e30}))
+result = {"early": early, "garbage": garbage, "ignored": ignored, "nominal": nominal, "noise": noise}
 """,
     )
     assert result["early"]["status"] == 3
@@ -76,3 +79,6 @@ result = {"early": early, "garbage": garbage, "ignored": ignored, "nominal": nom
     assert result["nominal"]["status"] == 3
     named = [m for m in _errors(result["nominal"]) if m.startswith("nominal: q_nominal_ml_min must lie in")]
     assert named, result
+    assert result["noise"]["status"] == 3
+    refused = [m for m in _errors(result["noise"]) if "noise_um must lie in [0, 1000] um, got 1e+30 um" in m]
+    assert refused, result
