@@ -855,7 +855,8 @@ FORWARD(SetRealInputDerivatives, (fmi2Component c, const fmi2ValueReference vr[]
 FORWARD(GetRealOutputDerivatives, (fmi2Component c, const fmi2ValueReference vr[], size_t n,
                                    const fmi2Integer order[], fmi2Real v[]),
         (c, vr, n, order, v))
-FORWARD_INNER(DoStep, (fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean no_prior), (c, t, h, no_prior))
+FORWARD_REFUSABLE_TO(static fmi2Status forward_DoStep, DoStep, (fmi2Component c, fmi2Real t, fmi2Real h,
+                     fmi2Boolean no_prior), (c, t, h, no_prior)) /* an input refused at a step, a wrong state */
 FORWARD(CancelStep, (fmi2Component c), (c))
 FORWARD(GetStatus, (fmi2Component c, const fmi2StatusKind k, fmi2Status *v), (c, k, v))
 FORWARD(GetRealStatus, (fmi2Component c, const fmi2StatusKind k, fmi2Real *v), (c, k, v))
