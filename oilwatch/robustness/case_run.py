@@ -74,7 +74,7 @@ class RobustnessRun:
         self.n_samples = round(self.duration_s / DT_S)
         self._motions: dict = {}  # true_motion's, per plant variant, point and seed
         self._other_models: dict = {}  # the estimator's models on another kind of film coefficients
-        # issue 13's estimator side: a step that takes the measured operating point, viscosity-factor states
+        # the estimator side: a step that takes the measured operating point, viscosity-factor states
         self.follows_operating_point = _accepts(OilFlowEKF.step, "speed_hz") and (
             "viscosity_factor_prior_std" in {f.name for f in dataclasses.fields(EKFConfig)}
         )
@@ -282,7 +282,7 @@ class RobustnessRun:
 
     def estimate(self, case: Case, config: EKFConfig, signals, speed, temperature, single: bool = False):
         """(trace, follows): the estimator's record, and whether it was fed the measured speed and oil
-        temperature (an estimator whose step takes them: issue 13's estimator side). ``single``: one
+        temperature (an estimator whose step takes them). ``single``: one
         filter from the configured start even where the start bank applies (diagnostics)."""
         if not (case.operating_point and self.follows_operating_point):
             return make_estimator(self.grid_model(case.estimator_coefficients), config).run_batch(
@@ -303,7 +303,7 @@ class RobustnessRun:
         return self._other_models[coefficients]
 
     def operating_model(self, coefficients: str | None = None):
-        """The estimator's model that follows speed and temperature (issue 13), built once (or the one given
+        """The estimator's model that follows speed and temperature, built once (or the one given
         to :meth:`use_operating_model`); on another kind of film coefficients with ``coefficients``."""
         from oilwatch.models.system.operating_model import build_operating_model
 

@@ -1,7 +1,7 @@
 """The discrepancies between a real machine and the estimator's model that ``oilwatch robustness`` plays.
 
 Each case changes the PLANT: its unbalance, its film viscosity, its speed and oil temperature, and its
-measurement chain (issue 13's :mod:`oilwatch.models.system.measurement`: probe zero offsets, sensitivity
+measurement chain (:mod:`oilwatch.models.system.measurement`: probe zero offsets, sensitivity
 errors, 1x/2x runout, faults, the probes' mounting angle). The estimator's model never changes; the estimator
 gets only what a user would configure: the probes' mounting angle, the nuisances' priors, a commissioning
 baseline (:mod:`oilwatch.estimator.baseline`, from another plant record at 100/100 % with the same probes) and
@@ -58,7 +58,7 @@ class Case:
         viscosity_factor : the film's viscosity over the oil law's; temperature_rise_c : a measured oil
         temperature ramp over the record; speed_ramp_hz : a measured speed ramp (start, end) over the
         record; ekf : EKFConfig fields a user would set; operating_point : the case needs the estimator to
-        follow speed / temperature / viscosity (issue 13 / 14 estimator side); listed : the case is in the
+        follow speed / temperature / viscosity (the estimator side); listed : the case is in the
         issue's done-when list (False: an extra the report shows beside them); viscosity_states : in an
         operating-point case, the estimator's viscosity factors are free (prior ``--viscosity-prior``);
         False: taken as 1 (the film as modelled); structure : the plant's model-structure discrepancy

@@ -38,7 +38,7 @@ def with_case_bounds(rows: Sequence[dict], settings: dict) -> list[dict]:
 
 
 def coverage_line(rows: Sequence[dict]) -> str:
-    """How many rows have the truth within +-2 std at the end (issue 14 asks 90 % of its listed cases), and
+    """How many rows have the truth within +-2 std at the end (the target is 90 % of the listed cases), and
     the model-structure cases' own count with their alarms."""
     from .cases import CASES
 
