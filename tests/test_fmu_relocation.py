@@ -56,12 +56,16 @@ def _minor(python: Path) -> tuple[int, int] | None:
 def other_venv(tmp_path_factory) -> Path:
     """A virtual environment of another Python minor version (3.10 or newer) with the FMUs' packages."""
     own = sys.version_info[:2]
+    found = {}
     for python in CANDIDATES:
         version = _minor(python) if python.is_file() else None
         if version and version != own and version >= (3, 10):
-            break
-    else:
+            found.setdefault(version, python)
+    if not found:
         pytest.skip(f"no Python 3.10+ other than {own[0]}.{own[1]} with a shared libpython on this machine")
+    # the nearest newer minor first: the packages' current versions may no longer support older ones
+    version = min(found, key=lambda v: (v < own, abs(v[1] - own[1])))
+    python = found[version]
     folder = tmp_path_factory.mktemp("other_python") / "venv"
     subprocess.run([str(python), "-m", "venv", str(folder)], check=True, timeout=120)
     venv_python = folder / "bin" / "python"
