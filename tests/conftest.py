@@ -19,7 +19,7 @@ import os
 import pytest
 from fixtures.fmu_subprocess import run_python
 from fixtures.toy_fmus import toy_fmu_dir
-from fixtures.xdist_units import group_and_order, session_root, worker_lock
+from fixtures.xdist_units import group_and_order, session_root
 
 
 @pytest.hookimpl(tryfirst=True)  # before pytest-xdist's, which reads the xdist_group markers added here
@@ -29,12 +29,6 @@ def pytest_collection_modifyitems(config, items):
             item.add_marker(pytest.mark.slow)
     if config.getoption("loadgroup", False):  # a worker of --dist loadgroup (its own "dist" is "no")
         group_and_order(items)
-
-
-@pytest.hookimpl(hookwrapper=True)
-def pytest_runtest_protocol(item, nextitem):
-    with worker_lock(item):
-        yield
 
 
 def pytest_configure(config):

@@ -120,7 +120,10 @@ def test_ctrl_c_stops_the_run_and_result_csv_keeps_every_step_done(environment, 
     assert seen - 1 <= rows.shape[0] < 20001
     np.testing.assert_allclose(rows[:, 0], np.arange(rows.shape[0]) * 1e-3, atol=1e-9)
     assert np.isfinite(rows).all()
-    assert sorted(path.name for path in out.iterdir()) == ["result.csv"]  # nothing stale beside it
+    assert len(stderr.strip().splitlines()) == 1  # one line, naming what was kept
+    # nothing stale beside it: the lock and a summary that says the run stopped
+    assert sorted(path.name for path in out.iterdir()) == ["oilwatch.lock", "result.csv", "summary.json"]
+    assert json.loads((out / "summary.json").read_text())["status"] == "interrupted (SIGINT)"
 
 
 def _broken_ssp(built_fmus, folder):

@@ -149,8 +149,15 @@ def read_slow_roll_record(path: str | Path):
 
 
 def run(args: argparse.Namespace) -> int:
+    """Fit the baseline, holding the lock of --out (one writer per file); the file appears whole."""
+    from oilwatch.outputs.lock import output_lock
 
-    from oilwatch.estimator.baseline import FORMAT, FORMAT_VERSION, estimate_baseline, save_baseline
+    with output_lock(args.out, "baseline", kind="file"):
+        return _run_locked(args)
+
+
+def _run_locked(args: argparse.Namespace) -> int:
+    from oilwatch.estimator.baseline import FORMAT, FORMAT_VERSION, estimate_baseline
     from oilwatch.estimator.ekf_config import ML_MIN, EKFConfig
     from oilwatch.estimator.runout import fit_slow_roll
     from oilwatch.models.machine import load_machine
@@ -158,6 +165,7 @@ def run(args: argparse.Namespace) -> int:
     from oilwatch.models.system.augmented import GridAugmentedModel
     from oilwatch.models.system.factory import build_system
     from oilwatch.models.validation import InputError, require_in_range
+    from oilwatch.outputs.atomic import write_json_atomic
 
     require_in_range("--noise-um", args.noise_um, 0.01, 100.0, "um")
     if args.record is None and args.slow_roll_record is None:
@@ -181,7 +189,7 @@ def run(args: argparse.Namespace) -> int:
     if args.record is None:
         document = {"format": FORMAT, "format_version": FORMAT_VERSION, "runout": runout.to_document()}
         document.update(slow_roll_record=str(args.slow_roll_record), machine_file=args.machine)
-        save_baseline(document, args.out)
+        write_json_atomic(args.out, document)
         print(f"baseline: runout only; written to {args.out}")
         return 0
     machine = load_machine(args.machine)
@@ -236,7 +244,7 @@ def run(args: argparse.Namespace) -> int:
         document[BASELINE_START_KEY] = start.isoformat()
     if runout is not None:
         document.update(runout=runout.to_document(), slow_roll_record=str(args.slow_roll_record))
-    save_baseline(document, args.out)
+    write_json_atomic(args.out, document)
     offsets = ", ".join(
         f"{c} {o:+.2f} +- {s:.2f}"
         for c, o, s in zip(PROBE_COLUMNS, document["offsets_um"], document["offset_std_um"], strict=True)

@@ -207,6 +207,7 @@ def build_fmu(entry: FmuEntry, out_dir: Path, machine=None, root: Path | None = 
     from oilwatch.cosim.native_loader import install_loader
     from oilwatch.cosim.packaging import ship_compiled, stage_sources
     from oilwatch.models.machine import load_machine
+    from oilwatch.outputs.atomic import commit
 
     machine = machine if machine is not None else load_machine()
     script = entry.script_path(root)
@@ -215,35 +216,39 @@ def build_fmu(entry: FmuEntry, out_dir: Path, machine=None, root: Path | None = 
     out_dir.mkdir(parents=True, exist_ok=True)
     fmu_path = out_dir / f"{entry.name}.fmu"
     folders_of = {package: package_dir(package) for package in FMU_PACKAGES}
-    with tempfile.TemporaryDirectory(prefix=f"oilwatch_{entry.name}_") as tmp:
-        staging = Path(tmp)
-        staged_script, bundled = stage_sources(
-            staging, folders_of, script, oilwatch_version(), entry.data_globs
-        )
-        bundle_machine(machine, bundled / "fmu_src")
-        saved_path = list(sys.path)
-        try:
-            built = FmuBuilder.build_FMU(
-                staged_script, dest=fmu_path, project_files=[bundled], **entry.options
+    # Built, given its loader and validated in a private folder beside the target, then renamed: the FMU
+    # appears under its name whole and valid or not at all, and two builders never rewrite one file (the
+    # loader installed twice over one FMU made the loader its inner binary).
+    with tempfile.TemporaryDirectory(prefix=f".{entry.name}.", suffix=".partial", dir=out_dir) as private:
+        private_fmu = Path(private) / fmu_path.name
+        with tempfile.TemporaryDirectory(prefix=f"oilwatch_{entry.name}_") as tmp:
+            staging = Path(tmp)
+            staged_script, bundled = stage_sources(
+                staging, folders_of, script, oilwatch_version(), entry.data_globs
             )
-        finally:
-            sys.path[:] = saved_path
-            _forget_modules({script.stem})
-    built = Path(built)
-    with zipfile.ZipFile(built) as archive:
-        identifier = archive.read("resources/slavemodule.txt").decode().strip()
-        names = archive.namelist()
-    if not any(n == f"{PLATFORM_FOLDER}{entry.name}.so" for n in names):
-        built.unlink()
-        raise InputError(
-            f"{entry.name}: the slave class in {script.name} must be named {entry.name} "
-            f"(pythonfmu names the model after the class; module {identifier})"
-        )
-    install_loader(built, entry.name)  # self-sufficient binary: oilwatch/cosim/native_loader.py
-    keep_platform(built)
-    if entry.ship_compiled:
-        ship_compiled(built, entry.name)
-    return document_and_validate(built, entry.name)
+            bundle_machine(machine, bundled / "fmu_src")
+            saved_path = list(sys.path)
+            try:
+                built = FmuBuilder.build_FMU(
+                    staged_script, dest=private_fmu, project_files=[bundled], **entry.options
+                )
+            finally:
+                sys.path[:] = saved_path
+                _forget_modules({script.stem})
+        built = Path(built)
+        with zipfile.ZipFile(built) as archive:
+            identifier = archive.read("resources/slavemodule.txt").decode().strip()
+            names = archive.namelist()
+        if not any(n == f"{PLATFORM_FOLDER}{entry.name}.so" for n in names):
+            raise InputError(
+                f"{entry.name}: the slave class in {script.name} must be named {entry.name} "
+                f"(pythonfmu names the model after the class; module {identifier})"
+            )
+        install_loader(built, entry.name)  # self-sufficient binary: oilwatch/cosim/native_loader.py
+        keep_platform(built)
+        if entry.ship_compiled:
+            ship_compiled(built, entry.name)
+        return commit(document_and_validate(built, entry.name), fmu_path)
 
 
 def document_and_validate(built: Path, label: str) -> Path:
@@ -337,5 +342,13 @@ def main(argv: list[str] | None = None, prog: str = "build.py") -> int:
             print(f"built {path}")
     except InputError as error:
         print(f"{prog}: error: {error}", file=sys.stderr)
+        return 2
+    except OSError as error:  # a full or read-only disk: one line naming the path; nothing half-built kept
+        from oilwatch.outputs.rows import describe_os_error
+
+        where = error.filename or args.out
+        print(f"{prog}: error: cannot write {where}: {describe_os_error(error)}; the file being built "
+              "was removed, every FMU or SSP under its final name is whole and validated",
+              file=sys.stderr)  # fmt: skip
         return 2
     return 0

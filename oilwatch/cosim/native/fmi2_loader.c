@@ -45,7 +45,7 @@
  * host has logging on (fmi2Instantiate's loggingOn, then fmi2SetDebugLogging), as the Modelica
  * Association's reference FMUs do.
  *
- * The fast path (issue 14: the estimator FMU's step). pythonfmu serves every call in Python: it takes the
+ * The fast path (the estimator FMU's step). pythonfmu serves every call in Python: it takes the
  * GIL, builds Python lists of the value references and values, calls the slave's method and walks its log
  * queue. A slave that keeps its per-step inputs and outputs in numpy arrays (fmu_src/slave_base.py,
  * "buffered" variables) hands them to the loader during fmi2ExitInitializationMode through the exported
