@@ -2,10 +2,10 @@
 
 Relocation: a second virtual environment, made by another Python minor version than the one that built the
 FMUs (pyenv's or the system's; skipped with the reason when this machine has none with a shared libpython),
-with numpy, scipy, numba, pythonfmu and fmpy pip-installed at this environment's versions. One setting,
-``OILWATCH_PYTHON_ENV``, must be enough: the C host (tests/c_host/fmi2_host.c) runs both FMUs coupled under
-``env -i`` (no other variable at all), and fmpy runs each FMU in the second environment's Python (a host
-that has Python: no setting).
+with numpy, scipy, numba and fmpy pip-installed at this environment's versions (not pythonfmu: the FMUs
+bundle its Python part). One setting, ``OILWATCH_PYTHON_ENV``, must be enough: the C host
+(tests/c_host/fmi2_host.c) runs both FMUs coupled under ``env -i`` (no other variable at all), and fmpy
+runs each FMU in the second environment's Python (a host that has Python: no setting).
 
 Platforms: each FMU (FMI 2.0 and 3.0) holds binaries for one platform only, and the FMI 2.0 one is
 oilwatch's loader (its own entry points), the binary the C host and fmpy tests load and step.
@@ -32,7 +32,7 @@ CANDIDATES = [
     *sorted(Path("/root/.pyenv/versions").glob("3.1[0-9]*/bin/python3")),
     *(Path(p) for p in ("/usr/bin/python3.10", "/usr/bin/python3.12", "/usr/bin/python3.13")),
 ]
-PACKAGES = ("numpy", "scipy", "numba", "pythonfmu", "fmpy")
+PACKAGES = ("numpy", "scipy", "numba", "fmpy")
 STOP, STEP = 0.2, 1e-3
 
 
