@@ -58,6 +58,7 @@ from oilwatch.models.validation import InputError
 
 from . import channels
 from .alarm import StarvationAlarm
+from .baseline_change import new_change_array, reference_applies, reset_change
 from .config import EKFConfig
 from .ekf_batch import BatchRuns
 from .ekf_prediction import MIN_VISCOSITY_FACTOR, ModelPrediction
@@ -72,7 +73,7 @@ from .ekf_setup import (
     summary_settings,
 )
 from .filter_arrays import FilterArrays
-from .measurement import displacement_channels, velocity_channels
+from .measurement import displacement_channels, probe_rotation, velocity_channels
 from .model import AugmentedModel
 from .nuisance_start import InformationFloor, ShadowJacobian, restart_parameters, settling_steps
 from .reports import EstimateTrace, StepReport
@@ -183,6 +184,7 @@ class OilFlowEKF(FilterReporting, BatchRuns, ModelPrediction, FilterStateIO):
         self._accepted = np.zeros(4, dtype=bool)
         self._window = max(1, round(cfg.converged_window_s / self._dt))
         self.alarm = StarvationAlarm(cfg.alarm, self._dt, self._q_nominal)
+        self._change = new_change_array(cfg, model, self._dt, probe_rotation(angle))
         # shadow Jacobian and settling start while the flowrates are estimated beside viscosity factors
         # that no baseline primed: the nearly unobservable direction (estimator/nuisance_start.py)
         baseline = cfg.offset_baseline
@@ -247,6 +249,7 @@ class OilFlowEKF(FilterReporting, BatchRuns, ModelPrediction, FilterStateIO):
         self._process_noise[n : n + 2, n : n + 2] = self._q_var * np.eye(2)
         self._summary_settings[SUMMARY_STD_FLOOR : SUMMARY_STD_FLOOR + 2] = 0.0  # the alarm's std floor
         self.alarm.clear()
+        reset_change(self._change)
         self._set_last(0.0, 0, False, False, True)
         # the compiled step's arrays (estimator.filter_arrays), renewed with the ones a reset replaces
         self._arrays = FilterArrays(
@@ -275,6 +278,7 @@ class OilFlowEKF(FilterReporting, BatchRuns, ModelPrediction, FilterStateIO):
             self.alarm.record,
             self.alarm.settings,
             self._report,
+            self._change,
         )
         self._packed = tuple(self._arrays)
         self._prior = (self._x.copy(), self._P.copy())
@@ -317,6 +321,7 @@ class OilFlowEKF(FilterReporting, BatchRuns, ModelPrediction, FilterStateIO):
             raise InputError(f"displacement_m must have shape (4,), got {displacement.shape}")
         if speed_hz is not None or oil_temperature_c is not None or rotor_angle_rad is not None:
             self._set_operating_point(speed_hz, oil_temperature_c, rotor_angle_rad)
+            reference_applies(self._change, self.config.offset_baseline, *self._operating)
         if self._grid_batch is not None and speed_hz is None and oil_temperature_c is None:
             self._run_grid_batch(displacement.reshape(1, 4), self._one_row)
             return

@@ -115,6 +115,16 @@ class EKFConfig:
         change_flowrate_std_fraction : (std per step, as a fraction of nominal) while the test fires.
         consistency_window_s, consistency_tail_probability : ``model_consistent`` is false when the sum of the
             NIS over the last window exceeds the chi-square quantile ``1 - p`` of its degrees of freedom.
+    Model mismatch (see :mod:`oilwatch.estimator.baseline_change`)
+        model_mismatch_action : while ``model_consistent`` says the data are not the model's, the filter's
+            estimate does not act on its own: the published flowrates and the alarm come from the static
+            change relative to the baseline (``offset_baseline`` with its static reference), or the alarm is
+            held and the std widened by the NIS excess; False: the filter's estimate throughout (the paper).
+        mismatch_hold_on_s, mismatch_hold_off_s : the status turns to a mismatch after ``model_consistent``
+            has been false this long, and back after it has been true that long.
+        baseline_change_window_s : time constant of the probes' fading-memory mean [s].
+        baseline_change_model_fraction : the static model's relative error on the change, added to the
+            static estimate's std as this fraction of the flowrate change since the baseline.
     Convergence flag
         converged_std_fraction : both flowrate stds below this fraction of nominal, and
         converged_drift_fraction : both estimates moved less than this fraction of nominal over
@@ -160,6 +170,11 @@ class EKFConfig:
     change_flowrate_std_fraction: float = 0.003
     consistency_window_s: float = 1.0
     consistency_tail_probability: float = 1.0e-3
+    model_mismatch_action: bool = True
+    mismatch_hold_on_s: float = 0.5
+    mismatch_hold_off_s: float = 5.0
+    baseline_change_window_s: float = 1.0
+    baseline_change_model_fraction: float = 0.1
     converged_std_fraction: float = 0.03
     converged_drift_fraction: float = 0.01
     converged_window_s: float = 1.0
@@ -222,8 +237,14 @@ class EKFConfig:
             "probe_recover_s",
             "change_window_s",
             "consistency_window_s",
+            "mismatch_hold_on_s",
+            "mismatch_hold_off_s",
+            "baseline_change_window_s",
         ):
             require_in_range(f"EKFConfig.{name}", getattr(self, name), 1e-6, 600.0, "s")
+        require_in_range(
+            "EKFConfig.baseline_change_model_fraction", self.baseline_change_model_fraction, 0.0, 1.0
+        )
         require_in_range("EKFConfig.viscosity_factor_prior_std", self.viscosity_factor_prior_std, 0.0, 0.5)
         require_in_range("EKFConfig.change_tail_probability", self.change_tail_probability, 1e-15, 0.5)
         require_in_range(

@@ -17,7 +17,7 @@ import numpy as np
 
 from oilwatch.models.validation import InputError
 
-from .step_kernel import REPORT_FLOWRATE
+from .step_kernel import REPORT_FILTER_FLOWRATE
 
 MIN_VISCOSITY_FACTOR = 0.2
 """The model never sees a viscosity factor below this (a random walk kept physical)."""
@@ -35,7 +35,7 @@ class ModelPrediction:
         (viscosity factors, unbalance) put into place."""
         n = self._n
         s = self._x[:n] if state is None else state
-        flowrate = self._report[REPORT_FLOWRATE : REPORT_FLOWRATE + 2]
+        flowrate = self._report[REPORT_FILTER_FLOWRATE : REPORT_FILTER_FLOWRATE + 2]
         trailing = self._trailing_jacobian
         if self._n_viscosity:
             factors = np.maximum(self._x[self._viscosity], MIN_VISCOSITY_FACTOR)

@@ -12,13 +12,17 @@ from __future__ import annotations
 import numpy as np
 
 from . import channels
+from .baseline_change import CHANGE_STATUS, CONSISTENT
 from .reports import ReportView, StepReport
 from .step_kernel import (
     COUNT_STEP,
     REPORT_CHANGING,
     REPORT_CONSISTENT,
     REPORT_CONVERGED,
+    REPORT_FILTER_FLOWRATE,
+    REPORT_FILTER_STD,
     REPORT_FLOWRATE,
+    REPORT_MISMATCH,
     REPORT_NIS,
     REPORT_OFFSET,
     REPORT_OFFSET_STD,
@@ -131,8 +135,13 @@ class FilterReporting:
         """The report array from the state as it is (after a reset or a restored state): the flowrates the
         next prediction starts from, the nuisances and the flags :meth:`current_report` reads."""
         report = self._report
-        report[REPORT_FLOWRATE : REPORT_FLOWRATE + 2] = self._flowrate_si()
-        report[REPORT_STD : REPORT_STD + 2] = self.flowrate_std_m3_s
+        report[REPORT_FILTER_FLOWRATE : REPORT_FILTER_FLOWRATE + 2] = self._flowrate_si()
+        report[REPORT_FILTER_STD : REPORT_FILTER_STD + 2] = self.flowrate_std_m3_s
+        status = self._change[CHANGE_STATUS]
+        report[REPORT_MISMATCH] = status
+        if status == CONSISTENT:  # else the published values stay (a restored state brings them)
+            report[REPORT_FLOWRATE : REPORT_FLOWRATE + 2] = self._flowrate_si()
+            report[REPORT_STD : REPORT_STD + 2] = self.flowrate_std_m3_s
         report[REPORT_VISCOSITY : REPORT_VISCOSITY + 2] = self.viscosity_factor
         report[REPORT_VISCOSITY_STD : REPORT_VISCOSITY_STD + 2] = self.viscosity_factor_std
         report[REPORT_OFFSET : REPORT_OFFSET + 4] = self.offset_m

@@ -20,6 +20,8 @@ changing              (2,)        bool: change test firing per bearing
 last                  (5,)        float: nis, n_measurements, measurement_ok, converged, model_consistent
 alarm_*               (2,)        the alarm flags and hold counters (see :mod:`oilwatch.estimator.alarm`)
 operating             (4,)        (given?, speed [Hz], given?, oil temperature [degC]) last measured
+model_mismatch        (M,)        the mismatch status and static means (estimator.baseline_change)
+published             (5,)        the published flowrates and stds and the mismatch status
 model_*               ...         a model's operating state, when it follows the operating point
 ====================  ==========  =====================================================================
 """
@@ -30,7 +32,9 @@ import numpy as np
 
 from oilwatch.models.validation import InputError
 
-from .step_kernel import COUNT_SINCE_UPDATE, COUNT_STEP
+from .step_kernel import COUNT_SINCE_UPDATE, COUNT_STEP, REPORT_FLOWRATE, REPORT_MISMATCH, REPORT_STD
+
+_PUBLISHED = (REPORT_FLOWRATE, REPORT_FLOWRATE + 1, REPORT_STD, REPORT_STD + 1, REPORT_MISMATCH)
 
 
 def _checked(state: dict[str, np.ndarray], key: str, shape: tuple[int, ...]) -> np.ndarray:
@@ -64,6 +68,8 @@ class FilterStateIO:
             "last": np.array([float(v) for v in self._last]),
         }
         state.update(self.alarm.get_state())
+        state["model_mismatch"] = self._change.copy()
+        state["published"] = self._report[list(_PUBLISHED)].copy()
         speed, temperature = self._operating
         state["operating"] = np.array(
             [float(speed is not None), speed or 0.0, float(temperature is not None), temperature or 0.0]
@@ -95,6 +101,9 @@ class FilterStateIO:
         self._changing[:] = _checked(state, "changing", (2,))
         nis, rows, ok, converged, consistent = _checked(state, "last", (5,))
         self.alarm.set_state(state)
+        if "model_mismatch" in state:
+            self._change[:] = _checked(state, "model_mismatch", self._change.shape)
+            self._report[list(_PUBLISHED)] = _checked(state, "published", (len(_PUBLISHED),))
         self._set_last(float(nis), int(rows), bool(ok), bool(converged), bool(consistent))
         if "operating" in state:
             has_speed, speed, has_temperature, temperature = (

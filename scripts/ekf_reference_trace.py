@@ -68,12 +68,14 @@ def cases(with_records: bool = True) -> dict[str, tuple]:
     grid = GridAugmentedModel(load_system(reduced=True))
     constant = record(grid) if with_records else None
     # the reference filter had no shadow Jacobian or settling start (estimator/nuisance_start.py)
-    reference = {"nuisance_shadow": False, "nuisance_settling_time_constants": 0.0}
+    # and published its own estimate during a model mismatch (estimator/baseline_change.py)
+    paper = {"model_mismatch_action": False}
+    reference = {"nuisance_shadow": False, "nuisance_settling_time_constants": 0.0, **paper}
     nuisances = EKFConfig.recommended(offset_prior_std_m=5e-6, unbalance_prior_std=0.3, **reference)
     operating = build_operating_model(load_system(reduced=True), machine)
     speed, temperature = operating_inputs(machine.nominal_oil_temperature_c)
     return {
-        "constant": (grid, EKFConfig.recommended(), constant, None, None),
+        "constant": (grid, EKFConfig.recommended(**paper), constant, None, None),
         "nuisances": (grid, nuisances, constant, None, None),
         "ramps": (
             operating,

@@ -28,9 +28,12 @@ def register(subparsers) -> None:
             "--probe. Any sample rate at or above 1 kHz is anti-alias filtered onto the estimator's 1 kHz "
             "grid. Writes DIR/estimates.csv (flushed block by block), DIR/summary.json, DIR/trend.png, "
             "DIR/centerline.png, DIR/orbits.png, DIR/probe_health.png and DIR/report.html. Several "
-            "records run as Dask tasks, one output folder each (DIR/<record name>/). Exit code 2 on a bad "
-            "record (one line naming the column and the row), 130 when interrupted (estimates.csv keeps "
-            "the rows done)."
+            "records run as Dask tasks, one output folder each (DIR/<record name>/). Exit code 0 when "
+            "every record ends with its model consistent with the data; 3 when a record ends in a model "
+            "mismatch (summary.json model_mismatch: the estimates and alarms then come from the static "
+            "change relative to the --baseline, or, without one, the alarms are held and the std widened); "
+            "2 on a bad record (one line naming the column and the row); 130 when interrupted "
+            "(estimates.csv keeps the rows done)."
         ),
     )
     parser.add_argument(
@@ -155,10 +158,16 @@ def run(args: argparse.Namespace) -> int:
     if live:
         summary = _run_one(source, out, options, progress=False, live=sys.stdout)
         print(_describe(summary), file=sys.stderr)
-        return 0
+        return _exit_code(summary)
     summary = _run_one(source, out, options, progress=not args.no_progress)
     print(json.dumps(summary, indent=2) if args.json else _describe(summary))
-    return 0
+    return _exit_code(summary)
+
+
+def _exit_code(summary: dict) -> int:
+    from oilwatch.monitoring.summary import MISMATCH_EXIT_CODE, ends_in_mismatch
+
+    return MISMATCH_EXIT_CODE if ends_in_mismatch(summary) else 0
 
 
 def _stem(source: str) -> str:
@@ -214,7 +223,7 @@ def _run_many(args, options) -> int:
     for source in args.records:
         open_record(source, "time_s").close()  # a missing or unknown file fails here, before the cluster
     base = Path(args.out) if args.out else Path("estimates")
-    failed = []
+    failed, codes = [], [0]
     with dask_client(args.scheduler, args.workers) as client:
         futures = {
             client.submit(estimate_task, source, str(base / stem), options, pure=False): source
@@ -231,7 +240,8 @@ def _run_many(args, options) -> int:
                 print(f"oilwatch estimate: error: {error}", file=sys.stderr)
                 continue
             print(json.dumps(summary, indent=2) if args.json else _describe(summary))
-    return 2 if failed else 0
+            codes.append(_exit_code(summary))
+    return 2 if failed else max(codes)
 
 
 def _describe(summary: dict) -> str:
@@ -244,6 +254,10 @@ def _describe(summary: dict) -> str:
         q, std = summary[f"q{b}_final_ml_min"], summary[f"q{b}_std_final_ml_min"]
         numbers = "n/a" if q is None else f"{q:.1f} +- {2 * std:.1f} ml/min (2 std)"
         lines.append(f"  bearing {b}: {numbers}; {summary['verdict'][f'bearing{b}']}")
+    mismatch = summary.get("model_mismatch")
+    if mismatch is not None and mismatch["final"] != "consistent":
+        share = 1.0 - mismatch["fraction"]["consistent"]
+        lines.append(f"  model mismatch at the end ({mismatch['final']}; {100 * share:.0f} % of the record)")
     for alarm in summary["alarms"]:
         lines.append(f"  alarm: bearing {alarm['bearing']} at {alarm['time_s']:.3f} s")
     if record["gap_count"]:

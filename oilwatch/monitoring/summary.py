@@ -84,6 +84,7 @@ def summarize(run, wall_s: float, csv_path: Path) -> dict:
         "estimates_csv": str(csv_path),
     }
     summary["probes"] = _probe_summary(run)
+    summary["model_mismatch"] = _mismatch_summary(history)
     if run.latency.count:
         summary["live_latency_ms"] = run.latency.summary_ms()
     for b in (1, 2):
@@ -97,6 +98,7 @@ def summarize(run, wall_s: float, csv_path: Path) -> dict:
             if alarmed
             else "healthy"
         ) + ("" if q is None else f": {q:.1f} ml/min, {100.0 * q / nominal:.1f} % of nominal")
+        summary["verdict"][f"bearing{b}"] += MISMATCH_VERDICT.get(history.last_mismatch, "")
     mismatch = summary["speed"].get("max_deviation_fraction")
     if not run.follow and mismatch is not None and mismatch > SPEED_MISMATCH_FRACTION:
         print(
@@ -106,6 +108,39 @@ def summarize(run, wall_s: float, csv_path: Path) -> dict:
             file=sys.stderr,
         )
     return summary
+
+
+MISMATCH_VERDICT = {
+    1: " (model mismatch: read from the static change relative to the baseline)",
+    2: " (model mismatch: the estimate does not act, alarms held)",
+}
+"""What the verdict says of the model-mismatch status at the end of the record."""
+MISMATCH_EXIT_CODE = 3
+"""``oilwatch estimate``'s exit status when the record ends in a model mismatch (the filter's own estimate
+was not consistent with the data; see summary.json's ``model_mismatch``)."""
+
+
+def ends_in_mismatch(summary: dict) -> bool:
+    """The record ended in a model mismatch (summary.json's ``model_mismatch``)."""
+    mismatch = summary.get("model_mismatch")
+    return mismatch is not None and mismatch["final"] != "consistent"
+
+
+def _mismatch_summary(history) -> dict | None:
+    """The model-mismatch status at the end and the share of the record at each status (None: the estimator
+    has none)."""
+    from oilwatch.estimator.baseline_change import STATUS_NAMES
+
+    if history.last_mismatch is None:
+        return None
+    total = max(1, int(history.mismatch_samples.sum()))
+    return {
+        "final": STATUS_NAMES[history.last_mismatch],
+        "fraction": {
+            name: round(int(n) / total, 6)
+            for name, n in zip(STATUS_NAMES, history.mismatch_samples, strict=True)
+        },
+    }
 
 
 def _probe_summary(run) -> dict:
