@@ -21,17 +21,24 @@ from .boundary_parameters import (
     ESTIMATOR_PARAMETERS,
     NUISANCE_PRIORS,
     OFFSET_PRIOR_FROM_MACHINE,
+    PRESET_PARAMETERS,
+    PRESET_VALUE,
     BoundaryParameter,
     config_field_names,
     config_from_parameters,
 )
 from .ekf_config import (
+    DEFAULT_PRESET,
     INITIAL_FLOWRATE_STD_FRACTION,
     INITIAL_STATE_MODES,
     ML_MIN,
+    PRESET_NAMES,
+    PRESETS,
     RECOMMENDED_DISPLACEMENT_PROCESS_STD_M,
     VELOCITY_NOISE_MODES,
     EKFConfig,
+    Preset,
+    preset_named,
 )
 from .nuisance_outputs import (
     NUISANCE_OUTPUTS,
@@ -44,6 +51,7 @@ from .nuisance_outputs import (
 from .offset_baseline import OffsetBaseline
 
 __all__ = [
+    "DEFAULT_PRESET",
     "ESTIMATOR_PARAMETERS",
     "INITIAL_FLOWRATE_STD_FRACTION",
     "INITIAL_STATE_MODES",
@@ -51,6 +59,10 @@ __all__ = [
     "NUISANCE_OUTPUTS",
     "NUISANCE_PRIORS",
     "OFFSET_PRIOR_FROM_MACHINE",
+    "PRESETS",
+    "PRESET_NAMES",
+    "PRESET_PARAMETERS",
+    "PRESET_VALUE",
     "RECOMMENDED_DISPLACEMENT_PROCESS_STD_M",
     "VELOCITY_NOISE_MODES",
     "AlarmConfig",
@@ -58,10 +70,12 @@ __all__ = [
     "EKFConfig",
     "NuisanceOutput",
     "OffsetBaseline",
+    "Preset",
     "config_field_names",
     "config_from_parameters",
     "nuisance_names",
     "nuisance_snapshot",
     "nuisance_table",
     "nuisance_values",
+    "preset_named",
 ]

@@ -15,13 +15,15 @@ from oilwatch.estimator.config import (
     ESTIMATOR_PARAMETERS,
     INITIAL_FLOWRATE_STD_FRACTION,
     ML_MIN,
-    OFFSET_PRIOR_FROM_MACHINE,
+    PRESET_PARAMETERS,
+    PRESET_VALUE,
     RECOMMENDED_DISPLACEMENT_PROCESS_STD_M,
     EKFConfig,
     config_from_parameters,
 )
+from oilwatch.estimator.ekf_config import preset_named
 from oilwatch.estimator.runout import runout_of_probes
-from oilwatch.fmu_src.ekf_variables import GRID_TOLERANCE
+from oilwatch.fmu_src.ekf_variables import GRID_TOLERANCE, PRESET_TABLE
 from oilwatch.fmu_src.machine_parameters import probe_angle_deg
 from oilwatch.models.probes import read_probes
 from oilwatch.models.system.augmented import GridAugmentedModel
@@ -34,7 +36,15 @@ VELOCITY_MODES = ("displacement-only", "paper", "correlated")
 
 
 def check_parameters(slave) -> None:
-    """Check the parameters beyond their declared ranges (``InputError`` naming the parameter)."""
+    """Check the parameters beyond their declared ranges (``InputError`` naming the parameter) and resolve
+    ``bearing_table`` -1 to the ``preset``'s."""
+    preset = preset_named(slave.preset)
+    if slave.bearing_table == PRESET_TABLE:
+        slave.bearing_table = int(preset.follow_operating_point)
+    for name in PRESET_PARAMETERS:
+        value = getattr(slave, name)
+        if value < 0.0 and value != PRESET_VALUE:
+            raise InputError(f"{name} must be >= 0 or {PRESET_VALUE:g} (the preset's), got {value:g}")
     if slave.q_std_velocity_um_s < 0.0 and slave.q_std_velocity_um_s != -1.0:
         raise InputError(
             f"q_std_velocity_um_s must be >= 0 um/s or -1 (recommended), got {slave.q_std_velocity_um_s:g}"
@@ -82,6 +92,13 @@ def estimator_model(slave, system, machine):
         return build_operating_model(system, machine, slave.sample_period_s)
     if slave.viscosity_factor_prior_std > 0.0:
         raise InputError("viscosity_factor_prior_std > 0 needs bearing_table = 1")
+    if slave.viscosity_factor_prior_std == PRESET_VALUE and preset_named(slave.preset).value(
+        "viscosity_factor_prior_std", 0.0
+    ):
+        raise InputError(
+            f"bearing_table = 0: the {slave.preset} preset estimates the viscosity factors, which need "
+            "bearing_table = 1; set viscosity_factor_prior_std = 0 or bearing_table = 1"
+        )
     return GridAugmentedModel(system, slave.sample_period_s)
 
 
@@ -124,10 +141,10 @@ def estimator_config(
     )
     probes = read_probes(machine)
     values = {p.name: getattr(slave, p.name) for p in ESTIMATOR_PARAMETERS}
-    if values["offset_prior_std_um"] == OFFSET_PRIOR_FROM_MACHINE:
-        values["offset_prior_std_um"] = probes.offset_prior_std_m * 1e6
     return config_from_parameters(
         values,
+        slave.preset,
+        probes.offset_prior_std_m,
         probe_angle_deg=probe_angle_deg(slave, machine),
         offset_random_walk_m_sqrt_s=probes.offset_random_walk_m_sqrt_s,
         velocity_noise=VELOCITY_MODES[slave.velocity_channels],

@@ -14,8 +14,10 @@ import numpy as np
 from oilwatch.estimator.baseline_change import STATUS_NAMES as MISMATCH_NAMES
 from oilwatch.estimator.channels import STATUS_NAMES
 from oilwatch.estimator.config import (
+    DEFAULT_PRESET,
     ESTIMATOR_PARAMETERS,
     ML_MIN,
+    PRESETS,
     RECOMMENDED_DISPLACEMENT_PROCESS_STD_M,
     nuisance_names,
 )
@@ -100,8 +102,20 @@ max, description. The others (:data:`oilwatch.estimator.config.ESTIMATOR_PARAMET
 gate, alarm) are generated from the configuration classes."""
 
 
+PRESET_TABLE = -1
+"""``bearing_table`` start value of the estimator: the preset's (``Preset.follow_operating_point``)."""
+
+
 def declare_parameters(slave) -> None:
-    declare_machine_parameters(slave)
+    tables = "; ".join(f"{p.name}: {int(p.follow_operating_point)}" for p in PRESETS)
+    declare_machine_parameters(slave, PRESET_TABLE, f"; -1: the preset's ({tables})")
+    slave.declare_string(
+        "preset",
+        "parameter",
+        start=DEFAULT_PRESET,
+        description="The configuration the parameters at -1 take their values from: "
+        + "; ".join(f"{p.name}: {p.description}" for p in PRESETS),
+    )
     for name, start, unit, low, high, text in OWN_REALS:
         slave.declare_real(
             name, "parameter", start=start, unit=unit, minimum=low, maximum=high, description=text

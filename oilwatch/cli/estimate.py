@@ -12,6 +12,7 @@ def register(subparsers) -> None:
     """Add the ``estimate`` subcommand."""
     from oilwatch.monitoring import OPERATING_POINTS
 
+    from .config_options import add_preset_options
     from .machine_option import add_machine_option
 
     parser = subparsers.add_parser(
@@ -60,16 +61,7 @@ def register(subparsers) -> None:
         help="prior std of each probe's zero offset [um] (default: the machine file's [probes] "
         "offset_prior_std_um; 0: the offsets are known to be zero, the estimator FMU's default)",
     )
-    parser.add_argument(
-        "--viscosity-prior",
-        type=float,
-        default=0.0,
-        metavar="STD",
-        help="prior std of each bearing's viscosity factor (film over the oil law at the measured "
-        "temperature), e.g. 0.1: estimated beside the flowrates, with the start bank where no --baseline "
-        "estimated them (README); needs the model that follows the operating point; 0: known (default, "
-        "the estimator FMU's viscosity_factor_prior_std)",
-    )
+    add_preset_options(parser)
     parser.add_argument(
         "--probe",
         action="append",
@@ -118,6 +110,8 @@ def run(args: argparse.Namespace) -> int:
     from oilwatch.monitoring.estimate import EstimateOptions
     from oilwatch.records.readers import STDIN
 
+    from .config_options import check_preset_options
+
     if args.output_every < 1:
         raise InputError(f"--output-every must be an integer >= 1, got {args.output_every}")
     if STDIN in args.records and len(args.records) > 1:
@@ -138,12 +132,14 @@ def run(args: argparse.Namespace) -> int:
             baseline_age_days(args.baseline, args.record_start)  # a baseline newer than the record fails here
     if args.offset_prior_um is not None:
         require_in_range("--offset-prior-um", args.offset_prior_um, 0.0, 1000.0, "um")
-    require_in_range("--viscosity-prior", args.viscosity_prior, 0.0, 0.5)
+    check_preset_options(args)
     options = EstimateOptions(
         machine_file=args.machine,
         baseline_file=args.baseline,
         offset_prior_std_um=args.offset_prior_um,
+        preset=args.preset,
         viscosity_factor_prior_std=args.viscosity_prior,
+        unbalance_prior_std=args.unbalance_prior,
         probe_overrides=tuple(args.probe),
         output_every=args.output_every,
         views=not args.no_views,
