@@ -106,7 +106,7 @@ def host_run(host: Path, plant: Path, ekf: Path, folder: Path, steps: int) -> np
 
 def build(folder: Path) -> tuple[Path, Path]:
     sys.path.insert(0, str(ROOT))
-    from build import build_fmus
+    from oilwatch.cosim.fmu_build import build_fmus
 
     built = build_fmus(folder, only=["RotorBearingPlant", "OilFlowEKF"])
     return next(p for p in built if p.name == "RotorBearingPlant.fmu"), next(

@@ -127,6 +127,6 @@ def ekf_fmu(path: str | None, out_dir: str) -> Path:
     if path is not None:
         return Path(path)
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-    from build import build_fmus
+    from oilwatch.cosim.fmu_build import build_fmus
 
     return next(p for p in build_fmus(out_dir, only=["OilFlowEKF"]) if p.suffix == ".fmu")

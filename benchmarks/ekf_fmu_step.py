@@ -49,7 +49,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 import numpy as np
-from ekf_step import FmuLoop, bare_fmu, ekf_fmu, measurements, plant_ramp_record
+from ekf_fmu_loop import FmuLoop, bare_fmu, ekf_fmu
+from ekf_step import measurements
+from ekf_step_ramps import plant_ramp_record
 
 from oilwatch.models.system.augmented import GridAugmentedModel
 from oilwatch.models.system.factory import load_system

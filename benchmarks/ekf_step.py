@@ -18,7 +18,8 @@ flowrate
   evaluation), when its coefficient table is found (``--table``, default: the machine's table next to the
   machine file). Here the model's own evaluation is part of each step, as it would be in the estimator.
 
-The FMU is ``--fmu`` (default: built into a temporary folder with ``build.build_fmus``); its line needs the
+The FMU is ``--fmu`` (default: built into a temporary folder with ``oilwatch.cosim.fmu_build.build_fmus``);
+its line needs the
 system family, whose reduced-model response feeds it. ``benchmarks/ekf_fmu_step.py`` splits the FMU's step
 into the library step, the shell's Python and the FMI floor (its :class:`FmuLoop` is the loop timed here).
 
@@ -53,22 +54,21 @@ import tempfile
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np
-from ekf_fmu_loop import FmuLoop, bare_fmu, ekf_fmu, time_fmu
-from ekf_step_ramps import operating_rows, plant_ramp_record
+from ekf_fmu_loop import bare_fmu, ekf_fmu, time_fmu
+from ekf_step_ramps import operating_rows
 from filterpy.kalman import ExtendedKalmanFilter
 from step_timing import time_per_step, use_process_time
 
-from oilwatch.estimator.config import EKFConfig
 from oilwatch.estimator.ekf import OilFlowEKF
-from oilwatch.estimator.toy_model import NOMINAL_FLOWRATE_M3_S, SPEED_HZ
+from oilwatch.estimator.ekf_config import EKFConfig
 from oilwatch.models.machine import load_machine
 from oilwatch.models.system.augmented import GridAugmentedModel
 from oilwatch.models.system.factory import flowrate_table_path, load_system
 
-__all__ = ["FmuLoop", "bare_fmu", "ekf_fmu", "main", "measurements", "plant_ramp_record", "time_fmu"]
-"""Also the import path of the other benchmarks' FMU loop and ramp record (``ekf_fmu_step.py``,
-``ekf_step_latency.py``)."""
-
+_TURBINE = load_machine()
+SPEED_HZ = _TURBINE.nominal_speed_hz
+NOMINAL_FLOWRATE_M3_S = _TURBINE.lubrication.nominal_flowrate_m3_s
+"""The synthetic models run at the bundled turbine's speed and nominal flowrate."""
 
 class SyntheticRotorModel:
     """A dense linear model with the AugmentedModel interface: ``s+ = A(q) s + G w_k``,

@@ -14,11 +14,11 @@ import time
 from pathlib import Path
 
 import numpy as np
-from ekf_step import plant_ramp_record
+from ekf_step_ramps import plant_ramp_record
 
 from oilwatch import estimator
-from oilwatch.estimator.config import EKFConfig
 from oilwatch.estimator.ekf import OilFlowEKF
+from oilwatch.estimator.ekf_config import EKFConfig
 from oilwatch.models.machine import load_machine
 from oilwatch.models.system.factory import load_system
 

@@ -14,8 +14,8 @@ import numpy as np
 from ekf_fmu_loop import bare_fmu, ekf_fmu, time_fmu
 from step_timing import clock, time_per_step
 
-from oilwatch.estimator.config import EKFConfig
 from oilwatch.estimator.ekf import OilFlowEKF
+from oilwatch.estimator.ekf_config import EKFConfig
 from oilwatch.models.machine import load_machine
 from oilwatch.models.system.factory import load_system
 

@@ -12,7 +12,7 @@ Prints the median wall time over the repeats, the real-time factor (simulated / 
 ratio to the in-process baseline. Scenarios: constant flowrates, and the slow drop (4 s sigmoid, where the
 flowrates change every step for several seconds and the integrator takes its sub-step path).
 
-Usage: ``OPENBLAS_NUM_THREADS=1 python benchmarks/plant_fmu.py [--duration-s 20] [--repeats 3]``
+Usage: ``OPENBLAS_NUM_THREADS=1 python benchmarks/plant_fmu.py [--duration-s 20] [--repeats 3] [--fmu FILE]``
 """
 
 from __future__ import annotations
@@ -126,13 +126,15 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--duration-s", type=float, default=20.0)
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--fmu", default=None, help="RotorBearingPlant.fmu to time (default: build one)")
     args = parser.parse_args()
     sys.path.insert(0, str(REPO_ROOT))
-    from build import build_fmus
+    from oilwatch.cosim.fmu_build import build_fmus
 
     with tempfile.TemporaryDirectory() as folder:
-        build_fmus(Path(folder), only=["RotorBearingPlant"], systems=())
-        fmu = Path(folder) / "RotorBearingPlant.fmu"
+        if args.fmu is None:
+            build_fmus(Path(folder), only=["RotorBearingPlant"], systems=())
+        fmu = Path(args.fmu or Path(folder) / "RotorBearingPlant.fmu")
         print(f"RotorBearingPlant FMU, {args.duration_s:g} s at 1 ms, median of {args.repeats} runs")
         print(f"{'scenario':12s} {'run':32s} {'wall s':>8s} {'RTF':>7s} {'vs model':>9s}")
         for scenario, parameters in SCENARIOS.items():

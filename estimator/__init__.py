@@ -7,8 +7,10 @@ Usage::
     report = ekf.step(displacement_m)  # (x1, y1, x2, y2) [m] -> q estimates, stds, NIS, flags
 """
 
-from .config import AlarmConfig, EKFConfig
-from .ekf import EstimateTrace, OilFlowEKF, StepReport
+from .alarm_config import AlarmConfig
+from .ekf import OilFlowEKF
+from .ekf_config import EKFConfig
 from .model import AugmentedModel
+from .reports import EstimateTrace, StepReport
 
 __all__ = ["AlarmConfig", "AugmentedModel", "EKFConfig", "EstimateTrace", "OilFlowEKF", "StepReport"]

@@ -16,9 +16,9 @@ Each alarm also records whether the estimator's model was consistent with the da
 :mod:`oilwatch.estimator.ekf`) when it was raised: ``starved_consistent``. An alarm raised while the model was
 not consistent may be the machine's departure from the model rather than starvation.
 
-Defaults (:class:`oilwatch.estimator.config.AlarmConfig`): z = 2, 90 % to set, 95 % to clear, holds 0.25 s and
-1 s. Designed for: firing within 2 s of the centre of a sudden 25 % drop and never in a 20 s nominal run at
-sigma 1 um (both checked in ``tests/test_estimator_alarm.py``).
+Defaults (:class:`oilwatch.estimator.alarm_config.AlarmConfig`): z = 2, 90 % to set, 95 % to clear, holds 0.25
+s and 1 s. Designed for: firing within 2 s of the centre of a sudden 25 % drop and never in a 20 s nominal run
+at sigma 1 um (both checked in ``tests/test_estimator_alarm.py``).
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ from numba import njit
 
 from oilwatch.models.validation import InputError
 
-from .config import AlarmConfig
+from .alarm_config import AlarmConfig
 
 _STATE_KEYS = ("alarm_starved", "alarm_on_count", "alarm_off_count", "alarm_raised_consistent")
 # rows of the alarm's record (4, n_bearings) and entries of its settings

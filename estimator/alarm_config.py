@@ -1,8 +1,8 @@
 """Thresholds of the per-bearing starvation alarm, each with its allowed range, unit and description.
 
 The field metadata is read twice: by validation here and by
-:data:`oilwatch.estimator.config.ESTIMATOR_PARAMETERS`, which turns every field into a user parameter
-(``alarm_<field>``) of the FMU and the CLI.
+:data:`oilwatch.estimator.boundary_parameters.ESTIMATOR_PARAMETERS`, which turns every field into a user
+parameter (``alarm_<field>``) of the FMU and the CLI.
 """
 
 from __future__ import annotations

@@ -10,8 +10,8 @@ frees the complex unbalance (``unbalance_prior_std``) or the bearings' viscosity
 known flow the factor is what moves the journal besides the offsets, and at unknown flow it is nearly
 indistinguishable from a flowrate change (both move the static position), so it must come from here. The
 final estimates and their stds become the prior of later runs
-(:class:`oilwatch.estimator.config.OffsetBaseline`); drift after commissioning is then tracked by the random
-walks, and the offsets' prior is widened by the drift the time since commissioning allows
+(:class:`oilwatch.estimator.offset_baseline.OffsetBaseline`); drift after commissioning is then tracked by the
+random walks, and the offsets' prior is widened by the drift the time since commissioning allows
 (``OffsetBaseline.age_s``, ``drift_m_per_day``).
 
 File format (JSON, units in the keys): ``format``, ``format_version``, ``flowrates_ml_min`` (2,),
@@ -37,9 +37,10 @@ import numpy as np
 
 from oilwatch.models.validation import InputError
 
-from .config import ML_MIN, EKFConfig, OffsetBaseline
 from .ekf import OilFlowEKF
+from .ekf_config import ML_MIN, EKFConfig
 from .model import AugmentedModel
+from .offset_baseline import OffsetBaseline
 from .runout import SlowRollVectors
 
 FORMAT = "oilwatch commissioning baseline"

@@ -59,9 +59,9 @@ from oilwatch.models.validation import InputError
 from . import channels
 from .alarm import StarvationAlarm
 from .baseline_change import new_change_array, reference_applies, reset_change
-from .config import EKFConfig
 from .ekf_batch import BatchRuns
-from .ekf_prediction import MIN_VISCOSITY_FACTOR, ModelPrediction
+from .ekf_config import EKFConfig
+from .ekf_prediction import ModelPrediction
 from .ekf_reporting import FilterReporting
 from .ekf_setup import (
     StateLayout,
@@ -76,7 +76,7 @@ from .filter_arrays import FilterArrays
 from .measurement import displacement_channels, probe_rotation, velocity_channels
 from .model import AugmentedModel
 from .nuisance_start import InformationFloor, ShadowJacobian, restart_parameters, settling_steps
-from .reports import EstimateTrace, StepReport
+from .reports import StepReport
 from .runout import RunoutCompensation
 from .state import FilterStateIO
 from .step_kernel import (
@@ -88,8 +88,6 @@ from .step_kernel import (
     ekf_step,
 )
 
-__all__ = ["MIN_VISCOSITY_FACTOR", "EstimateTrace", "OilFlowEKF", "StepReport"]
-
 
 class OilFlowEKF(FilterReporting, BatchRuns, ModelPrediction, FilterStateIO):
     """Augmented-state EKF estimating (q1, q2) from the four measured bearing displacements.
@@ -97,7 +95,7 @@ class OilFlowEKF(FilterReporting, BatchRuns, ModelPrediction, FilterStateIO):
     Parameters
     ----------
     model : any :class:`oilwatch.estimator.model.AugmentedModel`.
-    config : :class:`oilwatch.estimator.config.EKFConfig` (paper defaults; what it leaves open, e.g. the
+    config : :class:`oilwatch.estimator.ekf_config.EKFConfig` (paper defaults; what it leaves open, e.g. the
     nominal
         flowrate, comes from the model: :meth:`EKFConfig.for_model`).
 

@@ -17,7 +17,7 @@ from scipy.special import chdtri, ndtri
 from oilwatch.models.validation import InputError
 
 from . import channels
-from .config import EKFConfig
+from .ekf_config import EKFConfig
 from .model import AugmentedModel, has_static_state
 from .step_kernel import (
     COUNT_FIRST,

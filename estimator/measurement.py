@@ -21,15 +21,9 @@ phase lag.
     this is the only one of the three whose measurement noise really is white and whose model is exact, and
     it is the default.
 
-The study :mod:`oilwatch.estimator.velocity_study` (checked in ``tests/test_estimator_velocity_noise.py``)
-compares the three on the toy rotor, sigma 1 um, with the recommended process noise (0.1 um per step):
-displacement-only NIS/m 0.93, bias 0.06 %, RMS 0.24 %, 2-std coverage 1.00; correlated NIS/m 1.16, bias 2.0 %,
-coverage 0.02; paper NIS/m 951, bias 67 %. The same comparison on the issue-4 plant (Newmark full model, 5
-flowrate cases x 2 seeds, reduced 26-state grid model in the filter): displacement-only NIS/m 0.99, mean
-|bias| 0.09 % (max 0.22 %), RMS 0.26 %, coverage 1.00; correlated NIS/m 1.00, bias 0.11 % (max 0.23 %), RMS
-0.29 %, coverage 0.97 (its orbits are smaller, so the velocity lag matters less, but it still gains nothing).
-With the paper's 10 um / 10 um/s, the paper mode's bias was 5.1 % (toy) and 4.6-5.8 % (plant, one case), close
-to the paper's own 1.8 % mean and 5.1 % maximum errors.
+On a plant whose orbits are large the two eight-channel modes are biased by the velocity lag and their
+reported std does not cover their error; with small orbits the correlated mode comes close to the
+displacement-only one but gains nothing over it.
 """
 
 from __future__ import annotations

@@ -1,8 +1,8 @@
 """The contract between the estimator and a rotor-bearing system model (paper Eqs. 14-16).
 
 The estimator never builds physics itself: it drives any object that satisfies :class:`AugmentedModel`.
-The system-model issue implements it in ``models/`` (full 168-state or reduced order); the tests use the toy
-oscillator of :mod:`oilwatch.estimator.toy_model`.
+``oilwatch.models.system`` implements it (full 168-state or reduced order); the tests use the toy
+oscillator of ``tests/fixtures/toy_model.py``.
 
 State convention: the dynamic state ``s`` is absolute, i.e. the measured displacements ``H @ s`` are measured
 from the bearing centre with the static eccentricity included, because gravity and the ``K(q) e0(q)`` term are
@@ -20,7 +20,7 @@ reduced (modal or Craig-Bampton) coordinates whose meaning only the model knows:
   P0 with it.
 
 An optional third, ``static_state(flowrate)``, gives the static equilibrium for the ``initial_state="static"``
-option of :class:`oilwatch.estimator.config.EKFConfig`; models without it support only the paper's zero
+option of :class:`oilwatch.estimator.ekf_config.EKFConfig`; models without it support only the paper's zero
 initial state. Two optional attributes carry the machine facts a configuration may leave open
 (``EKFConfig.for_model``): ``nominal_flowrate_m3_s`` (the machine file's nominal supply flowrate) and
 ``speed_hz`` (the model's speed). An optional attribute ``clearance_m`` (the bearings' radial clearance [m])

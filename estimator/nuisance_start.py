@@ -89,7 +89,7 @@ UPDATE_S = 2.0
 """How often the floor takes in the record's information [s]; the bound moves little within 2 s."""
 POINTS = 9
 """The exact-map responses of one update
-(:func:`oilwatch.models.system.identifiability.sensitivity_points`)."""
+(:func:`oilwatch.models.system.trajectory_bound.sensitivity_points`)."""
 STAGES = 2 * POINTS
 """The steps of one update: each point's continuous block, then its exponential and response (0.1-0.3 ms
 each, where the whole update in one step was 4-8 ms, a latency spike every 2 s)."""
@@ -101,7 +101,7 @@ class InformationFloor:
     With the viscosity factors free the filter's covariance claims more information about q than the record
     holds (README bound section: its std 1.4-2.3 times below the posterior bound under the ramps, equal to
     it within 5 % in every configuration with the factors known). The bound is the information recursion of
-    :func:`oilwatch.models.system.identifiability.tracking_bound_pct`: the parameters (flowrates, factors,
+    :func:`oilwatch.models.system.trajectory_bound.tracking_bound_pct`: the parameters (flowrates, factors,
     unbalance, offsets) random-walk as the filter models them, and every ``update_s`` the record adds the
     information of the steady static position and 1x orbit at the model's operating point, evaluated at the
     current estimates (the truth is unknown). It is a lower bound on any estimator's mean-square error under
@@ -125,9 +125,7 @@ class InformationFloor:
     def __init__(
         self, model, config, n: int, n_offsets: int, n_unbalance: int, update_s: float = UPDATE_S
     ) -> None:
-        from oilwatch.models.system.identifiability import (
-            parameter_columns,  # the parameter layout of the bound
-        )
+        from oilwatch.models.system.trajectory_bound import parameter_columns
 
         groups = ["viscosity"]
         if n_unbalance:
@@ -217,7 +215,7 @@ class InformationFloor:
         stage = int(pending[0])
         if stage < 0:
             return
-        from oilwatch.models.system.identifiability import (
+        from oilwatch.models.system.trajectory_bound import (
             OperatingSegment,
             block_response,
             map_block,

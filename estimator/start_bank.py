@@ -2,13 +2,11 @@
 
 With the viscosity factors free and no baseline, the filter's end point along the nearly unobservable
 direction (a lower flow, a thicker film, a larger unbalance, shifted offsets: :mod:`.nuisance_start`)
-follows its start: on the robustness ramps at 80/90 % the filter started at the nominal flowrates ends
-8-11 % low, started lower it ends within 0.3 %. ``scripts/free_factor_likelihood.py`` holds each end
-point's parameters fixed and sums the record's innovations: both are minima of the summed NIS with a
-higher one between (a local optimum of the filter model's likelihood, not only a linearization artefact),
-and the right one has the lower sum. So the record can choose between starts where one filter cannot
-travel: multiple-model adaptive estimation (Magill, IEEE Trans. Automatic Control 10, 1965; Maybeck,
-"Stochastic Models, Estimation, and Control" vol. 2, 1982, ch. 10) used as a start.
+follows its start. With each end point's parameters held fixed, the record's summed innovations (NIS) have
+a minimum at each end point with a higher sum between (a local optimum of the filter model's likelihood,
+not only a linearization artefact), and the right one has the lower sum. So the record can choose between
+starts where one filter cannot travel: multiple-model adaptive estimation (Magill, IEEE Trans. Automatic
+Control 10, 1965; Maybeck, "Stochastic Models, Estimation, and Control" vol. 2, 1982, ch. 10) used as a start.
 
 :class:`StartBank` runs one filter per start, the starts spread along the flowrates' prior only (fractions
 :data:`START_FRACTIONS` of the configured initial flowrate, both bearings alike; the other states at their

@@ -26,34 +26,84 @@ from .channels import STATUS
 from .filter_arrays import FilterArrays
 from .kernels import UPDATE_ACCEPTED, filter_step
 
+
+def _layout(*fields: tuple[str, int]) -> tuple[dict[str, int], int]:
+    """The start of each ``(name, width)`` field laid end to end, and the total size."""
+    starts, size = {}, 0
+    for name, width in fields:
+        starts[name] = size
+        size += width
+    return starts, size
+
+
 # the report array (REPORT_SIZE,): the published flowrates [m^3/s] and their stds (the filter's own while
 # the model is consistent, else as estimator.baseline_change says), the viscosity factors and stds (1 and 0
 # if not estimated), offsets [m] and stds, unbalance and stds (0 if not estimated), the sample's scalars and
-# flags as floats, the model-mismatch status, the filter's own flowrates (clipped to the table) and stds, and
-# the baseline-relative static estimate and std (NaN unless the status is a mismatch read from it)
-REPORT_FLOWRATE, REPORT_STD, REPORT_VISCOSITY, REPORT_VISCOSITY_STD = 0, 2, 4, 6
-REPORT_OFFSET, REPORT_OFFSET_STD, REPORT_UNBALANCE, REPORT_UNBALANCE_STD = 8, 12, 16, 18
-REPORT_NIS, REPORT_ROWS, REPORT_OK, REPORT_CONVERGED, REPORT_CONSISTENT = 20, 21, 22, 23, 24
-REPORT_STARVED, REPORT_STARVED_CONSISTENT, REPORT_CHANGING, REPORT_STATUS = 25, 27, 29, 31
-REPORT_MISMATCH, REPORT_FILTER_FLOWRATE, REPORT_FILTER_STD = 35, 36, 38
-REPORT_BASELINE_FLOWRATE, REPORT_BASELINE_STD = 40, 42
-REPORT_SIZE = 44
+# flags as floats (per bearing, or per probe for the status), the model-mismatch status, the filter's own
+# flowrates (clipped to the table) and stds, and the baseline-relative static estimate and std (NaN unless
+# the status is a mismatch read from it)
+_REPORT, REPORT_SIZE = _layout(
+    ("flowrate", 2),
+    ("std", 2),
+    ("viscosity", 2),
+    ("viscosity_std", 2),
+    ("offset", 4),
+    ("offset_std", 4),
+    ("unbalance", 2),
+    ("unbalance_std", 2),
+    ("nis", 1),
+    ("rows", 1),
+    ("ok", 1),
+    ("converged", 1),
+    ("consistent", 1),
+    ("starved", 2),
+    ("starved_consistent", 2),
+    ("changing", 2),
+    ("status", 4),
+    ("mismatch", 1),
+    ("filter_flowrate", 2),
+    ("filter_std", 2),
+    ("baseline_flowrate", 2),
+    ("baseline_std", 2),
+)
+REPORT_FLOWRATE, REPORT_STD = _REPORT["flowrate"], _REPORT["std"]
+REPORT_VISCOSITY, REPORT_VISCOSITY_STD = _REPORT["viscosity"], _REPORT["viscosity_std"]
+REPORT_OFFSET, REPORT_OFFSET_STD = _REPORT["offset"], _REPORT["offset_std"]
+REPORT_UNBALANCE, REPORT_UNBALANCE_STD = _REPORT["unbalance"], _REPORT["unbalance_std"]
+REPORT_NIS, REPORT_ROWS, REPORT_OK = _REPORT["nis"], _REPORT["rows"], _REPORT["ok"]
+REPORT_CONVERGED, REPORT_CONSISTENT = _REPORT["converged"], _REPORT["consistent"]
+REPORT_STARVED, REPORT_STARVED_CONSISTENT = _REPORT["starved"], _REPORT["starved_consistent"]
+REPORT_CHANGING, REPORT_STATUS = _REPORT["changing"], _REPORT["status"]
+REPORT_MISMATCH = _REPORT["mismatch"]
+REPORT_FILTER_FLOWRATE, REPORT_FILTER_STD = _REPORT["filter_flowrate"], _REPORT["filter_std"]
+REPORT_BASELINE_FLOWRATE, REPORT_BASELINE_STD = _REPORT["baseline_flowrate"], _REPORT["baseline_std"]
 # the int64 counters array: advanced in place (step, since_update) and the state's layout
-COUNT_STEP, COUNT_SINCE_UPDATE, COUNT_FIRST, COUNT_VISCOSITY, COUNT_UNBALANCE, COUNT_OFFSETS = range(6)
-N_COUNTERS = 6
+_COUNTERS, N_COUNTERS = _layout(
+    ("step", 1), ("since_update", 1), ("first", 1), ("viscosity", 1), ("unbalance", 1), ("offsets", 1)
+)
+COUNT_STEP, COUNT_SINCE_UPDATE = _COUNTERS["step"], _COUNTERS["since_update"]
+COUNT_FIRST, COUNT_VISCOSITY = _COUNTERS["first"], _COUNTERS["viscosity"]
+COUNT_UNBALANCE, COUNT_OFFSETS = _COUNTERS["unbalance"], _COUNTERS["offsets"]
 # the settings array of :func:`step_summary` and :func:`ekf_step`
-(
-    SUMMARY_Q_NOMINAL,
-    SUMMARY_Q_LOW,
-    SUMMARY_Q_HIGH,
-    SUMMARY_CONSISTENCY_Z,
-    SUMMARY_CONVERGED_STD,
-    SUMMARY_CONVERGED_DRIFT,
-    SUMMARY_UNBALANCE_WALK,
-    SUMMARY_UNBALANCE_EXTRA,
-    SUMMARY_STD_FLOOR,  # and SUMMARY_STD_FLOOR + 1: the alarm's floor on each flowrate std [m^3/s] (0: none)
-) = range(9)
-N_SUMMARY_SETTINGS = 10
+_SUMMARY, N_SUMMARY_SETTINGS = _layout(
+    ("q_nominal", 1),
+    ("q_low", 1),
+    ("q_high", 1),
+    ("consistency_z", 1),
+    ("converged_std", 1),
+    ("converged_drift", 1),
+    ("unbalance_walk", 1),
+    ("unbalance_extra", 1),
+    ("std_floor", 2),  # the alarm's floor on each flowrate std [m^3/s] (0: none)
+)
+SUMMARY_Q_NOMINAL, SUMMARY_Q_LOW, SUMMARY_Q_HIGH = (
+    _SUMMARY["q_nominal"],
+    _SUMMARY["q_low"],
+    _SUMMARY["q_high"],
+)
+SUMMARY_CONSISTENCY_Z, SUMMARY_CONVERGED_STD = _SUMMARY["consistency_z"], _SUMMARY["converged_std"]
+SUMMARY_CONVERGED_DRIFT, SUMMARY_UNBALANCE_WALK = _SUMMARY["converged_drift"], _SUMMARY["unbalance_walk"]
+SUMMARY_UNBALANCE_EXTRA, SUMMARY_STD_FLOOR = _SUMMARY["unbalance_extra"], _SUMMARY["std_floor"]
 
 
 @njit(cache=True)

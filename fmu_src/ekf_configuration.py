@@ -11,17 +11,19 @@ import math
 from pathlib import Path
 
 from oilwatch.estimator.baseline import load_baseline, load_runout
-from oilwatch.estimator.config import (
+from oilwatch.estimator.boundary_parameters import (
     ESTIMATOR_PARAMETERS,
-    INITIAL_FLOWRATE_STD_FRACTION,
-    ML_MIN,
     PRESET_PARAMETERS,
     PRESET_VALUE,
-    RECOMMENDED_DISPLACEMENT_PROCESS_STD_M,
-    EKFConfig,
     config_from_parameters,
 )
-from oilwatch.estimator.ekf_config import preset_named
+from oilwatch.estimator.ekf_config import (
+    INITIAL_FLOWRATE_STD_FRACTION,
+    ML_MIN,
+    RECOMMENDED_DISPLACEMENT_PROCESS_STD_M,
+    EKFConfig,
+    preset_named,
+)
 from oilwatch.estimator.runout import runout_of_probes
 from oilwatch.fmu_src.ekf_variables import GRID_TOLERANCE, PRESET_TABLE
 from oilwatch.fmu_src.machine_parameters import probe_angle_deg

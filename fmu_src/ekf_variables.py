@@ -12,15 +12,15 @@ from __future__ import annotations
 import numpy as np
 
 from oilwatch.estimator.baseline_change import STATUS_NAMES as MISMATCH_NAMES
+from oilwatch.estimator.boundary_parameters import ESTIMATOR_PARAMETERS
 from oilwatch.estimator.channels import STATUS_NAMES
-from oilwatch.estimator.config import (
+from oilwatch.estimator.ekf_config import (
     DEFAULT_PRESET,
-    ESTIMATOR_PARAMETERS,
     ML_MIN,
     PRESETS,
     RECOMMENDED_DISPLACEMENT_PROCESS_STD_M,
-    nuisance_names,
 )
+from oilwatch.estimator.nuisance_outputs import nuisance_names
 from oilwatch.estimator.step_kernel import (
     REPORT_CONSISTENT,
     REPORT_CONVERGED,
@@ -98,8 +98,8 @@ OWN_REALS = (
      "filter inconsistent (NIS/m 0.14)"),
 )  # fmt: skip
 """Real parameters of this FMU that are not in the estimator's configuration table: name, start, unit, min,
-max, description. The others (:data:`oilwatch.estimator.config.ESTIMATOR_PARAMETERS`: noise, process noise,
-gate, alarm) are generated from the configuration classes."""
+max, description. The others (:data:`oilwatch.estimator.boundary_parameters.ESTIMATOR_PARAMETERS`: noise,
+process noise, gate, alarm) are generated from the configuration classes."""
 
 
 PRESET_TABLE = -1

@@ -58,8 +58,8 @@ import numpy as np
 from pythonfmu import DefaultExperiment
 from pythonfmu.enums import Fmi2Causality
 
-from oilwatch.estimator.config import nuisance_names, nuisance_values
 from oilwatch.estimator.factory import make_estimator
+from oilwatch.estimator.nuisance_outputs import nuisance_names, nuisance_values
 from oilwatch.estimator.reports import ReportView
 from oilwatch.fmu_src.blas_threads import limit_blas_threads
 from oilwatch.fmu_src.ekf_configuration import (

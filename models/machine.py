@@ -10,7 +10,7 @@ are not stored here: see ``oilwatch.models.rotor.assembly.Rotor.from_machine``.
 
 The sections' data and readers (:mod:`oilwatch.models.machine_sections`: material, discs, unbalance, bearings,
 oil, lubrication) and the field readers they share (:mod:`oilwatch.models.machine_fields`) live in their own
-modules; the sections' types are re-exported here, the import path callers use.
+modules.
 """
 
 from __future__ import annotations
@@ -28,7 +28,6 @@ from .bearing.coefficient_kinds import DEFAULT_KIND, require_kind
 from .bearing.geometry import JournalBearing
 from .machine_fields import as_node, frozen_array, read_key, read_positive_array, read_real, read_table
 from .machine_sections import (
-    LOAD_SPLITS,
     Disc,
     Lubrication,
     Material,
@@ -37,26 +36,11 @@ from .machine_sections import (
     read_discs,
     read_lubrication,
     read_oil,
-    shaft_diameter_at_node,
 )
 from .oil import Oil
 from .validation import InputError, naming_file, read_text_file
 
 BUNDLED_MACHINE = Path(__file__).resolve().parent / "turbine.toml"
-
-__all__ = [
-    "BUNDLED_MACHINE",
-    "LOAD_SPLITS",
-    "Disc",
-    "Lubrication",
-    "Machine",
-    "Material",
-    "Unbalance",
-    "load_machine",
-    "machine_from_dict",
-    "nominal_flowrate_from_pressure",
-    "shaft_diameter_at_node",
-]
 
 
 @dataclass(frozen=True, eq=False, repr=False)

@@ -22,10 +22,10 @@ the key that replaces it.
 
 The offsets' prior: the bearing centre is known only from the cold-rest position and a clearance with a
 tolerance, so zero offsets of 10-25 um are ordinary. A baseline's offsets are widened by
-``offset_drift_um_per_day`` times the days since it (``oilwatch.estimator.config.OffsetBaseline``): the
-within-run random walk is no model of months (0.2 um/sqrt(s) is 59 um after a day). The default drift bound,
-0.1 um/day: API 670 allows a probe, cable and driver set a deviation from its straight line of +-25 um (1 mil)
-over 0-45 degC, and a seasonal swing of about 20 degC over about 90 days moves a zero by up to
+``offset_drift_um_per_day`` times the days since it (``oilwatch.estimator.offset_baseline.OffsetBaseline``):
+the within-run random walk is no model of months (0.2 um/sqrt(s) is 59 um after a day). The default drift
+bound, 0.1 um/day: API 670 allows a probe, cable and driver set a deviation from its straight line of +-25 um
+(1 mil) over 0-45 degC, and a seasonal swing of about 20 degC over about 90 days moves a zero by up to
 25 um x 20/45 / 90 days = 0.12 um/day; a baseline a month old is then trusted to 3 um (``oilwatch
 robustness``'s offsets-step case).
 

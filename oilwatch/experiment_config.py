@@ -2,8 +2,8 @@
 (``oilwatch study``).
 
 Each is a frozen dataclass whose fields carry their unit, allowed range and description as field metadata
-(as :mod:`oilwatch.estimator.config` does for the estimator): the defaults live here once, the scenario and
-study code read them, and the CLI options and their help are generated from them
+(as :mod:`oilwatch.estimator.ekf_config` does for the estimator): the defaults live here once, the scenario
+and study code read them, and the CLI options and their help are generated from them
 (:func:`oilwatch.cli.config_options.add_config_options`). These are settings of an experiment, not facts of
 a machine: a machine's nominal flowrate and speed come from its machine file.
 

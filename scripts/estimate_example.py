@@ -3,7 +3,7 @@
 The in-process plant (full model) at 1 kHz for 8 s, bearing 1's supply dropping from 100 % to 75 %
 (sigmoid centred at 4 s, 0.1 s), 1 um probe noise; the record loses 50 ms of data at 2.5 s (a gap,
 bridged) and probe y2 reads nothing for 0.5 s from 6 s. Writes docs/estimate_example/record.csv and the
-estimate's files beside it, and copies the four views to docs/estimate_<view>.png for the README.
+estimate's files beside it, and copies the four views to docs/images/estimate_<view>.png for the guide.
 
     OPENBLAS_NUM_THREADS=1 MPLBACKEND=Agg python scripts/estimate_example.py
 """
@@ -46,5 +46,5 @@ if __name__ == "__main__":
     record = make_record(OUT / "record.csv")
     code = main(["estimate", str(record), "--out", str(OUT), "--no-progress"])
     for name in VIEW_FILES.values():
-        shutil.copyfile(OUT / name, OUT.parent / f"estimate_{name}")
+        shutil.copyfile(OUT / name, OUT.parent / "images" / f"estimate_{name}")
     sys.exit(code)

@@ -8,7 +8,7 @@ estimator/nuisance_start.py is about.
 Per truth point (100/100, 80/90 %) and trajectory (constant; oil temperature +10 degC over the record; speed
 72 -> 78 Hz), the bound with each set of nuisances unknown, without and with a commissioning baseline (a
 record as long as the run at 100/100 % and the trajectory's start conditions, flowrates known), 1 um, 1 kHz,
-constant nuisances (``oilwatch.models.system.identifiability.trajectory_information``, 12 quasi-steady
+constant nuisances (``oilwatch.models.system.trajectory_bound.trajectory_information``, 12 quasi-steady
 segments); and the posterior bound at the end of the record with the parameters random-walking as the
 robustness run's estimator models them (``tracking_bound_pct``: EKFConfig's flowrate process noise, factor and
 unbalance walks, the machine file's offset walk; priors: a quarter of nominal, 0.1, 2, the probes' 25 um).
@@ -23,18 +23,18 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np
 
-from oilwatch.estimator.config import EKFConfig
+from oilwatch.estimator.ekf_config import EKFConfig
 from oilwatch.models.machine import load_machine
 from oilwatch.models.probes import read_probes
 from oilwatch.models.system.factory import build_system
-from oilwatch.models.system.identifiability import (
+from oilwatch.models.system.operating_model import build_operating_model
+from oilwatch.models.system.trajectory_bound import (
     OperatingSegment,
     nuisance_prior,
     tracking_bound_pct,
     trajectory_bound_pct,
     trajectory_information,
 )
-from oilwatch.models.system.operating_model import build_operating_model
 
 DT = 1e-3
 SEGMENTS = 12

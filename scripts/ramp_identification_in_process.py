@@ -21,8 +21,8 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np
 
-from oilwatch.estimator.config import EKFConfig
 from oilwatch.estimator.ekf import OilFlowEKF
+from oilwatch.estimator.ekf_config import EKFConfig
 from oilwatch.models.machine import load_machine
 from oilwatch.models.system.factory import load_system
 from oilwatch.models.system.operating_model import build_operating_model

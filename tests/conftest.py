@@ -72,7 +72,8 @@ def built_fmus(tmp_path_factory):
     fresh process (the relocated slave modules must not load into the pytest process); their folder."""
     with _session_folder(tmp_path_factory, "oilwatch_fmus") as (out, build):
         if build:
-            process = run_python(f"import build; build.build_fmus({str(out)!r})", timeout=400.0)
+            code = f"from oilwatch.cosim.fmu_build import build_fmus; build_fmus({str(out)!r})"
+            process = run_python(code, timeout=400.0)
             assert process.returncode == 0, process.stderr
     return out
 

@@ -13,8 +13,9 @@ import pytest
 
 from oilwatch.cli import main
 from oilwatch.estimator.baseline import baseline_prior
-from oilwatch.estimator.config import EKFConfig, OffsetBaseline
 from oilwatch.estimator.ekf import OilFlowEKF
+from oilwatch.estimator.ekf_config import EKFConfig
+from oilwatch.estimator.offset_baseline import OffsetBaseline
 from oilwatch.models.machine import load_machine
 from oilwatch.models.rotor.assembly import Rotor
 from oilwatch.models.system.factory import load_system

@@ -1,7 +1,8 @@
 """The OilFlowEKF FMU fed by the RotorBearingPlant FMU (issue 6, "done when").
 
 The truth is the plant FMU (full finite-element model, sub-stepped trapezoidal rule), never the estimator's
-own discrete model. Both FMUs are built once per session by ``build.build_fmus`` in a subprocess; every FMU
+own discrete model. Both FMUs are built once per session by ``oilwatch.cosim.fmu_build.build_fmus`` in a
+subprocess; every FMU
 scenario runs in another fresh subprocess (so the EKF FMU always runs from a process that did not build it),
 one per group of scenarios, because the estimator's numba kernels compile once per process (about 10 s).
 

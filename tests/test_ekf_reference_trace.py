@@ -1,4 +1,4 @@
-"""The faster estimator step gives the estimates of the step before it (scripts/ekf_reference_trace.py).
+"""The estimator step gives the estimates of the step before it (fixtures/ekf_reference_trace.py).
 
 The stored records were run through the estimator of commit 1f59dcc (with today's synchronous 1x load at
 the instantaneous speed, see the script); today's must agree within 1e-9
@@ -7,18 +7,13 @@ relative on the estimates, their stds and the NIS, and exactly on the counts and
 
 from __future__ import annotations
 
-import importlib.util
 from pathlib import Path
 
 import numpy as np
 import pytest
+from fixtures import ekf_reference_trace as script
 
 REFERENCE = Path(__file__).parent / "data" / "ekf_reference_trace.npz"
-_SPEC = importlib.util.spec_from_file_location(
-    "ekf_reference_trace", Path(__file__).parents[1] / "scripts" / "ekf_reference_trace.py"
-)
-script = importlib.util.module_from_spec(_SPEC)
-_SPEC.loader.exec_module(script)
 
 
 @pytest.fixture(scope="module")

@@ -18,8 +18,8 @@ from fixtures.fmu_subprocess import REPO_ROOT, run_json
 from fixtures.plant_records import REST_GAP_V, gap_voltages, keyphasor, plant_run, read_estimates
 
 from oilwatch.cli import main
-from oilwatch.estimator.config import ML_MIN
 from oilwatch.estimator.ekf import OilFlowEKF
+from oilwatch.estimator.ekf_config import ML_MIN
 from oilwatch.estimator.measurement import probe_rotation
 from oilwatch.monitoring.estimate import estimator_config, estimator_model
 from oilwatch.records.writers import write_record

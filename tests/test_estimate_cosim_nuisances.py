@@ -47,8 +47,9 @@ def _onsets(flags, times):
 def test_the_nuisance_variables_have_units_descriptions_and_the_probe_status_codes(built_fmus):
     from fmpy import read_model_description
 
+    from oilwatch.estimator.boundary_parameters import NUISANCE_PRIORS
     from oilwatch.estimator.channels import STATUS_NAMES
-    from oilwatch.estimator.config import NUISANCE_PRIORS, nuisance_names
+    from oilwatch.estimator.nuisance_outputs import nuisance_names
 
     variables = {v.name: v for v in read_model_description(str(built_fmus / "OilFlowEKF.fmu")).modelVariables}
     for name, unit, _, start in nuisance_names():
@@ -185,8 +186,8 @@ def test_tdms_of_gap_voltages_api670_offsets_keyphasor_5khz_gives_the_cosimulate
     # Different data, so not the 10 ms: measured 20 ms (1.710 s against 1.690 s). The FMU takes every 5th
     # plant sample as it is, we the anti-alias filtered samples (noise 0.41 x lower); with the offsets unknown
     # q + 2 std falls slowly through the threshold, so the estimates' 0.05 % difference moves the crossing
-    # by tens of ms. Neither is wrong: on a slow drop scripts/alarm_decimation.py puts both 33-35 ms before
-    # the alarm of noise-free data, +- 11 ms seed to seed (README). The 10 ms is checked below with the FMU
+    # by tens of ms. Neither is wrong: on a slow drop both come about as far before the alarm of noise-free
+    # data, which moves by +- 11 ms seed to seed. The 10 ms is checked below with the FMU
     # fed the same data (0 ms measured), after estimate's probe-frame fix (fed (x, y) the FMU's own samples
     # alarmed 33 ms late).
     assert len(fmu_alarm) == len(our_alarm) == 1 and abs(our_alarm[0] - fmu_alarm[0]) <= 0.025

@@ -13,7 +13,10 @@ from oilwatch.monitoring.timing import CpuMarks, LatencyHistogram
 
 
 def _direct(values: np.ndarray, times: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
+    """Means over whole bins of ``size`` samples, a trailing part-filled bin averaged into the one before."""
     starts = np.arange(0, values.shape[0], size)
+    if values.shape[0] % size and starts.size > 1:
+        starts = starts[:-1]
     finite = np.isfinite(values)
     sums = np.add.reduceat(np.where(finite, values, 0.0), starts, axis=0)
     counts = np.add.reduceat(finite.astype(float), starts, axis=0)
@@ -40,6 +43,21 @@ def test_bins_widen_past_their_cap_and_equal_the_direct_means_whatever_the_block
     for t, means in results:
         np.testing.assert_array_equal(t, expected_t)
         np.testing.assert_allclose(means, expected, rtol=1e-12, equal_nan=True)
+
+
+def test_a_trailing_bin_of_one_sample_is_averaged_into_the_whole_bin_before_it():
+    """The centreline's last point (and its e/c) and the NIS panel's last value: a record one sample past a
+    bin's edge ends on a mean over 501 samples, not on that one sample."""
+    values = np.full((1001, 1), 1.0)
+    values[-1] = 100.0  # the last sample alone would draw a point at 100
+    bins = _Bins(500, 1, max_bins=100)
+    bins.add(np.arange(1001), 1e-3 * np.arange(1001), values)
+    times, means = bins.arrays()
+    np.testing.assert_array_equal(times, [0.0, 0.5])
+    np.testing.assert_allclose(means[:, 0], [1.0, (500 * 1.0 + 100.0) / 501])
+    whole = _Bins(500, 1, max_bins=100)  # a record ending on an edge keeps every bin as it is
+    whole.add(np.arange(1000), 1e-3 * np.arange(1000), values[:1000])
+    assert whole.arrays()[0].size == 2
 
 
 def test_the_trend_of_a_long_record_stays_within_its_cap():

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from oilwatch.estimator import start_bank
-from oilwatch.estimator.config import ML_MIN
+from oilwatch.estimator.ekf_config import ML_MIN
 from oilwatch.estimator.factory import make_estimator
 from oilwatch.models.machine import load_machine
 from oilwatch.monitoring.estimate import EstimateOptions, EstimateRun, estimator_model

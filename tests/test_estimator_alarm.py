@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from fixtures.toy_model import NOMINAL_FLOWRATE_M3_S, ToyRotor, simulate
 
 from oilwatch.estimator.alarm import StarvationAlarm
-from oilwatch.estimator.config import AlarmConfig, EKFConfig
+from oilwatch.estimator.alarm_config import AlarmConfig
 from oilwatch.estimator.ekf import OilFlowEKF
-from oilwatch.estimator.toy_model import NOMINAL_FLOWRATE_M3_S, ToyRotor, simulate
+from oilwatch.estimator.ekf_config import EKFConfig
 
 QN = NOMINAL_FLOWRATE_M3_S
 DT = 1e-3

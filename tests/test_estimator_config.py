@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from fixtures.toy_model import ToyRotor
 
-from oilwatch.estimator.config import ML_MIN, AlarmConfig, EKFConfig
+from oilwatch.estimator.alarm_config import AlarmConfig
 from oilwatch.estimator.ekf import OilFlowEKF
+from oilwatch.estimator.ekf_config import ML_MIN, EKFConfig
 from oilwatch.estimator.model import AugmentedModel
-from oilwatch.estimator.toy_model import ToyRotor
 from oilwatch.models.validation import InputError
 
 
@@ -84,7 +85,7 @@ def test_recommended_velocity_noise_follows_the_model_speed():
 
 
 def test_estimator_parameters_are_generated_from_the_config_classes():
-    from oilwatch.estimator.config import ESTIMATOR_PARAMETERS, config_from_parameters
+    from oilwatch.estimator.boundary_parameters import ESTIMATOR_PARAMETERS, config_from_parameters
 
     by_name = {p.name: p for p in ESTIMATOR_PARAMETERS}
     assert by_name["alarm_on_fraction"].default == AlarmConfig().on_fraction

@@ -1,18 +1,18 @@
 """The oil-flow EKF on the toy rotor: truth by RK4 with sub-steps, filter by its interpolated exact map.
 
-Most tests use ``EKFConfig.recommended()`` (dynamic process noise 0.1 um and 0.1 um x Omega per step, see
-estimator.velocity_study); the paper's 10 um / 10 um/s (the defaults) make the filter conservative (NIS about
-0.02 m), which the consistency test would rightly reject.
+Most tests use ``EKFConfig.recommended()`` (dynamic process noise 0.1 um and 0.1 um x Omega per step); the
+paper's 10 um / 10 um/s (the defaults) make the filter conservative (NIS about 0.02 m), which the consistency
+test would rightly reject.
 """
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from fixtures.toy_model import NOMINAL_FLOWRATE_M3_S, TABLE_BOUNDS_M3_S, ToyRotor, simulate
 
-from oilwatch.estimator.config import ML_MIN, EKFConfig
 from oilwatch.estimator.ekf import OilFlowEKF
-from oilwatch.estimator.toy_model import NOMINAL_FLOWRATE_M3_S, TABLE_BOUNDS_M3_S, ToyRotor, simulate
+from oilwatch.estimator.ekf_config import ML_MIN, EKFConfig
 from oilwatch.models.validation import InputError
 
 QN = NOMINAL_FLOWRATE_M3_S
@@ -81,8 +81,8 @@ def test_a_nan_drops_its_channel_and_inf_samples_keep_the_state_finite(toy, cons
     data[3000, 1] = np.nan
     data[3001:3003] = np.inf
     data[4000:4040] = np.nan  # shorter than probe_dead_s: a dropout, not a dead probe
-    # gate off: this test is about bad samples only (the eight-channel modes' NIS is inflated, see
-    # test_estimator_velocity_noise, so a tight gate would also reject a few good samples)
+    # gate off: this test is about bad samples only (the eight-channel modes' NIS is inflated, so a tight
+    # gate would also reject a few good samples)
     config = EKFConfig.recommended(velocity_noise="correlated", gate_tail_probability=0.0)
     ekf = OilFlowEKF(toy, config)
     trace = ekf.run(data)

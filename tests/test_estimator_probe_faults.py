@@ -13,11 +13,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from fixtures.toy_model import NOMINAL_FLOWRATE_M3_S
 
 from oilwatch.estimator.channels import DEAD, OK, OUT_OF_RANGE, REJECTED, STUCK
-from oilwatch.estimator.config import EKFConfig
 from oilwatch.estimator.ekf import OilFlowEKF
-from oilwatch.estimator.toy_model import NOMINAL_FLOWRATE_M3_S
+from oilwatch.estimator.ekf_config import EKFConfig
 from oilwatch.models.system.augmented import GridAugmentedModel
 from oilwatch.models.system.factory import load_system
 from oilwatch.models.system.plant import RotorBearingPlant

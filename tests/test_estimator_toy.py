@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from fixtures.toy_model import NOMINAL_FLOWRATE_M3_S, TABLE_BOUNDS_M3_S, ToyRotor, simulate
 
-from oilwatch.estimator.config import ML_MIN
-from oilwatch.estimator.toy_model import NOMINAL_FLOWRATE_M3_S, TABLE_BOUNDS_M3_S, ToyRotor, simulate
+from oilwatch.estimator.ekf_config import ML_MIN
 
 
 @pytest.fixture(scope="module")

@@ -125,14 +125,19 @@ def test_the_fmi3_registry_is_the_fmi2_registry_with_its_shell_scripts():
         assert fmi3.prefix == fmi2.prefix + "3" and (package_root() / fmi3.script).is_file()
 
 
-def test_an_estimate_of_a_short_record_writes_the_views_and_a_self_contained_report(tmp_path):
+def test_an_estimate_of_a_short_record_writes_the_views_and_a_self_contained_report(tmp_path, monkeypatch):
     """``oilwatch estimate`` on 1 s of the in-process plant at nominal flow (CSV, um): four view PNGs and
-    report.html with them embedded, both bearings healthy (the full checks are slow: test_estimate_cli)."""
+    report.html with them embedded, both bearings healthy (the full checks are slow: test_estimate_cli).
+    The run reads the machine file once and builds the rotor-bearing system once (the process's model
+    cache emptied first)."""
     import json
 
     from fixtures.plant_records import plant_run
 
     from oilwatch.cli import main
+    from oilwatch.models import machine as machine_module
+    from oilwatch.models.system import factory
+    from oilwatch.monitoring import estimator_setup
     from oilwatch.records.writers import write_record
 
     t, _, measured, _ = plant_run(1.0, 1e-3, 1.0)
@@ -141,7 +146,21 @@ def test_an_estimate_of_a_short_record_writes_the_views_and_a_self_contained_rep
         **{f"{n}_um": measured[:, i] * 1e6 for i, n in enumerate(("x1", "y1", "x2", "y2"))},
     }
     record = write_record(tmp_path / "nominal.csv", columns)
-    assert main(["estimate", str(record), "--out", str(tmp_path / "out"), "--no-progress"]) == 0
+    monkeypatch.setattr(estimator_setup, "_MODELS", {})
+    monkeypatch.setattr(estimator_setup, "_REDUCED", {})
+    calls = {machine_module.load_machine.__code__: 0, factory.build_system.__code__: 0}
+
+    def count(frame, event, arg):
+        if event == "call" and frame.f_code in calls:
+            calls[frame.f_code] += 1
+
+    sys.setprofile(count)
+    try:
+        status = main(["estimate", str(record), "--out", str(tmp_path / "out"), "--no-progress"])
+    finally:
+        sys.setprofile(None)
+    assert status == 0
+    assert list(calls.values()) == [1, 1]  # load_machine, build_system
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert set(summary["views"]) == {"trend", "centerline", "orbits", "probe_health"}
     page = (tmp_path / "out" / "report.html").read_text()

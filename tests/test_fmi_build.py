@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
 import zipfile
 
-from fixtures.fmu_subprocess import run_python
+from fixtures.fmu_subprocess import REPO_ROOT, run_python
 
 
 def test_build_writes_the_fmus_and_the_ssp_system(toys):
@@ -17,9 +19,8 @@ def test_build_writes_the_fmus_and_the_ssp_system(toys):
 
 
 def test_unknown_fmu_name_is_a_one_line_error_with_exit_code_2(tmp_path):
-    process = run_python(
-        f"import sys, build; sys.exit(build.main(['--out', {str(tmp_path)!r}, '--only', 'Nope']))"
-    )
+    command = [sys.executable, "build.py", "--out", str(tmp_path), "--only", "Nope"]
+    process = subprocess.run(command, cwd=REPO_ROOT, capture_output=True, text=True, timeout=120)
     assert process.returncode == 2
     assert "unknown FMU ['Nope']" in process.stderr
     assert "Traceback" not in process.stderr
@@ -27,11 +28,12 @@ def test_unknown_fmu_name_is_a_one_line_error_with_exit_code_2(tmp_path):
 
 def test_missing_slave_script_is_reported_before_anything_is_built(tmp_path):
     process = run_python(
-        "import sys, build\n"
-        "entry = build.FmuEntry('Ghost', 'fmu_src/ghost_slave.py', ('fmu_src',), 'ghost')\n"
+        "from oilwatch.cosim.fmu_build import FmuEntry, build_fmus\n"
+        "from oilwatch.models.validation import InputError\n"
+        "entry = FmuEntry('Ghost', 'fmu_src/ghost_slave.py', ('fmu_src',), 'ghost')\n"
         "try:\n"
-        f"    build.build_fmus({str(tmp_path)!r}, extra=[entry], only=['Ghost'])\n"
-        "except build.InputError as error:\n"
+        f"    build_fmus({str(tmp_path)!r}, extra=[entry], only=['Ghost'])\n"
+        "except InputError as error:\n"
         "    print(error)\n"
     )
     assert "slave script(s) missing" in process.stdout and "ghost_slave.py" in process.stdout

@@ -28,7 +28,7 @@ import numpy as np
 from oilwatch.estimator import start_bank
 start_bank.SELECT_S = 1.0  # before the slave builds its estimator
 from oilwatch.estimator.factory import make_estimator
-from oilwatch.estimator.config import ML_MIN
+from oilwatch.estimator.ekf_config import ML_MIN
 from oilwatch.fmu_src.oilwatch_ekf_slave import OilFlowEKF
 from oilwatch.models.machine import load_machine
 from oilwatch.models.system.factory import build_system

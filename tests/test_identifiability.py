@@ -16,7 +16,7 @@ from scipy.optimize import least_squares
 from oilwatch.models.machine import load_machine
 from oilwatch.models.rotor.assembly import Rotor
 from oilwatch.models.system.factory import load_system
-from oilwatch.models.system.identifiability import (
+from oilwatch.models.system.orbit_bound import (
     M3_S_TO_ML_MIN,
     OrbitSensitivity,
     cramer_rao_bound,

@@ -9,9 +9,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from fixtures.toy_model import ToyRotor
 
 from oilwatch.estimator.ekf import OilFlowEKF
-from oilwatch.estimator.toy_model import ToyRotor
 from oilwatch.models.bearing.supply import ML_MIN_PER_M3_S
 from oilwatch.models.machine import BUNDLED_MACHINE, load_machine
 from oilwatch.models.rotor.assembly import Rotor

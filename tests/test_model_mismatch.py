@@ -7,8 +7,9 @@ import numpy as np
 import pytest
 
 from oilwatch.estimator import baseline_change as bc
-from oilwatch.estimator.config import EKFConfig, OffsetBaseline
+from oilwatch.estimator.ekf_config import EKFConfig
 from oilwatch.estimator.measurement import probe_rotation
+from oilwatch.estimator.offset_baseline import OffsetBaseline
 from oilwatch.models.system.augmented import GridAugmentedModel
 from oilwatch.models.system.factory import load_system
 

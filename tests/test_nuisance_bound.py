@@ -1,6 +1,6 @@
 """Cramer-Rao bound with the machine's nuisances unknown (oilwatch.models.system.nuisance_bound).
 
-Checked against the plain bound of :mod:`oilwatch.models.system.identifiability` (all known, offsets unknown),
+Checked against the plain bound of :mod:`oilwatch.models.system.orbit_bound` (all known, offsets unknown),
 the per-sample Fisher sum, the Sommerfeld scaling of the film (viscosity = inverse load) and the behaviour a
 prior must have (a baseline only helps; drift takes the help away).
 """
@@ -19,13 +19,13 @@ from oilwatch.models.bearing.equilibrium import coefficients_at, static_equilibr
 from oilwatch.models.bearing.supply import SupplyFlow
 from oilwatch.models.machine import load_machine
 from oilwatch.models.rotor.assembly import Rotor
-from oilwatch.models.system.identifiability import cramer_rao_bound, fisher_information
 from oilwatch.models.system.nuisance_bound import (
     harmonic_fisher,
     harmonic_sensitivity,
     nuisance_bound,
     viscosity_derivative,
 )
+from oilwatch.models.system.orbit_bound import cramer_rao_bound, fisher_information
 from oilwatch.models.system.rotor_bearing import RotorBearingSystem
 from oilwatch.models.validation import InputError
 

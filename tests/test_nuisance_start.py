@@ -19,8 +19,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from oilwatch.estimator.config import EKFConfig
 from oilwatch.estimator.ekf import OilFlowEKF
+from oilwatch.estimator.ekf_config import EKFConfig
 from oilwatch.models.machine import load_machine
 from oilwatch.models.system.factory import build_system
 from oilwatch.models.system.operating_model import OperatingAugmentedModel, Recentring, build_operating_model
@@ -130,10 +130,10 @@ def test_the_floor_s_update_spread_over_steps_is_the_whole_update_of_the_due_ste
     """The floor's first update from the prior is done whole in its due step (it sets the alarm's timing);
     the next ones run half an exact-map response per step (nuisance_start.STAGES steps). Either way the
     bound is, bit for bit, the information recursion over
-    oilwatch.models.system.identifiability.map_sensitivity at the estimates the due step took; a staged one is
-    applied at its last stage only, and a state saved in between continues to it."""
+    oilwatch.models.system.trajectory_bound.map_sensitivity at the estimates the due step took; a staged one
+    is applied at its last stage only, and a state saved in between continues to it."""
     from oilwatch.estimator.nuisance_start import STAGES, InformationFloor
-    from oilwatch.models.system.identifiability import OperatingSegment, map_sensitivity, parameter_columns
+    from oilwatch.models.system.trajectory_bound import OperatingSegment, map_sensitivity, parameter_columns
 
     config = free_config().for_model(model)
     floor = InformationFloor(model, config, model.n_states, 4, 2)

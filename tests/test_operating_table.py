@@ -15,7 +15,8 @@ from oilwatch.cli import main
 from oilwatch.models.bearing.equilibrium import coefficients_at, static_equilibrium
 from oilwatch.models.bearing.grid import Mesh
 from oilwatch.models.bearing.operating_accuracy import table_error
-from oilwatch.models.bearing.operating_table import OperatingTable, couette_flow_m3_s, operating_table_path
+from oilwatch.models.bearing.operating_table import OperatingTable, operating_table_path
+from oilwatch.models.bearing.sommerfeld import couette_flow_m3_s
 from oilwatch.models.bearing.supply import SupplyFlow
 from oilwatch.models.bearing.table import BearingCoefficients, CoefficientTable
 from oilwatch.models.machine import load_machine

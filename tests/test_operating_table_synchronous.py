@@ -15,7 +15,7 @@ from oilwatch.models.bearing.dynamic import synchronous_coefficients
 from oilwatch.models.bearing.equilibrium import static_equilibrium
 from oilwatch.models.bearing.grid import Mesh
 from oilwatch.models.bearing.operating_accuracy import table_error
-from oilwatch.models.bearing.operating_table import couette_flow_m3_s
+from oilwatch.models.bearing.sommerfeld import couette_flow_m3_s
 from oilwatch.models.bearing.supply import SupplyFlow
 from oilwatch.models.machine import load_machine
 from oilwatch.models.rotor.assembly import Rotor

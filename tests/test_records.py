@@ -278,8 +278,8 @@ def test_parquet_and_tdms_readers_give_the_csv_reader_s_samples(tmp_path):
 def test_further_fields_of_the_estimator_s_step_report_become_estimate_columns_in_field_units():
     from dataclasses import dataclass, fields
 
-    from oilwatch.estimator.config import nuisance_names
-    from oilwatch.estimator.ekf import StepReport
+    from oilwatch.estimator.nuisance_outputs import nuisance_names
+    from oilwatch.estimator.reports import StepReport
     from oilwatch.monitoring.columns import estimate_columns
 
     @dataclass(slots=True)

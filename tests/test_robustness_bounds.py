@@ -7,7 +7,7 @@ import dataclasses
 import numpy as np
 
 from oilwatch.models.machine import load_machine
-from oilwatch.models.system.identifiability import trajectory_bound_pct, trajectory_information
+from oilwatch.models.system.trajectory_bound import trajectory_bound_pct, trajectory_information
 from oilwatch.robustness import case_by_name
 from oilwatch.robustness.bounds import CaseBounds, configuration_label, free_groups
 from oilwatch.robustness.runner import REPORT_SETTINGS

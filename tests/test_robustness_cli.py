@@ -52,7 +52,7 @@ def test_a_chain_applied_to_the_shared_true_motion_is_the_plant_with_that_chain(
 
     from oilwatch.models.system.plant import RotorBearingPlant
     from oilwatch.robustness import case_by_name
-    from oilwatch.robustness.runner import DT_S, RobustnessRun
+    from oilwatch.robustness.case_run import DT_S, RobustnessRun
 
     settings = dict(machine_file=None, duration_s=0.3, noise_um=1.0, seed=4, offset_prior_um=25.0,
                     unbalance_prior=2.0, viscosity_prior=0.1)  # fmt: skip
@@ -68,7 +68,7 @@ def test_a_chain_applied_to_the_shared_true_motion_is_the_plant_with_that_chain(
 
 
 def test_the_offset_step_case_moves_the_offsets_since_a_baseline_its_age_trusts_to_3_um():
-    from oilwatch.estimator.config import OffsetBaseline
+    from oilwatch.estimator.offset_baseline import OffsetBaseline
     from oilwatch.models.machine import load_machine
     from oilwatch.models.probes import read_probes
     from oilwatch.robustness.cases import BASELINE_AGE_DAYS, DRIFT_M, case_by_name, probe_errors

@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from oilwatch.models.machine import Material, load_machine
+from oilwatch.models.machine import load_machine
+from oilwatch.models.machine_sections import Material
 from oilwatch.models.rotor.assembly import Rotor
 from oilwatch.models.rotor.disc import RigidDisc
 from oilwatch.models.rotor.supports import LinearBearing, bearing_matrices

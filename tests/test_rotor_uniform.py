@@ -11,7 +11,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from oilwatch.models.machine import Material, load_machine
+from oilwatch.models.machine import load_machine
+from oilwatch.models.machine_sections import Material
 from oilwatch.models.rotor.assembly import Rotor
 from oilwatch.models.rotor.modal import damped_modes, undamped_natural_frequencies_hz
 from oilwatch.models.rotor.response import static_deflection

@@ -66,7 +66,9 @@ def test_a_second_machine_runs_end_to_end_from_a_wheel_in_an_empty_folder(tmp_pa
         assert summary[f"alarm_delay_s_b{b}"] is not None and summary[f"false_alarm_s_b{b}"] is None
     demo, demo_s = oilwatch_command("demo", "--machine", machine_file, "--out", "d")
     assert demo.returncode == 0, demo.stdout + demo.stderr[-3000:]
-    installed = {p.name for p in (tmp_path / "venv").glob("lib/python*/site-packages/models/tables/*")}
+    installed = {
+        p.name for p in (tmp_path / "venv").glob("lib/python*/site-packages/oilwatch/models/tables/*")
+    }
     assert not [name for name in installed if name.startswith("M2")]  # nothing written into the package
     with capsys.disabled():
         print(

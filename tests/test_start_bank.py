@@ -15,9 +15,9 @@ import dataclasses
 import numpy as np
 import pytest
 
-from oilwatch.estimator.config import OffsetBaseline
 from oilwatch.estimator.ekf import OilFlowEKF
 from oilwatch.estimator.factory import make_estimator
+from oilwatch.estimator.offset_baseline import OffsetBaseline
 from oilwatch.estimator.reports import EstimateTrace
 from oilwatch.estimator.start_bank import START_FRACTIONS, StartBank
 from oilwatch.models.machine import load_machine

@@ -1,5 +1,5 @@
 """The Cramer-Rao bound along an operating trajectory on the estimator's operating maps
-(oilwatch.models.system.identifiability: map_sensitivity, trajectory_information, nuisance_prior,
+(oilwatch.models.system.trajectory_bound: map_sensitivity, trajectory_information, nuisance_prior,
 trajectory_bound_pct).
 
 Checked against the full model's harmonic bound (oilwatch.models.system.nuisance_bound, an independent build:
@@ -15,15 +15,15 @@ import pytest
 
 from oilwatch.models.machine import load_machine
 from oilwatch.models.system.factory import build_system
-from oilwatch.models.system.identifiability import (
+from oilwatch.models.system.nuisance_bound import nuisance_bound
+from oilwatch.models.system.operating_model import build_operating_model
+from oilwatch.models.system.trajectory_bound import (
     OperatingSegment,
     map_sensitivity,
     nuisance_prior,
     trajectory_bound_pct,
     trajectory_information,
 )
-from oilwatch.models.system.nuisance_bound import nuisance_bound
-from oilwatch.models.system.operating_model import build_operating_model
 from oilwatch.models.validation import InputError
 
 DT = 1e-3
@@ -88,7 +88,7 @@ def test_unknowns_never_help_a_baseline_does_and_a_ramp_informs(setup):
 
 
 def test_tracking_bound_without_walks_is_the_bound_with_the_prior_and_walks_only_widen_it(setup):
-    from oilwatch.models.system.identifiability import tracking_bound_pct
+    from oilwatch.models.system.trajectory_bound import tracking_bound_pct
 
     _, maps, h, q, mu = setup
     segments = [OperatingSegment(75.0, mu * (1.0 + 0.02 * i), 5.0) for i in range(12)]

@@ -11,9 +11,9 @@ quasi-static table does.
 from __future__ import annotations
 
 import datetime as dt
+from collections.abc import Callable
 
 import numpy as np
-from tqdm import tqdm
 
 from .coefficient_kinds import COEFFICIENT_KINDS, SYNCHRONOUS
 from .dynamic import synchronous_coefficients
@@ -27,13 +27,17 @@ KIND = COEFFICIENT_KINDS[SYNCHRONOUS]
 
 
 def synchronous_table(
-    bearing: JournalBearing, quasi_static: CoefficientTable, progress: bool = True, command: str = ""
+    bearing: JournalBearing,
+    quasi_static: CoefficientTable,
+    progress: Callable[[int, int], None] | None = None,
+    command: str = "",
 ) -> CoefficientTable:
-    """The table of ``quasi_static``'s flowrates, equilibria and mesh with K, C at omega = spin speed."""
+    """The table of ``quasi_static``'s flowrates, equilibria and mesh with K, C at omega = spin speed;
+    ``progress(done, total)`` is called after each flowrate's row."""
     mesh = Mesh(**quasi_static.metadata["mesh"])
     speed = quasi_static.speed_hz
     rows = []
-    for row in tqdm(quasi_static.rows, desc="synchronous table", unit="flowrate", disable=not progress):
+    for row in quasi_static.rows:
         supply = SupplyFlow(row["supply_flowrate_m3_s"])
         guess = np.array([row["eccentricity_x_m"], row["eccentricity_y_m"]])
         eq = static_equilibrium(bearing, quasi_static.load_n, speed, supply, mesh, initial_guess_m=guess)
@@ -42,6 +46,8 @@ def synchronous_table(
         if "one_sided_at_flooded_threshold" in row:
             new["at_flooded_threshold"] = "mean of the starved and flooded one-sided impedances"
         rows.append(new)
+        if progress is not None:
+            progress(len(rows), len(quasi_static.rows))
     meta = {key: value for key, value in quasi_static.metadata.items() if key != "provenance"}
     meta["solver"] = {
         **quasi_static.metadata.get("solver", {}),

@@ -11,18 +11,18 @@ are therefore functions of two numbers only (Lund 1987; Childs 1993, ch. 3):
   change (starved below, flooded above, where K jumps) on one grid line, f = 1, for every S.
 
 oilwatch's solver reproduces this scaling to round-off (tests/test_operating_table.py solves one point at two
-speeds). :func:`compute_operating_table` solves the equilibrium and the eight coefficients with the
-project's conventions (:func:`oilwatch.models.bearing.table.compute_table`: held-partition stiffness, default
-full-film squeeze, mean of the one-sided limits on f = 1) on a grid uniform in ln S and in f.
+speeds). :func:`oilwatch.models.bearing.operating_table_solve.compute_operating_table` solves the equilibrium
+and the eight coefficients with the project's conventions
+(:func:`oilwatch.models.bearing.table.compute_table`: held-partition stiffness, default full-film squeeze,
+mean of the one-sided limits on f = 1) on a grid uniform in ln S and in f.
 :class:`OperatingTable` interpolates it by tensor-product Catmull-Rom (:mod:`oilwatch.models.catmull_rom`: C1,
 exact at the nodes, linear in the data), and gives dimensional values and their derivatives with respect
 to the flowrate and the viscosity at any (speed, viscosity, load, flowrate) inside the grid; outside,
 :class:`~models.validation.InputError` (no extrapolation).
 
-The parts live in their own modules and are re-exported here, the import path callers use: the scaling
-(:mod:`oilwatch.models.bearing.sommerfeld`), the solve (:mod:`oilwatch.models.bearing.operating_table_solve`)
-and the compiled interpolation with the table's slice at one operating point
-(:mod:`oilwatch.models.bearing.operating_table_interpolation`).
+The scaling is :mod:`oilwatch.models.bearing.sommerfeld`, the solve
+:mod:`oilwatch.models.bearing.operating_table_solve`, and the compiled interpolation with the table's slice
+at one operating point :mod:`oilwatch.models.bearing.operating_table_interpolation`.
 """
 
 from __future__ import annotations
@@ -39,8 +39,7 @@ from ..validation import InputError, require_finite, require_positive
 from .coefficient_kinds import QUASI_STATIC, file_suffix
 from .geometry import JournalBearing
 from .operating_table_interpolation import TableSlice, interpolate_point
-from .operating_table_solve import compute_operating_table
-from .sommerfeld import N_QUANTITIES, couette_flow_m3_s, dimensionless_row, sommerfeld_grid, sommerfeld_number
+from .sommerfeld import N_QUANTITIES
 from .supply import ML_MIN_PER_M3_S
 from .table import BearingCoefficients
 
@@ -54,23 +53,6 @@ GEOMETRY_KEYS = (
     "groove_circumferential_m",
     "groove_axial_m",
 )
-
-__all__ = [
-    "FORMAT",
-    "FORMAT_VERSION",
-    "GEOMETRY_KEYS",
-    "N_QUANTITIES",
-    "OperatingPoint",
-    "OperatingTable",
-    "TableSlice",
-    "compute_operating_table",
-    "couette_flow_m3_s",
-    "dimensionless_row",
-    "operating_table_name",
-    "operating_table_path",
-    "sommerfeld_grid",
-    "sommerfeld_number",
-]
 
 
 @dataclass(frozen=True)

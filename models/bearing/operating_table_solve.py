@@ -14,7 +14,6 @@ import json
 import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -22,11 +21,9 @@ from ..validation import InputError, require_positive
 from .coefficient_kinds import QUASI_STATIC
 from .geometry import JournalBearing
 from .grid import PRODUCTION_MESH, Mesh
+from .operating_table import OperatingTable
 from .sommerfeld import N_QUANTITIES, couette_flow_m3_s, dimensionless_row, sommerfeld_number
 from .table import compute_table, flooded_threshold
-
-if TYPE_CHECKING:
-    from .operating_table import OperatingTable
 
 
 def compute_operating_table(
@@ -103,10 +100,6 @@ def compute_operating_table(
             },
         }
     )
-    # Imported at run time: oilwatch.models.bearing.operating_table re-exports this function (its old import
-    # path).
-    from .operating_table import OperatingTable
-
     return OperatingTable(s_nodes, f_nodes, values, threshold, dataclasses.asdict(bearing), meta)
 
 

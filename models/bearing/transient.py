@@ -46,8 +46,6 @@ from .film import FilmSolution, validate_state
 from .geometry import JournalBearing
 from .grid import PRODUCTION_MESH, FilmGrid, Mesh, film_grid
 from .transient_active_set import (
-    LINEAR_TOLERANCE,
-    REFACTOR_ITERATIONS,
     ActiveSetStart,
     ActiveSetStep,
     extrapolated_start,
@@ -56,25 +54,6 @@ from .transient_kernels import StepArrays, StepAssembly, step_source, sweep_star
 from .transient_multigrid import CoarseCorrection, multigrid_solve
 from .transient_sweep import sor_sweeps
 
-__all__ = [
-    "BDF",
-    "LINEAR_TOLERANCE",
-    "MULTIGRID_CYCLE_LIMIT",
-    "MULTIGRID_MIN_NODES",
-    "REFACTOR_ITERATIONS",
-    "SOLVERS",
-    "SWEEP_CHECK_EVERY",
-    "SWEEP_LIMIT",
-    "SWEEP_MASS_TOLERANCE",
-    "SWEEP_MAX_NODES",
-    "SWEEP_PREDICTOR",
-    "SWEEP_RELAXATION_SCALE",
-    "SWEEP_RESIDUAL_TOLERANCE",
-    "TransientFilm",
-    "TransientFilmState",
-    "default_sweep_limit",
-    "mass_balance_error",
-]
 BDF = {1: (1.0, (-1.0,)), 2: (1.5, (-2.0, 0.5))}
 """Backward-differentiation weights: d m/dt ~ (beta m^{n+1} + sum_i a_i m^{n-i}) / dt."""
 SWEEP_RELAXATION_SCALE = 1.78

@@ -20,7 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..machine import Machine, Material
+from ..machine import Machine
+from ..machine_sections import Material
 from ..validation import InputError, require_non_negative
 from .disc import RigidDisc
 from .timoshenko import (

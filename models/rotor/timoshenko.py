@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..machine import Material
+from ..machine_sections import Material
 
 # Maps element dofs to the planar dofs (w1, phi1, w2, phi2) of each bending plane.
 _PLANE_X = np.zeros((4, 8))

@@ -9,20 +9,18 @@ about a centre ``x_c = (q_c, p_c)``, ``x = (q1, q2, speed, ln mu1, ln mu2)``, ``
 
 The second-order terms are those of each bearing in its own flowrate and film viscosity: (q_b, q_b),
 (q_b, ln mu_b), (ln mu_b, ln mu_b). A bearing's film depends on its own flowrate and viscosity only, so the
-other second derivatives come from the block exponential's mixing alone; ``scripts/operating_curvature.py``
-measures what they would add. In q the reference grid carries A's own curvature at p0, so the (q_b, q_b)
-term is ``d2A/dq_b2 (x_c) - d2A/dq_b2 (q_c, p0)``; the others are A's at x_c.
+other second derivatives come from the block exponential's mixing alone. In q the reference grid carries
+A's own curvature at p0, so the (q_b, q_b) term is ``d2A/dq_b2 (x_c) - d2A/dq_b2 (q_c, p0)``; the others
+are A's at x_c.
 
 Second derivatives are forward differences of the exact first derivatives (Frechet derivatives of the
 block exponential, :meth:`OperatingMaps.derivatives`) at the centre and one step along the first axis
 (:meth:`OperatingMaps.second_derivatives`): one more exponential per axis i, with its Frechet derivatives
 along the pairs' j. The step (:data:`oilwatch.models.system.operating_maps.SECOND_STEP`: 1e-4 of q, 1e-4 in ln
-mu, the first derivatives' own) is chosen on the measured error (``scripts/operating_curvature.py``, against
-central differences): the truncation error, half a step times the third derivative, is 3.8 h relative
-(3.8e-3 at h = 1e-3, 4e-4 at 1e-4, 4e-5 at 1e-5: linear in h down to 1e-5, so the round-off of the first
-derivatives, themselves central differences of 1e-4, stays below 1e-5 relative there); at 1e-4 it is
-4e-4 of the second-order term, far below the neglected third-order term at one re-centring threshold
-(0.75 % of q, 0.015 in ln mu: 75-150 steps). The bearing table
+mu, the first derivatives' own) balances the truncation error, half a step times the third derivative
+(linear in the step), against the round-off of the first derivatives, themselves central differences of
+1e-4; it keeps the truncation far below the neglected third-order term at one re-centring threshold
+(75-150 steps). The bearing table
 is Catmull-Rom (C1): its second derivative jumps at a table node, so a centre within a step of a node gets
 one side's curvature, and a step ranging across a node gets the next piece's curvature wrong by that
 jump; the expansion stays second-order accurate within a piece.

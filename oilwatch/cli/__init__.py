@@ -12,26 +12,22 @@ import sys
 
 from oilwatch.models.validation import InputError
 
-# Subcommand modules under oilwatch.cli, in the order --help lists them.
-SUBCOMMANDS: tuple[str, ...] = (
+# Subcommand modules under oilwatch.cli, in the order --help lists them: first what a user runs on a machine
+# (monitoring its records, the demo, the co-simulation, the FMUs), then the studies, then the modelling
+# commands.
+USER_COMMANDS: tuple[str, ...] = ("estimate", "baseline", "demo", "run", "build_fmus")
+STUDY_COMMANDS: tuple[str, ...] = ("robustness", "study", "report", "orbits")
+MODELLING_COMMANDS: tuple[str, ...] = (
     "rotor",
     "modes",
     "campbell",
     "speed_sweep",
     "transient",
-    "orbits",
-    "report",
     "bearing",
     "bearing_table",
     "bearing_map",
-    "study",
-    "run",
-    "estimate",
-    "demo",
-    "build_fmus",
-    "robustness",
-    "baseline",
 )
+SUBCOMMANDS: tuple[str, ...] = USER_COMMANDS + STUDY_COMMANDS + MODELLING_COMMANDS
 
 
 class OneLineParser(argparse.ArgumentParser):
@@ -66,12 +62,27 @@ def check_outputs(args: argparse.Namespace) -> None:
             check_output("--" + dest.replace("_", "-"), value, kind)
 
 
+def package_version() -> str:
+    """The installed distribution's version (pyproject.toml's); "unknown" from an uninstalled tree."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("oilwatch")
+    except PackageNotFoundError:
+        return "unknown"
+
+
 def build_parser() -> argparse.ArgumentParser:
     """Return the top-level parser with every subcommand registered."""
     parser = OneLineParser(
         prog="oilwatch",
-        description="Detect and quantify oil starvation in fluid-film bearings from rotor vibration.",
+        description=(
+            "Detect and quantify oil starvation in fluid-film bearings from rotor vibration. "
+            "A machine's records: baseline, then estimate. The FMUs: demo, run, build-fmus. "
+            "The studies and the modelling commands follow."
+        ),
     )
+    parser.add_argument("--version", action="version", version=f"oilwatch {package_version()}")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name in SUBCOMMANDS:
         importlib.import_module(f"{__name__}.{name}").register(subparsers)

@@ -117,7 +117,7 @@ def read_slow_roll_record(path: str | Path):
 def run(args: argparse.Namespace) -> int:
 
     from oilwatch.estimator.baseline import FORMAT, FORMAT_VERSION, estimate_baseline, save_baseline
-    from oilwatch.estimator.config import ML_MIN, EKFConfig
+    from oilwatch.estimator.ekf_config import ML_MIN, EKFConfig
     from oilwatch.estimator.runout import fit_slow_roll
     from oilwatch.models.machine import load_machine
     from oilwatch.models.probes import read_probes

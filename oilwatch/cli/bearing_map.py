@@ -92,12 +92,9 @@ def run(args) -> int:
     from tqdm import tqdm
 
     from oilwatch.models.bearing.grid import PRODUCTION_MESH, Mesh
-    from oilwatch.models.bearing.operating_table import (
-        compute_operating_table,
-        operating_table_path,
-        sommerfeld_grid,
-        sommerfeld_number,
-    )
+    from oilwatch.models.bearing.operating_table import operating_table_path
+    from oilwatch.models.bearing.operating_table_solve import compute_operating_table
+    from oilwatch.models.bearing.sommerfeld import sommerfeld_grid, sommerfeld_number
     from oilwatch.models.rotor.assembly import Rotor
 
     check_fraction_range("--speed-range", args.speed_range)
@@ -138,7 +135,7 @@ def run(args) -> int:
             checkpoint=checkpoint,
             provenance={
                 "command_line": command_line(args),
-                "machine_file": str(machine.source_path),
+                "machine_file": machine.source_path.name,  # its name: no folder of the machine that made it
                 "nominal_sommerfeld": nominal,
             },
         )

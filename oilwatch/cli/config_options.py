@@ -43,9 +43,9 @@ PRESET_PRIOR_OPTIONS = (
 
 
 def add_preset_options(parser: argparse.ArgumentParser) -> None:
-    """``--preset`` (:data:`oilwatch.estimator.config.PRESETS`) and the nuisance priors it sets, whose help
-    gives each preset's value (generated from the presets, never retyped)."""
-    from oilwatch.estimator.config import DEFAULT_PRESET, PRESETS, EKFConfig
+    """``--preset`` (:data:`oilwatch.estimator.ekf_config.PRESETS`) and the nuisance priors it sets, whose
+    help gives each preset's value (generated from the presets, never retyped)."""
+    from oilwatch.estimator.ekf_config import DEFAULT_PRESET, PRESETS, EKFConfig
 
     parser.add_argument(
         "--preset",
@@ -83,7 +83,7 @@ def check_preset_options(args: argparse.Namespace) -> None:
 
 def preset_prior(args: argparse.Namespace, dest: str) -> float:
     """The value of a nuisance-prior option: the user's, else the ``--preset``'s."""
-    from oilwatch.estimator.config import EKFConfig, preset_named
+    from oilwatch.estimator.ekf_config import EKFConfig, preset_named
 
     given = getattr(args, dest)
     if given is not None:

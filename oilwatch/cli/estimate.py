@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import sys
 from pathlib import Path
@@ -73,7 +74,10 @@ def register(subparsers) -> None:
     parser.add_argument(
         "--out",
         metavar="DIR",
-        help="output folder (default: estimates/<record name>; several records: DIR/<record name>/)",
+        help=(
+            "output folder (default: estimates/<record stem>-<8 hex digits of the record's path and size>, "
+            "so that two records of one name never share a folder; several records: DIR/<that name>/ each)"
+        ),
     )
     parser.add_argument(
         "--output-every",
@@ -150,7 +154,7 @@ def run(args: argparse.Namespace) -> int:
     if len(args.records) > 1:
         return _run_many(args, options)
     source = args.records[0]
-    out = Path(args.out) if args.out else Path("estimates") / _stem(source)
+    out = Path(args.out) if args.out else Path("estimates") / output_folder_name(source)
     if live:
         summary = _run_one(source, out, options, progress=False, live=sys.stdout)
         print(_describe(summary), file=sys.stderr)
@@ -168,6 +172,22 @@ def _exit_code(summary: dict) -> int:
 
 def _stem(source: str) -> str:
     return "stdin" if source == "-" else Path(source).stem
+
+
+def output_folder_name(source: str) -> str:
+    """The default output folder of a record: its stem, a dash and the first 8 hex digits of the SHA-256 of
+    its absolute path and its size in bytes (``result-3f9c0a1b``). The stem alone let two records named
+    ``result.csv`` in different folders overwrite each other's estimates; the size tells a record rewritten
+    in place from the one estimated before. Standard input is ``stdin``."""
+    if source == "-":
+        return "stdin"
+    path = Path(source).resolve()
+    try:
+        size = path.stat().st_size
+    except OSError:
+        size = -1  # a missing record is refused by its reader, with its own message
+    digest = hashlib.sha256(f"{path}\0{size}".encode()).hexdigest()[:8]
+    return f"{path.stem}-{digest}"
 
 
 def _run_one(source: str, out: Path, options, progress: bool, live=None) -> dict:
@@ -213,9 +233,9 @@ def _run_many(args, options) -> int:
     from oilwatch.study.runner import check_cluster_options, dask_client
 
     check_cluster_options(args.scheduler, args.workers)
-    stems = [_stem(source) for source in args.records]
+    stems = [output_folder_name(source) for source in args.records]
     if len(set(stems)) != len(stems):
-        raise InputError("several records share a name; give them distinct file names (one folder each)")
+        raise InputError("a record is given twice; give each record once (one folder each)")
     for source in args.records:
         open_record(source, "time_s").close()  # a missing or unknown file fails here, before the cluster
     base = Path(args.out) if args.out else Path("estimates")

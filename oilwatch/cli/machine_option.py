@@ -114,7 +114,7 @@ def compute_flowrate_table(
             coefficients=kind,
             provenance={
                 "command_line": command or table_command(machine, speed_hz, kind),
-                "machine_file": str(machine.source_path),
+                "machine_file": machine.source_path.name,  # its name: no folder of the machine that made it
             },
         )
     path = out if out is not None else new_table_path(machine, flowrate_table_name(machine, speed_hz, kind))

@@ -36,6 +36,16 @@ def register(subparsers) -> None:
     )
     add_machine_option(parser)
     parser.add_argument("--json", action="store_true", help="print JSON on stdout")
+    parser.add_argument(
+        "--readme",
+        action="append",
+        default=[],
+        metavar="FILE",
+        help=(
+            "also write the comparison as Markdown into FILE's generated blocks 'report-summary' and/or "
+            "'report-tables' (<!-- generated NAME: ... --> ... <!-- /generated NAME -->); repeatable"
+        ),
+    )
     parser.set_defaults(func=run)
 
 
@@ -52,7 +62,68 @@ def run(args: argparse.Namespace) -> int:
         print(json.dumps(result, indent=1))
     else:
         print(format_report(result))
+    if args.readme:
+        from .readme_block import replace_blocks
+
+        blocks = {"report-summary": markdown_summary(result), "report-tables": markdown_tables(result)}
+        machine_flag = [] if args.machine is None else [f"--machine {args.machine}"]
+        for readme in args.readme:
+            command = " ".join(["oilwatch report", *machine_flag, f"--readme {readme}"])
+            replace_blocks(readme, blocks, command)
     return 0
+
+
+def _summary_rows(result: dict) -> list[tuple[str, float | None, float]]:
+    """(label, oilwatch, paper) of the model figures, the machine's coefficient kind first."""
+    paper = result["paper"]
+    kind = result.get("coefficients", "quasi-static")
+    rows = []
+    for key, label in ROWS:
+        if key == "instability_threshold_hz" and kind != "quasi-static":
+            label = "instability threshold, frequency-dependent roots [Hz]"
+        rows.append((label, result[key], paper[key]))
+    threshold = paper["instability_threshold_hz"]
+    rows.append(("instability threshold, direct simulation on transient films [Hz]",
+                 result["instability_threshold_direct_hz"], threshold))  # fmt: skip
+    if kind != "quasi-static":
+        rows.append(("instability threshold, quasi-static frozen content [Hz]",
+                     result["instability_threshold_quasi_static_hz"], threshold))  # fmt: skip
+    for key, label in ROWS[3:]:
+        rows.append((f"{label.removesuffix(' [Hz]')}, quasi-static squeeze everywhere [Hz]",
+                     result["squeeze_everywhere"][key], paper[key]))  # fmt: skip
+    return rows
+
+
+def _difference(ours, paper) -> str:
+    return "n/a" if ours is None else f"{100.0 * (ours / paper - 1.0):+.1f} %"
+
+
+def markdown_summary(result: dict) -> str:
+    """The model figures as a Markdown table: quantity | oilwatch | paper | difference."""
+    lines = ["| quantity | oilwatch | paper | difference |", "|---|---|---|---|"]
+    for label, ours, paper in _summary_rows(result):
+        value = "n/a" if ours is None else f"{ours:.2f}"
+        lines.append(f"| {label} | {value} | {paper:.2f} | {_difference(ours, paper)} |")
+    return "\n".join(lines)
+
+
+def markdown_tables(result: dict) -> str:
+    """Tables 4 and 5 (the machine's coefficient kind) as Markdown: oilwatch's variation per step, the
+    paper's in brackets."""
+    kind = result.get("coefficients", "quasi-static")
+    out = []
+    for name, title in (
+        ("table4", f"Table 4: q1 = q2 falling ({kind} coefficients)"),
+        ("table5", f"Table 5: q1 falling, q2 nominal ({kind} coefficients)"),
+    ):
+        out += [f"**{title}**, variation per 5 % step [um], oilwatch (paper):", ""]
+        out.append("| step [%] | " + " | ".join(label for _, label in COLUMNS) + " |")
+        out.append("|---" * (len(COLUMNS) + 1) + "|")
+        for ours, paper in zip(result[name], result["paper"][name], strict=True):
+            cells = " | ".join(f"{ours[key]:.2f} ({paper[key]:.2f})" for key, _ in COLUMNS)
+            out.append(f"| {ours['interval_pct']} | {cells} |")
+        out.append("")
+    return "\n".join(out).rstrip()
 
 
 def _number(value) -> str:

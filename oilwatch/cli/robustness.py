@@ -96,7 +96,7 @@ def _rows_from_json(paths) -> list[dict]:
             found = document["rows"]
         except (OSError, ValueError, KeyError, TypeError) as error:
             raise InputError(f"--from-json {path}: not a robustness.json ({error})") from None
-        from oilwatch.robustness.runner import with_case_bounds
+        from oilwatch.robustness.report_table import with_case_bounds
 
         settings = document.get("settings") if isinstance(document, dict) else None
         # the bound of each row's own configuration (a file without its run's settings keeps its own)

@@ -28,7 +28,7 @@ SCENARIO_NAMES = (
 
 def estimator_parameters_help() -> str:
     """The estimator's settable parameters with defaults and ranges, generated from its configuration."""
-    from oilwatch.estimator.config import ESTIMATOR_PARAMETERS
+    from oilwatch.estimator.boundary_parameters import ESTIMATOR_PARAMETERS
 
     def bounds(p) -> str:
         low = "" if p.low is None else f"{p.low:g}"

@@ -83,6 +83,7 @@ def run(args: argparse.Namespace) -> int:
 
     from tqdm import tqdm
 
+    from oilwatch.cli.progress import progress_bar
     from oilwatch.models import __version__
     from oilwatch.models.bearing.dynamic_table import synchronous_table
     from oilwatch.models.machine import load_machine
@@ -127,7 +128,8 @@ def run(args: argparse.Namespace) -> int:
         if study == "synchronous-table":
             speed = machine.nominal_speed_hz
             quasi_static = load_tables(machine, rotor, speed, coefficients="quasi-static")[0]
-            table = synchronous_table(machine.bearing, quasi_static, command=command)
+            with progress_bar("synchronous table", unit="flowrate") as progress:
+                table = synchronous_table(machine.bearing, quasi_static, progress, command=command)
             path = synchronous_table_path(machine, speed)
             table.save(path)
             print(f"wrote {path}", file=sys.stderr)

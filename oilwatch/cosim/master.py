@@ -33,7 +33,7 @@ from pathlib import Path
 
 from .algorithm import make_stepper
 from .connections import Connection, check_connections, make_transfers, same_name_connections
-from .errors import SlaveError, SystemDescriptionError
+from .errors import SystemDescriptionError
 from .fmi3_loading import open_slave
 from .loading import Port, Slave
 from .recording import as_recorder
@@ -276,6 +276,3 @@ class Master:
                 name: slave.checked_value(name, value, names.get(name)) for name, value in merged.items()
             }
         return values
-
-
-__all__ = ["FmuSpec", "Master", "RunResult", "SlaveError", "SystemDescription"]

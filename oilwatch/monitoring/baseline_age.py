@@ -3,8 +3,8 @@
 A baseline file (``oilwatch baseline``) records when its record started (``record_start_utc``, ISO 8601 in
 UTC); ``oilwatch estimate --record-start`` says when the estimated record started. Their difference is the
 baseline's age, over which the probes' zero offsets may have drifted by up to the machine file's ``[probes]
-offset_drift_um_per_day`` (``oilwatch.estimator.config.OffsetBaseline.age_s``): the offsets' prior widens by
-it. Either time unknown: age 0, the prior the baseline gives (what ``estimate`` always did before).
+offset_drift_um_per_day`` (``oilwatch.estimator.offset_baseline.OffsetBaseline.age_s``): the offsets' prior
+widens by it. Either time unknown: age 0, the prior the baseline gives (what ``estimate`` always did before).
 """
 
 from __future__ import annotations

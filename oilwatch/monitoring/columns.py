@@ -1,6 +1,6 @@
 """The columns of ``oilwatch estimate``'s estimates.csv: their names from the estimator's step report and
-:data:`oilwatch.estimator.config.NUISANCE_OUTPUTS` (SI suffixes ``_m`` and ``_m3_s`` converted to ``_um`` and
-``_ml_min``), their decimals, and the nuisance columns read from the filter after each step."""
+:data:`oilwatch.estimator.nuisance_outputs.NUISANCE_OUTPUTS` (SI suffixes ``_m`` and ``_m3_s`` converted to
+``_um`` and ``_ml_min``), their decimals, and the nuisance columns read from the filter after each step."""
 
 from __future__ import annotations
 
@@ -8,8 +8,9 @@ import dataclasses
 
 import numpy as np
 
-from oilwatch.estimator.config import ML_MIN, NUISANCE_OUTPUTS, nuisance_names
-from oilwatch.estimator.ekf import StepReport
+from oilwatch.estimator.ekf_config import ML_MIN
+from oilwatch.estimator.nuisance_outputs import NUISANCE_OUTPUTS, nuisance_names
+from oilwatch.estimator.reports import StepReport
 
 BASE_FIELDS = (
     "step",
@@ -93,8 +94,8 @@ class TraceRows:
     """estimates.csv rows of a block from the estimator's per-sample arrays (an
     :class:`oilwatch.estimator.ekf.EstimateTrace`: fields named as the step report's and the nuisance
     properties
-    :data:`oilwatch.estimator.config.NUISANCE_OUTPUTS`), column block by column block: a few numpy copies per
-    block, nothing per sample."""
+    :data:`oilwatch.estimator.nuisance_outputs.NUISANCE_OUTPUTS`), column block by column block: a few numpy
+    copies per block, nothing per sample."""
 
     def __init__(self, columns: list[str], extras: list[tuple[str, float, int]]) -> None:
         self.width = len(columns)

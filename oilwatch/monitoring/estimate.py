@@ -41,7 +41,7 @@ from typing import TextIO
 
 import numpy as np
 
-from oilwatch.estimator.config import DEFAULT_PRESET, preset_named
+from oilwatch.estimator.ekf_config import DEFAULT_PRESET, preset_named
 from oilwatch.estimator.factory import make_estimator
 from oilwatch.estimator.runout import SlowRollVectors, runout_of_probes
 from oilwatch.models.machine import Machine, load_machine
@@ -87,7 +87,7 @@ class EstimateOptions:
     baseline_file: str | None = None
     offset_prior_std_um: float | None = None
     preset: str = DEFAULT_PRESET
-    """The estimator's configuration (:data:`oilwatch.estimator.config.PRESETS`), as the FMU's ``preset``:
+    """The estimator's configuration (:data:`oilwatch.estimator.ekf_config.PRESETS`), as the FMU's ``preset``:
     the nuisance priors left None, the model (``auto`` follows the operating point when the preset does and
     the machine has an ``[oil]``) and the action on a model mismatch. The probe offsets are always
     estimated with the machine file's ``[probes]`` prior (or ``offset_prior_std_um``, or the baseline): a
@@ -225,7 +225,7 @@ class EstimateRun:
                 f"the model is {self.operating_reason}"
             )
         # after the record's checks: errors come first
-        self.model = estimator_model(options.machine_file, follow=self.follow)
+        self.model = estimator_model(options.machine_file, follow=self.follow, machine=self.machine)
         self.live_stream = live_stream
         self.filter = None  # oilwatch.estimator.factory.make_estimator's: a filter, or the start bank
         # the estimator takes the readings along the probes' axes when it can (the FMU's probe_angle_deg)

@@ -9,43 +9,48 @@ temperature; each is built once per process.
 
 from __future__ import annotations
 
-import functools
-
-from oilwatch.estimator.config import EKFConfig, OffsetBaseline
+from oilwatch.estimator.ekf_config import EKFConfig
+from oilwatch.estimator.offset_baseline import OffsetBaseline
 from oilwatch.estimator.runout import SlowRollVectors
-from oilwatch.models.machine import load_machine
+from oilwatch.models.machine import Machine, load_machine
 from oilwatch.models.probes import Probes
 
 ESTIMATOR_DT_S = 1e-3
 """The estimator's sampling period (its discrete model's step, as the FMU's default)."""
 _MODELS: dict[tuple, object] = {}
+_REDUCED: dict[str | None, object] = {}
 
 
-def estimator_model(machine_file: str | None, dt_s: float = ESTIMATOR_DT_S, follow: bool = False):
+def estimator_model(
+    machine_file: str | None,
+    dt_s: float = ESTIMATOR_DT_S,
+    follow: bool = False,
+    machine: Machine | None = None,
+):
     """The estimator's model of a machine file: the reduced system at the nominal point (the estimator FMU's
     ``bearing_table = 0``) or, with ``follow``, its operating model on the dimensionless tables
-    (``bearing_table = 1``); each built once per process (a Dask worker keeps it). A filter built on the
-    operating model resets it to its just-built state (``OilFlowEKF.reset``: no correction centre survives),
-    so a record's estimates do not depend on what ran on it before (tests/test_estimate_model_cache.py)."""
+    (``bearing_table = 1``); each built once per process (a Dask worker keeps it), from ``machine`` when the
+    caller has already loaded the file. A filter built on the operating model resets it to its just-built
+    state (``OilFlowEKF.reset``: no correction centre survives), so a record's estimates do not depend on
+    what ran on it before (tests/test_estimate_model_cache.py)."""
     key = (machine_file, dt_s, follow)
     if key not in _MODELS:
+        machine = machine if machine is not None else load_machine(machine_file)
+        system = _REDUCED.get(machine_file)
+        if system is None:
+            from oilwatch.models.system.factory import build_system
+
+            system = _REDUCED[machine_file] = build_system(machine, reduced=True)
         if follow:
             from oilwatch.models.system.operating_model import build_operating_model
 
-            model = build_operating_model(_reduced_system(machine_file), load_machine(machine_file), dt_s)
+            model = build_operating_model(system, machine, dt_s)
         else:
             from oilwatch.models.system.augmented import GridAugmentedModel
 
-            model = GridAugmentedModel(_reduced_system(machine_file), dt_s)
+            model = GridAugmentedModel(system, dt_s)
         _MODELS[key] = model
     return _MODELS[key]
-
-
-@functools.lru_cache(maxsize=4)
-def _reduced_system(machine_file: str | None):
-    from oilwatch.models.system.factory import load_system
-
-    return load_system(machine_file, reduced=True)
 
 
 def estimator_config(

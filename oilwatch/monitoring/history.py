@@ -27,7 +27,11 @@ TIME, Q, STD, STARVED, NIS, CONVERGED, OK, POSITION, SPEED, TEMPERATURE = (
 class _Bins:
     """Running means of a (n, m) series over fixed bins of ``size`` samples (NaN ignored), at most
     ``max_bins`` of them: past that, adjacent pairs are merged and the bins made twice as wide, so that memory
-    and the views' drawing stay bounded whatever the record's length (a bin's time is its first sample's)."""
+    and the views' drawing stay bounded whatever the record's length (a bin's time is its first sample's).
+
+    A record rarely ends on a bin's edge: :meth:`arrays` averages a trailing part-filled bin into the whole
+    bin before it, so that the last point (and what is read off it: the centreline's e/c, the NIS) is a mean
+    over at least one whole bin, never over the one or few samples after the last edge."""
 
     def __init__(self, size: int, width: int, max_bins: int) -> None:
         self.size, self.width, self.max_bins = size, width, max_bins
@@ -36,6 +40,7 @@ class _Bins:
         self._times: list[np.ndarray] = []
         self._bins = 0
         self._open: int | None = None
+        self._last_index = -1
 
     def add(self, index: np.ndarray, times: np.ndarray, values: np.ndarray) -> None:
         bins = index // self.size
@@ -54,6 +59,7 @@ class _Bins:
             self._times.append(times[starts])
             self._bins += starts.size
         self._open = int(bins[-1])
+        self._last_index = int(index[-1])
         while self._bins > self.max_bins:
             self._coarsen()
 
@@ -72,8 +78,14 @@ class _Bins:
         if not self._times:
             return np.zeros(0), np.zeros((0, self.width))
         sums, counts = np.vstack(self._sums), np.vstack(self._counts)
+        times = np.concatenate(self._times)
+        tail_samples = self._last_index + 1 - self._open * self.size
+        if tail_samples < self.size and times.size > 1:
+            sums = np.vstack([sums[:-2], sums[-2] + sums[-1]])
+            counts = np.vstack([counts[:-2], counts[-2] + counts[-1]])
+            times = times[:-1]
         with np.errstate(invalid="ignore", divide="ignore"):
-            return np.concatenate(self._times), np.where(counts > 0, sums / counts, np.nan)
+            return times, np.where(counts > 0, sums / counts, np.nan)
 
 
 class _Ring:

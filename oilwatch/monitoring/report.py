@@ -30,6 +30,16 @@ def _number(value, digits: int = 2) -> str:
     return "-" if value is None else f"{value:.{digits}f}"
 
 
+def _yes_no(value: bool | None) -> str:
+    """A person's word for a flag: "-" while the estimator has not reported it."""
+    return "-" if value is None else ("yes" if value else "no")
+
+
+def _flagged(seconds: float) -> str:
+    """How long a probe was flagged faulty; a probe never flagged says so rather than "0.000"."""
+    return "never" if seconds <= 0.0 else f"{seconds:.3f}"
+
+
 def write_report(summary: dict, out_dir: Path) -> Path:
     """Write ``out_dir/report.html`` from the summary and the view PNGs beside it; return its path."""
     record = summary["record"]
@@ -48,7 +58,7 @@ def write_report(summary: dict, out_dir: Path) -> Path:
     alarms = (
         "".join(
             f"<tr><td>{a['bearing']}</td><td>{a['time_s']:.3f}</td><td>{_number(a.get('cleared_s'), 3)}</td>"
-            f"<td>{'-' if a['consistent'] is None else a['consistent']}</td></tr>"
+            f"<td>{_yes_no(a['consistent'])}</td></tr>"
             for a in summary["alarms"]
         )
         or "<tr><td colspan='4'>no alarm</td></tr>"
@@ -59,7 +69,8 @@ def write_report(summary: dict, out_dir: Path) -> Path:
     probes = "".join(
         f"<tr><th>{name}</th><td>"
         + (f"{p['offset_um']:+.2f} &plusmn; {p['offset_std_um']:.2f}" if estimated else "known (0)")
-        + f"</td><td>{html.escape(str(p['status_final'] or '-'))}</td><td>{p['flagged_s']:.3f}</td></tr>"
+        + f"</td><td>{html.escape(str(p['status_final'] or '-'))}</td>"
+        + f"<td>{_flagged(p['flagged_s'])}</td></tr>"
         for name, p in summary.get("probes", {}).items()
     )
     facts = [

@@ -7,7 +7,8 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from oilwatch.estimator.config import ML_MIN, nuisance_names, nuisance_values
+from oilwatch.estimator.ekf_config import ML_MIN
+from oilwatch.estimator.nuisance_outputs import nuisance_names, nuisance_values
 
 SPEED_MISMATCH_FRACTION = 0.01
 """A recorded speed this far from a model that does not follow it gets a warning."""

@@ -34,6 +34,7 @@ from dataclasses import dataclass, field, replace
 import numba
 import numpy as np
 
+from oilwatch.models.machine_keys import keys_of
 from oilwatch.models.probes import LAYOUTS  # one key for the reader, the estimator and the plant
 from oilwatch.models.validation import InputError
 
@@ -42,20 +43,14 @@ UNITS = ("um", "V")
 EDGES = ("falling", "rising")
 API670_SENSITIVITY_V_PER_MM = 7.87
 """API 670 scale factor, 200 mV/mil."""
-PROBE_KEYS = ("column", "angle_deg", "unit", "sensitivity_v_per_mm", "rest_gap_v", "zero_um")
-TOP_KEYS = (
-    "layout",
-    "noise_um",
-    "time_column",
-    "speed_column",
-    "oil_temperature_column",
-    "keyphasor_column",
-    "keyphasor_edge",
-    "keyphasor_threshold_v",
-    "keyphasor_angle_deg",
-)
 FOREIGN_KEYS_PREFIX = ("offset_", "prior_")
 """[probes] keys of the estimator's nuisance priors (issue 14): accepted here, not used by the reader."""
+RUNOUT_PREFIX = "runout_"
+"""Per-probe keys of the estimator's slow-roll vectors (:mod:`oilwatch.models.probes`): accepted here, not
+used by the reader."""
+PROBE_KEYS = tuple(key for key in keys_of("probes.<probe>") if not key.startswith(RUNOUT_PREFIX))
+TOP_KEYS = tuple(key for key in keys_of("probes") if not key.startswith(FOREIGN_KEYS_PREFIX))
+"""The reader's keys, as the machine-file reference declares them (:mod:`oilwatch.models.machine_keys`)."""
 
 
 @dataclass(frozen=True)
@@ -203,7 +198,7 @@ def probe_setup(table: Mapping[str, object] | None = None, overrides: Iterable[s
 
 def _probe(name: str, table: Mapping[str, object], default_angle: float) -> Probe:
     for key in table:
-        if key not in PROBE_KEYS and not key.startswith("runout_"):  # runout_*: the estimator's (issue 14)
+        if key not in PROBE_KEYS and not key.startswith(RUNOUT_PREFIX):
             raise InputError(f"probes.{name}.{key}: unknown key; allowed: {', '.join(PROBE_KEYS)}")
     unit = _text(table.get("unit", "um"), f"{name}.unit")
     if unit not in UNITS:

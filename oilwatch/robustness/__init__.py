@@ -1,6 +1,7 @@
 """The estimator against a plant that differs from its model the way a real machine does (issue 14)."""
 
 from .cases import CASES, Case, case_by_name
-from .runner import POINTS_PCT, format_table, run_robustness
+from .report_table import format_table
+from .runner import POINTS_PCT, run_robustness
 
 __all__ = ["CASES", "POINTS_PCT", "Case", "case_by_name", "format_table", "run_robustness"]

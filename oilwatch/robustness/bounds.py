@@ -11,7 +11,7 @@ known) as a prior on those nuisances, widened by the offsets' drift since (3 um 
   (:func:`oilwatch.models.system.nuisance_bound.nuisance_bound`, closed-form harmonic Fisher information).
 * Operating-point cases (viscosity, ramps, all at once): the estimator's own operating maps on the
   dimensionless table, which the plant of these cases shares, summed along the case's speed and oil
-  temperature trajectory (:func:`oilwatch.models.system.identifiability.trajectory_information`, quasi-steady
+  temperature trajectory (:func:`oilwatch.models.system.trajectory_bound.trajectory_information`, quasi-steady
   segments).
 
 Both treat the nuisances and flowrates as constant over the record: the filter's random walks make its own
@@ -25,13 +25,13 @@ import math
 import numpy as np
 
 from oilwatch.models.system.factory import build_system
-from oilwatch.models.system.identifiability import (
+from oilwatch.models.system.nuisance_bound import nuisance_bound
+from oilwatch.models.system.trajectory_bound import (
     OperatingSegment,
     nuisance_prior,
     trajectory_bound_pct,
     trajectory_information,
 )
-from oilwatch.models.system.nuisance_bound import nuisance_bound
 
 from .cases import DRIFT_M, Case
 

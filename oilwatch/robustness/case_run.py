@@ -26,8 +26,8 @@ import math
 import numpy as np
 
 from oilwatch.estimator.baseline import baseline_prior, estimate_baseline
-from oilwatch.estimator.config import EKFConfig
 from oilwatch.estimator.ekf import OilFlowEKF
+from oilwatch.estimator.ekf_config import EKFConfig
 from oilwatch.estimator.factory import make_estimator
 from oilwatch.estimator.runout import runout_of_probes
 from oilwatch.models.machine import load_machine

@@ -4,7 +4,7 @@ Each case's row comes from :meth:`.case_run.RobustnessRun.run_case` (plant recor
 the row's figures: see :mod:`.case_run`). Cases run in worker processes (``workers``), each building the
 models once; each finished row is written at once to ``robustness.json``, so nothing is lost when the run is
 stopped, and ``resume`` keeps an earlier run's rows. The table and the coverage line are
-:mod:`.report_table`'s; both modules' public names are re-exported here.
+:mod:`.report_table`'s.
 """
 
 from __future__ import annotations
@@ -17,22 +17,8 @@ from pathlib import Path
 
 from oilwatch.models.validation import InputError
 
-from .case_run import ALARM_LEVEL_PCT, DT_S, HEALTHY_PCT, RobustnessRun
+from .case_run import RobustnessRun
 from .cases import Case, case_by_name
-from .report_table import coverage_line, format_table, with_case_bounds
-
-__all__ = [
-    "ALARM_LEVEL_PCT",
-    "DT_S",
-    "HEALTHY_PCT",
-    "POINTS_PCT",
-    "REPORT_SETTINGS",
-    "RobustnessRun",
-    "coverage_line",
-    "format_table",
-    "run_robustness",
-    "with_case_bounds",
-]
 
 POINTS_PCT = ((100.0, 100.0), (80.0, 90.0))
 REPORT_SETTINGS = {

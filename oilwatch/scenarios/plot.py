@@ -1,5 +1,6 @@
 """estimates.png in the style of the paper's Figs. 10-12: per bearing, the true and the estimated supply
-flowrate [ml/min] against time [s], with the estimate's +-2 std band and the alarm times marked."""
+flowrate [ml/min] against time [s], with the estimate's +-2 std band, the nominal flowrate, the alarm's set
+threshold (as in ``oilwatch estimate``'s trend view), the centre of the flowrate change and the alarms."""
 
 from __future__ import annotations
 
@@ -22,7 +23,11 @@ def plot_estimates(run: ScenarioRun, columns: dict[str, np.ndarray], summary: di
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from oilwatch.estimator.alarm_config import AlarmConfig
+
     time_s = columns["time_s"]
+    nominal = run.nominal_ml_min
+    on_fraction = float(run.ekf_parameters().get("alarm_on_fraction", AlarmConfig().on_fraction))
     figure, axes = plt.subplots(2, 1, figsize=(9, 6.5), sharex=True, constrained_layout=True)
     for b, ax in zip((1, 2), axes, strict=True):
         true, estimate = columns[f"q{b}_true_ml_min"], columns[f"q{b}_est_ml_min"]
@@ -31,7 +36,10 @@ def plot_estimates(run: ScenarioRun, columns: dict[str, np.ndarray], summary: di
                         label="estimate +- 2 std")  # fmt: skip
         ax.plot(time_s, estimate, color="C0", lw=1.0, label="estimated")
         ax.plot(time_s, true, color="k", lw=1.4, ls="--", label="true")
-        ax.axvline(run.fault_time_s, color="0.5", lw=0.8, ls=":", label="sigmoid centre")
+        ax.axhline(nominal, color="0.4", ls="--", lw=0.8, label=f"nominal {nominal:.1f}")
+        ax.axhline(on_fraction * nominal, color="C3", ls=":", lw=0.8,
+                   label=f"alarm set ({100 * on_fraction:.0f} % of nominal)")  # fmt: skip
+        ax.axvline(run.fault_time_s, color="0.5", lw=0.8, ls="-.", label="centre of the flow change")
         for k, at in enumerate(_rising_edges(time_s, columns[f"starved{b}"])):
             ax.axvline(at, color="C3", lw=1.2, label="starvation alarm" if k == 0 else None)
         before, after = summary.get(f"q{b}_err_pct_before"), summary.get(f"q{b}_err_pct_after")
@@ -45,7 +53,8 @@ def plot_estimates(run: ScenarioRun, columns: dict[str, np.ndarray], summary: di
         ax.set_ylabel(f"q{b} [ml/min]")
         # Limits from the truth: the first few samples' excursion (P0 is wide) would flatten the rest.
         margin = 0.15 * (true.max() - true.min()) + 40.0
-        ax.set_ylim(true.min() - margin, true.max() + margin)
+        low, high = min(true.min(), on_fraction * nominal), max(true.max(), nominal)
+        ax.set_ylim(low - margin, high + margin)
         ax.grid(alpha=0.3)
         ax.legend(loc="best", fontsize=8)
     axes[-1].set_xlabel("time [s]")

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from oilwatch.models.system.identifiability import cramer_rao_bound
+from oilwatch.models.system.orbit_bound import cramer_rao_bound
 
 from ..cosim.values import FMI2_INTEGER_RANGE
 from .cases import CaseFailure, CaseResult, reduce_record

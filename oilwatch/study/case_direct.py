@@ -23,8 +23,8 @@ import time
 
 import numpy as np
 
-from oilwatch.estimator.config import EKFConfig
 from oilwatch.estimator.ekf import OilFlowEKF
+from oilwatch.estimator.ekf_config import EKFConfig
 from oilwatch.models.system.augmented import GridAugmentedModel
 from oilwatch.models.system.plant import RotorBearingPlant, publish_initial_sample
 

@@ -1,0 +1,76 @@
+"""Documentation tables generated from the code's own declarations or from a command's run, written into a
+page's generated blocks:
+
+    python -m oilwatch.cli.docs_tables --page docs/machine-file.md
+    python -m oilwatch.cli.docs_tables --page docs/performance.md --outputs [NAME ...]
+
+``machine-keys``: every key of a machine file (:data:`oilwatch.models.machine_keys.MACHINE_KEYS`).
+``output-NAME``: with ``--outputs``, the command written in the block's own marker
+(``<!-- generated output-NAME: COMMAND -->``) is run from the repository's top, and its standard output
+replaces the block as a text block (a benchmark's table: the marker says how to rerun it). The other tables of
+runs are written by the commands that make them (``oilwatch report --readme``, ``oilwatch robustness
+--readme``, ``python -m oilwatch.cosim.fmu_docs --readme``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+import subprocess
+from pathlib import Path
+
+from oilwatch.models.machine_keys import markdown_table
+from oilwatch.models.validation import InputError
+
+from .readme_block import replace_block, replace_blocks
+
+COMMAND = "python -m oilwatch.cli.docs_tables"
+OUTPUT_BLOCK = re.compile(r"<!-- generated (output-[\w-]+): ([^\n]*?) -->")
+REPOSITORY = Path(__file__).resolve().parents[2]
+
+
+def output_blocks(page: str | Path) -> dict[str, str]:
+    """{block name: its command} of a page's ``output-NAME`` blocks."""
+    return dict(OUTPUT_BLOCK.findall(Path(page).read_text(encoding="utf-8")))
+
+
+def run_outputs(page: str | Path, names: list[str]) -> list[str]:
+    """Run the command of each ``output-NAME`` block of ``page`` (all when ``names`` is empty) and write its
+    standard output into the block; return the names written."""
+    blocks = output_blocks(page)
+    chosen = names or list(blocks)
+    for name in chosen:
+        if name not in blocks:
+            raise InputError(f"--outputs: {page} has no block {name!r}; it has {', '.join(blocks) or 'none'}")
+        done = subprocess.run(blocks[name], shell=True, cwd=REPOSITORY, capture_output=True, text=True)
+        if done.returncode != 0:
+            raise InputError(
+                f"{name}: {blocks[name]!r} exited {done.returncode}: {done.stderr.strip()[-400:]}"
+            )
+        replace_block(page, name, f"```text\n{done.stdout.rstrip()}\n```", blocks[name])
+    return chosen
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("--page", action="append", required=True, metavar="FILE", help="page to update")
+    parser.add_argument(
+        "--outputs",
+        nargs="*",
+        default=None,
+        metavar="NAME",
+        help="rerun the page's output blocks (all, or named)",
+    )
+    args = parser.parse_args(argv)
+    for page in args.page:
+        if args.outputs is not None:
+            run_outputs(page, args.outputs)
+        elif "<!-- /generated machine-keys -->" in Path(page).read_text(encoding="utf-8"):
+            replace_blocks(page, {"machine-keys": markdown_table()}, f"{COMMAND} --page {page}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
