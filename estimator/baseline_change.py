@@ -10,8 +10,13 @@ measures the flowrate change with the model's static curve alone.
 
 Status (:data:`CONSISTENT`, :data:`MISMATCH_BASELINE`, :data:`MISMATCH_HELD`):
 
-* the status turns to a mismatch when ``model_consistent`` has been false for ``mismatch_hold_on_s``, and back
-  when it has been true for ``mismatch_hold_off_s`` (hysteresis: an intermittent test does not chatter);
+* the evidence of a mismatch is ``model_consistent`` false, or (with a static reference) the filter's
+  flowrate and the static estimate further apart than ``mismatch_disagreement_z`` times their combined std:
+  two estimates that rest on different parts of the model (the 1x orbit, the static position) disagree by
+  more than their noise only through the model's error, and a film model the free nuisances absorb leaves
+  the NIS consistent (a quasi-static plant read by the synchronous model: -7 % at nominal, NIS consistent);
+* the status turns to a mismatch when there has been evidence for ``mismatch_hold_on_s``, and back when there
+  has been none for ``mismatch_hold_off_s`` (hysteresis: an intermittent test does not chatter);
 * while it is a mismatch and the baseline's static reference applies (:data:`MISMATCH_BASELINE`), the
   published flowrates and stds are the baseline-relative static estimate's and the starvation alarm
   judges them;
@@ -58,12 +63,13 @@ STATUS_NAMES = ("consistent", "mismatch-baseline-change", "mismatch-held")
 ) = (0, 1, 2, 3, 4, 5, 6, 7, 8)
 CHANGE_REFERENCE = 10  # 4: the baseline record's mean probe signals [m]
 CHANGE_APPLIES = 14  # 1: the reference applies at the current operating point (:func:`reference_applies`)
+CHANGE_DISAGREEMENT = 15  # z of the disagreement test (0: off)
 # state
-CHANGE_STATUS, CHANGE_ON_COUNT, CHANGE_OFF_COUNT = 15, 16, 17
-CHANGE_MEAN = 18  # 4: the fading-memory mean of each probe [m]
-CHANGE_SAMPLES = 22  # 4: samples in each mean
-CHANGE_POINTS = 26  # the curves' number of points G
-CHANGE_CURVES = 27  # per bearing: flowrates (G) [m^3/s], then the probe pair's static change (G each) [m]
+CHANGE_STATUS, CHANGE_ON_COUNT, CHANGE_OFF_COUNT = 16, 17, 18
+CHANGE_MEAN = 19  # 4: the fading-memory mean of each probe [m]
+CHANGE_SAMPLES = 23  # 4: samples in each mean
+CHANGE_POINTS = 27  # the curves' number of points G
+CHANGE_CURVES = 28  # per bearing: flowrates (G) [m^3/s], then the probe pair's static change (G each) [m]
 CURVE_POINTS = 41
 """Points of each bearing's static curve over the coefficient table's flowrate range."""
 CHANGE_SIZE = CHANGE_CURVES + 2 * 3 * CURVE_POINTS
@@ -120,6 +126,7 @@ def new_change_array(config, model, dt_s: float, probe_rotation: np.ndarray) -> 
     change[CHANGE_WEIGHT] = weight
     change[CHANGE_MIN_SAMPLES] = max(1, round(config.baseline_change_window_s / dt_s))
     change[CHANGE_MODEL_FRACTION] = config.baseline_change_model_fraction
+    change[CHANGE_DISAGREEMENT] = config.mismatch_disagreement_z
     change[CHANGE_POINTS] = CURVE_POINTS
     baseline = config.offset_baseline
     reference = None if baseline is None else baseline.static_reference_m
@@ -194,12 +201,42 @@ def _nearest_on_curve(change, b, d0, d1):
 
 
 @njit(cache=True)
-def update_change(change, displacement, health, consistent, out_flow, out_std) -> int:
-    """Advance the status and the static means by one sample (module docstring), in place on ``change``;
-    ``health`` the probes' records (status in column 0, 0 healthy). Writes the static estimate into
-    ``out_flow`` / ``out_std`` (2,) [m^3/s] when the status is :data:`MISMATCH_BASELINE` (NaN otherwise) and
-    returns the status."""
-    if consistent:
+def update_change(
+    change, displacement, health, consistent, filter_flow, filter_std, out_flow, out_std
+) -> int:
+    """Advance the static means and the status by one sample (module docstring), in place on ``change``;
+    ``health`` the probes' records (status in column 0, 0 healthy), ``filter_flow`` / ``filter_std`` (2,)
+    the filter's estimates and stds [m^3/s]. Writes the static estimate into ``out_flow`` / ``out_std`` (2,)
+    [m^3/s] when the reference applies (NaN otherwise) and returns the status."""
+    out_flow[:] = np.nan
+    out_std[:] = np.nan
+    available = change[CHANGE_APPLIES] != 0.0
+    if available:
+        weight = change[CHANGE_WEIGHT]
+        for i in range(4):
+            value = displacement[i]
+            if np.isfinite(value) and health[i, 0] == 0:
+                count = change[CHANGE_SAMPLES + i] + 1.0
+                change[CHANGE_SAMPLES + i] = count
+                w = max(weight, 1.0 / count)
+                change[CHANGE_MEAN + i] += w * (value - change[CHANGE_MEAN + i])
+            available = available and change[CHANGE_SAMPLES + i] >= change[CHANGE_MIN_SAMPLES]
+    disagree = False
+    if available:
+        floor = change[CHANGE_FLOOR_M]
+        fraction = change[CHANGE_MODEL_FRACTION]
+        z = change[CHANGE_DISAGREEMENT]
+        for b in range(2):
+            d0 = change[CHANGE_MEAN + 2 * b] - change[CHANGE_REFERENCE + 2 * b]
+            d1 = change[CHANGE_MEAN + 2 * b + 1] - change[CHANGE_REFERENCE + 2 * b + 1]
+            flow, slope, off = _nearest_on_curve(change, b, d0, d1)
+            spread = np.sqrt(floor * floor + off * off) / max(slope, 1e-300)
+            model = fraction * abs(flow - change[CHANGE_Q0 + b])
+            out_flow[b] = flow
+            out_std[b] = np.sqrt(spread * spread + model * model)
+            gap = abs(filter_flow[b] - flow)
+            disagree = disagree or (z > 0.0 and gap > z * np.sqrt(out_std[b] ** 2 + filter_std[b] ** 2))
+    if consistent and not disagree:
         change[CHANGE_ON_COUNT] = 0.0
         change[CHANGE_OFF_COUNT] += 1.0
         if change[CHANGE_STATUS] != CONSISTENT and change[CHANGE_OFF_COUNT] >= change[CHANGE_HOLD_OFF]:
@@ -209,37 +246,6 @@ def update_change(change, displacement, health, consistent, out_flow, out_std) -
         change[CHANGE_ON_COUNT] += 1.0
         if change[CHANGE_STATUS] == CONSISTENT and change[CHANGE_ON_COUNT] >= change[CHANGE_HOLD_ON]:
             change[CHANGE_STATUS] = MISMATCH_HELD
-    out_flow[:] = np.nan
-    out_std[:] = np.nan
-    if change[CHANGE_APPLIES] == 0.0:
-        if change[CHANGE_STATUS] != CONSISTENT:
-            change[CHANGE_STATUS] = MISMATCH_HELD
-        return int(change[CHANGE_STATUS])
-    weight = change[CHANGE_WEIGHT]
-    ready = True
-    for i in range(4):
-        value = displacement[i]
-        if np.isfinite(value) and health[i, 0] == 0:
-            count = change[CHANGE_SAMPLES + i] + 1.0
-            change[CHANGE_SAMPLES + i] = count
-            w = max(weight, 1.0 / count)
-            change[CHANGE_MEAN + i] += w * (value - change[CHANGE_MEAN + i])
-        ready = ready and change[CHANGE_SAMPLES + i] >= change[CHANGE_MIN_SAMPLES]
-    if change[CHANGE_STATUS] == CONSISTENT:
-        return CONSISTENT
-    if not ready:
-        change[CHANGE_STATUS] = MISMATCH_HELD
-        return MISMATCH_HELD
-    change[CHANGE_STATUS] = MISMATCH_BASELINE
-    floor = change[CHANGE_FLOOR_M]
-    fraction = change[CHANGE_MODEL_FRACTION]
-    for b in range(2):
-        d0 = change[CHANGE_MEAN + 2 * b] - change[CHANGE_REFERENCE + 2 * b]
-        d1 = change[CHANGE_MEAN + 2 * b + 1] - change[CHANGE_REFERENCE + 2 * b + 1]
-        flow, slope, off = _nearest_on_curve(change, b, d0, d1)
-        q0 = change[CHANGE_Q0 + b]
-        spread = np.sqrt(floor * floor + off * off) / max(slope, 1e-300)
-        model = fraction * abs(flow - q0)
-        out_flow[b] = flow
-        out_std[b] = np.sqrt(spread * spread + model * model)
-    return MISMATCH_BASELINE
+    if change[CHANGE_STATUS] != CONSISTENT:
+        change[CHANGE_STATUS] = MISMATCH_BASELINE if available else MISMATCH_HELD
+    return int(change[CHANGE_STATUS])

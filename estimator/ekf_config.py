@@ -127,8 +127,11 @@ class EKFConfig:
             estimate does not act on its own: the published flowrates and the alarm come from the static
             change relative to the baseline (``offset_baseline`` with its static reference), or the alarm is
             held and the std widened by the NIS excess; False: the filter's estimate throughout (the paper).
-        mismatch_hold_on_s, mismatch_hold_off_s : the status turns to a mismatch after ``model_consistent``
-            has been false this long, and back after it has been true that long.
+        mismatch_hold_on_s, mismatch_hold_off_s : the status turns to a mismatch after the evidence of one
+            (``model_consistent`` false, or the disagreement below) has lasted this long, and back after it
+            has been absent that long.
+        mismatch_disagreement_z : with the baseline's static reference, the filter's flowrate further than
+            this many combined stds from the static estimate is evidence of a mismatch too (0: off).
         baseline_change_window_s : time constant of the probes' fading-memory mean [s].
         baseline_change_model_fraction : the static model's relative error on the change, added to the
             static estimate's std as this fraction of the flowrate change since the baseline.
@@ -180,6 +183,7 @@ class EKFConfig:
     model_mismatch_action: bool = True
     mismatch_hold_on_s: float = 0.5
     mismatch_hold_off_s: float = 5.0
+    mismatch_disagreement_z: float = 3.0
     baseline_change_window_s: float = 1.0
     baseline_change_model_fraction: float = 0.1
     converged_std_fraction: float = 0.03
@@ -249,6 +253,7 @@ class EKFConfig:
             "baseline_change_window_s",
         ):
             require_in_range(f"EKFConfig.{name}", getattr(self, name), 1e-6, 600.0, "s")
+        require_in_range("EKFConfig.mismatch_disagreement_z", self.mismatch_disagreement_z, 0.0, 100.0)
         require_in_range(
             "EKFConfig.baseline_change_model_fraction", self.baseline_change_model_fraction, 0.0, 1.0
         )

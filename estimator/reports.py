@@ -56,7 +56,7 @@ class StepReport:
     model_mismatch : the status of :mod:`oilwatch.estimator.baseline_change` (0 consistent, 1 mismatch read
     from the change relative to the baseline, 2 mismatch held). filter_q_m3_s, filter_q_std_m3_s : (2,) the
     filter's own estimates and stds. baseline_q_m3_s, baseline_q_std_m3_s : (2,) the baseline-relative static
-    estimate and std (NaN unless the status is 1).
+    estimate and std (NaN when no static reference applies).
     """
 
     step: int

@@ -40,8 +40,8 @@ def _layout(*fields: tuple[str, int]) -> tuple[dict[str, int], int]:
 # the model is consistent, else as estimator.baseline_change says), the viscosity factors and stds (1 and 0
 # if not estimated), offsets [m] and stds, unbalance and stds (0 if not estimated), the sample's scalars and
 # flags as floats (per bearing, or per probe for the status), the model-mismatch status, the filter's own
-# flowrates (clipped to the table) and stds, and the baseline-relative static estimate and std (NaN unless
-# the status is a mismatch read from it)
+# flowrates (clipped to the table) and stds, and the baseline-relative static estimate and std (NaN when
+# no static reference applies)
 _REPORT, REPORT_SIZE = _layout(
     ("flowrate", 2),
     ("std", 2),
@@ -282,6 +282,8 @@ def sample_step(
         displacement,
         health,
         consistent,
+        report[REPORT_FILTER_FLOWRATE : REPORT_FILTER_FLOWRATE + 2],
+        report[REPORT_FILTER_STD : REPORT_FILTER_STD + 2],
         report[REPORT_BASELINE_FLOWRATE : REPORT_BASELINE_FLOWRATE + 2],
         report[REPORT_BASELINE_STD : REPORT_BASELINE_STD + 2],
     )
