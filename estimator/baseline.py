@@ -190,8 +190,6 @@ def _static_reference(document: dict) -> dict:
         "flowrates_m3_s": tuple(float(v) * ML_MIN for v in document["flowrates_ml_min"]),
         "static_reference_m": tuple(float(v) * 1e-6 for v in document["static_reference_um"]),
     }
-    if "consistent_fraction" in document:
-        values["consistent_fraction"] = float(document["consistent_fraction"])
     for key in ("speed_hz", "temperature_c"):
         if f"static_reference_{key}" in document:
             values[f"static_reference_{key}"] = float(document[f"static_reference_{key}"])

@@ -33,8 +33,6 @@ class OffsetBaseline:
         (:mod:`oilwatch.estimator.baseline_change`).
     static_reference_speed_hz, static_reference_temperature_c : the baseline record's mean speed [Hz] and
         oil temperature [degC], or None (not measured: taken as the run's).
-    consistent_fraction : the share of the baseline record's second half in which its model was consistent
-        (``model_consistent``), or None (not recorded).
     """
 
     offsets_m: tuple[float, float, float, float]
@@ -50,7 +48,6 @@ class OffsetBaseline:
     static_reference_m: tuple[float, float, float, float] | None = None
     static_reference_speed_hz: float | None = None
     static_reference_temperature_c: float | None = None
-    consistent_fraction: float | None = None
 
     def __post_init__(self) -> None:
         for name in ("offsets_m", "std_m"):
