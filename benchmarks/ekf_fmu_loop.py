@@ -116,8 +116,6 @@ def bare_fmu(out_dir: str) -> Path:
     entry = FmuEntry(
         name="BareFilter",
         script=str(Path(__file__).resolve().parent / "fmus" / "bare_filter_slave.py"),
-        packages=(),
-        prefix="barefilter",
     )
     return next(p for p in build_fmus(out_dir, only=["BareFilter"], extra=(entry,)) if p.suffix == ".fmu")
 

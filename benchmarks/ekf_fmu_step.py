@@ -27,8 +27,8 @@ the host's Python evicts), each measured here but the rest; with the compiled st
 compiled step + the host's Get/Set + the rest (fmpy's doStep call, caches). Without the fast path: library
 + the slave's Python methods + the FMI floor.
 
-Two builds of the same FMU cannot be timed in one process (their relocated packages have the same module
-names, so the second would run the first's code): compare another build (e.g. main's) with ``--fmu`` in
+Two builds of the same FMU cannot be timed in one process (both bundle the package ``oilwatch``, and the
+second is refused when its sources differ): compare another build (e.g. main's) with ``--fmu`` in
 alternating runs.
 
 Usage: ``OPENBLAS_NUM_THREADS=1 python benchmarks/ekf_fmu_step.py [--steps 3000] [--repeats 3] [--ramp-s 60]

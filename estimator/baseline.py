@@ -133,11 +133,6 @@ def estimate_baseline(
     return document
 
 
-def save_baseline(document: dict, path: str | Path) -> None:
-    """Write a baseline document as JSON."""
-    Path(path).write_text(json.dumps(document, indent=1) + "\n")
-
-
 def _read_document(path: str | Path) -> dict:
     try:
         data = json.loads(Path(path).read_text())

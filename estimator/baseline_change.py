@@ -11,12 +11,12 @@ measures the flowrate change with the model's static curve alone.
 Status (:data:`CONSISTENT`, :data:`MISMATCH_BASELINE`, :data:`MISMATCH_HELD`):
 
 * the evidence of a mismatch is ``model_consistent`` false, or (with a static reference) the filter's
-  flowrate and the static estimate further apart than ``mismatch_disagreement_z`` times their combined std:
+  flowrate and the static estimate further apart than :data:`DISAGREEMENT_Z` times their combined std:
   two estimates that rest on different parts of the model (the 1x orbit, the static position) disagree by
   more than their noise only through the model's error, and a film model the free nuisances absorb leaves
   the NIS consistent (a quasi-static plant read by the synchronous model: -7 % at nominal, NIS consistent);
-* the status turns to a mismatch when there has been evidence for ``mismatch_hold_on_s``, and back when there
-  has been none for ``mismatch_hold_off_s`` (hysteresis: an intermittent test does not chatter);
+* the status turns to a mismatch when there has been evidence for :data:`MISMATCH_HOLD_ON_S`, and back when
+  there has been none for :data:`MISMATCH_HOLD_OFF_S` (hysteresis: an intermittent test does not chatter);
 * while it is a mismatch and the baseline's static reference applies (:data:`MISMATCH_BASELINE`), the
   published flowrates and stds are the baseline-relative static estimate's and the starvation alarm
   judges them;
@@ -25,14 +25,14 @@ Status (:data:`CONSISTENT`, :data:`MISMATCH_BASELINE`, :data:`MISMATCH_HELD`):
   the filter's with their std widened by the NIS excess (``sqrt(NIS / dof)`` over the consistency window),
   and the alarm neither sets nor clears: an inconsistent estimate never acts on its own.
 
-Static estimate: a fading-memory mean (time constant ``baseline_change_window_s``) of each probe's signal
+Static estimate: a fading-memory mean (time constant :data:`STATIC_WINDOW_S`) of each probe's signal
 (after any runout compensation), minus the baseline record's mean, is the change of the journal's static
 position since the baseline (the offsets and the zero-mean 1x and 2x parts cancel). Each bearing's flowrate is
 the point of the model's static curve (its probe pair's static signal against that bearing's flowrate, the
 other at its baseline value; :func:`static_curves`) nearest to that change. Its std combines the baseline's
 and the drift's offset uncertainty, the mean's noise and what of the change lies off the curve (something
 other than the flowrate moved the journal), each divided by the curve's slope there, and a fraction
-``baseline_change_model_fraction`` of the change itself (the static model's own error on the change).
+:data:`STATIC_MODEL_FRACTION` of the change itself (the static model's own error on the change).
 
 Everything sits in one float array (:func:`new_change_array`, ``CHANGE_*`` layout) that the compiled step
 advances (:func:`update_change`).
@@ -45,6 +45,21 @@ import math
 import numpy as np
 from numba import njit
 
+MISMATCH_HOLD_ON_S = 0.5
+"""The status turns to a mismatch after its evidence has lasted this long (half the NIS window: a test that
+fails once in a while, as a 1e-3 tail does, does not turn it)."""
+MISMATCH_HOLD_OFF_S = 5.0
+"""...and back after no evidence for this long: a mismatch comes and goes with the machine's state, and an
+estimate that flips between sources every second is no estimate."""
+DISAGREEMENT_Z = 3.0
+"""The filter's flowrate further than this many combined stds from the static estimate is evidence of a
+mismatch (0.3 % of pairs of honest estimates by chance, per bearing and sample)."""
+STATIC_WINDOW_S = 1.0
+"""Time constant of the probes' fading-memory mean [s]: 75 revolutions at the turbine's speed, so the 1x and
+2x parts leave under 1e-3 of their amplitude and the 1 um noise 0.02 um."""
+STATIC_MODEL_FRACTION = 0.1
+"""The static model's relative error on the change since the baseline: a film 5 % more viscous than the oil
+law moves the static curve by about 14 % (100 -> 80 % of nominal: -4.39 um against -5.09 um)."""
 CONSISTENT, MISMATCH_BASELINE, MISMATCH_HELD = 0, 1, 2
 """The ``model_mismatch`` status codes."""
 STATUS_NAMES = ("consistent", "mismatch-baseline-change", "mismatch-held")
@@ -88,7 +103,7 @@ def static_curves(model, probe_rotation: np.ndarray, q0_m3_s, points: int = CURV
     model gets wrong (with 2 um of runout a 1.05 film read 0.97 / 0.91; a quasi-static plant read by the
     synchronous model gave factors that moved the 80 % reading by -9 %), while a film a few % more viscous
     than the oil law moves the static curve by about a seventh per 5 % (100 -> 80 % of nominal: -5.09 um at
-    1, -4.39 um at 1.05): ``baseline_change_model_fraction`` covers that."""
+    1, -4.39 um at 1.05): :data:`STATIC_MODEL_FRACTION` covers that."""
     low, high = model.flowrate_bounds_m3_s
     grid = np.linspace(low, high, points)
     observe = probe_rotation @ np.asarray(model.output_matrix, dtype=float)
@@ -110,13 +125,13 @@ def new_change_array(config, model, dt_s: float, probe_rotation: np.ndarray) -> 
     reference when ``config.offset_baseline`` has one (``CHANGE_AVAILABLE`` 0 otherwise) and the curves."""
     change = np.zeros(CHANGE_SIZE)
     change[CHANGE_ACTION] = 1.0 if config.model_mismatch_action else 0.0
-    change[CHANGE_HOLD_ON] = max(1, round(config.mismatch_hold_on_s / dt_s))
-    change[CHANGE_HOLD_OFF] = max(1, round(config.mismatch_hold_off_s / dt_s))
-    weight = min(1.0, dt_s / config.baseline_change_window_s)
+    change[CHANGE_HOLD_ON] = max(1, round(MISMATCH_HOLD_ON_S / dt_s))
+    change[CHANGE_HOLD_OFF] = max(1, round(MISMATCH_HOLD_OFF_S / dt_s))
+    weight = min(1.0, dt_s / STATIC_WINDOW_S)
     change[CHANGE_WEIGHT] = weight
-    change[CHANGE_MIN_SAMPLES] = max(1, round(config.baseline_change_window_s / dt_s))
-    change[CHANGE_MODEL_FRACTION] = config.baseline_change_model_fraction
-    change[CHANGE_DISAGREEMENT] = config.mismatch_disagreement_z
+    change[CHANGE_MIN_SAMPLES] = max(1, round(STATIC_WINDOW_S / dt_s))
+    change[CHANGE_MODEL_FRACTION] = STATIC_MODEL_FRACTION
+    change[CHANGE_DISAGREEMENT] = DISAGREEMENT_Z
     change[CHANGE_POINTS] = CURVE_POINTS
     baseline = config.offset_baseline
     reference = None if baseline is None else baseline.static_reference_m

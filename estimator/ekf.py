@@ -23,18 +23,18 @@ then update with the measured displacements (Eqs. 22-24, Joseph form, Cholesky s
 update uses
   every channel that passed (a NaN on one probe drops that channel, not the update). A probe that is dead,
   stuck, out of its physical range or persistently rejected alone is flagged (``probe_status``) and excluded
-  until it has looked healthy for ``probe_recover_s``. Nothing is ever forced through the gate.
+  until it has looked healthy for ``PROBE_RECOVER_S``. Nothing is ever forced through the gate.
 * Differentiated velocities (eight-channel modes) use a channel's two consecutive accepted samples.
 * Change detection and adaptive process noise: a fading-memory mean of each channel's standardized
-  innovation (time constant ``change_window_s``; white and N(0, a / (2 - a)) per channel under the model,
+  innovation (time constant ``CHANGE_WINDOW_S``; white and N(0, a / (2 - a)) per channel under the model,
   ``a`` its weight) is tested per bearing against the chi-square(2) quantile of
-  ``change_tail_probability``; while it fires, that bearing's flowrate gets the extra process noise
+  ``CHANGE_TAIL_PROBABILITY``; while it fires, that bearing's flowrate gets the extra process noise
   ``change_flowrate_std_fraction`` of nominal per step (Bar-Shalom, Li & Kirubarajan 2001, sec. 11.2: a
   process-noise level switched by an innovation test). A flowrate change shows first as a persistent mean
   innovation of its bearing's probes; the filter's std then widens at once so that it covers the lag of the
   estimate, and shrinks again with the data once the innovation is white.
-* ``model_consistent``: the sum of the NIS over the last ``consistency_window_s`` does not exceed the
-  chi-square quantile ``1 - consistency_tail_probability`` of its degrees of freedom (Bar-Shalom et al.
+* ``model_consistent``: the sum of the NIS over the last ``CONSISTENCY_WINDOW_S`` does not exceed the
+  chi-square quantile ``1 - CONSISTENCY_TAIL_PROBABILITY`` of its degrees of freedom (Bar-Shalom et al.
   sec. 5.4.2, the time-average NIS test; Wilson-Hilferty approximation of the quantile). A discrepancy that
   the states can absorb (an offset that looks like a flow change) stays invisible to it; one they cannot
   (a wrong 1x orbit) shows. The alarm records whether the model was consistent when it was raised.
@@ -43,14 +43,15 @@ update uses
   active bound holds exactly), which also moves the correlated dynamic states; P is left unchanged, a
   conservative choice that keeps the flowrate free to leave the bound (the projected covariance would have
   zero variance there). The model is therefore never evaluated outside its table.
-* ``converged``: both flowrate stds below ``converged_std_fraction`` of nominal, both estimates changed by
-  less than ``converged_drift_fraction`` of nominal over the last ``converged_window_s``, and some channel
+* ``converged``: both flowrate stds below ``CONVERGED_STD_FRACTION`` of nominal, both estimates changed by
+  less than ``CONVERGED_DRIFT_FRACTION`` of nominal over the last ``CONVERGED_WINDOW_S``, and some channel
   updated the filter within that window.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 
@@ -58,11 +59,15 @@ from oilwatch.models.validation import InputError
 
 from . import channels
 from .alarm import StarvationAlarm
-from .baseline_change import new_change_array, reference_applies, reset_change
-from .ekf_batch import BatchRuns
-from .ekf_config import EKFConfig
-from .ekf_prediction import ModelPrediction
-from .ekf_reporting import FilterReporting
+from .baseline_change import CHANGE_STATUS, CONSISTENT, new_change_array, reference_applies, reset_change
+from .ekf_config import (
+    CONSISTENCY_WINDOW_S,
+    CONVERGED_WINDOW_S,
+    INITIAL_DISPLACEMENT_STD_M,
+    INITIAL_VELOCITY_STD_M_S,
+    UNBALANCE_RANDOM_WALK_SQRT_S,
+    EKFConfig,
+)
 from .ekf_setup import (
     StateLayout,
     channel_settings,
@@ -76,20 +81,53 @@ from .filter_arrays import FilterArrays
 from .measurement import displacement_channels, probe_rotation, velocity_channels
 from .model import AugmentedModel
 from .nuisance_start import InformationFloor, ShadowJacobian, restart_parameters, settling_steps
-from .reports import StepReport
+from .reports import EstimateTrace, ReportView, StepReport
 from .runout import RunoutCompensation
-from .state import FilterStateIO
 from .step_kernel import (
     COUNT_SINCE_UPDATE,
     COUNT_STEP,
+    REPORT_CHANGING,
+    REPORT_CONSISTENT,
+    REPORT_CONVERGED,
+    REPORT_FILTER_FLOWRATE,
+    REPORT_FILTER_STD,
+    REPORT_FLOWRATE,
+    REPORT_MISMATCH,
+    REPORT_NIS,
+    REPORT_OFFSET,
+    REPORT_OFFSET_STD,
+    REPORT_OK,
+    REPORT_ROWS,
     REPORT_SIZE,
+    REPORT_STARVED,
+    REPORT_STARVED_CONSISTENT,
+    REPORT_STATUS,
     REPORT_STD,
+    REPORT_UNBALANCE,
+    REPORT_UNBALANCE_STD,
+    REPORT_VISCOSITY,
+    REPORT_VISCOSITY_STD,
     SUMMARY_STD_FLOOR,
     ekf_step,
+    grid_batch,
 )
 
+MIN_VISCOSITY_FACTOR = 0.2
+"""The model never sees a viscosity factor below this (a random walk kept physical)."""
+_PUBLISHED = (REPORT_FLOWRATE, REPORT_FLOWRATE + 1, REPORT_STD, REPORT_STD + 1, REPORT_MISMATCH)
+"""The report entries a model mismatch publishes in place of the filter's (saved with the state)."""
 
-class OilFlowEKF(FilterReporting, BatchRuns, ModelPrediction, FilterStateIO):
+
+def _checked(state: dict[str, np.ndarray], key: str, shape: tuple[int, ...]) -> np.ndarray:
+    if key not in state:
+        raise InputError(f"EKF state lacks {key!r}")
+    value = np.asarray(state[key])
+    if value.shape != shape:
+        raise InputError(f"EKF state {key!r} must have shape {shape}, got {value.shape}")
+    return value
+
+
+class OilFlowEKF:
     """Augmented-state EKF estimating (q1, q2) from the four measured bearing displacements.
 
     Parameters
@@ -102,11 +140,15 @@ class OilFlowEKF(FilterReporting, BatchRuns, ModelPrediction, FilterStateIO):
     ``state_layout`` (:class:`oilwatch.estimator.ekf_setup.StateLayout`) tells where each part sits in the
     state vector ``x`` of :meth:`get_state` (the flowrates in fractions of ``config.q_nominal_m3_s``).
 
-    The set-up is :mod:`oilwatch.estimator.ekf_setup`, the reported estimates
-    :mod:`oilwatch.estimator.ekf_reporting`, the record entries (:meth:`run`, :meth:`run_batch`)
-    :mod:`oilwatch.estimator.ekf_batch`, the model's transition with the nuisance columns and the operating
-    point :mod:`oilwatch.estimator.ekf_prediction`, the state's export and import
-    :mod:`oilwatch.estimator.state`.
+    One class: its state is set in :meth:`__init__` (the configuration's fixed arrays, from
+    :mod:`oilwatch.estimator.ekf_setup`) and :meth:`reset` (the arrays a run advances, handed to the compiled
+    step as one :class:`oilwatch.estimator.filter_arrays.FilterArrays`), and every method here reads it.
+    Records go through :meth:`run` and :meth:`run_batch`, which give exactly what as many :meth:`step`
+    calls give (on a grid model at one speed with no operating point given a whole block is one compiled
+    call, :func:`oilwatch.estimator.step_kernel.grid_batch`). The model's prediction calls the transition
+    the nuisance states need (``transition``, ``transition_with_unbalance`` or ``transition_full``) and puts
+    their Jacobian columns in place; the measured operating point goes to a model that follows it before the
+    prediction to the sample (a model at one speed accepts only that speed).
     """
 
     def __init__(self, model: AugmentedModel, config: EKFConfig | None = None) -> None:
@@ -159,8 +201,8 @@ class OilFlowEKF(FilterReporting, BatchRuns, ModelPrediction, FilterStateIO):
         self._channel_settings = channel_settings(cfg, model, self._dt)
         self._q_var = (cfg.flowrate_process_std_m3_s / self._q_nominal) ** 2
         self._settings = step_settings(cfg, self._dt, bounds_scaled, self._q_var)
-        self._consistency_steps = max(1, round(cfg.consistency_window_s / self._dt))
-        unbalance_walk = cfg.unbalance_random_walk_sqrt_s**2 * self._dt
+        self._consistency_steps = max(1, round(CONSISTENCY_WINDOW_S / self._dt))
+        unbalance_walk = UNBALANCE_RANDOM_WALK_SQRT_S**2 * self._dt
         self._summary_settings = summary_settings(cfg, self._q_nominal, self._bounds, unbalance_walk)
         self._report = np.zeros(REPORT_SIZE)
         self._batch_table = np.empty((0, REPORT_SIZE))
@@ -180,7 +222,7 @@ class OilFlowEKF(FilterReporting, BatchRuns, ModelPrediction, FilterStateIO):
         self._work = np.zeros((self._size, self._size))
         self._z8 = np.zeros(8)
         self._accepted = np.zeros(4, dtype=bool)
-        self._window = max(1, round(cfg.converged_window_s / self._dt))
+        self._window = max(1, round(CONVERGED_WINDOW_S / self._dt))
         self.alarm = StarvationAlarm(cfg.alarm, self._dt, self._q_nominal)
         self._change = new_change_array(cfg, model, self._dt, probe_rotation(angle))
         # shadow Jacobian and settling start while the flowrates are estimated beside viscosity factors
@@ -209,7 +251,7 @@ class OilFlowEKF(FilterReporting, BatchRuns, ModelPrediction, FilterStateIO):
         self._x[n : n + 2] = q0 / self._q_nominal
         self._P = np.zeros((self._size, self._size))
         self._P[:n, :n] = physical_covariance(
-            self.model, n, cfg.initial_displacement_std_m, cfg.initial_velocity_std_m_s
+            self.model, n, INITIAL_DISPLACEMENT_STD_M, INITIAL_VELOCITY_STD_M_S
         )
         self._P[n : n + 2, n : n + 2] = (cfg.initial_flowrate_std_m3_s / self._q_nominal) ** 2 * np.eye(2)
         baseline = cfg.offset_baseline
@@ -367,7 +409,33 @@ class OilFlowEKF(FilterReporting, BatchRuns, ModelPrediction, FilterStateIO):
             self._summary_settings[SUMMARY_STD_FLOOR : SUMMARY_STD_FLOOR + 2] = self._floor.std
 
     def get_state(self) -> dict[str, np.ndarray]:
-        """The complete filter state as copies of numpy arrays (restoring it continues bit-identically)."""
+        """The complete filter state as copies of numpy arrays (restoring it continues bit-identically, so
+        that an FMU can save and restore it).
+
+        The state is a flat ``dict[str, numpy.ndarray]`` (scalars as 0-d arrays), every array a copy:
+
+        ================  ========  =====================================================================
+        key               shape     meaning
+        ================  ========  =====================================================================
+        x                 (N,)      [s; q / q_nominal; offsets, viscosity factors, unbalance if estimated]
+        P                 (N, N)    its covariance
+        health            (4, 6)    int: probe records (:mod:`oilwatch.estimator.channels`)
+        health_values     (4, 4)    float: last reading, innovation power and mean, last accepted reading
+        step              ()        int: samples processed
+        since_update      ()        int: samples since the last update that used a channel
+        q_history         (W, 2)    ring buffer of q / q_nominal for the convergence drift test
+        nis_window        (C, 2)    ring buffer of NIS and rows for the consistency test
+        nis_sums          (2,)      their running sums
+        process_noise_q   (2,)      the flowrate process variances of the next prediction (change test)
+        changing          (2,)      bool: change test firing per bearing
+        last              (5,)      float: nis, n_measurements, measurement_ok, converged, model_consistent
+        alarm_*           (2,)      the alarm flags and hold counters (see :mod:`oilwatch.estimator.alarm`)
+        operating         (4,)      (given?, speed [Hz], given?, oil temperature [degC]) last measured
+        model_mismatch    (M,)      the mismatch status and static means (estimator.baseline_change)
+        published         (5,)      the published flowrates and stds, and the mismatch status
+        model_*           ...       a model's operating state, when it follows the operating point
+        ================  ========  =====================================================================
+        """
         state = self._export_state()
         if self._shadow is not None and self._shadow.state is not None:
             state["nuisance_shadow"] = self._shadow.state.copy()
@@ -387,3 +455,379 @@ class OilFlowEKF(FilterReporting, BatchRuns, ModelPrediction, FilterStateIO):
             self._summary_settings[SUMMARY_STD_FLOOR : SUMMARY_STD_FLOOR + 2] = (
                 self._floor.std if applied else 0.0
             )
+
+    @property
+    def flowrate_m3_s(self) -> np.ndarray:
+        """(2,) current flowrate estimates [m^3/s], inside the model's table range."""
+        return np.array(self._flowrate_si())
+
+    def _flowrate_si(self) -> tuple[float, float]:
+        # clipped in SI as well: the round trip through the scaled unit may leave a bound by one ulp
+        n, scale = self._n, self._q_nominal
+        low, high = self._bounds
+        return (
+            min(max(float(self._x[n]) * scale, low), high),
+            min(max(float(self._x[n + 1]) * scale, low), high),
+        )
+
+    @property
+    def flowrate_std_m3_s(self) -> np.ndarray:
+        """(2,) standard deviations of the flowrate estimates from P [m^3/s]."""
+        n = self._n
+        return np.sqrt(np.diag(self._P)[n : n + 2]) * self._q_nominal
+
+    def _nuisance(self, block: slice, known: tuple[float, ...]) -> tuple[np.ndarray, np.ndarray]:
+        """(estimate, std) copies of a nuisance block of the state; (the known value, zeros) when the block
+        is not estimated (an empty slice)."""
+        if block.stop > block.start:
+            return self._x[block].copy(), np.sqrt(np.diag(self._P)[block])
+        return np.array(known, dtype=float), np.zeros(len(known))
+
+    @property
+    def offset_m(self) -> np.ndarray:
+        """(4,) estimated probe zero offsets [m] (zeros when the offsets are not estimated)."""
+        return self._nuisance(self._offsets, (0.0,) * 4)[0]
+
+    @property
+    def offset_std_m(self) -> np.ndarray:
+        """(4,) their stds [m] (zeros when the offsets are not estimated)."""
+        return self._nuisance(self._offsets, (0.0,) * 4)[1]
+
+    @property
+    def unbalance(self) -> np.ndarray:
+        """(2,) the estimated unbalance (real, imaginary) relative to the machine file's ((1, 0) if fixed)."""
+        return self._nuisance(self._unbalance, (1.0, 0.0))[0]
+
+    @property
+    def unbalance_std(self) -> np.ndarray:
+        """(2,) its stds (zeros when the unbalance is not estimated)."""
+        return self._nuisance(self._unbalance, (1.0, 0.0))[1]
+
+    @property
+    def viscosity_factor(self) -> np.ndarray:
+        """(2,) each bearing's estimated viscosity factor (film over the oil law's; ones if not estimated)."""
+        return self._nuisance(self._viscosity, (1.0, 1.0))[0]
+
+    @property
+    def viscosity_factor_std(self) -> np.ndarray:
+        """(2,) their stds (zeros when the factors are not estimated)."""
+        return self._nuisance(self._viscosity, (1.0, 1.0))[1]
+
+    @property
+    def dynamic_state(self) -> np.ndarray:
+        """(n,) copy of the dynamic-state estimate s [SI]."""
+        return self._x[: self._n].copy()
+
+    @property
+    def covariance(self) -> np.ndarray:
+        """(N, N) copy of P, N = n + 2 (+ 4 with offset states); the flowrate block is in the internal unit
+        (fractions of nominal)^2, the offsets' in m^2."""
+        return self._P.copy()
+
+    @property
+    def step_count(self) -> int:
+        """Number of samples processed."""
+        return int(self._counters[COUNT_STEP])
+
+    @property
+    def settling_steps(self) -> int:
+        """Samples of the settling start (:mod:`oilwatch.estimator.nuisance_start`; 0: none): the flowrates
+        and nuisances restart from their prior after this sample."""
+        return self._settling
+
+    def current_report(self) -> StepReport:
+        """The report of the last processed sample, rebuilt from the state (e.g. after :meth:`set_state`)."""
+        self._refresh_report()
+        return self._step_report(self.step_count - 1)
+
+    def _step_report(self, step: int) -> StepReport:
+        """The report of sample ``step``, on a copy of the report array (independent of the filter)."""
+        return ReportView(step, self._report.copy())
+
+    def _refresh_report(self) -> None:
+        """The report array from the state as it is (after a reset or a restored state): the flowrates the
+        next prediction starts from, the nuisances and the flags :meth:`current_report` reads."""
+        report = self._report
+        report[REPORT_FILTER_FLOWRATE : REPORT_FILTER_FLOWRATE + 2] = self._flowrate_si()
+        report[REPORT_FILTER_STD : REPORT_FILTER_STD + 2] = self.flowrate_std_m3_s
+        status = self._change[CHANGE_STATUS]
+        report[REPORT_MISMATCH] = status
+        if status == CONSISTENT:  # else the published values stay (a restored state brings them)
+            report[REPORT_FLOWRATE : REPORT_FLOWRATE + 2] = self._flowrate_si()
+            report[REPORT_STD : REPORT_STD + 2] = self.flowrate_std_m3_s
+        report[REPORT_VISCOSITY : REPORT_VISCOSITY + 2] = self.viscosity_factor
+        report[REPORT_VISCOSITY_STD : REPORT_VISCOSITY_STD + 2] = self.viscosity_factor_std
+        report[REPORT_OFFSET : REPORT_OFFSET + 4] = self.offset_m
+        report[REPORT_OFFSET_STD : REPORT_OFFSET_STD + 4] = self.offset_std_m
+        report[REPORT_UNBALANCE : REPORT_UNBALANCE + 2] = self.unbalance
+        report[REPORT_UNBALANCE_STD : REPORT_UNBALANCE_STD + 2] = self.unbalance_std
+        report[REPORT_STARVED : REPORT_STARVED + 2] = self.alarm.starved
+        report[REPORT_STARVED_CONSISTENT : REPORT_STARVED_CONSISTENT + 2] = self.alarm.starved_consistent
+        report[REPORT_CHANGING : REPORT_CHANGING + 2] = self._changing
+        report[REPORT_STATUS : REPORT_STATUS + 4] = self._health[:, channels.STATUS]
+
+    def _set_last(self, nis: float, rows: int, ok: bool, converged: bool, consistent: bool) -> None:
+        """The last sample's scalars (a reset, a restored state) and the rest of the report from the state."""
+        report = self._report
+        report[REPORT_NIS], report[REPORT_ROWS], report[REPORT_OK] = nis, rows, ok
+        report[REPORT_CONVERGED], report[REPORT_CONSISTENT] = converged, consistent
+        self._refresh_report()
+
+    @property
+    def _last(self) -> tuple[float, int, bool, bool, bool]:
+        """(nis, n_measurements, measurement_ok, converged, model_consistent) of the last sample."""
+        report = self._report
+        return (
+            float(report[REPORT_NIS]),
+            int(report[REPORT_ROWS]),
+            bool(report[REPORT_OK]),
+            bool(report[REPORT_CONVERGED]),
+            bool(report[REPORT_CONSISTENT]),
+        )
+
+    def run(
+        self,
+        displacements_m: np.ndarray,
+        progress: Callable[[int, int], None] | None = None,
+        speed_hz: np.ndarray | None = None,
+        oil_temperature_c: np.ndarray | None = None,
+    ) -> EstimateTrace:
+        """Process a record of K samples (K, 4) [m] as K :meth:`step` calls; return the per-step outputs.
+
+        ``speed_hz`` and ``oil_temperature_c`` (K,), when given, are each sample's measured operating point
+        (see :meth:`step`). ``progress(done, total)`` is called every 100 samples and at the end."""
+        record, operating = self._batch_inputs(displacements_m, speed_hz, oil_temperature_c)
+        count = record.shape[0]
+        trace = EstimateTrace.empty(count)
+        table = np.empty((count, REPORT_SIZE))
+        for start in range(0, count, 100):
+            if progress is not None:
+                progress(start, count)
+            stop = min(start + 100, count)
+            self._advance_rows(record, operating, start, stop, table)
+        if progress is not None:
+            progress(count, count)
+        trace.fill(table, count)
+        return trace
+
+    def run_batch(
+        self,
+        displacements_m: np.ndarray,
+        speed_hz: np.ndarray | None = None,
+        oil_temperature_c: np.ndarray | None = None,
+        out: EstimateTrace | None = None,
+    ) -> EstimateTrace:
+        """K samples (K, 4) [m] on from the filter's current state, bit-identical to K :meth:`step` calls,
+        without a StepReport per sample: the batch entry of ``oilwatch estimate``.
+
+        ``speed_hz`` [Hz] and ``oil_temperature_c`` [degC] (K,) as in :meth:`step`; a NaN entry means not
+        given for that sample (the model keeps the last value). ``out``: a trace of at least K rows whose
+        first K rows are filled and which is returned (no allocation per block); else a new trace."""
+        record, operating = self._batch_inputs(displacements_m, speed_hz, oil_temperature_c, missing=True)
+        count = record.shape[0]
+        if out is None:
+            out = EstimateTrace.empty(count)
+        elif out.q_m3_s.shape[0] < count:
+            raise InputError(f"out must have at least {count} rows, got {out.q_m3_s.shape[0]}")
+        table = self._batch_table
+        if table.shape[0] < count:
+            table = self._batch_table = np.empty((count, REPORT_SIZE))
+        self._advance_rows(record, operating, 0, count, table)
+        out.fill(table, count)
+        return out
+
+    def grid_batch_arguments(self) -> tuple | None:
+        """The arguments of :func:`oilwatch.estimator.step_kernel.grid_batch` that belong to this filter, in
+        its order less the record and the report table: ``(transition, forcing, axes, omega, dt, first_step,
+        next, transition_work, flow_jacobian, exogenous, packed)``; None unless the filter steps as one
+        compiled call (a grid model at one speed). The arrays are the filter's own storage: a compiled
+        caller that runs ``grid_batch`` on them (the estimator FMU's plain step,
+        :mod:`oilwatch.fmu_src.ekf_plain_step`) advances the filter exactly as :meth:`step` does. They stay
+        valid through :meth:`set_state` (which copies into them) and are replaced by ``reset``."""
+        if self._grid_batch is None:
+            return None
+        return (
+            *self._grid_batch,
+            self._first_step,
+            self._batch_next,
+            self._batch_transition,
+            self._batch_flow_jacobian,
+            self._batch_exogenous,
+            self._packed,
+        )
+
+    def _run_grid_batch(self, record: np.ndarray, table: np.ndarray) -> None:
+        """:func:`oilwatch.estimator.step_kernel.grid_batch` on the record's rows (K, 4), reports into
+        ``table``."""
+        transition, forcing, axes, omega, dt = self._grid_batch
+        grid_batch(
+            transition,
+            forcing,
+            axes,
+            omega,
+            dt,
+            self._first_step,
+            record,
+            table,
+            self._batch_next,
+            self._batch_transition,
+            self._batch_flow_jacobian,
+            self._batch_exogenous,
+            self._packed,
+        )
+
+    def _batch_inputs(self, displacements_m, speed_hz, oil_temperature_c, missing: bool = False):
+        """The record (K, 4) and the per-sample operating point as lists of Python floats or None (or None
+        for a column not given); ``missing``: NaN entries are None."""
+        record = np.asarray(displacements_m, dtype=np.float64)
+        if record.ndim != 2 or record.shape[1] != 4:
+            raise InputError(f"displacements_m must have shape (K, 4), got {record.shape}")
+        count = record.shape[0]
+        operating = []
+        for name, values in (("speed_hz", speed_hz), ("oil_temperature_c", oil_temperature_c)):
+            if values is not None:
+                values = np.asarray(values, dtype=float)
+                if values.shape != (count,):
+                    raise InputError(f"{name} must have shape ({count},), got {values.shape}")
+                values = values.tolist()
+                if missing:
+                    values = [None if v != v else v for v in values]
+            operating.append(values)
+        return record, operating
+
+    def _advance_rows(self, record, operating, start: int, stop: int, table: np.ndarray) -> None:
+        """Samples ``start:stop`` of the record through :meth:`_advance`, each report into ``table``'s row
+        (all in one compiled call for a grid model at one speed with no operating point given)."""
+        advance, report = self._advance, self._report
+        speed, temperature = operating
+        if speed is None and temperature is None and self._grid_batch is not None:
+            self._run_grid_batch(np.ascontiguousarray(record[start:stop]), table[start:stop])
+            return
+        if speed is None and temperature is None:
+            for k in range(start, stop):
+                advance(record[k], None, None, None)
+                table[k] = report
+            return
+        for k in range(start, stop):
+            advance(
+                record[k],
+                None if speed is None else speed[k],
+                None if temperature is None else temperature[k],
+                None,
+            )
+            table[k] = report
+
+    def _predict_with_model(
+        self, model_step: int, state: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The model's transition from the current estimate (or from ``state`` at the current flowrates and
+        nuisances) to the next sample: ``(s_next, df/ds, df/dq)``, with the nuisance columns of the Jacobian
+        (viscosity factors, unbalance) put into place."""
+        n = self._n
+        s = self._x[:n] if state is None else state
+        flowrate = self._report[REPORT_FILTER_FLOWRATE : REPORT_FILTER_FLOWRATE + 2]
+        trailing = self._trailing_jacobian
+        if self._n_viscosity:
+            factors = np.maximum(self._x[self._viscosity], MIN_VISCOSITY_FACTOR)
+            unbalance = self._x[self._unbalance] if self._n_unbalance else None
+            next_state, state_jac, flow_jac, viscosity_jac, unbalance_jac = self.model.transition_full(
+                s, flowrate, model_step, factors, unbalance
+            )
+            trailing[:, :2] = viscosity_jac
+            if self._n_unbalance:
+                trailing[:, 2:] = unbalance_jac
+            return next_state, state_jac, flow_jac
+        if self._n_unbalance:
+            next_state, state_jac, flow_jac, unbalance_jac = self.model.transition_with_unbalance(
+                s, flowrate, model_step, self._x[self._unbalance]
+            )
+            trailing[:, :] = unbalance_jac
+            return next_state, state_jac, flow_jac
+        return self.model.transition(s, flowrate, model_step)
+
+    def _set_operating_point(
+        self, speed_hz: float | None, oil_temperature_c: float | None, rotor_angle_rad: float | None
+    ) -> None:
+        """Hand the measured operating point to the model (InputError for one it cannot follow)."""
+        model = self.model
+        if self._follows:
+            speed, temperature = self._operating
+            speed = speed if speed_hz is None else speed_hz
+            temperature = temperature if oil_temperature_c is None else oil_temperature_c
+            model.set_operating_point(speed, temperature, rotor_angle_rad)
+            self._operating = (speed, temperature)
+            return
+        own = getattr(model, "speed_hz", None)
+        if speed_hz is not None and own is not None and not math.isclose(speed_hz, own, rel_tol=1e-9):
+            raise InputError(
+                f"speed_hz = {speed_hz:g} Hz: this estimator's model holds one speed ({own:g} Hz); build "
+                "it on the operating-point model to follow speed and oil temperature"
+            )
+        if rotor_angle_rad is not None:
+            raise InputError("rotor_angle_rad needs a model that follows the operating point")
+
+    def _export_state(self) -> dict[str, np.ndarray]:
+        """The filter's state as a dict of array copies."""
+        n = self._n
+        state = {
+            "x": self._x.copy(),
+            "P": self._P.copy(),
+            "health": self._health.copy(),
+            "health_values": self._health_values.copy(),
+            "step": np.array(self.step_count, dtype=np.int64),
+            "since_update": np.array(self._counters[COUNT_SINCE_UPDATE], dtype=np.int64),
+            "q_history": self._history.copy(),
+            "nis_window": self._nis_window.copy(),
+            "nis_sums": self._nis_sums.copy(),
+            "process_noise_q": np.diag(self._process_noise)[n : n + 2].copy(),
+            "changing": self._changing.copy(),
+            "last": np.array([float(v) for v in self._last]),
+        }
+        state.update(self.alarm.get_state())
+        state["model_mismatch"] = self._change.copy()
+        state["published"] = self._report[list(_PUBLISHED)].copy()
+        speed, temperature = self._operating
+        state["operating"] = np.array(
+            [float(speed is not None), speed or 0.0, float(temperature is not None), temperature or 0.0]
+        )
+        getter = getattr(self.model, "get_operating_state", None)
+        if callable(getter):
+            state.update({f"model_{key}": value for key, value in getter().items()})
+        return state
+
+    def _import_state(self, state: dict[str, np.ndarray]) -> None:
+        """Restore ``state`` (from :meth:`_export_state` of a filter with the same model and config)."""
+        size = self._size
+        x = _checked(state, "x", (size,))
+        covariance = _checked(state, "P", (size, size))
+        if not (np.isfinite(x).all() and np.isfinite(covariance).all()):
+            raise InputError("EKF state 'x' and 'P' must be finite")
+        self._x[:] = x
+        self._P[:, :] = covariance
+        self._health[:, :] = _checked(state, "health", self._health.shape)
+        self._health_values[:, :] = _checked(state, "health_values", self._health_values.shape)
+        self._counters[COUNT_STEP] = int(_checked(state, "step", ()))
+        self._counters[COUNT_SINCE_UPDATE] = int(_checked(state, "since_update", ()))
+        self._history[:, :] = _checked(state, "q_history", self._history.shape)
+        self._nis_window[:, :] = _checked(state, "nis_window", self._nis_window.shape)
+        self._nis_sums[:] = _checked(state, "nis_sums", (2,))
+        n = self._n
+        noise = _checked(state, "process_noise_q", (2,))
+        self._process_noise[n, n], self._process_noise[n + 1, n + 1] = float(noise[0]), float(noise[1])
+        self._changing[:] = _checked(state, "changing", (2,))
+        nis, rows, ok, converged, consistent = _checked(state, "last", (5,))
+        self.alarm.set_state(state)
+        if "model_mismatch" in state:
+            self._change[:] = _checked(state, "model_mismatch", self._change.shape)
+            self._report[list(_PUBLISHED)] = _checked(state, "published", (len(_PUBLISHED),))
+        self._set_last(float(nis), int(rows), bool(ok), bool(converged), bool(consistent))
+        if "operating" in state:
+            has_speed, speed, has_temperature, temperature = (
+                float(v) for v in _checked(state, "operating", (4,))
+            )
+            self._operating = (speed if has_speed else None, temperature if has_temperature else None)
+        setter = getattr(self.model, "set_operating_state", None)
+        if callable(setter):
+            model_state = {k.removeprefix("model_"): v for k, v in state.items() if k.startswith("model_")}
+            if model_state:
+                setter(model_state)

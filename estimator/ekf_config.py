@@ -43,6 +43,49 @@ RECOMMENDED_DISPLACEMENT_PROCESS_STD_M = 0.1e-6
 """Displacement process-noise std per step of :meth:`EKFConfig.recommended` [m]."""
 
 
+# Fixed design choices of the filter: nobody needs to change them per machine or per run, so they are
+# constants with their reason rather than configuration.
+INITIAL_DISPLACEMENT_STD_M = 100.0e-6
+"""Initial std of each dynamic displacement state: clearance-sized (the paper gives no P0)."""
+INITIAL_VELOCITY_STD_M_S = 0.05
+"""Initial std of each dynamic velocity state: that displacement at the spin speed."""
+VISCOSITY_FACTOR_RANDOM_WALK_SQRT_S = 0.002
+"""Random-walk intensity of the viscosity factors [1/sqrt(s)]: a film heating over minutes, not seconds."""
+UNBALANCE_RANDOM_WALK_SQRT_S = 0.02
+"""Random-walk intensity of each part of the relative complex unbalance [1/sqrt(s)]."""
+UNBALANCE_INCONSISTENT_STD = 0.01
+"""Extra unbalance std per step while ``model_consistent`` is false: a changed unbalance shows as a 1x
+innovation that the windowed NIS test catches, and the unbalance states then follow it."""
+GATE_SCALE_WINDOW_S = 0.1
+"""Time constant of the fading-memory innovation power the gate scales its threshold by [s]."""
+PROBE_RANGE_MARGIN_M = 100.0e-6
+"""A reading beyond the model's radial clearance plus this is physically impossible (probe out of range)."""
+PROBE_DEAD_S = 0.05
+"""Non-finite for this long in a row flags a probe dead [s]: longer than a dropout of a few samples."""
+PROBE_STUCK_S = 0.1
+"""Unchanged for this long in a row flags a probe stuck [s]: a 1x orbit never holds still that long."""
+PROBE_STUCK_TOLERANCE_M = 0.0
+"""A reading within this of the last one counts as unchanged: 0, a live probe's noise always moves it."""
+PROBE_REJECTED_S = 0.05
+"""Rejected alone by the gate for this long in a row flags a probe faulty [s]."""
+PROBE_RECOVER_S = 0.5
+"""A faulty probe returns after looking healthy for this long in a row [s]."""
+CHANGE_WINDOW_S = 0.05
+"""Time constant of the fading-memory mean of each channel's standardized innovation [s]."""
+CHANGE_TAIL_PROBABILITY = 1.0e-3
+"""A bearing is changing when its two channels' mean innovation exceeds the chi-square(2) quantile 1 - p."""
+CONSISTENCY_WINDOW_S = 1.0
+"""Window of the time-average NIS test of ``model_consistent`` [s] (Bar-Shalom et al. sec. 5.4.2)."""
+CONSISTENCY_TAIL_PROBABILITY = 1.0e-3
+"""``model_consistent`` is false above the chi-square quantile 1 - p of the window's degrees of freedom."""
+CONVERGED_STD_FRACTION = 0.03
+"""``converged`` needs both flowrate stds below this fraction of nominal."""
+CONVERGED_DRIFT_FRACTION = 0.01
+"""... and both estimates moved less than this fraction of nominal over :data:`CONVERGED_WINDOW_S`."""
+CONVERGED_WINDOW_S = 1.0
+"""The window of the convergence flag [s]."""
+
+
 @dataclass(frozen=True)
 class EKFConfig:
     """Everything the augmented-state EKF needs besides the model.
@@ -64,9 +107,9 @@ class EKFConfig:
             The model's unbalance phase counts from t = 0, so a plant whose first output is its state after
             one step (t = dt) needs ``first_sample_time_s = dt``: one step of misalignment is a 27 deg phase
             error of the unbalance force at 75 Hz and 1 ms.
-        initial_displacement_std_m, initial_velocity_std_m_s, initial_flowrate_std_m3_s : the initial
-            covariance P0 (not given by the paper: a clearance-sized displacement error, its velocity at the
-            spin speed, and a quarter of the nominal flowrate: None).
+        initial_flowrate_std_m3_s : initial std of each flowrate (not given by the paper; None: a quarter of
+            the nominal flowrate). The dynamic states' initial stds are :data:`INITIAL_DISPLACEMENT_STD_M`
+            and :data:`INITIAL_VELOCITY_STD_M_S`.
     Probes and their zero offsets
         probe_angle_deg : mounting angle of each bearing's probe pair from the model's axes (see
             :func:`oilwatch.estimator.measurement.probe_rotation`; 45: the API 670 pair either side of the
@@ -77,22 +120,20 @@ class EKFConfig:
         offset_random_walk_m_sqrt_s : random-walk intensity of the offsets (drift) [m / sqrt(s)].
         unbalance_prior_std : prior std of each part of the complex unbalance ``u`` relative to the machine
             file's (initial estimate 1 + 0i); 0 keeps the machine file's unbalance exact, > 0 adds two
-            unbalance states (a random walk of ``unbalance_random_walk_sqrt_s`` per sqrt(s), plus
-            ``unbalance_inconsistent_std`` per step while ``model_consistent`` is false: a changed unbalance
-            shows as a 1x innovation the windowed NIS test catches).
+            unbalance states (a random walk of :data:`UNBALANCE_RANDOM_WALK_SQRT_S` per sqrt(s), plus
+            :data:`UNBALANCE_INCONSISTENT_STD` per step while ``model_consistent`` is false).
         offset_baseline : an :class:`OffsetBaseline` from a commissioning record: the offsets' initial
             estimate and prior std (it adds the offset states even when offset_prior_std_m is 0).
         runout : the probes' slow-roll (runout) vectors, :class:`oilwatch.estimator.runout.SlowRollVectors`
         (from
             ``oilwatch baseline --slow-roll-record``): subtracted from each sample at its rotor angle, their
             fit's uncertainty added to the measurement noise (None: no compensation).
-    Viscosity factors (issue 14 item 1)
+    Viscosity factors
         viscosity_factor_prior_std : prior std of each bearing's effective viscosity factor ``f_b`` (the
             film's viscosity over the oil law's at the measured oil temperature: film heating and model error;
             prior 1); 0 (the paper's calibrated setting) keeps both factors at 1 and out of the state, > 0
             adds two random-walk states (needs a model with ``transition_full``, e.g.
             ``oilwatch.models.system.operating_model.OperatingAugmentedModel``).
-        viscosity_factor_random_walk_sqrt_s : their random-walk intensity [1 / sqrt(s)].
     Consistency with free viscosity factors (:mod:`oilwatch.estimator.nuisance_start`; only while the factors
     are estimated without a baseline's prior for them)
         nuisance_shadow : the flowrate and nuisance Jacobian of each prediction is taken at a noise-free
@@ -105,40 +146,18 @@ class EKFConfig:
         nuisance_information_floor : (with the shadow Jacobian) the flowrates' std is kept at or above the
             posterior Cramer-Rao bound of the filter's own configuration, evaluated along the record at the
             estimates (:class:`oilwatch.estimator.nuisance_start.InformationFloor`).
-    Innovation gate and probe health (see :mod:`oilwatch.estimator.channels`)
+    Innovation gate (see :mod:`oilwatch.estimator.channels`)
         gate_tail_probability : a channel whose squared standardized innovation exceeds the chi-square(1)
             quantile ``1 - p`` times its recent innovation power is rejected (0 disables the gate).
-        gate_scale_window_s : time constant of that fading-memory innovation power [s].
-        probe_range_m : a reading with ``|x| >`` this is physically impossible (the probe is out of range);
-            None: the model's radial clearance (``model.clearance_m``) plus ``probe_range_margin_m``, or no
-            range check when the model does not give its clearance.
-        probe_dead_s, probe_stuck_s, probe_rejected_s : non-finite, unchanged (within
-            ``probe_stuck_tolerance_m``), or alone rejected by the gate for this long in a row flags a probe
-            faulty; probe_recover_s : a faulty probe returns after looking healthy for this long in a row.
-    Change detection and model consistency (see :mod:`oilwatch.estimator.ekf`)
-        change_window_s : time constant of the fading-memory mean of each channel's standardized innovation.
-        change_tail_probability : a bearing whose two channels' mean innovation exceeds the chi-square(2)
-            quantile ``1 - p`` of its null distribution is changing: its flowrate gets the extra process noise
-        change_flowrate_std_fraction : (std per step, as a fraction of nominal) while the test fires.
-        consistency_window_s, consistency_tail_probability : ``model_consistent`` is false when the sum of the
-            NIS over the last window exceeds the chi-square quantile ``1 - p`` of its degrees of freedom.
-    Model mismatch (see :mod:`oilwatch.estimator.baseline_change`)
-        model_mismatch_action : while ``model_consistent`` says the data are not the model's, the filter's
-            estimate does not act on its own: the published flowrates and the alarm come from the static
-            change relative to the baseline (``offset_baseline`` with its static reference), or the alarm is
-            held and the std widened by the NIS excess; False: the filter's estimate throughout (the paper).
-        mismatch_hold_on_s, mismatch_hold_off_s : the status turns to a mismatch after the evidence of one
-            (``model_consistent`` false, or the disagreement below) has lasted this long, and back after it
-            has been absent that long.
-        mismatch_disagreement_z : with the baseline's static reference, the filter's flowrate further than
-            this many combined stds from the static estimate is evidence of a mismatch too (0: off).
-        baseline_change_window_s : time constant of the probes' fading-memory mean [s].
-        baseline_change_model_fraction : the static model's relative error on the change, added to the
-            static estimate's std as this fraction of the flowrate change since the baseline.
-    Convergence flag
-        converged_std_fraction : both flowrate stds below this fraction of nominal, and
-        converged_drift_fraction : both estimates moved less than this fraction of nominal over
-        converged_window_s.
+        change_flowrate_std_fraction : extra flowrate process noise (std per step, as a fraction of nominal)
+            while a bearing's change test fires (:data:`CHANGE_WINDOW_S`, :data:`CHANGE_TAIL_PROBABILITY`).
+    Model mismatch (see :mod:`oilwatch.estimator.baseline_change`, whose constants set its holds and tests)
+        model_mismatch_action : while the data are not the model's (``model_consistent`` false, or the
+            filter's flowrate far from the static change relative to the baseline), the filter's estimate
+            does not act on its own: the published flowrates and the alarm come from the static change
+            relative to the baseline (``offset_baseline`` with its static reference), or the alarm is held
+            and the std widened by the NIS excess; False: the filter's estimate throughout (the paper).
+    The probe-health, consistency and convergence thresholds are the module's constants.
     """
 
     noise_std_m: float = 1.0e-6
@@ -150,8 +169,6 @@ class EKFConfig:
     q_nominal_m3_s: float | None = None
     initial_state: str = "zero"
     first_sample_time_s: float = 0.0
-    initial_displacement_std_m: float = 100.0e-6
-    initial_velocity_std_m_s: float = 0.05
     initial_flowrate_std_m3_s: float | None = None
     probe_angle_deg: float = 0.0
     offset_prior_std_m: float = 0.0
@@ -159,36 +176,13 @@ class EKFConfig:
     offset_baseline: OffsetBaseline | None = None
     runout: SlowRollVectors | None = None
     viscosity_factor_prior_std: float = 0.0
-    viscosity_factor_random_walk_sqrt_s: float = 0.002
     nuisance_shadow: bool = True
     nuisance_settling_time_constants: float = 5.0
     nuisance_information_floor: bool = True
     unbalance_prior_std: float = 0.0
-    unbalance_random_walk_sqrt_s: float = 0.02
-    unbalance_inconsistent_std: float = 0.01
     gate_tail_probability: float = 1.0e-6
-    gate_scale_window_s: float = 0.1
-    probe_range_m: float | None = None
-    probe_range_margin_m: float = 100.0e-6
-    probe_dead_s: float = 0.05
-    probe_stuck_s: float = 0.1
-    probe_stuck_tolerance_m: float = 0.0
-    probe_rejected_s: float = 0.05
-    probe_recover_s: float = 0.5
-    change_window_s: float = 0.05
-    change_tail_probability: float = 1.0e-3
     change_flowrate_std_fraction: float = 0.003
-    consistency_window_s: float = 1.0
-    consistency_tail_probability: float = 1.0e-3
     model_mismatch_action: bool = True
-    mismatch_hold_on_s: float = 0.5
-    mismatch_hold_off_s: float = 5.0
-    mismatch_disagreement_z: float = 3.0
-    baseline_change_window_s: float = 1.0
-    baseline_change_model_fraction: float = 0.1
-    converged_std_fraction: float = 0.03
-    converged_drift_fraction: float = 0.01
-    converged_window_s: float = 1.0
     alarm: AlarmConfig = field(default_factory=AlarmConfig)
 
     def __post_init__(self) -> None:
@@ -211,12 +205,7 @@ class EKFConfig:
         require_non_negative("EKFConfig.first_sample_time_s", self.first_sample_time_s, "s")
         for name in (
             "q_nominal_m3_s",
-            "initial_displacement_std_m",
-            "initial_velocity_std_m_s",
             "initial_flowrate_std_m3_s",
-            "converged_std_fraction",
-            "converged_drift_fraction",
-            "converged_window_s",
         ):
             if getattr(self, name) is not None:
                 require_positive(f"EKFConfig.{name}", getattr(self, name))
@@ -224,44 +213,16 @@ class EKFConfig:
             for value in self.q_initial_pair():
                 require_positive("EKFConfig.q_initial_m3_s", value, "m^3/s")
         require_in_range("EKFConfig.gate_tail_probability", self.gate_tail_probability, 0.0, 0.5)
-        if self.probe_range_m is not None:
-            require_positive("EKFConfig.probe_range_m", self.probe_range_m, "m")
         require_in_range("EKFConfig.probe_angle_deg", self.probe_angle_deg, -360.0, 360.0, "deg")
         for name in (
-            "probe_range_margin_m",
-            "probe_stuck_tolerance_m",
             "change_flowrate_std_fraction",
             "offset_prior_std_m",
             "offset_random_walk_m_sqrt_s",
             "unbalance_prior_std",
-            "unbalance_random_walk_sqrt_s",
-            "unbalance_inconsistent_std",
-            "viscosity_factor_random_walk_sqrt_s",
             "nuisance_settling_time_constants",
         ):
             require_non_negative(f"EKFConfig.{name}", getattr(self, name))
-        for name in (
-            "gate_scale_window_s",
-            "probe_dead_s",
-            "probe_stuck_s",
-            "probe_rejected_s",
-            "probe_recover_s",
-            "change_window_s",
-            "consistency_window_s",
-            "mismatch_hold_on_s",
-            "mismatch_hold_off_s",
-            "baseline_change_window_s",
-        ):
-            require_in_range(f"EKFConfig.{name}", getattr(self, name), 1e-6, 600.0, "s")
-        require_in_range("EKFConfig.mismatch_disagreement_z", self.mismatch_disagreement_z, 0.0, 100.0)
-        require_in_range(
-            "EKFConfig.baseline_change_model_fraction", self.baseline_change_model_fraction, 0.0, 1.0
-        )
         require_in_range("EKFConfig.viscosity_factor_prior_std", self.viscosity_factor_prior_std, 0.0, 0.5)
-        require_in_range("EKFConfig.change_tail_probability", self.change_tail_probability, 1e-15, 0.5)
-        require_in_range(
-            "EKFConfig.consistency_tail_probability", self.consistency_tail_probability, 1e-15, 0.5
-        )
         if self.runout is not None and not isinstance(self.runout, SlowRollVectors):
             raise InputError(f"EKFConfig.runout must be SlowRollVectors, got {type(self.runout)!r}")
         if self.offset_baseline is not None and not isinstance(self.offset_baseline, OffsetBaseline):
@@ -277,10 +238,9 @@ class EKFConfig:
 
         Dynamic process-noise stds of 0.1 um and 0.1 um x Omega per step (Omega = 2 pi speed_hz; None: the
         model's speed, resolved by :meth:`for_model`). The truth
-        has no process noise; what Q must cover is the model error, far below the paper's 10 um per step.
-        Measured on the issue-4 plant (Newmark full model; reduced grid model in the filter; sigma 1 um):
-        NIS/m 0.99 against 0.14 with the paper's values, mean |error| of constant flowrates 0.09 % against
-        0.59 %, starvation alarm 0.45-0.6 s after the centre of a sudden 25 % drop against 1.2-1.5 s.
+        has no process noise; what Q must cover is the model error, far below the paper's 10 um per step:
+        with the paper's values the filter is conservative (NIS far below its degrees of freedom), biased
+        and slow to alarm (the docs' tuning table).
         ``overrides`` replace any other field.
         """
         velocity = None

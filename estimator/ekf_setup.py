@@ -17,7 +17,23 @@ from scipy.special import chdtri, ndtri
 from oilwatch.models.validation import InputError
 
 from . import channels
-from .ekf_config import EKFConfig
+from .ekf_config import (
+    CHANGE_TAIL_PROBABILITY,
+    CHANGE_WINDOW_S,
+    CONSISTENCY_TAIL_PROBABILITY,
+    CONVERGED_DRIFT_FRACTION,
+    CONVERGED_STD_FRACTION,
+    GATE_SCALE_WINDOW_S,
+    PROBE_DEAD_S,
+    PROBE_RANGE_MARGIN_M,
+    PROBE_RECOVER_S,
+    PROBE_REJECTED_S,
+    PROBE_STUCK_S,
+    PROBE_STUCK_TOLERANCE_M,
+    UNBALANCE_INCONSISTENT_STD,
+    VISCOSITY_FACTOR_RANDOM_WALK_SQRT_S,
+    EKFConfig,
+)
 from .model import AugmentedModel, has_static_state
 from .step_kernel import (
     COUNT_FIRST,
@@ -125,22 +141,20 @@ def channel_settings(cfg: EKFConfig, model: AugmentedModel, dt: float) -> np.nda
     """The settings array of :mod:`oilwatch.estimator.channels` from the configuration and the model."""
     p = cfg.gate_tail_probability
     gate = float(chdtri(1, p)) if p > 0.0 else np.inf
-    if cfg.probe_range_m is not None:
-        limit = cfg.probe_range_m
-    elif getattr(model, "clearance_m", None) is not None:
-        limit = float(model.clearance_m) + cfg.probe_range_margin_m
+    if getattr(model, "clearance_m", None) is not None:
+        limit = float(model.clearance_m) + PROBE_RANGE_MARGIN_M
     else:
         limit = np.inf
     values = np.zeros(channels.N_CHANNEL_SETTINGS)
     values[channels.GATE] = gate
     values[channels.RANGE] = limit
-    values[channels.DEAD_SAMPLES] = max(1, round(cfg.probe_dead_s / dt))
-    values[channels.STUCK_SAMPLES] = max(2, round(cfg.probe_stuck_s / dt))
-    values[channels.STUCK_TOLERANCE] = cfg.probe_stuck_tolerance_m
-    values[channels.REJECTED_SAMPLES] = max(1, round(cfg.probe_rejected_s / dt))
-    values[channels.RECOVER_SAMPLES] = max(1, round(cfg.probe_recover_s / dt))
-    values[channels.POWER_ALPHA] = min(1.0, dt / cfg.gate_scale_window_s)
-    values[channels.BIAS_ALPHA] = min(1.0, dt / cfg.change_window_s)
+    values[channels.DEAD_SAMPLES] = max(1, round(PROBE_DEAD_S / dt))
+    values[channels.STUCK_SAMPLES] = max(2, round(PROBE_STUCK_S / dt))
+    values[channels.STUCK_TOLERANCE] = PROBE_STUCK_TOLERANCE_M
+    values[channels.REJECTED_SAMPLES] = max(1, round(PROBE_REJECTED_S / dt))
+    values[channels.RECOVER_SAMPLES] = max(1, round(PROBE_RECOVER_S / dt))
+    values[channels.POWER_ALPHA] = min(1.0, dt / GATE_SCALE_WINDOW_S)
+    values[channels.BIAS_ALPHA] = min(1.0, dt / CHANGE_WINDOW_S)
     return values
 
 
@@ -158,13 +172,13 @@ def physical_covariance(
 
 def step_settings(cfg: EKFConfig, dt: float, bounds_scaled: tuple[float, float], q_var: float) -> np.ndarray:
     """:func:`oilwatch.estimator.kernels.filter_step`'s settings array (filter units)."""
-    change_alpha = min(1.0, dt / cfg.change_window_s)
+    change_alpha = min(1.0, dt / CHANGE_WINDOW_S)
     return np.array(
         [
             1.0 / dt,
             *bounds_scaled,
             change_alpha / (2.0 - change_alpha),  # null variance of the fading-memory mean
-            float(chdtri(2, cfg.change_tail_probability)),
+            float(chdtri(2, CHANGE_TAIL_PROBABILITY)),
             q_var,
             cfg.change_flowrate_std_fraction**2,  # internal unit: fractions of nominal
         ]
@@ -178,11 +192,11 @@ def summary_settings(
     settings = np.zeros(N_SUMMARY_SETTINGS)
     settings[SUMMARY_Q_NOMINAL] = q_nominal
     settings[SUMMARY_Q_LOW], settings[SUMMARY_Q_HIGH] = bounds
-    settings[SUMMARY_CONSISTENCY_Z] = float(ndtri(1.0 - cfg.consistency_tail_probability))
-    settings[SUMMARY_CONVERGED_STD] = cfg.converged_std_fraction
-    settings[SUMMARY_CONVERGED_DRIFT] = cfg.converged_drift_fraction
+    settings[SUMMARY_CONSISTENCY_Z] = float(ndtri(1.0 - CONSISTENCY_TAIL_PROBABILITY))
+    settings[SUMMARY_CONVERGED_STD] = CONVERGED_STD_FRACTION
+    settings[SUMMARY_CONVERGED_DRIFT] = CONVERGED_DRIFT_FRACTION
     settings[SUMMARY_UNBALANCE_WALK] = unbalance_walk
-    settings[SUMMARY_UNBALANCE_EXTRA] = cfg.unbalance_inconsistent_std**2
+    settings[SUMMARY_UNBALANCE_EXTRA] = UNBALANCE_INCONSISTENT_STD**2
     return settings
 
 
@@ -206,6 +220,6 @@ def process_noise(
     if layout.n_unbalance:
         noise[layout.unbalance, layout.unbalance] = unbalance_walk * np.eye(2)
     if layout.n_viscosity:
-        walk = cfg.viscosity_factor_random_walk_sqrt_s**2 * dt
+        walk = VISCOSITY_FACTOR_RANDOM_WALK_SQRT_S**2 * dt
         noise[layout.viscosity, layout.viscosity] = walk * np.eye(2)
     return noise

@@ -24,7 +24,8 @@ option of :class:`oilwatch.estimator.ekf_config.EKFConfig`; models without it su
 initial state. Two optional attributes carry the machine facts a configuration may leave open
 (``EKFConfig.for_model``): ``nominal_flowrate_m3_s`` (the machine file's nominal supply flowrate) and
 ``speed_hz`` (the model's speed). An optional attribute ``clearance_m`` (the bearings' radial clearance [m])
-sets the probes' physical range (``EKFConfig.probe_range_m``); without it there is no range check.
+sets the probes' physical range (it plus ``ekf_config.PROBE_RANGE_MARGIN_M``); without it there is no range
+check.
 """
 
 from __future__ import annotations

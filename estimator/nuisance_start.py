@@ -35,6 +35,8 @@ import math
 
 import numpy as np
 
+from .ekf_config import UNBALANCE_RANDOM_WALK_SQRT_S, VISCOSITY_FACTOR_RANDOM_WALK_SQRT_S
+
 
 def settling_steps(model, flowrate_m3_s, time_constants: float) -> int:
     """Steps of ``time_constants`` time constants of the least damped mode of ``model``'s transition at
@@ -149,8 +151,8 @@ class InformationFloor:
         ]
         walk = np.r_[
             np.full(2, config.flowrate_process_std_m3_s / math.sqrt(self._dt)),
-            np.full(2, config.viscosity_factor_random_walk_sqrt_s),
-            np.full(2, config.unbalance_random_walk_sqrt_s),
+            np.full(2, VISCOSITY_FACTOR_RANDOM_WALK_SQRT_S),
+            np.full(2, UNBALANCE_RANDOM_WALK_SQRT_S),
             np.full(4, config.offset_random_walk_m_sqrt_s * 1e6),
         ]
         c = self._columns

@@ -26,6 +26,7 @@ from oilwatch.estimator.ekf_config import (
 )
 from oilwatch.estimator.runout import runout_of_probes
 from oilwatch.fmu_src.ekf_variables import GRID_TOLERANCE, PRESET_TABLE
+from oilwatch.fmu_src.grid_store import grid_key, load_grid, store_grid
 from oilwatch.fmu_src.machine_parameters import probe_angle_deg
 from oilwatch.models.probes import read_probes
 from oilwatch.models.system.augmented import GridAugmentedModel
@@ -101,7 +102,13 @@ def estimator_model(slave, system, machine):
             f"bearing_table = 0: the {slave.preset} preset estimates the viscosity factors, which need "
             "bearing_table = 1; set viscosity_factor_prior_std = 0 or bearing_table = 1"
         )
-    return GridAugmentedModel(system, slave.sample_period_s)
+    built_by = (system.speed_hz, slave.unbalance_g_mm, slave.unbalance_phase_deg, slave.sample_period_s)
+    key = grid_key(slave.resources, machine, built_by)
+    grid = load_grid(slave.resources, key)  # stored by an earlier instance or the build (fmu_src.grid_store)
+    model = GridAugmentedModel(system, slave.sample_period_s, grid=grid)
+    if grid is None:
+        store_grid(slave.resources, key, model.grid)
+    return model
 
 
 def baseline_prior(slave, machine):

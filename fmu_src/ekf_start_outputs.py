@@ -12,8 +12,8 @@ and
   nuisances stay out of the Jacobian while the dynamic states settle; then they restart from their prior;
 * the start bank (:mod:`oilwatch.estimator.start_bank`): five filters from fractions 1.1 to 0.7 of the initial
   flowrate run through the first ``SELECT_S`` (20 s); the one with the least accumulated NIS continues
-  alone. Until the choice the estimates are the nominal start's, which on the robustness ramps at 80/90 %
-  ended 8-11 % low where a lower start ended within 0.3 % (README, robustness section, session 6).
+  alone. Until the choice the estimates are the nominal start's, which on the robustness ramps below
+  nominal flow end low where a lower start ends close to the truth (the docs' robustness section).
 
 The outputs (:data:`START_OUTPUTS`) say where the estimator is: ``start_choosing``, ``start_fraction``,
 ``start_choice_in_s``, ``settling_start_left_s`` and ``estimate_settled``, which is ``converged`` once both

@@ -67,6 +67,8 @@ UNITS: dict[str, UnitDefinition] = {
         _unit("Pa", kg=1, m=-1, s=-2),
         _unit("Pa.s", kg=1, m=-1, s=-1),
         _unit("N", kg=1, m=1, s=-2),
+        _unit("N/m", kg=1, s=-2),
+        _unit("N.s/m", kg=1, s=-1),
         _unit("kg", kg=1),
         _unit("g.mm", 1e-6, kg=1, m=1),
         _unit("rad", rad=1),

@@ -10,7 +10,7 @@ the machine file, which is the FMU's own bundled one unless ``machine_file`` nam
 at initialization (their start values, settable like a parameter: ``--set plant.speed_hz=80``) are the start
 speed and oil temperature. The estimator FMU also reads ``[probes]`` for the offsets' prior and drift.
 
-Where the bundled machine lives: ``resources/<relocated fmu_src>/machine/<stem>.toml`` and its tables in
+Where the bundled machine lives: ``resources/oilwatch/fmu_src/machine/<stem>.toml`` and its tables in
 ``machine/tables/`` (written by ``oilwatch build-fmus --machine FILE``); an FMU built without that folder
 uses the bundled generic turbine of its ``models`` package.
 """
@@ -28,7 +28,7 @@ from oilwatch.models.system.rotor_bearing import RotorBearingSystem
 from oilwatch.models.validation import InputError
 
 MACHINE_FOLDER = "machine"
-"""Folder of the FMU's own machine file and its tables, inside the relocated ``fmu_src`` package."""
+"""Folder of the FMU's own machine file and its tables, inside the bundled ``fmu_src`` package."""
 
 register_unit(UnitDefinition("degC", {"K": 1}, 1.0, 273.15))
 NOMINAL_TEMPERATURE = -300.0
@@ -150,8 +150,8 @@ def bundled_machine_file(resources: str | None) -> Path:
     """The machine file bundled in an FMU instance's resources folder (module docstring).
 
     Found through the instance's own ``resources`` path, not the module's ``__file__``: a host that loads the
-    FMU twice imports the (relocated) package once, from the first extraction folder, which it may have
-    deleted since.
+    FMU twice (or two oilwatch FMUs) imports the package once, from the first extraction folder, which it
+    may have deleted since, and two FMUs may bundle different machines.
     """
     if not resources:
         return BUNDLED_MACHINE

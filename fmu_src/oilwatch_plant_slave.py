@@ -25,10 +25,13 @@ speed is used and both inputs must stay at their start values. Measurement chain
 eccentricity ratio and minimum film thickness are outputs. ``film_model =
 "transient-film"`` replaces the linearized films by the transient p-theta films
 (``oilwatch.models.system.nonlinear_plant``: high fidelity, about 10^3 times slower than real time).
+Model structure (``oilwatch.models.system.structure``, the plant only): bearing clearance and length factors,
+flexible pedestals, a shaft bow and the support-reaction load split.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 from pythonfmu import DefaultExperiment
@@ -56,6 +59,7 @@ from oilwatch.models.system.measurement import (
 from oilwatch.models.system.nonlinear_plant import FILM_MODELS, check_film_model, make_plant
 from oilwatch.models.system.operating_point import operating_system
 from oilwatch.models.system.plant import publish_initial_sample
+from oilwatch.models.system.structure import PlantStructure, structural_system
 from oilwatch.models.validation import InputError
 
 # Per-probe parameters: (suffix, ProbeErrors field, unit, SI per unit, minimum, maximum, description).
@@ -73,6 +77,18 @@ PROBE_PARAMETERS = (
     ("glitch_um", "glitch_m", "um", 1e-6, -1000.0, 1000.0, "size of a glitch fault"),
     ("glitch_duration_s", "glitch_duration_s", "s", 1.0, 0.0, None, "length of a glitch fault"),
 )  # fmt: skip
+
+# The plant's model-structure parameters: (FMU name, PlantStructure field, unit, SI per unit); the range and
+# the description are the field's own (oilwatch.models.system.structure).
+STRUCTURE_PARAMETERS = (
+    ("clearance_factor", "clearance_factor", "1", 1.0),
+    ("length_factor", "length_factor", "1", 1.0),
+    ("pedestal_mass_kg", "pedestal_mass_kg", "kg", 1.0),
+    ("pedestal_stiffness_n_m", "pedestal_stiffness_n_m", "N/m", 1.0),
+    ("pedestal_damping_n_s_m", "pedestal_damping_n_s_m", "N.s/m", 1.0),
+    ("bow_um", "bow_m", "um", 1e-6),
+    ("bow_phase_deg", "bow_phase_rad", "deg", math.pi / 180),
+)
 
 SAMPLING_PERIOD_S = 1e-3
 OUTPUTS = ("x1", "y1", "x2", "y2")
@@ -98,6 +114,7 @@ class RotorBearingPlant(OilwatchSlave):
         declare_machine_parameters(self)
         self._declare_operating_point()
         self._declare_measurement_chain()
+        self._declare_structure()
         self.declare_string(
             "film_model",
             "parameter",
@@ -252,6 +269,34 @@ class RotorBearingPlant(OilwatchSlave):
             description="Unbalance phase after the change",
         )
 
+    def _declare_structure(self) -> None:
+        """The plant's structure where it differs from the machine file (the estimator's model)."""
+        metadata = {f.name: f.metadata for f in dataclasses.fields(PlantStructure)}
+        for name, field, unit, si in STRUCTURE_PARAMETERS:
+            low, high = metadata[field]["range"]
+            self.declare_real(
+                name,
+                "parameter",
+                start=getattr(PlantStructure(), field) / si,
+                unit=unit,
+                minimum=low / si,
+                maximum=high / si,
+                description=f"Plant only (the estimator keeps the machine file's): "
+                f"{metadata[field]['description']}",
+            )
+        self.declare_integer(
+            "load_split_reactions",
+            "parameter",
+            start=0,
+            minimum=0,
+            maximum=1,
+            description="Plant only: 0 the machine file's bearing load split, 1 the support reactions",
+        )
+
+    def _structure(self) -> PlantStructure:
+        values = {field: getattr(self, name) * si for name, field, _, si in STRUCTURE_PARAMETERS}
+        return PlantStructure(**values, load_split="reactions" if self.load_split_reactions else None)
+
     def _declare_measurement_chain(self) -> None:
         for probe in PROBE_NAMES:
             for suffix, _, unit, _, low, high, text in PROBE_PARAMETERS:
@@ -291,6 +336,9 @@ class RotorBearingPlant(OilwatchSlave):
         return operating_conditions(self, machine)
 
     def _system(self, machine):
+        structure = self._structure()
+        if structure != PlantStructure():
+            return self._structural_system(machine, structure)
         if self.bearing_table == 0:
             return rotor_bearing_system(
                 self.machine_file,
@@ -309,6 +357,21 @@ class RotorBearingPlant(OilwatchSlave):
             unbalance_moment_kg_m=None if self.unbalance_g_mm < 0.0 else self.unbalance_g_mm * 1e-6,
             unbalance_phase_rad=math.radians(self.unbalance_phase_deg),
         )
+
+    def _structural_system(self, machine, structure: PlantStructure):
+        """The plant with a model-structure discrepancy: at the machine's nominal speed and oil temperature
+        (with ``bearing_table = 1`` the speed and temperature inputs then move it)."""
+        if self.film_model != FILM_MODELS[0]:
+            raise InputError(f"film_model = {self.film_model} has the machine file's structure only")
+        speed, _ = self._conditions(machine)
+        if self.bearing_table == 0 and abs(speed - machine.nominal_speed_hz) > 1e-9 * speed:
+            raise InputError(
+                f"speed_hz = {speed:g} Hz: the structure parameters with bearing_table = 0 run at the "
+                f"machine's "
+                f"nominal speed {machine.nominal_speed_hz:g} Hz (bearing_table = 1 follows the speed)"
+            )
+        moment = None if self.unbalance_g_mm < 0.0 else self.unbalance_g_mm * 1e-6
+        return structural_system(machine, structure, moment, math.radians(self.unbalance_phase_deg))
 
     @property
     def plant_snapshot(self):

@@ -25,12 +25,12 @@ What pythonfmu 0.7.0 does, and what this class does about it (verified with fmpy
   refused set: the instance keeps stepping). Any other exception (an internal error) stays fatal. The FMI
   3.0 shells' binary has the same entry point (``native/fmi3_refusal.c``: fmi3Error). Without either (a
   plain pythonfmu build) the host still sees ``fmi2Fatal`` with the logged reason.
-- The Get/Set calls are the per-step cost of a host (issue 14: the estimator FMU's step within 50 us), so they
-  avoid pythonfmu's per-variable work: each type's variables sit in a dict by value reference (pythonfmu
-  checks ``isinstance`` per variable and call), a declared variable's default getter and setter are
+- The Get/Set calls are the per-step cost of a host (the estimator FMU's step must stay within its real-time
+budget), so they   avoid pythonfmu's per-variable work: each type's variables sit in a dict by value reference
+(pythonfmu   checks ``isinstance`` per variable and call), a declared variable's default getter and setter are
   ``functools.partial(getattr/setattr, self, name)`` (no Python frame), and the fixed parameters are one set
   checked only after initialization (``isdisjoint``, not a scan of the call's variables).
-- The fast path (issue 14). A subclass names its per-step real inputs in :attr:`OilwatchSlave.buffered_inputs`
+- The fast path. A subclass names its per-step real inputs in :attr:`OilwatchSlave.buffered_inputs`
   and the outputs it publishes with every step in :attr:`OilwatchSlave.buffered_outputs`. Their values live in
   two numpy arrays (``_inputs``, ``_outputs``; the attributes of those names read and write them), and at the
   end of initialization the slave hands both, a table by value reference and :meth:`_fast_step` to oilwatch's

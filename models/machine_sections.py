@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from .bearing.geometry import JournalBearing
+from .bearing.geometry import AxialGroove, JournalBearing
 from .machine_fields import as_node, as_number, read_key, read_real, read_table
 from .oil import DEFAULT_THERMAL_EXPANSION_PER_K, Oil
 from .validation import InputError
@@ -139,28 +139,67 @@ def read_bearings(
                 f"bearings.nodes[{i}] = {node} (diameter {journal * 1e3:g} mm)"
             )
     length = read_real(table, "bearings", "length_mm", "mm") / 1e3
-    groove_axial = read_real(table, "bearings", "groove_axial_mm", "mm") / 1e3
-    if groove_axial > length:
-        raise InputError(
-            f"bearings.groove_axial_mm must be <= bearings.length_mm ({length * 1e3:g}), "
-            f"got {groove_axial * 1e3:g}"
-        )
-    groove_circ = read_real(table, "bearings", "groove_circumferential_mm", "mm") / 1e3
-    if groove_circ > math.pi * radius:
-        raise InputError(
-            f"bearings.groove_circumferential_mm must be <= pi R ({math.pi * radius * 1e3:g}), "
-            f"got {groove_circ * 1e3:g}"
-        )
+    grooves = read_grooves(table, radius, length)
+    band = 0.0
+    if "circumferential_groove_axial_mm" in table:
+        band = read_real(table, "bearings", "circumferential_groove_axial_mm", "mm", high=length * 1e3) / 1e3
     bearing = JournalBearing(
         radius_m=radius,
         length_m=length,
         clearance_m=clearance,
         viscosity_pa_s=_bearing_viscosity(data, table),
-        groove_angle_rad=math.radians(read_real(table, "bearings", "groove_angle_deg", "deg", low=None)),
-        groove_circumferential_m=groove_circ,
-        groove_axial_m=groove_axial,
+        groove_angle_rad=grooves[0].angle_rad,
+        groove_circumferential_m=grooves[0].circumferential_m,
+        groove_axial_m=grooves[0].axial_m,
+        more_grooves=grooves[1:],
+        circumferential_groove_m=band,
     )
     return bearing_nodes, bearing, load_split
+
+
+GROOVE_KEYS = ("groove_angle_deg", "groove_circumferential_mm", "groove_axial_mm")
+"""The one-groove form of ``[bearings]``; ``[[bearings.grooves]]`` (angle_deg, circumferential_mm, axial_mm)
+lists any number of axial grooves instead."""
+
+
+def read_grooves(table: Mapping[str, Any], radius: float, length: float) -> tuple[AxialGroove, ...]:
+    """The axial grooves of ``[bearings]``: the one-groove keys or the ``[[bearings.grooves]]`` array."""
+    one = [key for key in GROOVE_KEYS if key in table]
+    if "grooves" in table and one:
+        raise InputError(
+            f"give the grooves once: [[bearings.grooves]] or bearings.{', '.join(one)}, not both"
+        )
+    if "grooves" not in table:
+        entries, keys = [table], GROOVE_KEYS
+        sections = ["bearings"]
+    else:
+        entries, keys = table["grooves"], ("angle_deg", "circumferential_mm", "axial_mm")
+        if not isinstance(entries, list) or not entries:
+            raise InputError("[[bearings.grooves]] must be a non-empty array of tables")
+        sections = [f"bearings.grooves[{i}]" for i in range(len(entries))]
+    grooves = []
+    for section, entry in zip(sections, entries, strict=True):
+        if not isinstance(entry, Mapping):
+            raise InputError(f"{section} must be a table")
+        angle, circumferential, axial = keys
+        groove_axial = read_real(entry, section, axial, "mm") / 1e3
+        if groove_axial > length:
+            raise InputError(
+                f"{section}.{axial} must be <= bearings.length_mm ({length * 1e3:g}), "
+                f"got {groove_axial * 1e3:g}"
+            )
+        groove_circ = read_real(entry, section, circumferential, "mm") / 1e3
+        if groove_circ > math.pi * radius:
+            raise InputError(
+                f"{section}.{circumferential} must be <= pi R ({math.pi * radius * 1e3:g}), "
+                f"got {groove_circ * 1e3:g}"
+            )
+        grooves.append(
+            AxialGroove(
+                math.radians(read_real(entry, section, angle, "deg", low=None)), groove_circ, groove_axial
+            )
+        )
+    return tuple(grooves)
 
 
 def read_oil(data: Mapping[str, Any]) -> tuple[Oil | None, float | None]:

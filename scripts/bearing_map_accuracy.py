@@ -3,6 +3,7 @@
     nice -n 10 python scripts/bearing_map_accuracy.py            # the issue's points and a spread of others
     python scripts/bearing_map_accuracy.py --quick               # only the four points the issue names
     python scripts/bearing_map_accuracy.py --coefficients quasi-static   # the other kind's table
+    python scripts/bearing_map_accuracy.py --near-threshold --one-sided  # 0.95-1.05 of q_t, split at q_t
 
 Points are off the table's nodes in Sommerfeld number; fractions of the flooded threshold 0.8 and 1.0 (the
 issue's), and 0.55, 0.75, 0.95, 1.05, 1.25, 1.45 (off the flowrate nodes too). Also compares with the 1-D
@@ -44,6 +45,14 @@ def main() -> None:
     )
     parser.add_argument("--quick", action="store_true", help="only the issue's four points")
     parser.add_argument("--coefficients", choices=("synchronous", "quasi-static"), help="the table's kind")
+    parser.add_argument(
+        "--near-threshold",
+        action="store_true",
+        help="0.95, 0.99, 1, 1.01 and 1.05 of q_t at the issue's points",
+    )
+    parser.add_argument(
+        "--one-sided", action="store_true", help="interpolate each side of the flooded threshold separately"
+    )
     args = parser.parse_args()
     machine = load_machine()
     kind = args.coefficients or machine.dynamic_coefficients
@@ -52,11 +61,13 @@ def main() -> None:
     mesh = Mesh(**table.metadata["mesh"])
     load = float(Rotor.from_machine(machine).bearing_static_loads_n[0])
     points = ISSUE_POINTS + ([] if args.quick else SPREAD)
+    if args.near_threshold:
+        points = [(v, m, f) for v, m in ((60.0, 0.07), (90.0, 0.12)) for f in (0.95, 0.99, 1.0, 1.01, 1.05)]
     print("speed_Hz  mu_Pa_s  q/q_t   S      e_direct  err_e %  err_K %max  err_C %max  solve_s")
     worst = np.zeros(3)
     for speed, mu, fraction in points:
         started = time.perf_counter()
-        err = table_error(table, machine.bearing, speed, mu, load, fraction, mesh)
+        err = table_error(table, machine.bearing, speed, mu, load, fraction, mesh, args.one_sided)
         s = mu * speed * machine.bearing.length_m * 2 * machine.bearing.radius_m
         s *= (machine.bearing.radius_m / machine.bearing.clearance_m) ** 2 / load
         row = np.array([err.eccentricity_ratio, err.stiffness, err.damping]) * 100

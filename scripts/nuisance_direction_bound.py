@@ -23,7 +23,11 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np
 
-from oilwatch.estimator.ekf_config import EKFConfig
+from oilwatch.estimator.ekf_config import (
+    UNBALANCE_RANDOM_WALK_SQRT_S,
+    VISCOSITY_FACTOR_RANDOM_WALK_SQRT_S,
+    EKFConfig,
+)
 from oilwatch.models.machine import load_machine
 from oilwatch.models.probes import read_probes
 from oilwatch.models.system.factory import build_system
@@ -70,8 +74,8 @@ def main() -> None:
     config, probes = EKFConfig(), read_probes(machine)
     walks = np.r_[
         np.full(2, config.flowrate_process_std_m3_s / np.sqrt(DT)),
-        np.full(2, config.viscosity_factor_random_walk_sqrt_s),
-        np.full(2, config.unbalance_random_walk_sqrt_s),
+        np.full(2, VISCOSITY_FACTOR_RANDOM_WALK_SQRT_S),
+        np.full(2, UNBALANCE_RANDOM_WALK_SQRT_S),
         np.full(4, probes.offset_random_walk_m_sqrt_s * 1e6),
     ]
     priors = np.r_[

@@ -19,7 +19,7 @@ import os
 import pytest
 from fixtures.fmu_subprocess import run_python
 from fixtures.toy_fmus import toy_fmu_dir
-from fixtures.xdist_units import group_and_order, session_root, worker_lock
+from fixtures.xdist_units import group_and_order, session_root
 
 
 @pytest.hookimpl(tryfirst=True)  # before pytest-xdist's, which reads the xdist_group markers added here
@@ -29,12 +29,6 @@ def pytest_collection_modifyitems(config, items):
             item.add_marker(pytest.mark.slow)
     if config.getoption("loadgroup", False):  # a worker of --dist loadgroup (its own "dist" is "no")
         group_and_order(items)
-
-
-@pytest.hookimpl(hookwrapper=True)
-def pytest_runtest_protocol(item, nextitem):
-    with worker_lock(item):
-        yield
 
 
 def pytest_configure(config):
@@ -69,11 +63,11 @@ def _session_folder(tmp_path_factory, name: str):
 @pytest.fixture(scope="session")
 def built_fmus(tmp_path_factory):
     """RotorBearingPlant.fmu, OilFlowEKF.fmu and OilStarvation.ssp, built once per session by build.py in a
-    fresh process (the relocated slave modules must not load into the pytest process); their folder."""
+    fresh process (the slave modules must not load into the pytest process); their folder."""
     with _session_folder(tmp_path_factory, "oilwatch_fmus") as (out, build):
         if build:
             code = f"from oilwatch.cosim.fmu_build import build_fmus; build_fmus({str(out)!r})"
-            process = run_python(code, timeout=400.0)
+            process = run_python(code, timeout=1800.0)
             assert process.returncode == 0, process.stderr
     return out
 
@@ -87,7 +81,7 @@ def built_fmi3_fmus(built_fmus, tmp_path_factory):
             ssp = built_fmus / "OilStarvation.ssp"
             code = "from oilwatch.cosim.fmi3_build import build_fmi3_fmus\n"
             code += f"build_fmi3_fmus({str(out)!r}, [{str(ssp)!r}])"
-            process = run_python(code, timeout=400.0)
+            process = run_python(code, timeout=1800.0)
             assert process.returncode == 0, process.stderr
     return out
 

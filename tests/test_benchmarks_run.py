@@ -43,7 +43,7 @@ ARGUMENTS = {
     "plant_fmu": ["--duration-s", "0.05", "--repeats", "1", "--fmu", "{fmus}/RotorBearingPlant.fmu"],
     "plant_ramps": ["--duration-s", "0.05", "--repeats", "1"],
     "ramp_recentring": ["--motion-cache", "{tmp}", "--cases", "speed-ramp", "--duration-s", "0.5"],
-    "study_scaling": ["--cases", "2", "--repeats", "1", "--cpu-s", "0.05"],
+    "study_scaling": ["--case", "synthetic", "--cases", "2", "--repeats", "1", "--cpu-s", "0.05"],
     "transient_film": ["--mesh", "40", "12", "--revolutions", "1", "--warmup-steps", "2"],
     "transient_plant_sample": ["--samples", "3"],
 }

@@ -2,14 +2,15 @@
 
 The host runs the plant and the estimator coupled (2 s at 1 ms) in a process started without
 ``LD_PRELOAD``, ``PYTHON*`` or ``OILWATCH_PYTHON*`` variables: the FMUs' own loader
-(``oilwatch/cosim/native/fmi2_loader.c``) must find libpython and the build environment from
-``resources/oilwatch_python.txt``. Its outputs must equal fmpy's for the same parameters: the plant's
-measured signals bit for bit (same seed), the estimator's estimates within 1e-9 relative when fmpy
-feeds it the plant outputs the C host recorded. The host exits 0 only after freeing both instances
-and unloading both libraries. A missing environment must give fmi2Instantiate NULL and one logged
-message naming it, never a crash. The coupled run also times the estimator's steps (the host's
-``timing`` directive, used by benchmarks/ekf_fmu_c_host.py) and reads one Boolean output: the
-comparison with fmpy covers the host with both in use.
+(``oilwatch/cosim/native/fmi2_loader.c``) must find the build environment from
+``resources/oilwatch_python.txt`` and libpython from that environment's ``pyvenv.cfg``. Its outputs must
+equal fmpy's for the same parameters: the plant's measured signals bit for bit (same seed), the
+estimator's estimates within 1e-9 relative when fmpy feeds it the plant outputs the C host recorded. The
+host exits 0 only after freeing both instances and unloading both libraries. A wrong environment must give
+fmi2Instantiate NULL and one logged message naming it and ``OILWATCH_PYTHON_ENV``, never a crash. The
+coupled run also times the estimator's steps (the host's ``timing`` directive, used by
+benchmarks/ekf_fmu_c_host.py) and reads one Boolean output: the comparison with fmpy covers the host with
+both in use.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from __future__ import annotations
 import os
 import shutil
 import subprocess
+import sys
 import zipfile
 from pathlib import Path
 
@@ -213,29 +215,47 @@ def _run_plant_briefly(host, plant, folder, **environment):
     return process
 
 
+def _fake_venv(folder: Path, home: str, version: str) -> Path:
+    """A folder with only a pyvenv.cfg naming ``home`` (the base Python's bin folder) and ``version``."""
+    folder.mkdir()
+    (folder / "pyvenv.cfg").write_text(
+        f"home = {home}\ninclude-system-site-packages = false\nversion = {version}\n"
+    )
+    return folder
+
+
 @pytest.mark.parametrize(
-    "variable, value, expected",
+    "setup, expected",
     [
-        ("OILWATCH_PYTHON_ENV", "/nonexistent/venv", "the Python environment '/nonexistent/venv' does not"),
-        ("OILWATCH_PYTHON_LIB", "/nonexistent/libpython3.so", "the Python runtime library '/nonexistent/"),
-        ("OILWATCH_PYTHONHOME", "/nonexistent/prefix", "the Python home '/nonexistent/prefix' does not"),
+        (
+            lambda tmp: "/nonexistent/venv",
+            "the Python environment '/nonexistent/venv' (OILWATCH_PYTHON_ENV) does",
+        ),
+        (
+            lambda tmp: str(_fake_venv(tmp / "v", "/nonexistent/bin", "3.12.1")),
+            "has no shared runtime library",
+        ),
+        (
+            lambda tmp: str(_fake_venv(tmp / "v", "/usr/bin", "3.9.2")),
+            "oilwatch FMUs need Python 3.10 or newer",
+        ),
+        (lambda tmp: str(tmp), "is neither a virtual environment (no pyvenv.cfg) nor a Python 3.10"),
     ],
+    ids=["missing", "no-libpython", "old-python", "not-an-environment"],
 )
-def test_missing_python_pieces_give_a_logged_error_and_no_crash(
-    host, fmus, tmp_path, variable, value, expected
-):
-    process = _run_plant_briefly(host, fmus[0], tmp_path, **{variable: value})
+def test_a_wrong_python_environment_gives_one_logged_line_and_no_crash(host, fmus, tmp_path, setup, expected):
+    process = _run_plant_briefly(host, fmus[0], tmp_path, OILWATCH_PYTHON_ENV=setup(tmp_path))
     assert process.returncode == 4, process.stderr  # fmi2Instantiate returned NULL; teardown ran
     logged = [line for line in process.stderr.splitlines() if line.startswith("[Error] plant logStatusError")]
     assert len(logged) == 1, process.stderr
     assert expected in logged[0]
-    assert variable in logged[0]  # the message says how to point elsewhere
+    assert "OILWATCH_PYTHON_ENV" in logged[0]  # the message says how to point elsewhere
     assert "freed 0 instances, unloaded 1 libraries" in process.stderr
 
 
 def test_an_environment_without_numpy_gives_a_logged_error(host, fmus, tmp_path):
     empty = tmp_path / "empty_env"
-    empty.mkdir()
+    subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(empty)], check=True)
     process = _run_plant_briefly(host, fmus[0], tmp_path, OILWATCH_PYTHON_ENV=str(empty))
     assert process.returncode == 4, process.stderr
     logged = [line for line in process.stderr.splitlines() if line.startswith("[Error] plant logStatusError")]

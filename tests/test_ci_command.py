@@ -31,13 +31,12 @@ class _Item:
         self.marks.append(mark.mark)
 
 
-def test_units_are_whole_modules_or_groups_sent_longest_first_and_alone_tests_last():
+def test_units_are_whole_modules_or_groups_sent_longest_first():
     group = pytest.mark.xdist_group(name="shared").mark
     slow = pytest.mark.slow.mark
     items = [
         _Item("tests/test_a.py::fast_1"),
         _Item("tests/test_a.py::fast_2"),
-        _Item("tests/test_t.py::timed", pytest.mark.alone.mark),
         _Item("tests/test_b.py::slow_1", slow),
         _Item("tests/test_c.py::grouped", group),
         _Item("tests/test_second_machine.py::known_long"),
@@ -45,10 +44,10 @@ def test_units_are_whole_modules_or_groups_sent_longest_first_and_alone_tests_la
     ]
     group_and_order(items)
     assert [item.nodeid.split("::")[1] for item in items] == [
-        "known_long", "grouped", "grouped_too", "slow_1", "fast_1", "fast_2", "timed"
+        "known_long", "grouped", "grouped_too", "slow_1", "fast_1", "fast_2"
     ]  # fmt: skip
     names = [item.get_closest_marker("xdist_group").kwargs["name"] for item in items]
     assert names == [
         "tests/test_second_machine.py", "shared", "shared", "tests/test_b.py", "tests/test_a.py",
-        "tests/test_a.py", "tests/test_t.py::timed",
+        "tests/test_a.py",
     ]  # fmt: skip

@@ -12,11 +12,10 @@ import signal
 import subprocess
 import sys
 import time
-import zipfile
 
 import numpy as np
 import pytest
-from fixtures.fmu_subprocess import REPO_ROOT
+from fixtures.fmu_subprocess import REPO_ROOT, edited_archive
 from fixtures.xdist_units import session_root
 
 from oilwatch.scenarios.runner import COLUMNS, OPERATING_INPUTS
@@ -121,18 +120,19 @@ def test_ctrl_c_stops_the_run_and_result_csv_keeps_every_step_done(environment, 
     assert seen - 1 <= rows.shape[0] < 20001
     np.testing.assert_allclose(rows[:, 0], np.arange(rows.shape[0]) * 1e-3, atol=1e-9)
     assert np.isfinite(rows).all()
-    assert sorted(path.name for path in out.iterdir()) == ["result.csv"]  # nothing stale beside it
+    assert len(stderr.strip().splitlines()) == 1  # one line, naming what was kept
+    # nothing stale beside it: the lock and a summary that says the run stopped
+    assert sorted(path.name for path in out.iterdir()) == ["oilwatch.lock", "result.csv", "summary.json"]
+    assert json.loads((out / "summary.json").read_text())["status"] == "interrupted (SIGINT)"
 
 
 def _broken_ssp(built_fmus, folder):
-    path = folder / "Broken.ssp"
-    with zipfile.ZipFile(built_fmus / "OilStarvation.ssp") as source, zipfile.ZipFile(path, "w") as target:
-        for item in source.infolist():
-            data = source.read(item)
-            if item.filename == "SystemStructure.ssd":
-                data = data.replace(b'endConnector="t_sample_s"', b'endConnector="t_sample_ms"')
-            target.writestr(item, data)
-    return path
+    return edited_archive(
+        built_fmus / "OilStarvation.ssp",
+        folder / "Broken.ssp",
+        "SystemStructure.ssd",
+        lambda data: data.replace(b'endConnector="t_sample_s"', b'endConnector="t_sample_ms"'),
+    )
 
 
 def test_bad_inputs_give_one_line_errors_with_exit_code_2(environment, tmp_path, built_fmus):

@@ -12,7 +12,7 @@ import pytest
 from fixtures.toy_model import NOMINAL_FLOWRATE_M3_S, TABLE_BOUNDS_M3_S, ToyRotor, simulate
 
 from oilwatch.estimator.ekf import OilFlowEKF
-from oilwatch.estimator.ekf_config import ML_MIN, EKFConfig
+from oilwatch.estimator.ekf_config import ML_MIN, PROBE_REJECTED_S, EKFConfig
 from oilwatch.models.validation import InputError
 
 QN = NOMINAL_FLOWRATE_M3_S
@@ -80,7 +80,7 @@ def test_a_nan_drops_its_channel_and_inf_samples_keep_the_state_finite(toy, cons
     data = constant_record.displacement_m.copy()
     data[3000, 1] = np.nan
     data[3001:3003] = np.inf
-    data[4000:4040] = np.nan  # shorter than probe_dead_s: a dropout, not a dead probe
+    data[4000:4040] = np.nan  # shorter than PROBE_DEAD_S: a dropout, not a dead probe
     # gate off: this test is about bad samples only (the eight-channel modes' NIS is inflated, so a tight
     # gate would also reject a few good samples)
     config = EKFConfig.recommended(velocity_noise="correlated", gate_tail_probability=0.0)
@@ -134,7 +134,7 @@ def test_a_jump_on_one_probe_flags_that_probe_and_leaves_the_estimate(toy, const
     trace = OilFlowEKF(toy, config).run(data)
     reference = OilFlowEKF(toy, config).run(constant_record.displacement_m)
     flagged = np.flatnonzero(trace.probe_faulty[:, 1])
-    assert flagged.size and flagged[0] == 5000 + round(config.probe_rejected_s / 1e-3) - 1
+    assert flagged.size and flagged[0] == 5000 + round(PROBE_REJECTED_S / 1e-3) - 1
     assert trace.probe_faulty[flagged[0] :, 1].all() and not trace.probe_faulty[:, [0, 2, 3]].any()
     assert (trace.n_measurements[flagged[0] :] == 3).all()
     std = trace.q_std_m3_s[5000:]

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import xml.etree.ElementTree as ET
 import zipfile
+from pathlib import Path
 
 import pytest
 from fmpy.validation import validate_fmu
@@ -69,18 +70,27 @@ def test_documentation_lists_every_variable_with_its_unit(toys):
     assert "<td>um</td>" in page and "simulate_fmu" in page
 
 
-def test_bundled_packages_are_relocated_and_carry_data(toys):
+def test_the_bundled_package_is_oilwatch_unchanged_with_its_data_and_fingerprint(toys):
+    import json
+
+    import oilwatch
+    from oilwatch.cosim.fmu_build import package_dir
+    from oilwatch.fmu_src.bundle import SUBPACKAGES, source_digest
+
     with zipfile.ZipFile(toys / "ToyPlant.fmu") as archive:
         names = archive.namelist()
         slave = archive.read("resources/toy_plant_slave.py").decode()
-        base = archive.read("resources/toyplant_oilwatch/fmu_src/slave_base.py").decode()
-    assert "resources/toyplant_oilwatch/models/validation.py" in names
-    assert "resources/toyplant_oilwatch/models/turbine.toml" in names
+        base = archive.read("resources/oilwatch/fmu_src/slave_base.py").decode()
+        stamp = json.loads(archive.read("resources/oilwatch/bundle.json"))
+    for package in SUBPACKAGES:
+        assert f"resources/oilwatch/{package}/__init__.py" in names
+    assert "resources/oilwatch/models/turbine.toml" in names
     assert not any(n.startswith("resources/models/") or n.startswith("resources/fmu_src/") for n in names)
-    assert "from toyplant_oilwatch.fmu_src.slave_base import OilwatchSlave" in slave
-    assert "from toyplant_oilwatch.models.validation import InputError" in slave
-    assert "from toyplant_oilwatch.models.validation import InputError" in base
-    assert not any(n.endswith("_slave.py") and "toyplant_oilwatch/fmu_src" in n for n in names)
+    assert "from oilwatch.fmu_src.slave_base import OilwatchSlave" in slave
+    assert base == (package_dir("fmu_src") / "slave_base.py").read_text(encoding="utf-8")
+    # the fingerprint is the installed sources' digest: this process's oilwatch may serve the FMU
+    assert stamp["digest"] == source_digest(Path(oilwatch.__file__).parent)
+    assert not any(n.startswith("binaries/") and not n.startswith("binaries/linux64/") for n in names)
 
 
 def test_unit_real_requires_a_known_unit_and_a_description():

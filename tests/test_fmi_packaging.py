@@ -1,45 +1,83 @@
-"""build.py's relocation of bundled packages: the import rewrite and its loud failures."""
+"""Staging an FMU's sources (oilwatch/cosim/packaging.py) and the guard of a shared ``oilwatch`` package
+(fmu_src/bundle.py): same sources share, other sources are refused with both versions named."""
 
 from __future__ import annotations
 
+import json
+import sys
+import types
+from pathlib import Path
+
 import pytest
 
-from oilwatch.cosim.packaging import RelocationError, rewrite_imports
-
-MAPPING = {"oilwatch": "p_oilwatch"}
-
-
-def test_from_imports_are_relocated_and_others_left_alone():
-    source = (
-        '"""Docstring: from oilwatch.models.x import y stays as written."""\n'
-        "from oilwatch.models.validation import InputError\n"
-        "from oilwatch.models import machine\n"
-        "from oilwatch.fmu_src.slave_base import (\n    OilwatchSlave,\n)\n"
-        "from .local import thing\n"
-        "from modelsx.other import z\n"
-        "import numpy as np\n"
-        "def f():\n    from  oilwatch.models.rotor import disc\n"
-    )
-    result = rewrite_imports(source, MAPPING, "x.py")
-    assert "from p_oilwatch.models.validation import InputError" in result
-    assert "from p_oilwatch.models import machine" in result
-    assert "from p_oilwatch.fmu_src.slave_base import (" in result
-    assert "from .local import thing" in result
-    assert "from modelsx.other import z" in result
-    assert "from  p_oilwatch.models.rotor import disc" in result
-    assert result.startswith('"""Docstring: from oilwatch.models.x import y stays as written."""')
+import oilwatch
+from oilwatch.cosim.fmu_build import FMU_PACKAGES, package_dir
+from oilwatch.cosim.packaging import stage_sources
+from oilwatch.fmu_src import bundle
+from oilwatch.models.validation import InputError
 
 
-@pytest.mark.parametrize(
-    "line",
-    ["import oilwatch", "import oilwatch.models.validation", "import numpy, oilwatch.fmu_src.slave_base"],
-)
-def test_plain_import_of_a_relocated_package_fails_with_file_and_line(line):
-    with pytest.raises(RelocationError, match=r"x\.py:2: 'import"):
-        rewrite_imports("a = 1\n" + line + "\n", MAPPING, "x.py")
+@pytest.fixture(scope="module")
+def staged(tmp_path_factory) -> Path:
+    staging = tmp_path_factory.mktemp("staging")
+    script = package_dir("fmu_src") / "oilwatch_plant_slave.py"
+    folders = {package: package_dir(package) for package in FMU_PACKAGES}
+    _, root = stage_sources(staging, folders, script, "9.9.9", ("*.toml", "*.json"))
+    return root
 
 
-def test_module_name_passed_as_string_fails():
-    source = "import importlib\nimportlib.import_module('oilwatch.models.machine')\n"
-    with pytest.raises(RelocationError, match=r"x\.py:2"):
-        rewrite_imports(source, MAPPING, "x.py")
+def test_staging_copies_the_subpackages_unchanged_and_records_their_digest(staged):
+    assert staged.name == "oilwatch" and (staged.parent / "oilwatch_plant_slave.py").is_file()
+    for package in FMU_PACKAGES:
+        for source in (package_dir(package)).rglob("*.py"):
+            if "__pycache__" in source.parts or "tests" in source.parts:
+                continue
+            copy = staged / package / source.relative_to(package_dir(package))
+            assert copy.read_bytes() == source.read_bytes(), copy
+    stamp = json.loads((staged / bundle.BUNDLE_FILE).read_text())
+    assert stamp == {"version": "9.9.9", "digest": bundle.source_digest(Path(oilwatch.__file__).parent)}
+    assert "import" not in (staged / "__init__.py").read_text()  # minimal: nothing beyond the subpackages
+
+
+def test_staging_refuses_another_set_of_subpackages(tmp_path):
+    folders = {"models": package_dir("models")}
+    with pytest.raises(InputError, match="exactly the subpackages"):
+        stage_sources(tmp_path, folders, package_dir("fmu_src") / "oilwatch_plant_slave.py", "1", ())
+
+
+def _imported(monkeypatch, folder: Path) -> None:
+    module = types.ModuleType("oilwatch")
+    module.__file__ = str(folder / "__init__.py")
+    monkeypatch.setitem(sys.modules, "oilwatch", module)
+
+
+@pytest.fixture
+def search_paths():
+    """The imported oilwatch packages' ``__path__`` lists, restored afterwards (admit extends them)."""
+    saved = {m: list(m.__path__) for n, m in list(sys.modules.items()) if n.split(".")[0] == "oilwatch"
+             and hasattr(m, "__path__")}  # fmt: skip
+    yield
+    for module, search in saved.items():
+        module.__path__[:] = search
+
+
+def test_an_fmu_shares_an_imported_oilwatch_with_the_same_sources(staged, monkeypatch, search_paths):
+    resources = staged.parent
+    assert bundle.admit(str(resources)) == ""  # this process's oilwatch: the sources it bundles
+    # and a later lazy import may come from the FMU's copy (the first unpack may be deleted by then)
+    assert str(staged / "models") in sys.modules["oilwatch.models"].__path__
+    _imported(monkeypatch, staged)
+    assert bundle.admit(str(resources)) == ""  # its own copy
+    monkeypatch.delitem(sys.modules, "oilwatch")
+    assert bundle.admit(str(resources)) == ""  # nothing imported yet: the FMU's own copy will be
+
+
+def test_an_fmu_refuses_an_imported_oilwatch_with_other_sources_naming_both(staged, tmp_path, monkeypatch):
+    other = tmp_path / "other" / "oilwatch"
+    other.mkdir(parents=True)
+    (other / bundle.BUNDLE_FILE).write_text(json.dumps({"version": "0.0.1", "digest": "0123456789abcdef"}))
+    _imported(monkeypatch, other)
+    message = bundle.admit(str(staged.parent))
+    assert "\n" not in message
+    assert "oilwatch 9.9.9 (sources " in message and "oilwatch 0.0.1 (sources 0123456789abcdef)" in message
+    assert str(other) in message

@@ -4,7 +4,7 @@ state save/restore, parameter errors at initialization, failures in do_step, two
 from __future__ import annotations
 
 import pytest
-from fixtures.fmu_subprocess import run_json
+from fixtures.fmu_subprocess import edited_archive, run_json
 
 PRELUDE = """
 from ctypes import byref
@@ -133,24 +133,45 @@ result = {{"outcome": outcome, "log": LOG}}
     assert any("toy failure requested by y0_um" in m for s, m in result["log"] if s == 3)
 
 
-def test_two_fmus_in_one_process_use_separate_module_copies(toys):
+def test_two_fmus_in_one_process_share_the_first_ones_oilwatch(toys):
     result = run_json(
         """
 import sys
-from oilwatch.cosim import FmuSpec, Master, SystemDescription
-system = SystemDescription([FmuSpec("plant", {plant!r}), FmuSpec("filt", {filt!r})])
-with Master(system) as master:
-    run = master.run(stop_time=0.01, step_size=1e-3)
-    files = {{name: sys.modules[name].__file__ for name in
-             ("toyplant_oilwatch.fmu_src.slave_base", "toyfilter_oilwatch.fmu_src.slave_base",
-              "toyplant_oilwatch.models.validation", "toyfilter_oilwatch.models.validation")}}
-result = {{"files": files, "fmu_src_loaded": "oilwatch.fmu_src" in sys.modules,
-          "rows": len(run.recorder.rows)}}
+from fmpy import simulate_fmu
+simulate_fmu({plant!r}, stop_time=0.01, output_interval=1e-3)
+first = sys.modules["oilwatch.fmu_src.slave_base"].__file__
+rows = simulate_fmu({filt!r}, stop_time=0.01, output_interval=1e-3, start_values={{"alpha": 0.05}})
+result = {{"first": first, "second": sys.modules["oilwatch.fmu_src.slave_base"].__file__,
+          "cosim_loaded": "oilwatch.cosim" in sys.modules, "rows": len(rows)}}
 """.format(plant=str(toys / "ToyPlant.fmu"), filt=str(toys / "ToyFilter.fmu"))
     )
-    files = result["files"]
-    assert files["toyplant_oilwatch.fmu_src.slave_base"] != files["toyfilter_oilwatch.fmu_src.slave_base"]
-    assert "oilwatch_plant_" in files["toyplant_oilwatch.fmu_src.slave_base"]
-    assert "oilwatch_filt_" in files["toyfilter_oilwatch.fmu_src.slave_base"]
-    assert not result["fmu_src_loaded"]
+    # the first FMU's unpacked copy serves the second (same sources: fmu_src/bundle.py), not the clone's
+    assert result["first"] == result["second"] and "/resources/oilwatch/fmu_src/" in result["first"]
+    assert not result["cosim_loaded"]
     assert result["rows"] == 11
+
+
+def test_an_fmu_with_other_oilwatch_sources_is_refused_naming_both_versions(toys, tmp_path):
+    import json
+
+    other = json.dumps({"version": "0.0.1", "digest": "0123456789abcdef"}).encode()
+    tampered = edited_archive(
+        toys / "ToyFilter.fmu", tmp_path / "ToyFilter.fmu", "resources/oilwatch/bundle.json", lambda _: other
+    )
+    result = run_json(
+        PRELUDE
+        + f"""
+import oilwatch.cosim  # a host that imported oilwatch itself, from the clone
+try:
+    load({str(tampered)!r})
+    outcome = "instantiated"
+except Exception as error:
+    outcome = type(error).__name__
+result = {{"outcome": outcome, "log": LOG}}
+"""
+    )
+    assert result["outcome"] != "instantiated"
+    errors = [message for status, message in result["log"] if status >= 3]
+    assert len(errors) == 1 and "\n" not in errors[0], errors
+    assert "oilwatch 0.0.1 (sources 0123456789abcdef)" in errors[0]
+    assert "but the process already imported oilwatch" in errors[0]

@@ -9,7 +9,7 @@ false during both starts (even where ``converged`` is already true) and equal to
 come back with a saved state. One filter (no viscosity factors) must say so plainly: not choosing, start 1,
 nothing left, settled exactly when converged.
 
-The built FMU (slow: ``built_fmus``), with the window shortened to 0.3 s in its own relocated start bank
+The built FMU (slow: ``built_fmus``), with the window shortened to 0.3 s in its start bank
 before initialization, run on the loader's fast path and with ``OILWATCH_FMU_FAST_PATH=0``, must give the
 same start outputs bit for bit, restore them with fmi2SetFMUstate and start them again after fmi2Reset; the
 plain configuration must keep its compiled step and publish the constant start outputs and
@@ -137,8 +137,8 @@ def initialize(slave, reals, integers):
         slave.setReal([vr[key]], [value])
     for key, value in integers.items():
         slave.setInteger([vr[key]], [value])
-    bank = [m for name, m in sys.modules.items() if name.endswith("_oilwatch.estimator.start_bank")]
-    for module in bank:  # the FMU's own relocated start bank: a window the record outlasts
+    bank = [m for name, m in sys.modules.items() if name == "oilwatch.estimator.start_bank"]
+    for module in bank:  # the FMU's start bank: a window the record outlasts
         module.SELECT_S = 0.3
     slave.exitInitializationMode()
     return len(bank)

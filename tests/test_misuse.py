@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 import subprocess
 import sys
 import threading
@@ -23,7 +24,9 @@ from oilwatch.cosim.values import FMI2_INTEGER_RANGE, fmi_value
 from oilwatch.models.bearing.table import CoefficientTable
 from oilwatch.models.machine import BUNDLED_MACHINE, load_machine
 from oilwatch.models.validation import InputError
-from oilwatch.study.storage import study_lock, write_json_atomic
+from oilwatch.outputs import interrupts
+from oilwatch.outputs.atomic import write_json_atomic
+from oilwatch.outputs.lock import output_lock
 
 TABLE = BUNDLED_MACHINE.parent / "tables" / "turbine_bearing_75hz.json"
 
@@ -191,8 +194,9 @@ def test_a_speed_sweep_of_the_wrong_shape_is_named(tmp_path):
 # ------------------------------------------------------------------ stale outputs of an interrupted run
 def test_a_run_that_starts_removes_the_previous_runs_files_and_keeps_its_own_rows(tmp_path):
     """The scenario runner's recorder: the previous run's files go when the new run's recording starts
-    (all FMUs initialized), the rows written before a stop stay (the end-to-end Ctrl-C case is in
-    test_cli_run; a run refused at initialization keeps the previous files: the slow test below)."""
+    (all FMUs initialized; summary.json then says the run is not complete), the rows written before a
+    stop stay (the end-to-end Ctrl-C case is in test_cli_run; a run refused at initialization keeps the
+    previous files: the slow test below)."""
     from oilwatch.cosim import CsvRecorder
     from oilwatch.scenarios.runner import OUTPUT_FILES, _StopBetweenSteps
 
@@ -202,11 +206,12 @@ def test_a_run_that_starts_removes_the_previous_runs_files_and_keeps_its_own_row
     recorder = _StopBetweenSteps(CsvRecorder(tmp_path / "result.csv"), stale)
     recorder.start(["q1"])
     recorder.record(0.0, [596.3])
-    recorder.stop_requested = True
-    with pytest.raises(KeyboardInterrupt):
+    with pytest.raises(KeyboardInterrupt), interrupts.held():
+        os.kill(os.getpid(), signal.SIGTERM)  # held back until the row is whole
         recorder.record(0.001, [596.3])
     recorder.close()
-    assert sorted(path.name for path in tmp_path.iterdir()) == ["result.csv"]
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["result.csv", "summary.json"]
+    assert json.loads((tmp_path / "summary.json").read_text())["completed"] is False
     assert (tmp_path / "result.csv").read_text().splitlines()[1:] == ["0.0,596.3", "0.001,596.3"]
 
 
@@ -214,8 +219,8 @@ def test_a_run_that_starts_removes_the_previous_runs_files_and_keeps_its_own_row
 HOLDER = """
 import sys, time
 from pathlib import Path
-from oilwatch.study.storage import study_lock
-with study_lock(Path(sys.argv[1])):
+from oilwatch.outputs.lock import output_lock
+with output_lock(Path(sys.argv[1]), "study"):
     print("locked", flush=True)
     time.sleep(60)
 """
@@ -232,20 +237,21 @@ def test_a_second_study_into_the_same_folder_is_refused_and_a_dead_holders_lock_
     try:
         assert holder.stdout.readline().strip() == "locked"
         with pytest.raises(InputError) as error:
-            with study_lock(tmp_path):
+            with output_lock(tmp_path, "estimate"):
                 pass
-        assert f"another oilwatch study (pid {holder.pid}) is running in this folder" in str(error.value)
+        assert f"oilwatch study (pid {holder.pid}, started " in str(error.value)
+        assert "is writing this folder" in str(error.value)
         line = one_line_error(
             capsys, ["study", "--out", str(tmp_path), "--case", "synthetic", "--workers", "1"]
         )
-        assert f"(pid {holder.pid})" in line and not (tmp_path / "cases.csv").exists()
+        assert f"(pid {holder.pid}, started " in line and not (tmp_path / "cases.csv").exists()
     finally:
         holder.kill()
         holder.wait()
-    assert (tmp_path / "study.lock").read_text().strip() == str(holder.pid)  # killed: its pid stays
-    with study_lock(tmp_path):
-        assert (tmp_path / "study.lock").read_text().strip() == str(os.getpid())
-    assert (tmp_path / "study.lock").read_text() == ""
+    assert json.loads((tmp_path / "oilwatch.lock").read_text())["pid"] == holder.pid  # killed: it stays
+    with output_lock(tmp_path, "study"):
+        assert json.loads((tmp_path / "oilwatch.lock").read_text())["pid"] == os.getpid()
+    assert (tmp_path / "oilwatch.lock").read_text() == ""
 
 
 def test_concurrent_atomic_writes_never_lose_their_temporary_file(tmp_path):
@@ -328,4 +334,6 @@ def test_misused_run_flags_give_one_line_naming_the_flag(built_fmus, tmp_path):
         lines = process.stderr.strip().splitlines()
         assert process.returncode == 2, (args, process.stderr)
         assert len(lines) == 1 and message in lines[0], (args, lines, time.perf_counter() - start)
-        assert sorted(path.name for path in out.iterdir()) == ["summary.json"], args
+        # the previous run's summary kept, beside the (empty) lock file of the folder
+        assert sorted(path.name for path in out.iterdir()) == ["oilwatch.lock", "summary.json"], args
+        assert (out / "summary.json").read_text() == "{}\n"

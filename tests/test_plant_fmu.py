@@ -4,6 +4,7 @@ The FMU is built once per session by ``build.py`` in its own process (``built_fm
 another fresh process, so none of this runs in the process that built it.
 """
 
+import numpy as np
 import pytest
 from fixtures.fmu_subprocess import run_json
 
@@ -286,3 +287,30 @@ result = {"angle": [float(angle), float(expected)], "refused": refused}
     )
     assert result["angle"][0] == pytest.approx(result["angle"][1], abs=1e-6)
     assert "no input 'noise_um'" in result["refused"]
+
+
+def test_the_structure_parameters_give_the_structural_plants_orbit(fmu):
+    """Pedestals and a bow set through the FMU's parameters: its steady 1x orbit is the one of
+    oilwatch.models.system.structure's plant with the same values, not the machine file's."""
+    result = _run(
+        fmu,
+        """
+import math
+from oilwatch.models.machine import load_machine
+from oilwatch.models.system.structure import PlantStructure, structural_system
+parameters = {"noise_um": 0.0, "pedestal_mass_kg": 150.0, "pedestal_stiffness_n_m": 2e8,
+              "pedestal_damping_n_s_m": 6.9e3, "bow_um": 10.0, "bow_phase_deg": 45.0}
+names = ["x1_true_um", "y1_true_um", "x2_true_um", "y2_true_um"]
+t, out = simulate(parameters, 0.2, names)
+machine = load_machine(None)
+system = structural_system(machine, PlantStructure(pedestal_mass_kg=150.0, pedestal_stiffness_n_m=2e8,
+    pedestal_damping_n_s_m=6.9e3, bow_m=10e-6, bow_phase_rad=math.radians(45.0)))
+q = (machine.lubrication.nominal_flowrate_m3_s,) * 2
+static = system.bearing_positions(system.static_coordinates(q)).ravel() * 1e6
+orbit = system.bearing_positions(system.unbalance_coordinates(q)).ravel() * 1e6
+expected = [(static[k] + (orbit[k] * np.exp(1j * system.omega_rad_s * t)).real).tolist() for k in range(4)]
+result = {"fmu": [out[name].tolist() for name in names], "expected": expected}
+""",
+    )
+    fmu_orbit, expected = np.array(result["fmu"]), np.array(result["expected"])
+    assert np.abs(fmu_orbit - expected).max() < 0.02 * np.ptp(expected, axis=1).max()

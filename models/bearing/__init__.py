@@ -1,8 +1,8 @@
-"""Hydrodynamic journal bearing fed through one groove: mass-conserving p-theta film and coefficients.
+"""Hydrodynamic journal bearing fed through one or more grooves: mass-conserving p-theta film, coefficients.
 
 Modules (import from them directly; this package imports nothing, to keep ``models`` light):
 
-* :mod:`.geometry` ``JournalBearing`` (Table 3);
+* :mod:`.geometry` ``JournalBearing`` (Table 3) and its groove layout (``AxialGroove``);
 * :mod:`.grid` ``Mesh``, ``PRODUCTION_MESH`` and the angle convention (groove "0 deg" at the top,
   opposite the load, angles in the direction of rotation);
 * :mod:`.supply` ``SupplyFlow(q_m3_s)`` / ``SupplyPressure(p_pa)``;

@@ -3,8 +3,8 @@
 A p-theta film's coefficients depend on the whirl frequency (:mod:`oilwatch.models.bearing.dynamic`): in the
 cavitated zone the oil is carried by the Couette flow and lags the journal. ``"synchronous"`` tables hold
 K(Omega), C(Omega) at whirl frequency = spin speed, the frequency of the unbalance response; a machine of
-this kind takes its plant's and estimator's 1x response from them (issue 16: within 1-2 % and 2 degrees of
-the transient film's 75 Hz orbits, where the quasi-static tables are 21-43 % and 16-36 degrees off) and its
+this kind takes its plant's and estimator's 1x response from them (close to the transient film's orbits,
+where the quasi-static tables are tens of percent and degrees off) and its
 free dynamics from the quasi-static table (constant synchronous coefficients destabilize the free modes:
 :mod:`oilwatch.models.system.rotor_bearing`). ``"quasi-static"`` tables hold the held-partition stiffness and
 the frozen-content ("full-film") damping of :func:`oilwatch.models.bearing.equilibrium.coefficients_at`, the

@@ -123,16 +123,24 @@ def synchronous_coefficients(film, eccentricity_m, speed_hz: float, supply) -> t
     """K(Omega), C(Omega) of a steady film at whirl frequency = spin speed ``speed_hz`` [Hz].
 
     On the flooded threshold (:func:`~oilwatch.models.bearing.equilibrium.on_flooded_threshold`) the mean of
-    the starved and flooded one-sided impedances, as the quasi-static coefficients take there.
+    the starved and flooded one-sided impedances (:func:`synchronous_one_sided`), as the quasi-static
+    coefficients take there.
     """
-    omega = 2.0 * math.pi * speed_hz
     if not on_flooded_threshold(film, supply, speed_hz):
-        return FilmImpedance(film, eccentricity_m, speed_hz).coefficients(omega)
+        return FilmImpedance(film, eccentricity_m, speed_hz).coefficients(2.0 * math.pi * speed_hz)
+    sides = synchronous_one_sided(film, eccentricity_m, speed_hz)
+    return tuple(0.5 * (sides["starved"][k] + sides["flooded"][k]) for k in range(2))
+
+
+def synchronous_one_sided(film, eccentricity_m, speed_hz: float) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """{"starved": (K, C), "flooded": (K, C)} at whirl frequency = spin speed: the two one-sided limits of a
+    film on the flooded threshold, its groove taken cavitated (theta_g free) or full (p_g free)."""
+    omega = 2.0 * math.pi * speed_hz
     g = film.grid.groove_node
-    sides = []
-    for flooded in (False, True):
+    sides = {}
+    for side, flooded in (("starved", False), ("flooded", True)):
         full = film.full.copy()
         full[g] = flooded
         branch = dataclasses.replace(film, full=full)
-        sides.append(FilmImpedance(branch, eccentricity_m, speed_hz).coefficients(omega))
-    return 0.5 * (sides[0][0] + sides[1][0]), 0.5 * (sides[0][1] + sides[1][1])
+        sides[side] = FilmImpedance(branch, eccentricity_m, speed_hz).coefficients(omega)
+    return sides

@@ -22,6 +22,12 @@ fall exactly on cell faces (groove cells uniform inside the groove, land cells u
 groove's boundary fluxes, which set the supply flow, are then not spoiled by a staircase groove.
 All groove cells form ONE lumped control volume (the groove is deep: its pressure and fill are
 uniform); the land cells are the other control volumes. The groove is closed at its axial ends.
+
+A bearing with several axial grooves and/or a full circumferential groove (``JournalBearing.more_grooves``,
+``circumferential_groove_m``) puts every groove's edges on faces the same way, and all its groove cells form
+that one control volume: the grooves hang on one supply manifold whose passages are wide against the film,
+so they share one pressure and one fill, and the film alone decides how the supply divides between them
+(docs/bearings.md).
 """
 
 from __future__ import annotations
@@ -124,31 +130,79 @@ class FilmGrid:
         return np.diff(self.z_faces_m)
 
 
-def _split_faces(total: float, part: float, n_total: int, n_part: int, start: float) -> np.ndarray:
-    """Faces of a 1-D grid: ``n_part`` uniform cells over ``part`` then the rest uniform."""
-    first = np.linspace(start, start + part, n_part + 1)
-    second = np.linspace(start + part, start + total, n_total - n_part + 1)
-    return np.concatenate([first, second[1:]])
+def _segment_faces(segments: list[tuple[float, float, int]]) -> np.ndarray:
+    """Faces of a 1-D grid of consecutive segments (start, end, cells), each uniform inside."""
+    parts = [np.linspace(start, end, cells + 1) for start, end, cells in segments]
+    return np.concatenate([parts[0], *(part[1:] for part in parts[1:])])
 
 
-def _axial_faces(length: float, groove: float, n: int) -> tuple[np.ndarray, int, int]:
-    """Axial faces with the groove centred and exactly resolved; returns (faces, j0, j1)."""
-    if groove >= length:
-        return np.linspace(0.0, length, n + 1), 0, n
-    k = max(1, round(n * groove / length))
+def _share_cells(lengths: list[float], total: int) -> list[int]:
+    """``total`` cells over segments of ``lengths``, in proportion and at least one each."""
+    if len(lengths) == 1:
+        return [total]
+    exact = np.asarray(lengths) * total / sum(lengths)
+    cells = np.maximum(1, np.floor(exact)).astype(int)
+    for k in np.argsort(cells - exact):  # the most under-served first
+        if cells.sum() >= total:
+            break
+        cells[k] += 1
+    while cells.sum() > total:
+        k = int(np.argmax(np.where(cells > 1, cells - exact, -np.inf)))
+        cells[k] -= 1
+    return [int(c) for c in cells]
+
+
+def _circumferential_faces(bearing: JournalBearing, n: int) -> tuple[np.ndarray, list[tuple[int, int]]]:
+    """psi faces with every axial groove's edges on faces (psi = 0 at the first groove's upstream edge);
+    returns (faces, [(i0, i1)] the cell range of each groove in :attr:`JournalBearing.grooves` order)."""
+    two_pi = 2.0 * math.pi
+    lead = bearing.groove_angle_rad - 0.5 * bearing.groove_span_rad
+    pockets = sorted(
+        (
+            0.0 if k == 0 else (g.angle_rad - 0.5 * g.circumferential_m / bearing.radius_m - lead) % two_pi,
+            g.circumferential_m / bearing.radius_m,
+            k,
+        )
+        for k, g in enumerate(bearing.grooves)
+    )
+    groove_cells = [max(1, round(n * span / two_pi)) for _, span, _ in pockets]
+    land_ends = [start for start, _, _ in pockets[1:]] + [two_pi]
+    lands = [end - start - span for (start, span, _), end in zip(pockets, land_ends, strict=True)]
+    land_cells = _share_cells(lands, n - sum(groove_cells))
+    if min(land_cells) < 1 or n - sum(groove_cells) < MIN_CIRCUMFERENTIAL_CELLS // 2:
+        raise InputError(f"mesh n_circ={n} leaves too few land cells outside the grooves")
+    segments, ranges, i = [], {}, 0
+    for (start, span, k), cells, land, end in zip(pockets, groove_cells, land_cells, land_ends, strict=True):
+        segments += [(start, start + span, cells), (start + span, end, land)]
+        ranges[k] = (i, i + cells)
+        i += cells + land
+    return _segment_faces(segments), [ranges[k] for k in range(len(pockets))]
+
+
+def _axial_faces(
+    length: float, widths: list[float], n: int
+) -> tuple[np.ndarray, dict[float, tuple[int, int]]]:
+    """Axial faces with every centred band of ``widths`` (grooves) exactly resolved; returns (faces,
+    {width: (j0, j1)} the cell range of each band). The cell count outside the narrowest band is even, so
+    the grid is mirror-symmetric about the mid-plane."""
+    bands = sorted({w for w in widths if w < length})
+    ranges = {w: (0, n) for w in widths if w >= length}
+    if not bands:
+        return np.linspace(0.0, length, n + 1), ranges
+    k = max(1, round(n * bands[0] / length))
     if (n - k) % 2:
         k = k + 1 if k + 1 < n else k - 1
     k = max(1, k)
-    land = (n - k) // 2
-    z0 = 0.5 * (length - groove)
-    faces = np.concatenate(
-        [
-            np.linspace(0.0, z0, land + 1),
-            np.linspace(z0, z0 + groove, k + 1)[1:],
-            np.linspace(z0 + groove, length, land + 1)[1:],
-        ]
-    )
-    return faces, land, land + k
+    edges = [0.5 * (length - w) for w in reversed(bands)]  # lower edges, outermost first
+    side = _share_cells([b - a for a, b in zip([0.0, *edges[:-1]], edges, strict=True)], (n - k) // 2)
+    lower = list(zip([0.0, *edges[:-1]], edges, side, strict=True))
+    uppers = [e + w for e, w in zip(edges, reversed(bands), strict=True)]  # upper edges, outermost first
+    upper = list(zip(reversed(uppers), [*reversed(uppers[:-1]), length], reversed(side), strict=True))
+    faces = _segment_faces([*lower, (edges[-1], uppers[-1], k), *upper])
+    below = np.cumsum(side)
+    for w, j0 in zip(reversed(bands), below, strict=True):
+        ranges[w] = (int(j0), int(n - j0))
+    return faces, ranges
 
 
 @lru_cache(maxsize=16)
@@ -161,21 +215,25 @@ def film_grid(bearing: JournalBearing, mesh: Mesh, half: bool = False) -> FilmGr
     n, m = mesh.n_circ, mesh.n_axial
     if half and m % 2:
         raise InputError(f"a half (mid-plane symmetric) grid needs an even mesh n_axial, got {m}")
-    span = bearing.groove_span_rad
-    k_circ = max(1, round(n * span / (2.0 * math.pi)))
-    if n - k_circ < MIN_CIRCUMFERENTIAL_CELLS // 2:
-        raise InputError(f"mesh n_circ={n} leaves too few land cells outside the groove")
-    psi_faces = _split_faces(2.0 * math.pi, span, n, k_circ, 0.0)
-    z_faces, j0, j1 = _axial_faces(bearing.length_m, bearing.groove_axial_m, m)
-    if half:  # the groove is centred with an even land on either side (see _axial_faces)
+    psi_faces, pockets = _circumferential_faces(bearing, n)
+    band = bearing.circumferential_groove_m
+    widths = [g.axial_m for g in bearing.grooves] + ([band] if band > 0.0 else [])
+    z_faces, bands = _axial_faces(bearing.length_m, widths, m)
+    if half:  # every band is centred with an even land on either side (see _axial_faces)
         m //= 2
-        z_faces, j1 = z_faces[: m + 1], min(j1, m)
-    alpha_lead = 0.5 * math.pi + bearing.groove_angle_rad - 0.5 * span
+        z_faces = z_faces[: m + 1]
+        bands = {w: (j0, min(j1, m)) for w, (j0, j1) in bands.items()}
+    alpha_lead = 0.5 * math.pi + bearing.groove_angle_rad - 0.5 * bearing.groove_span_rad
     alpha_faces = alpha_lead + psi_faces
     alpha_centres = 0.5 * (alpha_faces[:-1] + alpha_faces[1:])
 
     in_groove = np.zeros((n, m), dtype=bool)
-    in_groove[:k_circ, j0:j1] = True
+    for groove, (i0, i1) in zip(bearing.grooves, pockets, strict=True):
+        j0, j1 = bands[groove.axial_m]
+        in_groove[i0:i1, j0:j1] = True
+    if band > 0.0:
+        j0, j1 = bands[band]
+        in_groove[:, j0:j1] = True
     node_of_cell = np.full((n, m), -1, dtype=np.int64)
     land = ~in_groove
     n_land = int(land.sum())

@@ -50,8 +50,11 @@ def table_error(
     load_n: float,
     fraction: float,
     mesh: Mesh,
+    one_sided: bool = False,
 ) -> TableError:
-    """Solve the point directly (q = fraction * q_t; exactly q_t for fraction 1) and compare."""
+    """Solve the point directly (q = fraction * q_t; exactly q_t for fraction 1) and compare with the table
+    (``one_sided``: interpolated on each side of the flooded threshold separately, see
+    :meth:`OperatingTable.interpolate`)."""
     at = dataclasses.replace(bearing, viscosity_pa_s=viscosity_pa_s)
     q_t, _ = flooded_threshold(at, load_n, speed_hz, mesh)
     q = q_t if fraction == 1.0 else fraction * q_t
@@ -61,7 +64,7 @@ def table_error(
         stiffness, damping = synchronous_coefficients(eq.film, eq.eccentricity_m, speed_hz, supply)
     else:
         stiffness, damping = coefficients_at(at, eq, speed_hz, supply, mesh)
-    point = table.evaluate(speed_hz, viscosity_pa_s, load_n, q)
+    point = table.evaluate(speed_hz, viscosity_pa_s, load_n, q, one_sided)
     k, c = point.coefficients.stiffness, point.coefficients.damping
     return TableError(
         speed_hz,

@@ -27,6 +27,7 @@ at one operating point :mod:`oilwatch.models.bearing.operating_table_interpolati
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from dataclasses import dataclass
@@ -39,12 +40,14 @@ from ..validation import InputError, require_finite, require_positive
 from .coefficient_kinds import QUASI_STATIC, file_suffix
 from .geometry import JournalBearing
 from .operating_table_interpolation import TableSlice, interpolate_point
-from .sommerfeld import N_QUANTITIES
+from .sommerfeld import N_QUANTITIES, ON_THRESHOLD
 from .supply import ML_MIN_PER_M3_S
 from .table import BearingCoefficients
 
 FORMAT = "oilwatch dimensionless bearing table"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
+"""2: the one-sided limits on f = 1 (``threshold_sides``); version 1 files lack them: they interpolate only
+across the threshold (``one_sided=False``) and are upgraded by ``oilwatch bearing-map --reuse``."""
 GEOMETRY_KEYS = (
     "radius_m",
     "length_m",
@@ -95,12 +98,13 @@ class OperatingTable:
         threshold_flow_ratio,
         geometry: dict,
         metadata: dict | None = None,
+        threshold_sides=None,
     ):
         self.sommerfeld_nodes = np.asarray(sommerfeld_nodes, dtype=float)
         self.fraction_nodes = np.asarray(fraction_nodes, dtype=float)
         self.values = np.asarray(values, dtype=float)
         self.threshold_flow_ratio = np.asarray(threshold_flow_ratio, dtype=float)
-        self.geometry = {k: float(geometry[k]) for k in GEOMETRY_KEYS}
+        self.geometry = {k: float(geometry[k]) for k in GEOMETRY_KEYS} | groove_layout(geometry)
         self.metadata = metadata or {}
         n_s, n_f = self.sommerfeld_nodes.size, self.fraction_nodes.size
         if n_s < 3 or n_f < 3 or self.values.shape != (n_s, n_f, N_QUANTITIES):
@@ -118,16 +122,59 @@ class OperatingTable:
                 raise InputError(
                     f"dimensionless bearing table: {name} must be increasing and uniformly spaced"
                 )
+        on_threshold = np.flatnonzero(np.isclose(self.fraction_nodes, 1.0, rtol=0, atol=1e-12))
+        if on_threshold.size != 1 or not 0 < on_threshold[0] < n_f - 1:
+            raise InputError(
+                "a dimensionless bearing table needs a flowrate node on the flooded threshold (f = 1)"
+            )
+        self._on_threshold = int(on_threshold[0])
         padded = np.zeros((n_s + 2, n_f + 2, N_QUANTITIES))
         padded[1:-1, 1:-1] = self.values
         catmull_rom.extrapolate_ghosts(padded)
-        self._padded = padded
+        self._across = ((padded, float(self.fraction_nodes[0]), n_f),)
+        self.threshold_sides = None
+        self._sides: tuple[tuple[np.ndarray, float, int], ...] = ()
+        if threshold_sides is not None:
+            self.threshold_sides = np.asarray(threshold_sides, dtype=float)
+            if self.threshold_sides.shape != (n_s, 2, N_QUANTITIES):
+                raise InputError(
+                    f"threshold_sides must have shape ({n_s}, 2, {N_QUANTITIES}), "
+                    f"got {self.threshold_sides.shape}"
+                )
+            self._sides = self._one_sided_grids()
         threshold = np.zeros(n_s + 2)
         threshold[1:-1] = np.log(self.threshold_flow_ratio)
         catmull_rom.extrapolate_ghosts(threshold, axes=1)
         self._log_threshold = threshold
         self._s0, self._hs = self._log_s[0], self._log_s[1] - self._log_s[0]
-        self._f0, self._hf = self.fraction_nodes[0], self.fraction_nodes[1] - self.fraction_nodes[0]
+        self._hf = self.fraction_nodes[1] - self.fraction_nodes[0]
+
+    def _one_sided_grids(self) -> tuple[tuple[np.ndarray, float, int], ...]:
+        """(padded values, first f, node count) of the starved nodes f <= 1 and of the flooded nodes f >= 1,
+        each ending on its own one-sided limit on f = 1: the cubic never spans the jump of K, C there."""
+        k = self._on_threshold
+        grids = []
+        for side, nodes in ((0, slice(0, k + 1)), (1, slice(k, None))):
+            values = self.values[:, nodes].copy()
+            values[:, -1 if side == 0 else 0] = self.threshold_sides[:, side]
+            padded = np.zeros((values.shape[0] + 2, values.shape[1] + 2, N_QUANTITIES))
+            padded[1:-1, 1:-1] = values
+            catmull_rom.extrapolate_ghosts(padded)
+            grids.append((padded, float(self.fraction_nodes[nodes][0]), values.shape[1]))
+        return tuple(grids)
+
+    def grids(self, one_sided: bool, where: str = "") -> tuple[tuple[np.ndarray, float, int], ...]:
+        """(padded values, first f, node count) of the f grids: ``one_sided`` the starved and the flooded ones
+        (see :meth:`_one_sided_grids`; InputError for a version-1 table), else one grid across the threshold
+        (the mean of the one-sided limits on f = 1, the jump smoothed over the neighbouring cells)."""
+        if not one_sided:
+            return self._across
+        if not self._sides:
+            raise InputError(
+                f"the dimensionless bearing table{where} has no one-sided limits on the flooded threshold "
+                "(made by an older oilwatch): recompute it with `oilwatch bearing-map --reuse <that file>`"
+            )
+        return self._sides
 
     # -- ranges and checks -------------------------------------------------------------------------------
     @property
@@ -149,6 +196,16 @@ class OperatingTable:
                     f"the dimensionless bearing table was computed for {key} = {want:g}, "
                     f"the bearing has {have:g}"
                 )
+        want = groove_layout(self.geometry)
+        have = groove_layout(dataclasses.asdict(bearing))
+        same = want.keys() == have.keys() and all(
+            np.allclose(want[k], have[k], rtol=1e-9, atol=1e-15) for k in want
+        )
+        if not same:
+            raise InputError(
+                "the dimensionless bearing table was computed for the grooves "
+                f"{want or 'of a one-groove bearing'}, the bearing has {have or 'one groove'}"
+            )
 
     def _sommerfeld_coordinate(self, sommerfeld: float, where: str) -> float:
         low, high = self.sommerfeld_range
@@ -169,8 +226,14 @@ class OperatingTable:
         stencil = self._log_threshold[i : i + 4]
         return math.exp(float(w @ stencil)), float(dw @ stencil) / self._hs
 
-    def interpolate(self, sommerfeld: float, fraction: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Dimensionless values (11,) at (S, f) and their derivatives with respect to ln S and f."""
+    def interpolate(
+        self, sommerfeld: float, fraction: float, one_sided: bool = False
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Dimensionless values (11,) at (S, f) and their derivatives with respect to ln S and f.
+
+        ``one_sided``: the starved and the flooded nodes are interpolated separately, each up to its own
+        limit on f = 1, so the jump of K and C there is kept (within :data:`ON_THRESHOLD` of it, the mean of
+        the limits, as a direct solve on the threshold); else one C1 interpolant across it."""
         s = self._sommerfeld_coordinate(sommerfeld, "the operating point")
         f = require_finite("flowrate fraction of the flooded threshold", fraction)
         low, high = self.fraction_range
@@ -180,24 +243,27 @@ class OperatingTable:
                 f"[{low * 100:.4g}, {high * 100:.4g}] % (no extrapolation)"
             )
         out = np.empty((3, N_QUANTITIES))
-        interpolate_point(
-            self._padded,
-            s,
-            f,
-            self._s0,
-            self._hs,
-            self.sommerfeld_nodes.size,
-            self._f0,
-            self._hf,
-            self.fraction_nodes.size,
-            out,
-        )
-        return out[0], out[1], out[2]
+        results = []
+        grids = self.grids(one_sided)
+        for side, (padded, f0, n) in enumerate(grids):
+            if (
+                len(grids) == 1
+                or (side == 0 and f <= 1.0 + ON_THRESHOLD)
+                or (side == 1 and f >= 1.0 - ON_THRESHOLD)
+            ):
+                interpolate_point(
+                    padded, s, f, self._s0, self._hs, self.sommerfeld_nodes.size, f0, self._hf, n, out
+                )
+                results.append(out.copy())
+        # on the threshold: the mean of the one-sided limits, as a direct solve gives there
+        mean = sum(results) / len(results)
+        return mean[0], mean[1], mean[2]
 
     def evaluate(
-        self, speed_hz: float, viscosity_pa_s: float, load_n: float, q_m3_s: float
+        self, speed_hz: float, viscosity_pa_s: float, load_n: float, q_m3_s: float, one_sided: bool = False
     ) -> OperatingPoint:
-        """Dimensional equilibrium and coefficients at one operating point, with d/dq and d/d ln(mu)."""
+        """Dimensional equilibrium and coefficients at one operating point, with d/dq and d/d ln(mu)
+        (``one_sided``: see :meth:`interpolate`)."""
         speed = require_positive("speed_hz", speed_hz, "Hz")
         mu = require_positive("viscosity_pa_s", viscosity_pa_s, "Pa s")
         load = require_positive("load_n", load_n, "N")
@@ -211,7 +277,7 @@ class OperatingTable:
         q_t = ratio * math.pi * speed * r * c * length
         fraction = q / q_t
         try:
-            value, d_ds, d_df = self.interpolate(sommerfeld, fraction)
+            value, d_ds, d_df = self.interpolate(sommerfeld, fraction, one_sided)
         except InputError as error:
             raise InputError(
                 f"{error} at {where}: q = {q * ML_MIN_PER_M3_S:.5g} ml/min, "
@@ -250,22 +316,25 @@ class OperatingTable:
         one speed, viscosity and load: the layout of ``CoefficientTable.evaluate_many``."""
         return self.at(speed_hz, viscosity_pa_s, load_n).rows(q_m3_s)
 
-    def at(self, speed_hz: float, viscosity_pa_s: float, load_n: float) -> TableSlice:
+    def at(
+        self, speed_hz: float, viscosity_pa_s: float, load_n: float, one_sided: bool = False
+    ) -> TableSlice:
         """The table at one speed [Hz], viscosity [Pa s] and load [N]: a function of the flowrate only."""
-        return TableSlice(self, speed_hz, viscosity_pa_s, load_n)
+        return TableSlice(self, speed_hz, viscosity_pa_s, load_n, one_sided)
 
     # -- file ---------------------------------------------------------------------------------------------
     def to_dict(self) -> dict:
         """The JSON document: nodes, dimensionless rows, geometry and provenance."""
         return {
             "format": FORMAT,
-            "format_version": FORMAT_VERSION,
+            "format_version": FORMAT_VERSION if self.threshold_sides is not None else 1,
             "geometry": self.geometry,
             **self.metadata,
             "sommerfeld_nodes": self.sommerfeld_nodes.tolist(),
             "fraction_of_threshold_nodes": self.fraction_nodes.tolist(),
             "threshold_flow_ratio": self.threshold_flow_ratio.tolist(),
             "values": self.values.tolist(),
+            **({} if self.threshold_sides is None else {"threshold_sides": self.threshold_sides.tolist()}),
         }
 
     def save(self, path: str | Path) -> None:
@@ -293,6 +362,7 @@ class OperatingTable:
             "fraction_of_threshold_nodes",
             "threshold_flow_ratio",
             "values",
+            "threshold_sides",
         )
         meta = {k: v for k, v in data.items() if k not in keys}
         return cls(
@@ -302,7 +372,26 @@ class OperatingTable:
             data["threshold_flow_ratio"],
             data["geometry"],
             meta,
+            data.get("threshold_sides"),
         )
+
+
+def groove_layout(geometry: dict) -> dict:
+    """The grooves beyond the first of a bearing's geometry (a :class:`JournalBearing` as a dict), as stored
+    in a table's geometry: empty for the one-groove bearing, so that its tables keep their form."""
+    more = [
+        [float(g[k]) for k in ("angle_rad", "circumferential_m", "axial_m")]
+        if isinstance(g, dict)
+        else [float(v) for v in g]
+        for g in geometry.get("more_grooves", ())
+    ]
+    band = float(geometry.get("circumferential_groove_m", 0.0))
+    layout = {}
+    if more:
+        layout["more_grooves"] = more
+    if band > 0.0:
+        layout["circumferential_groove_m"] = band
+    return layout
 
 
 def _coefficients(v: np.ndarray) -> BearingCoefficients:

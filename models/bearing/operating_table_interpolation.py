@@ -4,6 +4,8 @@
 (:mod:`oilwatch.models.catmull_rom`); :func:`interpolate_point` evaluates it and its two derivatives at any
 point. A filter or a plant that evaluates many flowrates at one (speed, viscosity, load) interpolates in S
 once (:func:`interpolate_column`, :class:`TableSlice`) and then only in f per call (:func:`interpolate_rows`).
+In f, one grid across the flooded threshold, or (``one_sided``) two: the starved nodes (f <= 1) and the
+flooded ones (f >= 1), each ending on its one-sided limit on the threshold, where the coefficients jump.
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ import numpy as np
 
 from .. import catmull_rom
 from ..validation import InputError
-from .sommerfeld import N_QUANTITIES
+from .sommerfeld import N_QUANTITIES, ON_THRESHOLD
 from .supply import ML_MIN_PER_M3_S
 
 if TYPE_CHECKING:
@@ -47,20 +49,30 @@ class TableSlice:
     ``OperatingTable.evaluate_many``.
     """
 
-    def __init__(self, table: OperatingTable, speed_hz: float, viscosity_pa_s: float, load_n: float):
+    def __init__(
+        self,
+        table: OperatingTable,
+        speed_hz: float,
+        viscosity_pa_s: float,
+        load_n: float,
+        one_sided: bool = False,
+    ):
         g = table.geometry
         r, c, length = g["radius_m"], g["clearance_m"], g["length_m"]
         self.sommerfeld = viscosity_pa_s * speed_hz * length * 2.0 * r * (r / c) ** 2 / load_n
         where = f"the operating point ({speed_hz:g} Hz, {viscosity_pa_s:.4g} Pa s, {load_n:.5g} N)"
         s = table._sommerfeld_coordinate(self.sommerfeld, where)
-        column = np.empty((table.fraction_nodes.size + 2, N_QUANTITIES))
-        threshold = interpolate_column(
-            table._padded, table._log_threshold, s, table._s0, table._hs, table.sommerfeld_nodes.size, column
-        )
+        columns = []
+        for padded, f0, n in table.grids(one_sided, f" at {where}"):
+            column = np.empty((n + 2, N_QUANTITIES))
+            threshold = interpolate_column(
+                padded, table._log_threshold, s, table._s0, table._hs, table.sommerfeld_nodes.size, column
+            )
+            columns.append((column, f0, n))
         self.flooded_threshold_m3_s = math.exp(threshold) * math.pi * speed_hz * r * c * length
         low, high = table.fraction_range
         self.flowrate_range_m3_s = (low * self.flooded_threshold_m3_s, high * self.flooded_threshold_m3_s)
-        self._table, self._where, self._column = table, where, column
+        self._table, self._where, self._columns = table, where, columns
         self._scale = np.concatenate(
             [np.full(2, c), np.full(4, load_n / c), np.full(4, load_n / (c * 2.0 * math.pi * speed_hz))]
         )
@@ -78,8 +90,18 @@ class TableSlice:
                 f"({bad * 100:.4g} % of the flooded threshold) is outside the table's [{low * 100:.4g}, "
                 f"{high * 100:.4g}] % at {self._where} (no extrapolation)"
             )
-        value = np.empty((q.size, 10))
-        interpolate_rows(self._column, fraction, table._f0, table._hf, table.fraction_nodes.size, value)
+        value = np.zeros((q.size, 10))
+        if len(self._columns) == 1:
+            sides = (np.ones(fraction.size, dtype=bool),)
+        else:
+            sides = (fraction <= 1.0 + ON_THRESHOLD, fraction >= 1.0 - ON_THRESHOLD)
+        for on_side, (column, f0, n) in zip(sides, self._columns, strict=True):
+            if on_side.any():
+                part = np.empty((int(on_side.sum()), 10))
+                interpolate_rows(column, fraction[on_side], f0, table._hf, n, part)
+                value[on_side] += part
+        if len(sides) == 2:
+            value[sides[0] & sides[1]] *= 0.5  # on the threshold: the mean of the one-sided limits
         value *= self._scale
         return value
 

@@ -19,6 +19,12 @@ _PAIRS = ("xx", "xy", "yx", "yy")
 N_QUANTITIES = 11
 """Per node: e_x / c, e_y / c, K c / W (4, row-major), C c Omega / W (4), p_g c^2 / (mu Omega R^2)."""
 
+ON_THRESHOLD = 1.0e-4
+"""|f - 1| below which a flowrate is on the flooded threshold, where the table gives the mean of the
+one-sided limits, as a direct solve does there (``equilibrium.THRESHOLD_TOLERANCE``). The table's q_t is
+interpolated over S: a flowrate this close to it cannot be told from the true threshold (docs/bearings.md
+gives the interpolation's accuracy), so the table does not pick one side of the jump by chance."""
+
 
 def sommerfeld_number(
     bearing: JournalBearing, viscosity_pa_s: float, speed_hz: float, load_n: float

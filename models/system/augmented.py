@@ -146,6 +146,7 @@ class GridAugmentedModel(_AugmentedModelBase):
         nodes (when these are uniform, as ``oilwatch bearing-table`` writes them) and the interpolation
         error stays at the fourth-order level inside each table interval.
     progress : called with the number of maps computed so far, for a progress bar.
+    grid : the grid these arguments give, built before (a stored copy): used instead of building it.
     """
 
     def __init__(
@@ -155,6 +156,7 @@ class GridAugmentedModel(_AugmentedModelBase):
         hold: str = "harmonic",
         subdivisions: int = 5,
         progress: Callable[[int], None] | None = None,
+        grid: FlowrateGrid | None = None,
     ) -> None:
         super().__init__(system, dt_s, hold)
         if isinstance(subdivisions, bool) or not isinstance(subdivisions, int) or not 1 <= subdivisions <= 50:
@@ -162,9 +164,13 @@ class GridAugmentedModel(_AugmentedModelBase):
         low, high = self.flowrate_bounds_m3_s
         n_table = max(len(table.flowrates_m3_s) for table in system.tables)
         nodes = np.linspace(low, high, (n_table - 1) * subdivisions + 1)
-        self.grid = FlowrateGrid.build(
-            lambda q1, q2: system.discrete_map((q1, q2), self.dt_s, hold), nodes, nodes, progress
-        )
+        if grid is None:
+            grid = FlowrateGrid.build(
+                lambda q1, q2: system.discrete_map((q1, q2), self.dt_s, hold), nodes, nodes, progress
+            )
+        elif not (np.array_equal(grid.q1_nodes_m3_s, nodes) and np.array_equal(grid.q2_nodes_m3_s, nodes)):
+            raise InputError("the given flowrate grid's nodes are not this system's (a stale stored grid)")
+        self.grid = grid
         n = self.n_states
         self._next = np.empty(n)
         self._transition = np.empty((n, n))

@@ -45,6 +45,16 @@ def table_folders(machine: Machine) -> list[Path]:
     return [beside, user_cache_dir() / "tables"] if is_bundled(machine) else [beside]
 
 
+def machine_files(machine: Machine) -> list[Path]:
+    """The machine file and every table of it (``<stem>_*.json`` in each of its table folders)."""
+    stem = machine.source_path.stem
+    tables = {}
+    for folder in table_folders(machine):
+        for path in sorted(folder.glob(f"{stem}_*.json")) if folder.is_dir() else []:
+            tables.setdefault(path.name, path)  # the first folder wins, as when loading
+    return [machine.source_path, *tables.values()]
+
+
 def _table_path(machine: Machine, name: str) -> Path:
     folders = table_folders(machine)
     for folder in folders:

@@ -17,7 +17,7 @@ probe p of bearing b reports, in this order:
    last value before that time, or ``glitch``: + ``glitch_m`` during [fault_time_s, fault_time_s +
    glitch_duration_s).
 
-With every parameter at its default the chain is the true position plus noise (the plant before issue 13).
+With every parameter at its default the chain is the true position plus noise.
 """
 
 from __future__ import annotations

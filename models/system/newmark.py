@@ -138,6 +138,9 @@ class NewmarkIntegrator:
         self.time_s = time_s
         self._last_flowrates = self._conditions_key(self.flowrates_m3_s)
         self._acceleration_current = True
+        # the start conditions' propagator now, not in the first period: a first step as fast as the others
+        self._propagator = self._build_propagator(self.flowrates_m3_s)
+        self._propagator_flowrates = self._last_flowrates
 
     def snapshot(self) -> dict:
         """Everything that determines the future outputs (for FMU state save and restore)."""

@@ -14,8 +14,8 @@ gyroscopics, unbalance ~ speed^2 and the exosystem at the speed) at a centre ``x
 are each bearing's in its own flowrate q_b and ln mu_b (:mod:`operating_correction`: forward differences of
 the exact first derivatives; the cross-bearing and speed terms are left out, measured). The centre moves to
 the current (estimate, operating point) when either has left it by more than the thresholds of
-:class:`Recentring` (2 % of speed, 0.015 in ln mu, 0.75 % of flow: half d323c00's in (q, ln mu), which the
-second order makes affordable and which the speed ramp's noise bias needed, README "Session 8"), at most
+:class:`Recentring` (2 % of speed, 0.015 in ln mu, 0.75 % of flow: small enough in (q, ln mu) for the speed
+ramp's noise bias, which the second order makes affordable), at most
 every 0.1 s unless it is four thresholds away (a re-centring is one stacked assembly of 38 blocks and 8
 exponentials of the (2n + 3) block with 14 Frechet derivatives, :mod:`frechet`: about 8 ms of CPU for the
 turbine's 26 states, 3.4 ms at first order). A -40 % viscosity change is thus
@@ -27,13 +27,9 @@ the keyphasor's angle when given (:meth:`set_operating_point`).
 
 Model error (``python scripts/operating_model_error.py --fraction F``, ``tests/test_operating_model.py``):
 the static probe positions and 1x orbit amplitudes of the model's map against the exact map's on the
-dimensionless table (worst probe) along the issue's ramps (72-78 Hz, +0..+10 degC, factors 0.95-1.05,
-100/100 and 80/90 % flow; synchronous 1x load), with the centre F thresholds away in every axis: F = 0
-(the grid's own interpolation) <= 0.003 um static, 0.002 um orbit; F = 0.5 <= 0.003 / 0.003 um; F = 1
-(where a step re-centres) <= 0.005 / 0.006 um; F = 4 (the hard limit, reached only within 0.1 s of a move)
-<= 0.10 / 0.12 um. d323c00's first-order model at its own thresholds: 0.070 / 0.021 um at F = 1, 1.41 /
-0.32 um at F = 4. The static y sensitivity is 0.14 um per % of flow, the orbits 2.5-7.4 um. The README
-section "Speed and oil temperature: the estimator follows them" has the table.
+dimensionless table (worst probe) along speed and oil-temperature ramps, with the centre F thresholds away
+in every axis, stays a small fraction of the static sensitivity to a 1 % flow change up to F = 1 (where a
+step re-centres); the docs' operating-point table gives the figures.
 """
 
 from __future__ import annotations

@@ -43,6 +43,7 @@ import numpy as np
 from scipy.linalg import lu_factor, lu_solve, solve
 
 from ..rotor.assembly import Rotor
+from ..rotor.pedestals import Pedestals
 from ..validation import InputError, require_finite, require_non_negative, require_positive
 from .discretization import harmonic_input_map, zero_order_hold
 from .reduction import ReductionBasis
@@ -75,6 +76,13 @@ class RotorBearingSystem:
     synchronous_tables : optional tables of K(Omega), C(Omega) (same flowrates' equilibria) that set the 1x
         unbalance response through :meth:`unit_unbalance_load` (module docstring); ``None``: ``tables``
         give both the dynamics and the 1x response.
+    unit_unbalance_force : the 1x load (n_dof,) complex [N per kg m] in physical dofs that the complex
+        unbalance moment multiplies; None: Eqs. 5-6 at the rotor's unbalance node. A plant whose 1x load
+        is spread over several discs or holds a shaft bow passes its own (the moment and phase then scale
+        the whole pattern).
+    pedestals : flexible supports under the bearings (:mod:`oilwatch.models.rotor.pedestals`; full
+        coordinates only): the pedestal coordinates are appended, the film acts on the journal relative to
+        its pedestal and the outputs are that relative position, as probes in the housing read it.
     """
 
     def __init__(
@@ -87,6 +95,8 @@ class RotorBearingSystem:
         unbalance_phase_rad: float | None = None,
         nominal_flowrate_m3_s: float | None = None,
         synchronous_tables: Sequence[CoefficientTable] | None = None,
+        unit_unbalance_force: np.ndarray | None = None,
+        pedestals: Pedestals | None = None,
     ) -> None:
         speed_hz = require_positive("speed_hz", speed_hz, "Hz")
         self.nominal_flowrate_m3_s = nominal_flowrate_m3_s
@@ -131,21 +141,58 @@ class RotorBearingSystem:
         amplitude[rotor.dof(rotor.unbalance_node, "y")] = -1j * rotating
         self.unbalance_force = transform.T @ amplitude
         # The load of a unit complex unbalance moment (1 kg m at phase 0): Re(u F_1 exp(i Omega t)).
-        unit = np.zeros(rotor.n_dof, dtype=complex)
-        unit[rotor.dof(rotor.unbalance_node, "x")] = self.omega_rad_s**2
-        unit[rotor.dof(rotor.unbalance_node, "y")] = -1j * self.omega_rad_s**2
+        if unit_unbalance_force is None:
+            unit = np.zeros(rotor.n_dof, dtype=complex)
+            unit[rotor.dof(rotor.unbalance_node, "x")] = self.omega_rad_s**2
+            unit[rotor.dof(rotor.unbalance_node, "y")] = -1j * self.omega_rad_s**2
+        else:
+            unit = np.asarray(unit_unbalance_force, dtype=complex)
+            if unit.shape != (rotor.n_dof,):
+                raise InputError(f"unit_unbalance_force must have {rotor.n_dof} entries, got {unit.shape}")
+            self.unbalance_force = transform.T @ (self.unbalance_moment_kg_m * np.exp(1j * phase) * unit)
         self.unit_unbalance_force = transform.T @ unit
         dofs = np.array([[rotor.dof(node, "x"), rotor.dof(node, "y")] for node in rotor.bearing_nodes])
         self.bearing_dofs = dofs
         # (n_bearings, 2, n): bearing (x, y) displacements from the coordinates.
         self.bearing_maps = transform[dofs, :]
+        self.pedestals = pedestals
+        if pedestals is not None:
+            if basis is not None:
+                raise InputError("pedestals need the full model (reduced=False)")
+            self._append_pedestals(pedestals, len(rotor.bearing_nodes))
         self.static_loads_n = np.asarray(rotor.bearing_static_loads_n, dtype=float)
-        self.n_coordinates = transform.shape[1]
+        self.n_coordinates = self.transform.shape[1]
         self.n_states = 2 * self.n_coordinates
         self._mass_lu = lu_factor(self.mass)
         self.output_matrix = np.hstack(
             [self.bearing_maps.reshape(-1, self.n_coordinates), np.zeros((2 * len(dofs), self.n_coordinates))]
         )
+
+    def _append_pedestals(self, pedestals: Pedestals, n_bearings: int) -> None:
+        """Append the pedestal coordinates (x, y per bearing) and make the bearing maps journal minus
+        pedestal: the film force acts between them and the probes read that difference."""
+        n, extra = self.transform.shape[1], 2 * n_bearings
+        mass, damping, stiffness = pedestals.matrices(n_bearings)
+
+        def grown(matrix, block):
+            out = np.zeros((n + extra, n + extra), dtype=matrix.dtype)
+            out[:n, :n], out[n:, n:] = matrix, block
+            return out
+
+        none = np.zeros((extra, extra))
+        self.mass = grown(self.mass, mass)
+        self.stiffness = grown(self.stiffness, stiffness)
+        self.damping = grown(self.damping, damping)
+        self.gyroscopic = grown(self.gyroscopic, none)
+        self.transform = grown(self.transform, np.eye(extra))
+        pad = np.zeros(extra)
+        self.gravity_force = np.concatenate([self.gravity_force, pad])
+        self.unbalance_force = np.concatenate([self.unbalance_force, pad])
+        self.unit_unbalance_force = np.concatenate([self.unit_unbalance_force, pad])
+        maps = np.concatenate([self.bearing_maps, np.zeros((*self.bearing_maps.shape[:2], extra))], axis=2)
+        for b in range(n_bearings):
+            maps[b, 0, n + 2 * b] = maps[b, 1, n + 2 * b + 1] = -1.0
+        self.bearing_maps = maps
 
     @property
     def flowrate_bounds_m3_s(self) -> tuple[float, float]:

@@ -47,6 +47,9 @@ OUTPUTS: dict[str, dict[str, str]] = {
     "campbell": {"out": "file"},
     "speed-sweep": {"out": "file"},
     "bearing-table": {"out": "file", "plot": "file"},
+    "build-fmus": {"out": "folder"},
+    "robustness": {"out": "folder"},
+    "baseline": {"out": "file"},
 }
 """Each command's output options (argparse dest -> ``folder`` or ``file``), checked by :func:`main` before
 the command runs (:mod:`oilwatch.cli.outputs`). A new command with an output option adds its line here."""
@@ -90,27 +93,56 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of the ``oilwatch`` console script."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    """Entry point of the ``oilwatch`` console script (and of tests that run a command in-process).
+
+    Exit codes: 0 done; 1 done, with a finding the summary calls out (:mod:`oilwatch.monitoring.health`);
+    2 bad input, or an output that cannot be written (one line naming the path and what was kept);
+    130 SIGINT, 143 SIGTERM (one line saying what was kept). docs/operations.md.
+    """
+    from oilwatch.outputs import interrupts, ledger
+    from oilwatch.outputs.rows import OutputError, describe_os_error
+
+    ledger.clear()
+    command = "oilwatch"
     try:
+        parser = build_parser()
+        args = parser.parse_args(argv)
+        command = f"oilwatch {args.command}"
         check_outputs(args)
         return int(args.func(args) or 0)
-    except InputError as error:
-        print(f"oilwatch {args.command}: error: {error}", file=sys.stderr)
+    except OutputError as error:
+        print(f"{command}: error: {error}; {ledger.kept()}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print(f"oilwatch {args.command}: interrupted", file=sys.stderr)
-        return 130
+    except InputError as error:
+        print(f"{command}: error: {error}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt as stop:
+        print(
+            f"{command}: interrupted ({interrupts.signal_name(stop)}); {ledger.kept()}", file=sys.stderr
+        )
+        return interrupts.exit_code(stop)
+    except OSError as error:
+        if error.filename is None:
+            raise
+        print(
+            f"{command}: error: cannot use {error.filename}: {describe_os_error(error)}; {ledger.kept()}",
+            file=sys.stderr,
+        )
+        return 2
 
 
 def console_main() -> None:
-    """The console script: :func:`main`, then a normal interpreter exit.
+    """The console script: SIGINT and SIGTERM handled first (:mod:`oilwatch.outputs.interrupts`; the
+    modules imported before this line take a few milliseconds), then :func:`main`, then a normal
+    interpreter exit.
 
     oilwatch's FMUs carry their own loader (``oilwatch/cosim/native/fmi2_loader.c``), which fixes
     pythonfmu 0.7's double release of its interpreter guard at process exit (PythonFMU issues #228,
     #229: "free(): corrupted unsorted chunks"), so the process may finalize normally after a run.
     """
+    from oilwatch.outputs import interrupts
+
+    interrupts.install()
     sys.exit(main())
 
 

@@ -115,8 +115,15 @@ def read_slow_roll_record(path: str | Path):
 
 
 def run(args: argparse.Namespace) -> int:
+    """Fit the baseline, holding the lock of --out (one writer per file); the file appears whole."""
+    from oilwatch.outputs.lock import output_lock
 
-    from oilwatch.estimator.baseline import FORMAT, FORMAT_VERSION, estimate_baseline, save_baseline
+    with output_lock(args.out, "baseline", kind="file"):
+        return _run_locked(args)
+
+
+def _run_locked(args: argparse.Namespace) -> int:
+    from oilwatch.estimator.baseline import FORMAT, FORMAT_VERSION, estimate_baseline
     from oilwatch.estimator.ekf_config import ML_MIN, EKFConfig
     from oilwatch.estimator.runout import fit_slow_roll
     from oilwatch.models.machine import load_machine
@@ -124,6 +131,7 @@ def run(args: argparse.Namespace) -> int:
     from oilwatch.models.validation import InputError, require_in_range
     from oilwatch.monitoring.estimate import read_record_samples
     from oilwatch.monitoring.estimator_setup import estimator_model
+    from oilwatch.outputs.atomic import write_json_atomic
 
     from .config_options import check_preset_options, preset_prior
 
@@ -151,7 +159,7 @@ def run(args: argparse.Namespace) -> int:
     if args.record is None:
         document = {"format": FORMAT, "format_version": FORMAT_VERSION, "runout": runout.to_document()}
         document.update(slow_roll_record=str(args.slow_roll_record), machine_file=args.machine)
-        save_baseline(document, args.out)
+        write_json_atomic(args.out, document)
         print(f"baseline: runout only; written to {args.out}")
         return 0
     machine = load_machine(args.machine)
@@ -200,7 +208,7 @@ def run(args: argparse.Namespace) -> int:
         document[BASELINE_START_KEY] = start.isoformat()
     if runout is not None:
         document.update(runout=runout.to_document(), slow_roll_record=str(args.slow_roll_record))
-    save_baseline(document, args.out)
+    write_json_atomic(args.out, document)
     offsets = ", ".join(
         f"{c} {o:+.2f} +- {s:.2f}"
         for c, o, s in zip(PROBE_COLUMNS, document["offsets_um"], document["offset_std_um"], strict=True)

@@ -64,6 +64,12 @@ def register(subparsers) -> None:
         "--out", help="output JSON; default <machine dir>/tables/<stem>_bearing_dimensionless.json"
     )
     add_coefficients_option(parser, "the file name follows: ..._dimensionless_synchronous.json")
+    parser.add_argument(
+        "--reuse",
+        metavar="TABLE",
+        help="an earlier table of the same nodes, mesh, kind, speed and load: its node values are kept and "
+        "only what it lacks is solved (the one-sided limits on the flooded threshold of an older table)",
+    )
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     parser.set_defaults(func=run)
 
@@ -92,7 +98,7 @@ def run(args) -> int:
     from tqdm import tqdm
 
     from oilwatch.models.bearing.grid import PRODUCTION_MESH, Mesh
-    from oilwatch.models.bearing.operating_table import operating_table_path
+    from oilwatch.models.bearing.operating_table import OperatingTable, operating_table_path
     from oilwatch.models.bearing.operating_table_solve import compute_operating_table
     from oilwatch.models.bearing.sommerfeld import sommerfeld_grid, sommerfeld_number
     from oilwatch.models.rotor.assembly import Rotor
@@ -133,6 +139,7 @@ def run(args) -> int:
             progress=bar.update,
             coefficients=kind,
             checkpoint=checkpoint,
+            reuse=None if args.reuse is None else OperatingTable.load(args.reuse),
             provenance={
                 "command_line": command_line(args),
                 "machine_file": machine.source_path.name,  # its name: no folder of the machine that made it
@@ -170,4 +177,6 @@ def command_line(args) -> str:
         parts += ["--mesh", *map(str, args.mesh)]
     if args.out:
         parts += ["--out", args.out]
+    if args.reuse:
+        parts += ["--reuse", args.reuse]
     return shlex.join(parts)

@@ -29,6 +29,21 @@ OUTPUT_BLOCK = re.compile(r"<!-- generated (output-[\w-]+): ([^\n]*?) -->")
 REPOSITORY = Path(__file__).resolve().parents[2]
 
 
+MACHINE_LOAD = (
+    (re.compile(r"^\s*load average[^\n]*\n", re.M), ""),
+    (re.compile(r";?\s*1-min load average [\d.\-]+"), ""),
+    (re.compile(r",\s*load \d+(?:\.\d+)?(?=\s*$)", re.M), ""),
+)
+"""What a benchmark prints of the machine's load average: left out of a page, which states the machine once
+(the load of the moment is no figure of the code)."""
+
+
+def without_machine_load(text: str) -> str:
+    for pattern, replacement in MACHINE_LOAD:
+        text = pattern.sub(replacement, text)
+    return text
+
+
 def output_blocks(page: str | Path) -> dict[str, str]:
     """{block name: its command} of a page's ``output-NAME`` blocks."""
     return dict(OUTPUT_BLOCK.findall(Path(page).read_text(encoding="utf-8")))
@@ -47,7 +62,8 @@ def run_outputs(page: str | Path, names: list[str]) -> list[str]:
             raise InputError(
                 f"{name}: {blocks[name]!r} exited {done.returncode}: {done.stderr.strip()[-400:]}"
             )
-        replace_block(page, name, f"```text\n{done.stdout.rstrip()}\n```", blocks[name])
+        output = without_machine_load(done.stdout).rstrip()
+        replace_block(page, name, f"```text\n{output}\n```", blocks[name])
     return chosen
 
 

@@ -12,6 +12,7 @@ from pathlib import Path
 def register(subparsers) -> None:
     """Add the ``estimate`` subcommand."""
     from oilwatch.monitoring import OPERATING_POINTS
+    from oilwatch.monitoring.resume import RESUME_CHOICES
 
     from .config_options import add_preset_options
     from .machine_option import add_machine_option
@@ -30,12 +31,15 @@ def register(subparsers) -> None:
             "--probe. Any sample rate at or above 1 kHz is anti-alias filtered onto the estimator's 1 kHz "
             "grid. Writes DIR/estimates.csv (flushed block by block), DIR/summary.json, DIR/trend.png, "
             "DIR/centerline.png, DIR/orbits.png, DIR/probe_health.png and DIR/report.html. Several "
-            "records run as Dask tasks, one output folder each (DIR/<record name>/). Exit code 0 when "
-            "every record ends with its model consistent with the data; 3 when a record ends in a model "
-            "mismatch (summary.json model_mismatch: the estimates and alarms then come from the static "
-            "change relative to the --baseline, or, without one, the alarms are held and the std widened); "
-            "2 on a bad record (one line naming the column and the row); 130 when interrupted "
-            "(estimates.csv keeps the rows done)."
+            "records run as Dask tasks, one output folder each (DIR/<record name>/). One run per output "
+            "folder at a time; every file appears whole; summary.json, written last, says whether the run "
+            "completed. Exit code 2 on a bad record (one line naming the column and the row) or an output "
+            "that cannot be written, 3 when the estimate sat at a coefficient-table limit or was "
+            "inconsistent with the model for over 10 % of the record, or the record ended in a model "
+            "mismatch (summary.json 'trust' and 'model_mismatch': the estimates and alarms then come from "
+            "the static change relative to the --baseline, or the alarms are held), 130 / 143 "
+            "when interrupted by SIGINT / SIGTERM (estimates.csv keeps whole rows; rerun to resume). See "
+            "docs/operations.md."
         ),
     )
     parser.add_argument(
@@ -96,6 +100,14 @@ def register(subparsers) -> None:
         "with bearing_table = 1; nominal: the model at the machine's nominal speed and viscosity "
         "(bearing_table = 0); auto (default): follow when the record has a speed or an oil temperature",
     )
+    parser.add_argument(
+        "--resume",
+        choices=RESUME_CHOICES,
+        default="auto",
+        help="auto (default): when the output folder holds a partial run of the same record, machine and "
+        "options (stopped by Ctrl-C, SIGTERM, a full disk), continue it from its last resume point, with the "
+        "estimates of an uninterrupted run; yes: resume or refuse; no: start over (docs/operations.md)",
+    )
     parser.add_argument("--no-views", action="store_true", help="no PNG views and no report.html")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument(
@@ -150,6 +162,7 @@ def run(args: argparse.Namespace) -> int:
         live=live,
         operating_point=args.operating_point,
         record_start=args.record_start,
+        resume=args.resume,
     )
     if len(args.records) > 1:
         return _run_many(args, options)
@@ -165,9 +178,10 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _exit_code(summary: dict) -> int:
-    from oilwatch.monitoring.summary import MISMATCH_EXIT_CODE, ends_in_mismatch
+    """0, or :data:`oilwatch.monitoring.trust.UNTRUSTED_EXIT_CODE` when the estimate is not trustworthy."""
+    from oilwatch.monitoring.trust import UNTRUSTED_EXIT_CODE
 
-    return MISMATCH_EXIT_CODE if ends_in_mismatch(summary) else 0
+    return 0 if summary.get("trust", {}).get("trusted", True) else UNTRUSTED_EXIT_CODE
 
 
 def _stem(source: str) -> str:
@@ -204,14 +218,7 @@ def _run_one(source: str, out: Path, options, progress: bool, live=None) -> dict
         runner = EstimateRun(
             source, out, options, progress=bar.update, total_callback=total, live_stream=live
         )
-        try:
-            return runner.run()
-        except KeyboardInterrupt:
-            print(
-                f"oilwatch estimate: interrupted; {out / 'estimates.csv'} keeps the rows done",
-                file=sys.stderr,
-            )
-            raise
+        return runner.run()
     finally:
         bar.close()
 
@@ -239,7 +246,7 @@ def _run_many(args, options) -> int:
     for source in args.records:
         open_record(source, "time_s").close()  # a missing or unknown file fails here, before the cluster
     base = Path(args.out) if args.out else Path("estimates")
-    failed, codes = [], [0]
+    failed, untrusted = [], 0
     with dask_client(args.scheduler, args.workers) as client:
         futures = {
             client.submit(estimate_task, source, str(base / stem), options, pure=False): source
@@ -256,8 +263,8 @@ def _run_many(args, options) -> int:
                 print(f"oilwatch estimate: error: {error}", file=sys.stderr)
                 continue
             print(json.dumps(summary, indent=2) if args.json else _describe(summary))
-            codes.append(_exit_code(summary))
-    return 2 if failed else max(codes)
+            untrusted += _exit_code(summary) != 0
+    return 2 if failed else _exit_code({"trust": {"trusted": not untrusted}})
 
 
 def _describe(summary: dict) -> str:

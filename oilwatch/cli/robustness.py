@@ -110,7 +110,8 @@ def _rows_from_json(paths) -> list[dict]:
 
 def run(args: argparse.Namespace) -> int:
     from oilwatch.models.validation import InputError, require_in_range
-    from oilwatch.robustness import CASES, case_by_name, format_table, run_robustness
+    from oilwatch.outputs.lock import output_lock
+    from oilwatch.robustness import CASES, case_by_name, format_table
 
     from .readme_block import replace_block
 
@@ -140,6 +141,17 @@ def run(args: argparse.Namespace) -> int:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as error:
         raise InputError(f"--out: cannot create {out}: {error}") from None
+    with output_lock(out, "robustness"):
+        return _run_locked(args, cases, out, workers, command)
+
+
+def _run_locked(args, cases, out: Path, workers: int, command: str) -> int:
+    """The cases, holding the lock of ``out``; robustness.json is rewritten (whole) after every row."""
+    from oilwatch.outputs.atomic import write_text_atomic
+    from oilwatch.robustness import format_table, run_robustness
+
+    from .readme_block import replace_block
+
     rows = run_robustness(
         cases,
         machine_file=args.machine,
@@ -155,7 +167,7 @@ def run(args: argparse.Namespace) -> int:
         resume=args.resume,
     )
     table = "\n".join(format_table(rows))
-    (out / "robustness.md").write_text(table + "\n")
+    write_text_atomic(out / "robustness.md", table + "\n")
     print(table)
     if args.readme is not None:
         replace_block(args.readme, "robustness", table, command or "oilwatch robustness")

@@ -129,7 +129,7 @@ def execute(
     labels: dict[str, dict[str, str]] | None = None,
 ):
     """Find or build the FMUs of ``machine`` (computing a missing coefficient table first), run, and return
-    the summary; report an interruption on stderr and re-raise.
+    the summary, holding the lock of ``out`` (one run per folder).
 
     Shared by ``oilwatch run`` and ``oilwatch demo``. The previous run's files in ``out`` are removed once
     the FMUs are initialized (:func:`~oilwatch.scenarios.runner.run_scenario`), so that a run stopped
@@ -137,6 +137,7 @@ def execute(
     labels: see :func:`parameter_labels`.
     """
     from oilwatch.cosim.errors import SystemDescriptionError
+    from oilwatch.outputs.lock import output_lock
     from oilwatch.scenarios.fmus import ensure_fmus
     from oilwatch.scenarios.runner import run_scenario
 
@@ -158,13 +159,8 @@ def execute(
     if ssp is None:
         folder = ensure_fmus(fmu_dir, log, machine)
     output_folder("--out", out)
-    try:
+    with output_lock(out, command):  # an interruption: oilwatch.cli.main says what result.csv keeps
         return run_scenario(run_settings, out, fmu_dir=folder, ssp=ssp_path, progress=progress, labels=labels)
-    except KeyboardInterrupt:
-        csv_path = out / "result.csv"
-        rows = max(0, len(csv_path.read_text().splitlines()) - 1) if csv_path.is_file() else 0
-        log(f"interrupted; {csv_path} keeps the {rows} samples done")
-        raise
 
 
 def describe(summary: dict) -> list[str]:

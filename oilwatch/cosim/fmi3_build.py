@@ -1,16 +1,17 @@
 """Build the FMI 3.0 co-simulation twins of oilwatch's FMUs with pythonfmu3.
 
 Each FMI 3.0 FMU is the FMI 2.0 slave of the same name behind :class:`oilwatch.fmu_src.fmi3_shell.Fmi3Shell`:
-the shell script (``fmu_src/*_fmi3_slave.py``) is staged like an FMI 2.0 slave (packages relocated under
-their own prefix, see :mod:`oilwatch.cosim.packaging`), and the FMI 2.0 slave script it wraps is staged
-inside the relocated ``fmu_src`` with its imports rewritten, together with pythonfmu itself (the FMI 2.0
-slave's base class). pythonfmu3 writes the model description; ``documentation/index.html`` is added and
-``fmpy validate`` must pass, as for FMI 2.0.
+the shell script (``fmu_src/*_fmi3_slave.py``) is staged like an FMI 2.0 slave (``oilwatch/`` with the same
+subpackages, see :mod:`oilwatch.cosim.packaging`; the FMI 2.0 slave script it wraps is part of
+``oilwatch/fmu_src``), together with pythonfmu itself (the FMI 2.0 slave's base class).
+pythonfmu3 writes the model description; ``documentation/index.html`` is added and ``fmpy validate`` must
+pass, as for FMI 2.0.
 
 The binaries are pythonfmu3's own, behind a thin layer (``native/fmi3_refusal.c``) that answers a refused
 input (a parameter out of range at initialization, a fixed parameter set after it) with fmi3Error instead of
 pythonfmu3's fmi3Fatal, as the FMI 2.0 loader does. They need a host that already runs Python (fmpy,
 libcosimpy); the self-sufficient loader exists for FMI 2.0 only (``native/fmi2_loader.c``). pythonfmu3's
+Windows binary is removed: only ``x86_64-linux`` is built and tested. pythonfmu3's
 export binary has pythonfmu's teardown defect too; :class:`oilwatch.cosim.fmi3_loading.Slave3` releases its
 interpreter guard when it frees the instance.
 """
@@ -27,8 +28,8 @@ from pathlib import Path
 from oilwatch.models.validation import InputError
 
 from .fmu_build import REGISTRY, FmuEntry
-from .native_loader import install_fmi3_refusal
-from .packaging import relocated_name, rewrite_imports, stage_sources
+from .native_loader import FMI3_PLATFORM, install_fmi3_refusal
+from .packaging import stage_sources
 
 FMI3_OPTIONS = {"canGetAndSetFMUState": True, "canSerializeFMUState": True}
 BINARY = "binaries/x86_64-linux/{name}.so"
@@ -37,20 +38,18 @@ BINARY = "binaries/x86_64-linux/{name}.so"
 @dataclass(frozen=True)
 class Fmi3Entry:
     """One FMI 3.0 FMU: ``name`` (model identifier, the shell's class name), the shell ``script``, the
-    FMI 2.0 slave script it wraps, the packages to bundle and a relocation prefix of its own."""
+    FMI 2.0 slave script it wraps and the data files to bundle."""
 
     name: str
     script: str
     fmi2_script: str
-    packages: tuple[str, ...]
-    prefix: str
     data_globs: tuple[str, ...] = ("*.toml", "*.json")
 
 
 def fmi3_entry(entry: FmuEntry, script: str) -> Fmi3Entry:
     """The FMI 3.0 twin of the FMI 2.0 ``entry``: its shell ``script`` wrapping ``entry.script``, the same
-    packages and data, and the relocation prefix ``<entry.prefix>3`` (both FMIs load in one process)."""
-    return Fmi3Entry(entry.name, script, entry.script, entry.packages, f"{entry.prefix}3", entry.data_globs)
+    data."""
+    return Fmi3Entry(entry.name, script, entry.script, entry.data_globs)
 
 
 FMI3_SCRIPTS = {
@@ -70,7 +69,16 @@ def build_fmi3_fmu(entry: Fmi3Entry, out_dir: Path, machine=None) -> Path:
 
     from oilwatch.models.machine import load_machine
 
-    from .fmu_build import _forget_modules, bundle_machine, document_and_validate, package_dir, package_root
+    from .fmu_build import (
+        FMU_PACKAGES,
+        _forget_modules,
+        bundle_machine,
+        document_and_validate,
+        keep_platform,
+        oilwatch_version,
+        package_dir,
+        package_root,
+    )
 
     machine = machine if machine is not None else load_machine()
     script, fmi2_script = package_root() / entry.script, package_root() / entry.fmi2_script
@@ -79,16 +87,13 @@ def build_fmi3_fmu(entry: Fmi3Entry, out_dir: Path, machine=None) -> Path:
             raise InputError(f"{entry.name} (FMI 3.0): slave script {path} does not exist")
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    mapping = {"oilwatch": relocated_name(entry.prefix, "oilwatch")}
-    staged_names = {script.stem, "pythonfmu", *mapping.values()}
     with tempfile.TemporaryDirectory(prefix=f"oilwatch_fmi3_{entry.name}_") as tmp:
         staging = Path(tmp)
-        folders_of = {package: package_dir(package) for package in entry.packages}
-        staged_script, folders = stage_sources(staging, folders_of, script, entry.prefix, entry.data_globs)
-        bundle_machine(machine, staging / mapping["oilwatch"] / "fmu_src")
-        wrapped = staging / mapping["oilwatch"] / "fmu_src" / fmi2_script.name
-        source = fmi2_script.read_text(encoding="utf-8")
-        wrapped.write_text(rewrite_imports(source, mapping, str(fmi2_script)), encoding="utf-8")
+        folders_of = {package: package_dir(package) for package in FMU_PACKAGES}
+        staged_script, bundled = stage_sources(
+            staging, folders_of, script, oilwatch_version(), entry.data_globs
+        )
+        bundle_machine(machine, bundled / "fmu_src")
         fmi2_base = staging / "pythonfmu"  # its Python files, as pythonfmu's own builder bundles them
         fmi2_base.mkdir()
         for module in Path(pythonfmu.__file__).parent.glob("*.py"):
@@ -96,17 +101,18 @@ def build_fmi3_fmu(entry: Fmi3Entry, out_dir: Path, machine=None) -> Path:
         saved_path = list(sys.path)
         try:
             built = FmuBuilder.build_FMU(
-                staged_script, dest=out_dir, project_files=[*folders, fmi2_base], **FMI3_OPTIONS
+                staged_script, dest=out_dir, project_files=[bundled, fmi2_base], **FMI3_OPTIONS
             )
         finally:
             sys.path[:] = saved_path
-            _forget_modules(staged_names)
+            _forget_modules({script.stem, "pythonfmu"})
     built = Path(built)
     with zipfile.ZipFile(built) as archive:
         if BINARY.format(name=entry.name) not in archive.namelist():
             built.unlink()
             raise InputError(f"{entry.name}: the class in {script.name} must be named {entry.name}")
     install_fmi3_refusal(built, entry.name)  # refused input: fmi3Error (oilwatch/cosim/native_loader.py)
+    keep_platform(built, f"binaries/{FMI3_PLATFORM}/")  # pythonfmu3's Windows binary is not tested
     return document_and_validate(built, f"{entry.name} (FMI 3.0)")
 
 

@@ -10,25 +10,31 @@ wrapper in a source tree) builds every FMU in :data:`REGISTRY` (or only the name
 
 For each FMU (see :func:`build_fmu`):
 
-1. Staging: the slave script and the packages it needs are copied to a temporary folder, each package renamed
-   ``<prefix>_<package>`` (for example ``oilwatch_plant_models``) and every ``from oilwatch.models... import``
-   rewritten to match (:mod:`oilwatch.cosim.packaging`). Two FMUs in one process therefore share no module
-   name. An ``import models`` form, which cannot be relocated, fails the build with file and line. The data
-   files the packages carry (``*.toml``, ``*.json``, or the entry's ``data_globs``) are bundled too; code must
-   find them with ``Path(__file__).parent``, never by package name.
+1. Staging: the slave script and ``oilwatch/`` (a minimal ``__init__.py``, the ``models``, ``estimator`` and
+   ``fmu_src`` subpackages unchanged, the same in every FMU, and ``bundle.json``) are copied to a temporary
+   folder (:mod:`oilwatch.cosim.packaging`; :mod:`oilwatch.fmu_src.bundle` says why FMUs in one process can
+   share that package). The data files the packages carry (``*.toml``, ``*.json``, or the entry's
+   ``data_globs``) are bundled too; code must find them with ``Path(__file__).parent``.
 2. The machine: its file and every table of it (``tables/<stem>_*.json`` beside it, and for the bundled
-   turbine also the user cache's) are copied into ``<prefix>_fmu_src/machine/``; the FMU's empty
-   ``machine_file`` parameter means this machine (:mod:`oilwatch.fmu_src.machine_parameters`).
+   turbine also the user cache's) are copied into ``oilwatch/fmu_src/machine/``; the FMU's empty
+   ``machine_file`` parameter means this machine, found through the instance's own resources folder
+   (:mod:`oilwatch.fmu_src.machine_parameters`).
 3. pythonfmu's ``FmuBuilder.build_FMU`` builds the FMU from the staging folder, with the entry's FMI
    capability flags (by default ``canGetAndSetFMUstate`` and ``canSerializeFMUstate``).
-4. ``documentation/index.html`` (variables with causality, unit, min, max, start, description, and fmpy
+4. The binaries: ``binaries/linux64/<name>.so`` becomes oilwatch's loader
+   (:mod:`oilwatch.cosim.native_loader`);
+   pythonfmu's other platforms' binaries (its stock Windows and macOS libraries, which hold none of the
+   loader and are not tested) are removed, so the FMU claims Linux x86-64 only.
+5. The compiled code: the FMU runs once in a fresh process, and numba's kernels and the bytecode go into the
+   archive (:func:`oilwatch.cosim.packaging.ship_compiled`), unless the entry says ``ship_compiled=False``.
+6. ``documentation/index.html`` (variables with causality, unit, min, max, start, description, and fmpy
    examples) is added to the archive.
-5. ``fmpy.validation.validate_fmu`` must report no problem, else the build fails.
+7. ``fmpy.validation.validate_fmu`` must report no problem, else the build fails.
 
 The slave class name must equal the entry's ``name`` (it becomes the model identifier). Other code (tests,
 benchmarks) builds extra FMUs with the same machinery by passing its own :class:`FmuEntry` list to
 :func:`build_fmus` (``extra=``). Exit codes: 0 success, 2 bad input (unknown name, missing slave script,
-relocation error, invalid FMU, bad machine file).
+a failed warm-up run, invalid FMU, bad machine file).
 """
 
 from __future__ import annotations
@@ -42,10 +48,12 @@ import zipfile
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+from oilwatch.fmu_src.bundle import SUBPACKAGES as FMU_PACKAGES
+from oilwatch.models.system.factory import machine_files
 from oilwatch.models.validation import InputError
 
 DEFAULT_OPTIONS = {"canGetAndSetFMUstate": True, "canSerializeFMUstate": True}
-FMU_PACKAGES = ("models", "estimator", "fmu_src")
+PLATFORM_FOLDER = "binaries/linux64/"
 
 
 def package_dir(package: str) -> Path:
@@ -67,18 +75,16 @@ class FmuEntry:
 
     name: model identifier and file stem (``<name>.fmu``); the slave class must be called so.
     script: the slave script, relative to :func:`package_root` (or absolute).
-    packages: top-level packages to bundle, relocated as ``<prefix>_<package>``.
-    prefix: relocation prefix, unique per FMU (for example ``oilwatch_plant``).
     data_globs: data files bundled with the packages.
     options: pythonfmu/FMI capability flags written into ``<CoSimulation>``.
+    ship_compiled: run the built FMU once and add its compiled kernels and bytecode (step 5 above).
     """
 
     name: str
     script: str
-    packages: tuple[str, ...]
-    prefix: str
     data_globs: tuple[str, ...] = ("*.toml", "*.json")
     options: dict = field(default_factory=lambda: dict(DEFAULT_OPTIONS))
+    ship_compiled: bool = True
 
     def script_path(self, root: Path | None = None) -> Path:
         path = Path(self.script)
@@ -89,14 +95,10 @@ REGISTRY: tuple[FmuEntry, ...] = (
     FmuEntry(
         name="RotorBearingPlant",
         script="fmu_src/oilwatch_plant_slave.py",
-        packages=("models", "fmu_src"),
-        prefix="oilwatch_plant",
     ),
     FmuEntry(
         name="OilFlowEKF",
         script="fmu_src/oilwatch_ekf_slave.py",
-        packages=("models", "estimator", "fmu_src"),
-        prefix="oilwatch_ekf",
     ),
 )
 
@@ -155,18 +157,6 @@ def write_system(entry: SspEntry, fmus: dict[str, Path], out_dir: Path) -> Path:
     return write_ssp(out_dir / f"{entry.name}.ssp", system)
 
 
-def machine_files(machine) -> list[Path]:
-    """The machine file and every table of it (``<stem>_*.json`` in each of its table folders)."""
-    from oilwatch.models.system.factory import table_folders
-
-    stem = machine.source_path.stem
-    tables = {}
-    for folder in table_folders(machine):
-        for path in sorted(folder.glob(f"{stem}_*.json")) if folder.is_dir() else []:
-            tables.setdefault(path.name, path)  # the first folder wins, as when loading
-    return [machine.source_path, *tables.values()]
-
-
 def bundle_machine(machine, fmu_src_folder: Path) -> None:
     """Copy the machine file to ``<fmu_src_folder>/machine/`` and its tables to ``machine/tables/``."""
     from oilwatch.fmu_src.machine_parameters import MACHINE_FOLDER
@@ -186,13 +176,38 @@ def _forget_modules(names: set[str]) -> None:
             del sys.modules[module]
 
 
+def oilwatch_version() -> str:
+    """The installed oilwatch's version (``unknown`` for a source tree without metadata)."""
+    from importlib import metadata
+
+    try:
+        return metadata.version("oilwatch")
+    except metadata.PackageNotFoundError:
+        return "unknown"
+
+
+def keep_platform(fmu: Path, folder: str = PLATFORM_FOLDER) -> None:
+    """Remove every binary of ``fmu`` outside ``folder`` (pythonfmu's stock binaries of other platforms)."""
+    with zipfile.ZipFile(fmu) as source:
+        dropped = [n for n in source.namelist() if n.startswith("binaries/") and not n.startswith(folder)]
+        if not dropped:
+            return
+        rewritten = fmu.with_name(f".{fmu.name}.partial")
+        with zipfile.ZipFile(rewritten, "w", zipfile.ZIP_DEFLATED) as target:
+            for info in source.infolist():
+                if info.filename not in dropped:
+                    target.writestr(info, source.read(info))
+    rewritten.replace(fmu)
+
+
 def build_fmu(entry: FmuEntry, out_dir: Path, machine=None, root: Path | None = None) -> Path:
     """Build one FMU into ``out_dir`` for ``machine`` (default: the bundled turbine) and return its path."""
     from pythonfmu.builder import FmuBuilder
 
     from oilwatch.cosim.native_loader import install_loader
-    from oilwatch.cosim.packaging import relocated_name, stage_sources
+    from oilwatch.cosim.packaging import ship_compiled, stage_sources
     from oilwatch.models.machine import load_machine
+    from oilwatch.outputs.atomic import commit
 
     machine = machine if machine is not None else load_machine()
     script = entry.script_path(root)
@@ -200,31 +215,40 @@ def build_fmu(entry: FmuEntry, out_dir: Path, machine=None, root: Path | None = 
         raise InputError(f"{entry.name}: slave script {script} does not exist")
     out_dir.mkdir(parents=True, exist_ok=True)
     fmu_path = out_dir / f"{entry.name}.fmu"
-    staged_names = {script.stem, relocated_name(entry.prefix, "oilwatch")}
-    folders_of = {package: package_dir(package) for package in entry.packages}
-    with tempfile.TemporaryDirectory(prefix=f"oilwatch_{entry.name}_") as tmp:
-        staging = Path(tmp)
-        staged_script, folders = stage_sources(staging, folders_of, script, entry.prefix, entry.data_globs)
-        if "fmu_src" in entry.packages:
-            bundle_machine(machine, staging / relocated_name(entry.prefix, "oilwatch") / "fmu_src")
-        saved_path = list(sys.path)
-        try:
-            built = FmuBuilder.build_FMU(staged_script, dest=fmu_path, project_files=folders, **entry.options)
-        finally:
-            sys.path[:] = saved_path
-            _forget_modules(staged_names)
-    built = Path(built)
-    with zipfile.ZipFile(built) as archive:
-        identifier = archive.read("resources/slavemodule.txt").decode().strip()
-        names = archive.namelist()
-    if not any(n == f"binaries/linux64/{entry.name}.so" for n in names):
-        built.unlink()
-        raise InputError(
-            f"{entry.name}: the slave class in {script.name} must be named {entry.name} "
-            f"(pythonfmu names the model after the class; module {identifier})"
-        )
-    install_loader(built, entry.name)  # self-sufficient binary: oilwatch/cosim/native_loader.py
-    return document_and_validate(built, entry.name)
+    folders_of = {package: package_dir(package) for package in FMU_PACKAGES}
+    # Built, given its loader and validated in a private folder beside the target, then renamed: the FMU
+    # appears under its name whole and valid or not at all, and two builders never rewrite one file (the
+    # loader installed twice over one FMU made the loader its inner binary).
+    with tempfile.TemporaryDirectory(prefix=f".{entry.name}.", suffix=".partial", dir=out_dir) as private:
+        private_fmu = Path(private) / fmu_path.name
+        with tempfile.TemporaryDirectory(prefix=f"oilwatch_{entry.name}_") as tmp:
+            staging = Path(tmp)
+            staged_script, bundled = stage_sources(
+                staging, folders_of, script, oilwatch_version(), entry.data_globs
+            )
+            bundle_machine(machine, bundled / "fmu_src")
+            saved_path = list(sys.path)
+            try:
+                built = FmuBuilder.build_FMU(
+                    staged_script, dest=private_fmu, project_files=[bundled], **entry.options
+                )
+            finally:
+                sys.path[:] = saved_path
+                _forget_modules({script.stem})
+        built = Path(built)
+        with zipfile.ZipFile(built) as archive:
+            identifier = archive.read("resources/slavemodule.txt").decode().strip()
+            names = archive.namelist()
+        if not any(n == f"{PLATFORM_FOLDER}{entry.name}.so" for n in names):
+            raise InputError(
+                f"{entry.name}: the slave class in {script.name} must be named {entry.name} "
+                f"(pythonfmu names the model after the class; module {identifier})"
+            )
+        install_loader(built, entry.name)  # self-sufficient binary: oilwatch/cosim/native_loader.py
+        keep_platform(built)
+        if entry.ship_compiled:
+            ship_compiled(built, entry.name)
+        return commit(document_and_validate(built, entry.name), fmu_path)
 
 
 def document_and_validate(built: Path, label: str) -> Path:
@@ -267,9 +291,6 @@ def build_fmus(
         selected = [entries[name] for name in only]
     else:
         selected = list(entries.values())
-    prefixes = [entry.prefix for entry in selected]
-    if len(set(prefixes)) != len(prefixes):
-        raise InputError(f"relocation prefixes must be unique per FMU, got {prefixes}")
     missing = [str(e.script_path(root)) for e in selected if not e.script_path(root).is_file()]
     if missing:
         raise InputError(f"slave script(s) missing: {missing}")
@@ -282,8 +303,8 @@ def build_fmus(
 
 
 def build_in_subprocess(out_dir: Path | str, machine_file: str | Path | None = None, only=None) -> str:
-    """Run :func:`main` in a fresh Python process (building imports the relocated slave modules, which must
-    not linger in the caller); return its output. An InputError carries the build's last error line."""
+    """Run :func:`main` in a fresh Python process (building imports the slave modules, which must not
+    linger in the caller); return its output. An InputError carries the build's last error line."""
     import subprocess
 
     command = [sys.executable, "-c", "import sys; from oilwatch.cosim.fmu_build import main; "
@@ -321,5 +342,13 @@ def main(argv: list[str] | None = None, prog: str = "build.py") -> int:
             print(f"built {path}")
     except InputError as error:
         print(f"{prog}: error: {error}", file=sys.stderr)
+        return 2
+    except OSError as error:  # a full or read-only disk: one line naming the path; nothing half-built kept
+        from oilwatch.outputs.rows import describe_os_error
+
+        where = error.filename or args.out
+        print(f"{prog}: error: cannot write {where}: {describe_os_error(error)}; the file being built "
+              "was removed, every FMU or SSP under its final name is whole and validated",
+              file=sys.stderr)  # fmt: skip
         return 2
     return 0

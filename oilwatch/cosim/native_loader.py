@@ -6,13 +6,14 @@ interpreter. :func:`install_loader` rewrites a built FMU so that
 - ``binaries/linux64/<modelIdentifier>.so`` is the loader compiled from ``native/fmi2_loader.c``
   (with the system C compiler, at build time; the source ships with the package),
 - ``binaries/linux64/pythonfmu_export.so`` is pythonfmu's original binary, which the loader opens,
-- ``resources/oilwatch_python.txt`` records the Python that built the FMU (:func:`python_record`):
-  its libpython, its prefix and the site-packages folders of the build environment.
+- ``resources/oilwatch_python.txt`` names the environment that built the FMU (:func:`python_record`): the
+  default for a host without Python on the build machine.
 
-The loader starts that Python in a host that has none, checks that numpy, scipy and numba import,
-and forwards every fmi2 call; see the comment at the top of ``native/fmi2_loader.c`` (also for the
-teardown fix). The environment variables ``OILWATCH_PYTHON_LIB``, ``OILWATCH_PYTHONHOME`` and
-``OILWATCH_PYTHON_ENV`` override the record.
+In a host that has no Python the loader starts the Python of one environment folder, ``OILWATCH_PYTHON_ENV``
+or else the recorded one (a virtual environment: its ``pyvenv.cfg`` gives the base Python and its version,
+any 3.10 or newer; or a Python installation prefix), checks that numpy, scipy, numba and pythonfmu import
+and that an oilwatch the process already imported is the bundled one, and forwards every fmi2 call; see the
+comment at the top of ``native/fmi2_loader.c`` (also for the teardown fix).
 
 FMI 3.0 (:func:`install_fmi3_refusal`): ``binaries/x86_64-linux/<modelIdentifier>.so`` becomes the thin layer
 of ``native/fmi3_refusal.c``, which returns fmi3Error, not pythonfmu3's fmi3Fatal, when the slave refuses the
@@ -25,7 +26,6 @@ from __future__ import annotations
 
 import os
 import shutil
-import site
 import subprocess
 import sys
 import sysconfig
@@ -44,36 +44,24 @@ PLATFORM = "linux64"
 COMPILE_FLAGS = ("-shared", "-fPIC", "-O2", "-fvisibility=hidden", "-Wall", "-Wno-format-truncation")
 
 
-def python_library() -> Path:
-    """The shared libpython of the running interpreter (``sysconfig`` LIBDIR / INSTSONAME)."""
+def python_environment() -> Path:
+    """The running environment's folder: the virtual environment (``sys.prefix`` with a ``pyvenv.cfg``) or
+    the Python installation; InputError when its Python has no shared libpython (the loader needs one)."""
     libdir = sysconfig.get_config_var("LIBDIR") or ""
-    for name in (sysconfig.get_config_var("INSTSONAME"), sysconfig.get_config_var("LDLIBRARY")):
-        if name and ".so" in name:
-            path = Path(libdir) / name
-            if path.is_file():
-                return path
-    version = f"{sys.version_info.major}.{sys.version_info.minor}"
-    raise InputError(
-        f"this Python ({sys.executable}) has no shared libpython{version}.so in {libdir!r}: build the FMUs "
-        "with a Python configured with --enable-shared (Debian: package libpython" + version + ")"
-    )
+    names = (sysconfig.get_config_var("INSTSONAME"), sysconfig.get_config_var("LDLIBRARY"))
+    if not any(name and ".so" in name and (Path(libdir) / name).is_file() for name in names):
+        version = f"{sys.version_info.major}.{sys.version_info.minor}"
+        raise InputError(
+            f"this Python ({sys.executable}) has no shared libpython{version}.so in {libdir!r}: build the "
+            "FMUs with a Python configured with --enable-shared (Debian: package libpython" + version + ")"
+        )
+    return Path(sys.prefix)
 
 
 def python_record() -> str:
-    """The ``resources/oilwatch_python.txt`` text for the running interpreter and environment."""
+    """The ``resources/oilwatch_python.txt`` text: the building environment's folder and Python version."""
     version = f"{sys.version_info.major}.{sys.version_info.minor}"
-    folders = []
-    paths = sysconfig.get_paths()
-    for folder in (*site.getsitepackages(), paths["purelib"], paths["platlib"]):
-        if folder not in folders and Path(folder).is_dir():
-            folders.append(folder)
-    lines = {
-        "python_version": version,
-        "python_library": str(python_library()),
-        "python_home": sys.base_prefix,
-        "site_packages": os.pathsep.join(folders),
-    }
-    return "".join(f"{key}={value}\n" for key, value in lines.items())
+    return f"python_env={python_environment()}\npython_version={version}\n"
 
 
 def _compile(command: list[str], what: str) -> None:

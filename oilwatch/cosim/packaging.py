@@ -1,85 +1,87 @@
-"""Stage an FMU's Python sources under module names that no other FMU uses.
+"""Stage an FMU's Python sources, and ship them compiled.
 
-A pythonfmu FMU runs inside the host's Python interpreter and puts its ``resources/`` folder first
-on ``sys.path``. Two FMUs that both bundle a package called ``models`` would share whichever copy
-was imported first (and an FMU rebuilt under the same names in one process runs the old code).
-So each FMU gets its own copy of the packages under the root ``<prefix>_oilwatch``, and every absolute
-import ``from oilwatch.models.x import y`` is rewritten to ``from <prefix>_oilwatch.models.x import y``.
+Staging (:func:`stage_sources`): the slave script goes to the top of ``resources/``, and
+``resources/oilwatch/`` gets a minimal ``__init__.py``, the subpackages of
+:data:`oilwatch.fmu_src.bundle.SUBPACKAGES` copied unchanged (the same set in every FMU, whatever its
+slave imports) and ``bundle.json`` (version and source digest; the ``__init__.py`` holds it too as
+``BUNDLE``). Nothing is renamed: every FMU's package is ``oilwatch``, and :mod:`oilwatch.fmu_src.bundle`
+explains why two FMUs (or an FMU and a host that imported oilwatch) can share one, and what happens when
+they cannot.
 
-The team's import rule (absolute cross-package imports are written ``from pkg.x import y`` at
-module top level) makes this a reliable rewrite. The rewrite works on the syntax tree, not on text
-patterns, so a docstring that mentions ``from models`` is left alone. Forms that cannot be relocated
-(``import models``, ``import oilwatch.models.x``, or a string such as ``"oilwatch.models.x"`` passed to a
-call, as in ``importlib.import_module("oilwatch.models.x")``) make the build fail with the file and line.
+Shipping compiled code (:func:`ship_compiled`): a pythonfmu FMU runs its sources in the host's Python, so
+whatever is compiled at run time (numba's kernels, Python's bytecode) is compiled again in every fresh
+unpack, which is what most tools do on every run (seconds to tens of seconds of numba per FMU). The build
+therefore runs the built FMU once, in a fresh process under fmpy, unpacked into a temporary folder: each
+instance of :data:`WARM_UP_RUNS` initializes and steps, so numba writes every kernel the FMU uses into the
+``__pycache__`` folders beside its sources. numba keys that cache by the source file's content (not its
+path or time) and each entry by signature, CPU, Python minor version and numba version, so the entries hit in
+any other unpack on a machine with the same CPU, Python minor and numba; elsewhere numba compiles as before.
+Every module is then compiled to bytecode validated by a hash of its source (PEP 552, checked-hash
+``.pyc``), which stays valid although an unpack gives the files new modification times. All these
+``__pycache__`` files are added to the FMU, with the estimator's flowrate grids the run stored
+(:mod:`oilwatch.fmu_src.grid_store`).
 """
 
 from __future__ import annotations
 
-import ast
+import compileall
 import fnmatch
+import json
+import os
+import py_compile
 import shutil
+import subprocess
+import sys
+import tempfile
+import zipfile
 from pathlib import Path
 
+from oilwatch.fmu_src.bundle import BUNDLE_FILE, SUBPACKAGES, source_digest
+from oilwatch.fmu_src.grid_store import GRID_FOLDER
 from oilwatch.models.validation import InputError
 
-SLAVE_SCRIPT_PATTERN = "*_slave.py"
 ROOT_PACKAGE = "oilwatch"
+BUNDLE_INIT = (
+    '"""oilwatch as an FMU bundles it: the models, estimator and fmu_src subpackages."""\n\nBUNDLE = {}\n'
+)
+"""The bundled ``__init__.py``; ``BUNDLE`` is filled with the fingerprint (fmu_src/bundle.py reads it)."""
+WARM_UP_STEPS = 200
+WARM_UP_RUNS = (
+    {},
+    {"bearing_table": 1},
+    {"q1_final_ml_min": 450.0, "q2_final_ml_min": 450.0, "fault_time_s": 0.05, "fault_duration_s": 0.05},
+)
+"""Parameter sets of the build's warm-up instances (one after the other, in one process), each used by the
+FMUs that have all its parameters: the defaults, the dimensionless bearing table, and a flowrate change
+within the run (the plant's sub-stepped path)."""
 
+WARM_UP = r"""
+import json, sys
+from fmpy import read_model_description
+from fmpy.fmi2 import FMU2Slave
 
-class RelocationError(InputError):
-    """A bundled source file uses an import form that cannot be relocated."""
-
-
-def relocated_name(prefix: str, package: str) -> str:
-    """The module name of ``package`` inside the FMU built with ``prefix``."""
-    return f"{prefix}_{package}"
-
-
-def _root(module: str | None) -> str | None:
-    return module.split(".", 1)[0] if module else None
-
-
-def rewrite_imports(source: str, mapping: dict[str, str], filename: str) -> str:
-    """Return ``source`` with ``from <pkg>...`` imports renamed by ``mapping`` (package -> name).
-
-    Raises :class:`RelocationError` naming the file and line for ``import <pkg>[.x]`` and for string
-    constants ``"<pkg>"``/``"<pkg>.x"`` passed as call arguments.
-    """
-    tree = ast.parse(source, filename=filename)
-    lines = source.splitlines(keepends=True)
-    edits: list[tuple[int, int, str, str]] = []
-    for node in ast.walk(tree):
-        if isinstance(node, ast.Import):
-            for alias in node.names:
-                if _root(alias.name) in mapping:
-                    raise RelocationError(
-                        f"{filename}:{node.lineno}: 'import {alias.name}' cannot be relocated; "
-                        f"write 'from {alias.name.rsplit('.', 1)[0]} import ...' instead"
-                    )
-        elif isinstance(node, ast.ImportFrom) and node.level == 0:
-            root = _root(node.module)
-            if root in mapping:
-                edits.append((node.lineno, node.col_offset, root, mapping[root]))
-        elif isinstance(node, ast.Call):
-            for argument in node.args:
-                value = getattr(argument, "value", None)
-                if isinstance(argument, ast.Constant) and isinstance(value, str):
-                    # a dotted name only: the bare root is also the distribution's name (metadata.version)
-                    if "." in value and _root(value) in mapping and value.replace(".", "").isidentifier():
-                        raise RelocationError(
-                            f"{filename}:{node.lineno}: the module name {value!r} passed to a call "
-                            "cannot be relocated; use a relative import or Path(__file__)"
-                        )
-    for lineno, col, root, new in sorted(edits, reverse=True):
-        line = lines[lineno - 1]
-        head, tail = line[:col], line[col:]
-        after_from = tail[len("from") :]
-        stripped = after_from.lstrip()
-        if not tail.startswith("from") or not stripped.startswith(root):
-            raise RelocationError(f"{filename}:{lineno}: unexpected import layout: {line.strip()}")
-        gap = after_from[: len(after_from) - len(stripped)]
-        lines[lineno - 1] = head + "from" + gap + new + stripped[len(root) :]
-    return "".join(lines)
+folder, runs, steps = sys.argv[1], json.loads(sys.argv[2]), int(sys.argv[3])
+md = read_model_description(folder + "/modelDescription.xml")
+variables = {v.name: v for v in md.modelVariables}
+for number, parameters in enumerate(runs):
+    if not set(parameters) <= set(variables):
+        continue
+    fmu = FMU2Slave(guid=md.guid, unzipDirectory=folder, modelIdentifier=md.coSimulation.modelIdentifier,
+                    instanceName=f"warm_up_{number}")
+    fmu.instantiate()
+    fmu.setupExperiment(startTime=0.0)
+    for name, value in parameters.items():
+        v = variables[name]
+        (fmu.setInteger if v.type == "Integer" else fmu.setReal)([v.valueReference], [value])
+    fmu.enterInitializationMode()
+    fmu.exitInitializationMode()
+    for k in range(steps):
+        fmu.doStep(k * 1e-3, 1e-3)
+    fmu.terminate()
+    fmu.freeInstance()
+import oilwatch
+print(oilwatch.__file__)
+"""
 
 
 def copy_package(
@@ -107,31 +109,63 @@ def copy_package(
 
 
 def stage_sources(
-    staging: Path,
-    package_dirs: dict[str, Path],
-    script: Path,
-    prefix: str,
-    data_globs: tuple[str, ...],
-) -> tuple[Path, list[Path]]:
-    """Copy ``script`` and the oilwatch subpackages of ``package_dirs`` (name -> folder, installed or in a
-    source tree) into ``staging`` under the relocated root package ``<prefix>_oilwatch``, imports rewritten.
+    staging: Path, package_dirs: dict[str, Path], script: Path, version: str, data_globs: tuple[str, ...]
+) -> tuple[Path, Path]:
+    """Copy ``script`` to ``staging`` and the subpackages (``package_dirs``: name -> folder, installed or in
+    a source tree, one per :data:`~oilwatch.fmu_src.bundle.SUBPACKAGES`) into ``staging/oilwatch`` with a
+    minimal ``__init__.py`` and ``bundle.json`` (``version`` and the sources' digest).
 
-    Returns the staged script and the staged root folder (pythonfmu's ``project_files``).
-    Slave scripts (``*_slave.py``) inside bundled packages are left out: each FMU carries only
-    its own slave, at the top of ``resources/``.
+    Returns the staged script and the staged ``oilwatch`` folder (pythonfmu's ``project_files``).
     """
-    mapping = {ROOT_PACKAGE: relocated_name(prefix, ROOT_PACKAGE)}
-    root = staging / mapping[ROOT_PACKAGE]
+    if set(package_dirs) != set(SUBPACKAGES):
+        raise InputError(f"an FMU bundles exactly the subpackages {SUBPACKAGES}, got {tuple(package_dirs)}")
+    root = staging / ROOT_PACKAGE
     root.mkdir(parents=True)
-    (root / "__init__.py").write_text('"""The oilwatch packages one FMU bundles."""\n', encoding="utf-8")
     staged_script = staging / script.name
     shutil.copy2(script, staged_script)
-    sources = [(staged_script, script)]
     for package, source in package_dirs.items():
-        folder = root / package
-        copied = copy_package(source, folder, data_globs, (SLAVE_SCRIPT_PATTERN,))
-        sources += [(path, source / path.relative_to(folder)) for path in copied if path.suffix == ".py"]
-    for staged, original in sources:
-        text = staged.read_text(encoding="utf-8")
-        staged.write_text(rewrite_imports(text, mapping, str(original)), encoding="utf-8")
-    return staged_script, [root]
+        copy_package(source, root / package, data_globs)
+    stamp = {"version": version, "digest": source_digest(root)}
+    (root / BUNDLE_FILE).write_text(json.dumps(stamp) + "\n", encoding="utf-8")
+    (root / "__init__.py").write_text(BUNDLE_INIT.replace("{}", repr(stamp)), encoding="utf-8")
+    return staged_script, root
+
+
+def _child_environment() -> dict[str, str]:
+    """This environment without anything that would import another oilwatch or change the compiled code."""
+    dropped = ("PYTHONPATH", "NUMBA_CACHE_DIR", "NUMBA_DISABLE_JIT", "OILWATCH_FMU_FAST_PATH")
+    env = {key: value for key, value in os.environ.items() if key not in dropped}
+    env.update(OPENBLAS_NUM_THREADS="1", NUMBA_NUM_THREADS="1")
+    return env
+
+
+def ship_compiled(fmu: Path, label: str) -> Path:
+    """Add the compiled kernels and bytecode of ``fmu``'s bundled oilwatch to it (module docstring)."""
+    fmu = Path(fmu)
+    with tempfile.TemporaryDirectory(prefix="oilwatch_warm_up_") as tmp:
+        folder = Path(tmp) / "fmu"
+        with zipfile.ZipFile(fmu) as archive:
+            archive.extractall(folder)
+        command = [sys.executable, "-c", WARM_UP, str(folder), json.dumps(WARM_UP_RUNS), str(WARM_UP_STEPS)]
+        process = subprocess.run(command, capture_output=True, text=True, cwd=tmp, env=_child_environment())
+        if process.returncode != 0:
+            tail = (process.stderr or process.stdout).strip()[-2000:]
+            raise InputError(f"{label}: the build's warm-up run failed: {tail}")
+        bundled = folder / "resources" / ROOT_PACKAGE
+        imported = Path(process.stdout.strip().splitlines()[-1]).resolve().parent
+        if imported != bundled.resolve():
+            raise InputError(f"{label}: the warm-up run imported oilwatch from {imported}, not from the FMU")
+        for cache in bundled.rglob("__pycache__"):
+            for stale in cache.glob("*.pyc"):  # checked by modification time: useless in another unpack
+                stale.unlink()
+        ok = compileall.compile_dir(
+            bundled, quiet=1, invalidation_mode=py_compile.PycInvalidationMode.CHECKED_HASH
+        )
+        if not ok:
+            raise InputError(f"{label}: compiling the bundled sources to bytecode failed")
+        cached = sorted(p for p in bundled.rglob("*") if p.is_file() and p.parent.name == "__pycache__")
+        cached += sorted((folder / "resources" / GRID_FOLDER).glob("*.npz"))
+        with zipfile.ZipFile(fmu, "a", zipfile.ZIP_DEFLATED) as archive:
+            for path in cached:
+                archive.write(path, path.relative_to(folder).as_posix())
+    return fmu

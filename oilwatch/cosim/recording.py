@@ -3,16 +3,20 @@
 A recorder has ``start(columns)``, ``record(time, values)`` and ``close()``; ``columns`` are
 ``"instance.variable"`` names and ``values`` a sequence in that order (time in s). A plain callable
 ``f(time, values)`` also works (see :func:`as_recorder`). :class:`CsvRecorder` writes and flushes
-every row, so a run stopped with Ctrl-C keeps what it had.
+every row whole, so a run stopped with Ctrl-C or by a full disk keeps what it had.
 """
 
 from __future__ import annotations
 
 import csv
+import io
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
+
+from oilwatch.outputs import ledger
+from oilwatch.outputs.rows import RowFile
 
 
 class MemoryRecorder:
@@ -39,37 +43,43 @@ class MemoryRecorder:
 
 
 class CsvRecorder:
-    """Writes ``time,<columns...>`` rows to ``path``, flushing every ``flush_every`` rows.
+    """Writes ``time,<columns...>`` rows to ``path``, whole rows only
+    (:class:`oilwatch.outputs.rows.RowFile`: one write per row, cut back to the last whole row when the disk
+    is full), synced every ``sync_every`` rows.
 
     ``rename`` maps column names (``"plant.q1_ml_min"``) to the CSV's header names.
     """
 
-    def __init__(self, path: str | Path, flush_every: int = 1, rename: dict[str, str] | None = None) -> None:
+    def __init__(
+        self, path: str | Path, sync_every: int = 1000, rename: dict[str, str] | None = None
+    ) -> None:
         self.path = Path(path)
-        self.flush_every = max(1, int(flush_every))
+        self.sync_every = max(1, int(sync_every))
         self.rename = rename or {}
-        self._file = None
-        self._writer = None
-        self._count = 0
+        self._file: RowFile | None = None
 
     def start(self, columns: list[str]) -> None:
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        self._file = self.path.open("w", newline="", encoding="utf-8")
-        self._writer = csv.writer(self._file)
-        self._writer.writerow(["time_s", *(self.rename.get(c, c) for c in columns)])
-        self._file.flush()
-        self._count = 0
+        self._file = RowFile(self.path, sync_every=self.sync_every)
+        self._file.write(_line(["time_s", *(self.rename.get(c, c) for c in columns)]))
+        ledger.keep(str(self.path), self._kept)
 
     def record(self, time: float, values: Sequence) -> None:
-        self._writer.writerow([repr(float(time)), *(repr(v) for v in values)])
-        self._count += 1
-        if self._count % self.flush_every == 0:
-            self._file.flush()
+        self._file.write(_line([repr(float(time)), *(repr(v) for v in values)]))
+
+    def _kept(self) -> str:
+        rows = 0 if self._file is None else max(0, self._file.lines - 1)
+        return f"{self.path} keeps {rows} whole rows"
 
     def close(self) -> None:
-        if self._file is not None and not self._file.closed:
-            self._file.flush()
+        if self._file is not None:
             self._file.close()
+
+
+def _line(fields: list[str]) -> str:
+    buffer = io.StringIO()
+    csv.writer(buffer, lineterminator="\n").writerow(fields)
+    return buffer.getvalue()
 
 
 class _CallableRecorder:

@@ -19,6 +19,8 @@ from xml.etree import ElementTree as ET
 
 from fmpy import read_model_description
 
+from oilwatch.outputs.atomic import atomic_path
+
 from .connections import Connection, same_name_connections
 from .errors import SystemDescriptionError
 from .master import FmuSpec, Master, SystemDescription
@@ -219,10 +221,11 @@ def write_ssp(path: str | Path, system: SystemDescription) -> Path:
     ET.indent(root)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as archive:
-        archive.writestr(SSD_NAME, ET.tostring(root, encoding="UTF-8", xml_declaration=True))
-        for name, source in sources.items():
-            archive.write(source, f"resources/{name}")
+    with atomic_path(path) as temporary:  # whole or not at all (oilwatch.outputs.atomic)
+        with zipfile.ZipFile(temporary, "w", zipfile.ZIP_DEFLATED) as archive:
+            archive.writestr(SSD_NAME, ET.tostring(root, encoding="UTF-8", xml_declaration=True))
+            for name, source in sources.items():
+                archive.write(source, f"resources/{name}")
     return path
 
 

@@ -122,27 +122,29 @@ class RowWriter:
 
     def __init__(self, file: TextIO, live: TextIO | None, every: int) -> None:
         self.file, self.live, self.every = file, live, every
-        self._count = 0
+        self.samples = 0
+        """Samples given so far (written or skipped): where a resumed run continues the every-N-th count."""
         self._decimals = np.zeros(0, dtype=np.int64)
 
-    def header(self, columns: list[str], decimals: np.ndarray) -> None:
+    def header(self, columns: list[str], decimals: np.ndarray, to_file: bool = True) -> None:
+        """Write the header line (to the file only when ``to_file``: a resumed file has it)."""
         self._decimals = np.asarray(decimals, dtype=np.int64)
         line = ",".join(columns) + "\n"
-        for target in (self.file, self.live):
+        for target in (self.file if to_file else None, self.live):
             if target is not None:
                 target.write(line)
                 target.flush()
 
     def write(self, rows: np.ndarray) -> None:
         every = self.every
-        start = (-self._count) % every
-        self._count += rows.shape[0]
+        start = (-self.samples) % every
+        self.samples += rows.shape[0]
         picked = rows[start::every]
         if picked.shape[0] == 0:
             return
         text = format_rows(picked, self._decimals)
         self.file.write(text)
-        self.file.flush()
+        self.file.flush()  # a text file's; oilwatch.outputs.rows.RowFile writes at once, whole rows
         if self.live is not None:
             self.live.write(text)
             self.live.flush()

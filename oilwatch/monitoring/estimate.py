@@ -41,23 +41,37 @@ from typing import TextIO
 
 import numpy as np
 
-from oilwatch.estimator.ekf_config import DEFAULT_PRESET, preset_named
+from oilwatch.estimator.ekf_config import DEFAULT_PRESET, ML_MIN, preset_named
 from oilwatch.estimator.factory import make_estimator
 from oilwatch.estimator.runout import SlowRollVectors, runout_of_probes
 from oilwatch.models.machine import Machine, load_machine
 from oilwatch.models.probes import read_probes
 from oilwatch.models.validation import InputError
+from oilwatch.outputs import interrupts, ledger
+from oilwatch.outputs.atomic import write_json_atomic
+from oilwatch.outputs.lock import output_lock
+from oilwatch.outputs.rows import RowFile
 from oilwatch.records import RecordStream, probe_setup
 from oilwatch.records.probes import merged_section
 from oilwatch.records.readers import STDIN
-from oilwatch.study.storage import write_json_atomic
 
 from . import OPERATING_POINTS
 from .columns import TraceRows, column_decimals, estimate_columns
 from .csv_rows import RowWriter
 from .estimator_setup import ESTIMATOR_DT_S, estimator_config, estimator_model
 from .history import History
+from .resume import (
+    RESUME_CHOICES,
+    SAVE_EVERY_S,
+    STATE_NAME,
+    forget_point,
+    resume_point,
+    run_identity,
+    save_point,
+)
+from .summary import mismatch_reason
 from .timing import CpuMarks, LatencyHistogram
+from .trust import TrustShares, apply_to_verdict
 
 GC_BLOCKS = 64
 """Blocks between the collections of young objects while the automatic collector is off (below)."""
@@ -107,6 +121,9 @@ class EstimateOptions:
     record_start: str | None = None
     """When the record started (ISO 8601, UTC): with a baseline file that records its own start, the
     baseline's age, which widens its offsets prior (:mod:`oilwatch.monitoring.baseline_age`)."""
+    resume: str = "auto"
+    """A partial run of the same record, machine and options in the output folder: ``auto`` resumes it
+    (else starts over), ``yes`` resumes it or refuses, ``no`` starts over (:mod:`.resume`)."""
     operating_point: str = "auto"
     """``follow``: the estimator's operating model follows the record's speed and oil temperature (the
     estimator FMU's ``bearing_table = 1``); ``nominal``: the model at the machine's nominal speed and
@@ -183,6 +200,8 @@ class EstimateRun:
                 f"--operating-point must be one of {', '.join(OPERATING_POINTS)}, got "
                 f"{options.operating_point!r}"
             )
+        if options.resume not in RESUME_CHOICES:
+            raise InputError(f"--resume must be one of {', '.join(RESUME_CHOICES)}, got {options.resume!r}")
         self.source = source
         self.out = Path(out_dir)
         self.options = options
@@ -227,6 +246,8 @@ class EstimateRun:
         # after the record's checks: errors come first
         self.model = estimator_model(options.machine_file, follow=self.follow, machine=self.machine)
         self.live_stream = live_stream
+        low, high = self.model.flowrate_bounds_m3_s
+        self.trust = TrustShares((low / ML_MIN, high / ML_MIN))
         self.filter = None  # oilwatch.estimator.factory.make_estimator's: a filter, or the start bank
         # the estimator takes the readings along the probes' axes when it can (the FMU's probe_angle_deg)
         self.probe_angle_deg = self.stream.probe_angle_deg or 0.0
@@ -304,34 +325,109 @@ class EstimateRun:
         return True, "follows the record's " + " and ".join(measured)
 
     def run(self) -> dict:
-        """Process the record; write estimates.csv (and, unless ``views`` is off, the views and report)."""
-        self.out.mkdir(parents=True, exist_ok=True)
-        started, started_cpu, done = None, 0.0, 0
+        """Process the record; write estimates.csv (and, unless ``views`` is off, the views and report),
+        then summary.json, last. One run at a time per folder (:func:`oilwatch.outputs.lock.output_lock`);
+        a stopped run leaves whole rows, a summary that says so and a resume point (:mod:`.resume`)."""
+        with output_lock(self.out, "estimate"):
+            return self._run_locked()
+
+    def _run_locked(self) -> dict:
         csv_path = self.out / "estimates.csv"
-        with open(csv_path, "w", encoding="utf-8", newline="") as csv_file, _young_collections_only():
-            writer = RowWriter(csv_file, self.live_stream, self.options.output_every)
-            clock, spent = time.process_time, self.stages_s  # CPU time: preemption by a shared machine's load
-            # would land in whichever stage it interrupts
-            blocks = self.stream.blocks()
-            for count in itertools.count(1):
-                if count % GC_BLOCKS == 0:
-                    gc.collect(1)
-                t0 = clock()
-                block = next(blocks, None)
-                t1 = clock()
-                if block is None:
-                    break
-                first = self.filter is None
-                if first:
-                    self._start(block, writer)
-                    started, started_cpu = time.perf_counter(), clock()
-                    t1 = started_cpu
-                else:
-                    spent["read_condition"] += t1 - t0
+        live = self.source == STDIN
+        self.identity = None if live else run_identity(self.source, self.machine.source_path, self.options)
+        point = None if live else resume_point(self.out, self.identity, self.options.resume)
+        self.resumed_from_s = None
+        self._write_summary(self._partial_summary("running", csv_path))
+        csv_file = RowFile(
+            csv_path,
+            append=point is not None,
+            keep_bytes=0 if point is None else point["csv_bytes"],
+            keep_lines=0 if point is None else point["csv_lines"],
+            sync_every=256 if live else 1,
+        )
+        ledger.keep("estimates.csv", lambda: self._kept(csv_path, csv_file))
+        self._boundary = False  # the filter, history and file at one block boundary (a resume point)
+        self._writer = None
+        try:
+            with _young_collections_only():
+                done = self._loop(csv_file, point)
+        except BaseException as error:
+            self._stopped(error, csv_path, csv_file)
+            raise
+        finally:
+            csv_file.close()
+        if self.filter is None:
+            raise InputError(f"{self.stream.reader.name}: no sample to estimate from (record too short)")
+        wall = time.perf_counter() - self._started
+        self.cpu_s = time.process_time() - self._started_cpu
+        self.cpu_marks.add(done, self.cpu_s, last=True)
+        from .summary import summarize
+
+        summary = summarize(self, wall, csv_path)
+        summary["identity"] = self.identity
+        summary["resumed_from_time_s"] = self.resumed_from_s
+        summary["trust"] = self.trust.summary()
+        mismatch_reason(summary)
+        apply_to_verdict(summary)
+        try:
+            if self.options.views:
+                from .report import write_report
+                from .views import write_views
+
+                summary["views"] = {
+                    name: str(path) for name, path in write_views(self.history, summary, self.out).items()
+                }
+                summary["report_html"] = str(write_report(summary, self.out))
+            summary.update(completed=True, status="completed")
+            self._write_summary(summary)
+        except BaseException as error:
+            self._stopped(error, csv_path, csv_file, complete_rows=True)
+            raise
+        forget_point(self.out)
+        ledger.forget("estimates.csv")
+        return summary
+
+    def _loop(self, writer_file: RowFile, point: dict | None) -> int:
+        """Estimate block after block, from the resume ``point`` if any; return the samples estimated."""
+        writer = RowWriter(writer_file, self.live_stream, self.options.output_every)
+        clock, spent = time.process_time, self.stages_s  # CPU time: preemption by a shared machine's load
+        # would land in whichever stage it interrupts
+        blocks = self.stream.blocks()
+        done, last_save = 0, time.perf_counter()
+        self._started, self._started_cpu = time.perf_counter(), clock()
+        for count in itertools.count(1):
+            if count % GC_BLOCKS == 0:
+                gc.collect(1)
+            t0 = clock()
+            block = next(blocks, None)
+            t1 = clock()
+            if block is None:
+                break
+            first = self.filter is None
+            if first:
+                self._start(block, writer, header=point is None)
+                self._started, self._started_cpu = time.perf_counter(), clock()
+                t1 = self._started_cpu
+                if point is not None:
+                    self._restore(point, writer)
+            else:
+                spent["read_condition"] += t1 - t0
+            if point is not None and int(block.k[-1]) < point["k_next"]:
+                continue  # estimated before the stop: in estimates.csv and in the restored state
+            if point is not None and int(block.k[0]) != point["k_next"]:
+                raise InputError(
+                    f"{self.out / STATE_NAME}: the resume point (grid sample {point['k_next']}) is not at a "
+                    "block boundary of this record; rerun with --resume no"
+                )
+            point = None
+            # a block is estimated, written and kept whole: a signal waits for its end (a fraction of a
+            # second), so that a stop always leaves the filter, the file and the history at one boundary
+            with interrupts.deferred():
+                self._boundary = False
                 steps = self.estimator_s
                 rows = self._estimate(block)
                 done += rows.shape[0]
-                self.cpu_marks.add(done, clock() - started_cpu)
+                self.cpu_marks.add(done, clock() - self._started_cpu)
                 t2 = clock()
                 spent["rows"] += t2 - t1 - (self.estimator_s - steps)
                 writer.write(rows)
@@ -340,26 +436,86 @@ class EstimateRun:
                 if self.options.live and not first:  # from the arrival of the line to its estimate written
                     self.latency.add(time.perf_counter() - self.stream.reader.received_s)
                 self.history.add(block, rows, self._columns)
+                self.trust.add(rows)
                 spent["history"] += clock() - t3
-        if self.filter is None:
-            raise InputError(f"{self.stream.reader.name}: no sample to estimate from (record too short)")
-        wall = time.perf_counter() - started
-        self.cpu_s = clock() - started_cpu
-        self.cpu_marks.add(done, self.cpu_s, last=True)
-        from .summary import summarize
+                self._boundary = True
+                self._k_next = int(block.k[-1]) + 1
+            if self.identity is not None and time.perf_counter() - last_save > SAVE_EVERY_S:
+                self._save_point(writer_file, writer)
+                last_save = time.perf_counter()
+        self._writer = writer
+        return done
 
-        summary = summarize(self, wall, csv_path)
-        self._write_summary(summary)
-        if self.options.views:
-            from .report import write_report
-            from .views import write_views
+    def _restore(self, point: dict, writer: RowWriter) -> None:
+        """Continue from a resume point: the estimator's state, the history and the rows counted."""
+        self.filter.set_state(point["filter"])
+        self.history = point["history"]
+        self.trust = point["trust"]
+        writer.samples = point["samples"]
+        self._k_next = point["k_next"]
+        self.resumed_from_s = point["time_s"]
+        self._boundary = True
+        self._writer = writer
 
-            summary["views"] = {
-                name: str(path) for name, path in write_views(self.history, summary, self.out).items()
-            }
-            summary["report_html"] = str(write_report(summary, self.out))
+    def _save_point(self, csv_file: RowFile, writer: RowWriter) -> None:
+        """Save the resume point of the current block boundary (:mod:`.resume`)."""
+        csv_file.sync()
+        save_point(
+            self.out,
+            {
+                "identity": self.identity,
+                "k_next": self._k_next,
+                "time_s": self._k_next * ESTIMATOR_DT_S,
+                "csv_bytes": csv_file.committed,
+                "csv_lines": csv_file.lines,
+                "samples": writer.samples,
+                "filter": self.filter.get_state(),
+                "history": self.history,
+                "trust": self.trust,
+            },
+        )
+        self._writer = writer
+
+    def _kept(self, csv_path: Path, csv_file: RowFile) -> str:
+        last = self.history.last_time_s if self.history.samples else None
+        until = "" if last is None else f", to t = {last:.3f} s"
+        return f"{csv_path} keeps {max(0, csv_file.lines - 1)} whole rows{until}"
+
+    def _partial_summary(self, status: str, csv_path: Path) -> dict:
+        return {
+            "completed": False,
+            "status": status,
+            "identity": self.identity,
+            "record": {"source": self.source},
+            "estimates_csv": str(csv_path),
+        }
+
+    def _stopped(self, error: BaseException, csv_path: Path, csv_file: RowFile, complete_rows=False) -> None:
+        """A run that stops early: its resume point (at a block boundary) and a summary that says so; each
+        best effort (the disk may be full), the original error stands."""
+        if isinstance(error, KeyboardInterrupt):
+            status = f"interrupted ({interrupts.signal_name(error)})"
+        else:
+            status = f"failed: {error}"
+        resumable = self.identity is not None and self._boundary and self.filter is not None
+        saved = False
+        if resumable and not complete_rows:
+            try:
+                self._save_point(csv_file, self._writer)
+                saved = True
+            except (OSError, AttributeError):
+                pass
+        summary = self._partial_summary(status, csv_path)
+        summary.update(rows=max(0, csv_file.lines - 1), all_rows_written=complete_rows)
+        summary["resumable"] = saved or (self.out / STATE_NAME).is_file()
+        try:
             self._write_summary(summary)
-        return summary
+            note = "summary.json says partial"
+        except OSError:
+            note = "summary.json could not be updated"
+        if summary["resumable"] and not complete_rows:
+            note += "; the same command resumes"
+        ledger.keep("summary", lambda: note)
 
     def _write_summary(self, summary: dict) -> None:
         write_json_atomic(self.out / "summary.json", summary)
@@ -374,7 +530,7 @@ class EstimateRun:
             oil_temperature_c if oil_temperature_c == oil_temperature_c else None,
         )
 
-    def _start(self, block, writer: RowWriter) -> None:
+    def _start(self, block, writer: RowWriter, header: bool = True) -> None:
         """The filter, started one period before the first sample when it can, with a missing sample there:
         what the OilFlowEKF FMU does in a co-simulation started at the record's start time (the plant's
         first output is its state after one step; that missing step holds the first sample's operating
@@ -408,8 +564,9 @@ class EstimateRun:
         report = self.filter.current_report()
         self._columns, extras = estimate_columns(report)
         self._rows = TraceRows(self._columns, extras)
+        self.trust.columns(self._columns)
         self._trace = None
-        writer.header(self._columns, column_decimals(self._columns, report))
+        writer.header(self._columns, column_decimals(self._columns, report), to_file=header)
 
     def _estimate(self, block) -> np.ndarray:
         ekf = self.filter

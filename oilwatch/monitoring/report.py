@@ -8,6 +8,8 @@ import html
 import json
 from pathlib import Path
 
+from oilwatch.outputs.atomic import write_text_atomic
+
 from .views import VIEW_FILES
 
 CAPTIONS = {
@@ -47,7 +49,7 @@ def write_report(summary: dict, out_dir: Path) -> Path:
     rows = []
     for b in (1, 2):
         verdict = summary["verdict"][f"bearing{b}"]
-        css = "ok" if verdict.startswith("healthy") else "bad"
+        css = "ok" if verdict.startswith("healthy") and "NOT TRUSTWORTHY" not in verdict else "bad"
         q = summary[f"q{b}_final_ml_min"]
         pct = None if q is None else 100.0 * q / nominal
         rows.append(
@@ -128,8 +130,7 @@ def write_report(summary: dict, out_dir: Path) -> Path:
         "</body></html>\n"
     )
     path = out_dir / "report.html"
-    path.write_text(page, encoding="utf-8")
-    return path
+    return write_text_atomic(path, page)
 
 
 def _without_views(summary: dict) -> dict:

@@ -116,15 +116,17 @@ MISMATCH_VERDICT = {
     2: " (model mismatch: the estimate does not act, alarms held)",
 }
 """What the verdict says of the model-mismatch status at the end of the record."""
-MISMATCH_EXIT_CODE = 3
-"""``oilwatch estimate``'s exit status when the record ends in a model mismatch (the filter's own estimate
-was not consistent with the data; see summary.json's ``model_mismatch``)."""
 
 
-def ends_in_mismatch(summary: dict) -> bool:
-    """The record ended in a model mismatch (summary.json's ``model_mismatch``)."""
+def mismatch_reason(summary: dict) -> None:
+    """A record that ends in a model mismatch (summary.json's ``model_mismatch``) is not trusted: its
+    ``trust`` gets the reason (``oilwatch estimate`` then exits with
+    :data:`oilwatch.monitoring.trust.UNTRUSTED_EXIT_CODE`)."""
     mismatch = summary.get("model_mismatch")
-    return mismatch is not None and mismatch["final"] != "consistent"
+    if mismatch is None or mismatch["final"] == "consistent":
+        return
+    summary["trust"]["trusted"] = False
+    summary["trust"]["reasons"].append(f"the record ends in a model mismatch ({mismatch['final']})")
 
 
 def _mismatch_summary(history) -> dict | None:

@@ -21,6 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
+from oilwatch.outputs.atomic import atomic_path
+
 from .history import History, offsets_in_model_frame
 
 VIEW_FILES = {
@@ -46,7 +48,8 @@ def write_views(history: History, summary: dict, out_dir: Path) -> dict[str, Pat
     ):
         figure = draw(history, summary)
         path = out_dir / VIEW_FILES[name]
-        figure.savefig(path, dpi=110)
+        with atomic_path(path) as temporary:  # whole or not at all (oilwatch.outputs.atomic)
+            figure.savefig(temporary, dpi=110, format="png")
         import matplotlib.pyplot as plt
 
         plt.close(figure)

@@ -44,7 +44,7 @@ EDGES = ("falling", "rising")
 API670_SENSITIVITY_V_PER_MM = 7.87
 """API 670 scale factor, 200 mV/mil."""
 FOREIGN_KEYS_PREFIX = ("offset_", "prior_")
-"""[probes] keys of the estimator's nuisance priors (issue 14): accepted here, not used by the reader."""
+"""[probes] keys of the estimator's nuisance priors: accepted here, not used by the reader."""
 RUNOUT_PREFIX = "runout_"
 """Per-probe keys of the estimator's slow-roll vectors (:mod:`oilwatch.models.probes`): accepted here, not
 used by the reader."""

@@ -1,4 +1,4 @@
-"""The estimator against a plant that differs from its model the way a real machine does (issue 14)."""
+"""The estimator against a plant that differs from its model the way a real machine does."""
 
 from .cases import CASES, Case, case_by_name
 from .report_table import format_table

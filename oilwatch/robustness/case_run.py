@@ -38,6 +38,8 @@ from oilwatch.models.system.factory import build_system
 from oilwatch.models.system.measurement import MeasurementChain, UnbalanceChange
 from oilwatch.models.system.operating_point import operating_system
 from oilwatch.models.system.plant import RotorBearingPlant
+from oilwatch.models.system.structure import structural_system
+from oilwatch.models.validation import InputError
 
 from .bounds import CaseBounds, configuration_label
 from .cases import BASELINE_AGE_DAYS, Case, probe_errors
@@ -71,18 +73,26 @@ class RobustnessRun:
         self.clearance_m = self.machine.bearing.clearance_m
         self.n_samples = round(self.duration_s / DT_S)
         self._motions: dict = {}  # true_motion's, per plant variant, point and seed
-        # issue 13's estimator side: a step that takes the measured operating point, viscosity-factor states
+        self._other_models: dict = {}  # the estimator's models on another kind of film coefficients
+        # the estimator side: a step that takes the measured operating point, viscosity-factor states
         self.follows_operating_point = _accepts(OilFlowEKF.step, "speed_hz") and (
             "viscosity_factor_prior_std" in {f.name for f in dataclasses.fields(EKFConfig)}
         )
 
+    def case_duration_s(self, case: Case) -> float:
+        """The record length of the case [s]: its own, else the run's."""
+        return self.duration_s if case.duration_s is None else min(case.duration_s, self.duration_s)
+
     def plant_system(self, case: Case):
-        """The plant's full system for the case: its unbalance, and its operating point at t = 0."""
+        """The plant's full system for the case: its unbalance, its model structure, and its operating
+        point at t = 0."""
         moment, phase = self._unbalance
         unbalance = {
             "unbalance_moment_kg_m": moment * case.unbalance[0],
             "unbalance_phase_rad": phase + math.radians(case.unbalance[1]),
         }
+        if case.structure is not None:
+            return structural_system(self.machine, case.structure, **unbalance)
         if not case.operating_point:
             return build_system(self.machine, reduced=False, **unbalance)
         viscosity = self.machine.oil.dynamic_viscosity_pa_s(self.machine.nominal_oil_temperature_c)
@@ -135,6 +145,9 @@ class RobustnessRun:
         unbalance, change, film and operating point; ideal probes), kept for the other cases of the run."""
         change = case.unbalance_change if after_baseline else None
         key = (
+            case.structure,
+            case.transient_film,
+            self.case_duration_s(case),
             case.unbalance,
             change,
             case.viscosity_factor,
@@ -150,6 +163,9 @@ class RobustnessRun:
 
     def _simulate(self, case: Case, point_pct, seed: int, change_of_case):
         q = tuple(p / 100.0 * self.nominal_m3_s for p in point_pct)
+        n_samples = round(self.case_duration_s(case) / DT_S)
+        if case.transient_film:
+            return self._simulate_transient(q, seed, n_samples)
         change = UnbalanceChange()
         if change_of_case is not None:
             moment, phase = self._unbalance
@@ -173,15 +189,35 @@ class RobustnessRun:
             unbalance_change=change,
             **conditions,
         )
-        times = DT_S * np.arange(1, self.n_samples + 1)
+        times = DT_S * np.arange(1, n_samples + 1)
         ramps = case.speed_ramp_hz is not None or case.temperature_rise_c != 0.0
-        true, angle, clock = np.zeros((self.n_samples, 4)), np.zeros(self.n_samples), np.zeros(self.n_samples)
-        for k in range(self.n_samples):
+        true, angle, clock = np.zeros((n_samples, 4)), np.zeros(n_samples), np.zeros(n_samples)
+        for k in range(n_samples):
             extra = {}
             if ramps:
                 extra = {"speed_hz": self.speed_hz(case, times[k] - DT_S)}
                 extra["oil_temperature_c"] = self.temperature_c(case, times[k] - DT_S)
             true[k] = plant.step(q, **extra).true_position_m
+            angle[k], clock[k] = plant.rotor_angle_rad, plant.time_s
+        return true, angle, clock
+
+    def _simulate_transient(self, q, seed: int, n_samples: int):
+        """The true motion on transient p-theta films (ideal probes: the chain is applied afterwards)."""
+        from oilwatch.models.bearing.grid import Mesh
+        from oilwatch.models.system.nonlinear_plant import TRANSIENT_PLANT_MESH, TransientFilmPlant
+
+        plant = TransientFilmPlant(
+            self.machine,
+            Mesh(*TRANSIENT_PLANT_MESH),
+            DT_S,
+            None,
+            self.noise_m,
+            seed,
+            initial_flowrates_m3_s=q,
+        )
+        true, angle, clock = np.zeros((n_samples, 4)), np.zeros(n_samples), np.zeros(n_samples)
+        for k in range(n_samples):
+            true[k] = plant.step(q).true_position_m
             angle[k], clock[k] = plant.rotor_angle_rad, plant.time_s
         return true, angle, clock
 
@@ -221,9 +257,9 @@ class RobustnessRun:
             q = (self.nominal_m3_s, self.nominal_m3_s)
             # the estimator's own model: with viscosity states, the baseline separates them from the offsets
             model = (
-                self.operating_model()
+                self.operating_model(case.estimator_coefficients)
                 if case.operating_point and self.follows_operating_point
-                else self.model
+                else self.grid_model(case.estimator_coefficients)
             )
             measured = {}
             if start is not None or case.temperature_rise_c:
@@ -246,20 +282,39 @@ class RobustnessRun:
 
     def estimate(self, case: Case, config: EKFConfig, signals, speed, temperature, single: bool = False):
         """(trace, follows): the estimator's record, and whether it was fed the measured speed and oil
-        temperature (an estimator whose step takes them: issue 13's estimator side). ``single``: one
+        temperature (an estimator whose step takes them). ``single``: one
         filter from the configured start even where the start bank applies (diagnostics)."""
         if not (case.operating_point and self.follows_operating_point):
-            return make_estimator(self.model, config).run_batch(signals), False
-        model = self.operating_model()
+            return make_estimator(self.grid_model(case.estimator_coefficients), config).run_batch(
+                signals
+            ), False
+        model = self.operating_model(case.estimator_coefficients)
         estimator = OilFlowEKF(model, config) if single else make_estimator(model, config)
         return estimator.run_batch(signals, speed_hz=speed, oil_temperature_c=temperature), True
 
-    def operating_model(self):
-        """The estimator's model that follows speed and temperature (issue 13), built once (or the one given
-        to :meth:`use_operating_model`)."""
-        if not hasattr(self, "_operating"):
-            from oilwatch.models.system.operating_model import build_operating_model
+    def grid_model(self, coefficients: str | None = None):
+        """The estimator's model at the nominal operating point, on the machine file's kind of film
+        coefficients or on ``coefficients``."""
+        if coefficients is None or coefficients == self.machine.dynamic_coefficients:
+            return self.model
+        if coefficients not in self._other_models:
+            machine = dataclasses.replace(self.machine, dynamic_coefficients=coefficients)
+            self._other_models[coefficients] = GridAugmentedModel(build_system(machine, reduced=True), DT_S)
+        return self._other_models[coefficients]
 
+    def operating_model(self, coefficients: str | None = None):
+        """The estimator's model that follows speed and temperature, built once (or the one given
+        to :meth:`use_operating_model`); on another kind of film coefficients with ``coefficients``."""
+        from oilwatch.models.system.operating_model import build_operating_model
+
+        if coefficients is not None and coefficients != self.machine.dynamic_coefficients:
+            key = ("operating", coefficients)
+            if key not in self._other_models:
+                machine = dataclasses.replace(self.machine, dynamic_coefficients=coefficients)
+                reduced = build_system(machine, reduced=True)
+                self._other_models[key] = build_operating_model(reduced, machine, DT_S)
+            return self._other_models[key]
+        if not hasattr(self, "_operating"):
             reduced = build_system(self.machine, reduced=True)
             self._operating = build_operating_model(reduced, self.machine, DT_S)
         return self._operating
@@ -272,8 +327,14 @@ class RobustnessRun:
     def run_case(self, case: Case, point_pct) -> dict:
         """The row of one case at one truth point (module docstring)."""
         signals, speed, temperature = self.record(case, point_pct, self.seed)
-        config = self.config(case)
-        trace, follows = self.estimate(case, config, signals, speed, temperature)
+        try:
+            config = self.config(case)
+        except InputError as error:
+            raise InputError(f"in the baseline or the configuration: {error}") from None
+        try:
+            trace, follows = self.estimate(case, config, signals, speed, temperature)
+        except InputError as error:
+            raise InputError(f"in the estimator's run: {error}") from None
         truth = np.array(point_pct) / 100.0 * self.nominal_m3_s
         half = len(signals) // 2
         error_pct = 100.0 * (trace.q_m3_s[half:].mean(axis=0) / truth - 1.0)

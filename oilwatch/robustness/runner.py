@@ -10,12 +10,12 @@ stopped, and ``resume`` keeps an earlier run's rows. The table and the coverage 
 from __future__ import annotations
 
 import json
-import os
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 from oilwatch.models.validation import InputError
+from oilwatch.outputs.atomic import write_json_atomic
 
 from .case_run import RobustnessRun
 from .cases import Case, case_by_name
@@ -72,7 +72,7 @@ def run_robustness(
         "unbalance_prior": unbalance_prior,
         "viscosity_prior": viscosity_prior,
     }
-    jobs = [(case.name, point) for case in cases for point in POINTS_PCT]
+    jobs = [(case.name, point) for case in cases for point in (case.points_pct or POINTS_PCT)]
     order = {job: k for k, job in enumerate(jobs)}
     rows: dict[int, dict] = {}
     path = Path(out_dir) / "robustness.json" if out_dir is not None else None
@@ -90,9 +90,8 @@ def run_robustness(
             progress(f"{job[0]} at {job[1][0]:g}/{job[1][1]:g} % done ({len(rows)}/{len(jobs)})")
         if path is not None:
             document = {"settings": settings, "rows": [rows[k] for k in sorted(rows)]}
-            temporary = path.with_name(f".{path.name}.{os.getpid()}")
-            temporary.write_text(json.dumps(document, indent=1) + "\n")
-            temporary.replace(path)
+            document["completed"] = len(rows) == len(jobs)  # the last row written says the run is whole
+            write_json_atomic(path, document)
 
     todo = [job for job in jobs if order[job] not in rows]
     if workers <= 1:

@@ -21,7 +21,7 @@ operating-ramps        --q1-pct (100)              --q2-pct (100)              n
 =====================  ==========================  ==========================  =============
 
 Operating point: a scenario runs at the machine's nominal speed and oil temperature unless it carries
-profiles (``oilwatch.models.system.profiles``; ``operating-ramps``: issue 13's speed ramp nominal -3 -> +3 Hz
+profiles (``oilwatch.models.system.profiles``; ``operating-ramps``: a speed ramp nominal -3 -> +3 Hz
 over 10 s and oil temperature ramp +10 degC over 60 s) or ``oilwatch run`` gives them (``--speed-profile``,
 ``--oil-temperature-profile``). With a profile both FMUs run on the dimensionless bearing table
 (``bearing_table = 1``) and their inputs ``speed_hz`` and ``oil_temperature_c`` follow it.

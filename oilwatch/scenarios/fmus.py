@@ -95,13 +95,17 @@ def ensure_fmus(fmu_dir: str | Path | None = None, log=None, machine=None) -> Pa
             build_in_subprocess(staging, None if machine is None else machine.source_path)
         except InputError as error:
             raise InputError(f"building the FMUs failed: {error}") from None
-        if folder.exists():
-            shutil.rmtree(folder, ignore_errors=True)  # an incomplete earlier build
-        try:
-            staging.rename(folder)
-        except OSError:
-            if not (folder / EKF_FMU).is_file():  # not another process that finished first
-                raise
+        complete = all((folder / name).is_file() for name in (PLANT_FMU, EKF_FMU, SYSTEM_SSP))
+        if not complete:  # another process did not finish first: ours replaces an incomplete earlier build
+            if folder.exists():
+                aside = Path(tempfile.mkdtemp(prefix=".stale-", dir=folder.parent))
+                os.replace(folder, aside / folder.name)
+                shutil.rmtree(aside, ignore_errors=True)
+            try:
+                staging.rename(folder)
+            except OSError:
+                if not (folder / EKF_FMU).is_file():  # not another process that finished meanwhile
+                    raise
     finally:
         shutil.rmtree(staging, ignore_errors=True)
     prune(folder.parent, KEEP_BUILDS)

@@ -8,6 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
+from oilwatch.outputs.atomic import atomic_path
+
 from . import ScenarioRun
 
 
@@ -60,6 +62,7 @@ def plot_estimates(run: ScenarioRun, columns: dict[str, np.ndarray], summary: di
     axes[-1].set_xlabel("time [s]")
     figure.suptitle(f"{run.scenario.title} ({run.scenario.name}), measurement noise {run.noise_um:g} um")
     path = Path(path)
-    figure.savefig(path, dpi=120)
+    with atomic_path(path) as temporary:  # whole or not at all (oilwatch.outputs.atomic)
+        figure.savefig(temporary, dpi=120, format="png")
     plt.close(figure)
     return path

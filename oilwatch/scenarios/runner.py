@@ -8,20 +8,21 @@ Writes, in ``out_dir``:
 * ``summary.json``: the scenario, its parameters and the figures of :mod:`oilwatch.scenarios.summary`;
 * ``estimates.png``: the plot of :mod:`oilwatch.scenarios.plot`.
 
-Ctrl-C (SIGINT) is honoured between macro steps, not inside an FMU call (where the FMU would report it as
-an error): the run stops with KeyboardInterrupt and result.csv keeps every step done.
+SIGINT and SIGTERM are honoured between macro steps, not inside an FMU call (where the FMU would report
+them as an error): the run stops with :class:`oilwatch.outputs.interrupts.Interrupted` and result.csv keeps
+every step done, in whole rows. summary.json is written last; until then it says the run is not complete.
 """
 
 from __future__ import annotations
 
-import json
-import signal
-import threading
 import time as wallclock
 from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
+
+from oilwatch.outputs import interrupts, ledger
+from oilwatch.outputs.atomic import write_json_atomic
 
 from ..cosim import CsvRecorder, Master
 from ..cosim.errors import SystemDescriptionError
@@ -56,46 +57,49 @@ ROLES = {"plant": "x1_true_um", "ekf": "q1_est_ml_min"}
 
 
 class _StopBetweenSteps:
-    """A recorder wrapper that raises KeyboardInterrupt after a row once SIGINT has been received, and
-    removes the files of ``stale`` when the recording starts (every FMU initialized): a run that cannot
-    start leaves the previous run's files as they were, one that starts leaves nothing of them. ``inner``
-    may be set after construction (once the FMUs are loaded), before the recording starts."""
+    """A recorder wrapper that stops the run after a whole row when SIGINT or SIGTERM was received
+    (:func:`oilwatch.outputs.interrupts.checkpoint`), and replaces the files of ``stale`` when the recording
+    starts (every FMU initialized): a run that cannot start leaves the previous run's files as they were;
+    one that starts leaves nothing of them but a summary.json that says it is running. ``inner`` may be
+    set after construction (once the FMUs are loaded), before the recording starts."""
 
     def __init__(self, inner, stale: tuple[Path, ...] = ()):
         self.inner = inner
         self.stale = stale
-        self.stop_requested = False
         self.last_time_s: float | None = None
+        self.started = False
 
     def start(self, columns):
+        self.started = True
         for path in self.stale:
-            path.unlink(missing_ok=True)
+            if path.name == "summary.json":
+                write_json_atomic(path, {"completed": False, "status": "running"})
+            else:
+                path.unlink(missing_ok=True)
         self.inner.start(columns)
 
     def record(self, time_s, values):
         self.inner.record(time_s, values)
         self.last_time_s = time_s
-        if self.stop_requested:
-            raise KeyboardInterrupt
+        interrupts.checkpoint()
 
     def close(self):
         self.inner.close()
 
 
-@contextmanager
-def _deferred_sigint(recorder: _StopBetweenSteps):
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-
-    def request_stop(_signum, _frame):
-        recorder.stop_requested = True
-
-    previous = signal.signal(signal.SIGINT, request_stop)
+def _partial_summary(out: Path, error: BaseException, last_time_s: float | None) -> None:
+    """summary.json of a run that stopped after its recording started (best effort: the disk may be full)."""
+    if isinstance(error, KeyboardInterrupt):
+        status = f"interrupted ({interrupts.signal_name(error)})"
+    else:
+        status = f"failed: {error}"
     try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, previous)
+        write_json_atomic(
+            out / "summary.json", {"completed": False, "status": status, "last_time_s": last_time_s}
+        )
+        ledger.keep("summary", lambda: "summary.json says partial")
+    except OSError:
+        ledger.keep("summary", lambda: "summary.json could not be updated")
 
 
 @contextmanager
@@ -184,32 +188,39 @@ def run_scenario(
     out.mkdir(parents=True, exist_ok=True)
     csv_path = out / "result.csv"
     wall_start = wallclock.perf_counter()
-    with scenario_system(fmu_dir, ssp) as system:
-        recorder = _StopBetweenSteps(None, tuple(out / name for name in OUTPUT_FILES))
-        # SIGINT deferred from before loading: an interrupt inside an FMU call would surface as an FMU error.
-        with _deferred_sigint(recorder), Master(system) as master:
-            roles = _roles(master.slaves, str(ssp if ssp is not None else fmu_dir))
-            parameters = {roles["plant"]: run.plant_parameters(), roles["ekf"]: run.ekf_parameters()}
-            # the plant's inputs from the FMU the master loaded (a file it refuses never gets here)
-            operating = _operating_columns(master.slaves[roles["plant"]], run.machine_file)
-            columns = {**COLUMNS, **{name: column for name, (column, _) in operating.items()}}
-            record = [f"{roles[c.split('.')[0]]}.{c.split('.')[1]}" for c in columns]
-            rename = dict(zip(record, columns.values(), strict=True))
-            nominal = [(name.endswith("speed_hz"), value) for name, (_, value) in operating.items()]
-            recorder.inner = _Sentinels(CsvRecorder(csv_path, rename=rename), nominal)
-            result = master.run(
-                stop_time=run.duration_s,
-                step_size=SAMPLE_PERIOD_S,
-                start_time=0.0,
-                method="gauss-seidel",
-                order=[roles["plant"], roles["ekf"]],
-                record=record,
-                recorder=recorder,
-                parameters=parameters,
-                progress=progress,
-                labels={roles[role]: names for role, names in (labels or {}).items()},
-                input_signals=run.input_signals(roles),
-            )
+    recorder = None
+    try:
+        with scenario_system(fmu_dir, ssp) as system:
+            recorder = _StopBetweenSteps(None, tuple(out / name for name in OUTPUT_FILES))
+            # SIGINT and SIGTERM held from before loading: raised inside an FMU call (the slave is Python in
+            # this process) they would surface as an FMU error; the recorder stops the run after a whole row
+            with interrupts.held(), Master(system) as master:
+                roles = _roles(master.slaves, str(ssp if ssp is not None else fmu_dir))
+                parameters = {roles["plant"]: run.plant_parameters(), roles["ekf"]: run.ekf_parameters()}
+                # the plant's inputs from the FMU the master loaded (a file it refuses never gets here)
+                operating = _operating_columns(master.slaves[roles["plant"]], run.machine_file)
+                columns = {**COLUMNS, **{name: column for name, (column, _) in operating.items()}}
+                record = [f"{roles[c.split('.')[0]]}.{c.split('.')[1]}" for c in columns]
+                rename = dict(zip(record, columns.values(), strict=True))
+                nominal = [(name.endswith("speed_hz"), value) for name, (_, value) in operating.items()]
+                recorder.inner = _Sentinels(CsvRecorder(csv_path, rename=rename), nominal)
+                result = master.run(
+                    stop_time=run.duration_s,
+                    step_size=SAMPLE_PERIOD_S,
+                    start_time=0.0,
+                    method="gauss-seidel",
+                    order=[roles["plant"], roles["ekf"]],
+                    record=record,
+                    recorder=recorder,
+                    parameters=parameters,
+                    progress=progress,
+                    labels={roles[role]: names for role, names in (labels or {}).items()},
+                    input_signals=run.input_signals(roles),
+                )
+    except BaseException as error:
+        if recorder is not None and recorder.started:
+            _partial_summary(out, error, recorder.last_time_s)
+        raise
     total_s = wallclock.perf_counter() - wall_start
     columns = read_result(csv_path)
     summary = {
@@ -230,12 +241,12 @@ def run_scenario(
         "source": str(ssp) if ssp is not None else str(fmu_dir),
         "result_csv": str(csv_path),
     }
-    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
     if plot:
         from .plot import plot_estimates
 
         summary["plot"] = str(plot_estimates(run, columns, summary, out / "estimates.png"))
-        (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
+    summary.update(completed=True, status="completed")
+    write_json_atomic(out / "summary.json", summary)  # last: it says the run completed
     return summary
 
 

@@ -7,6 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
+from oilwatch.outputs.atomic import atomic_path
+
 
 def error_grid(rows: Sequence[dict], percents: np.ndarray) -> np.ndarray:
     """(2, n, n) mean |relative error| [%] of q1 and q2, indexed [bearing, q2 level, q1 level].
@@ -97,7 +99,8 @@ def plot_error_map(
     suffix = f" ({note})" if note else ""
     figure.suptitle(f"Relative error of the identified supply flowrates, sigma_v = {noise_um:g} um{suffix}")
     path = Path(path)
-    figure.savefig(path, dpi=110)
+    with atomic_path(path) as temporary:  # whole or not at all
+        figure.savefig(temporary, dpi=110, format="png")
     plt.close(figure)
     return path
 

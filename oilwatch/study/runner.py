@@ -23,12 +23,15 @@ from uuid import uuid4
 import numpy as np
 
 from oilwatch.models.validation import InputError
+from oilwatch.outputs import interrupts, ledger
+from oilwatch.outputs.atomic import write_json_atomic
+from oilwatch.outputs.lock import output_lock
 
 from .cases import CaseResult
 from .grid import Case
 from .plots import error_map_name, plot_error_map
 from .registry import CaseModel
-from .storage import CaseStore, check_manifest, study_lock, write_json_atomic
+from .storage import CaseStore, check_manifest
 from .summary import summarize
 
 SCHEDULER_ADDRESS = re.compile(r"^(tcp|tls|ucx|ws|wss)://[^\s/:]+:\d{1,5}$")
@@ -168,7 +171,7 @@ def run_study(
         check_cluster_options(scheduler, workers)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    with study_lock(out):
+    with output_lock(out, "study"):
         return _run_locked(
             cases, out, model, model_name, client, scheduler, workers, retries, max_cases, progress
         )
@@ -183,12 +186,28 @@ def _run_locked(cases, out, model, model_name, client, scheduler, workers, retri
     todo = remaining if max_cases is None else remaining[: int(max_cases)]
     n_done = len(cases) - len(remaining)
     start = time.perf_counter()
+    # summary.json is the study's last word: until then it says that the study is under way
+    write_json_atomic(out / "summary.json", {"completed": False, "status": "running"})
+    ledger.keep("cases.csv", lambda: f"{log.store.path} keeps {len(log.rows)} whole case rows")
     try:
         if todo and client is None:
             with dask_client(scheduler, workers) as own_client:
                 _run_cases(own_client, todo, model, log, retries, progress, len(cases), n_done)
         elif todo:
             _run_cases(client, todo, model, log, retries, progress, len(cases), n_done)
+    except BaseException as error:
+        status = (
+            f"interrupted ({interrupts.signal_name(error)})"
+            if isinstance(error, KeyboardInterrupt)
+            else f"failed: {error}"
+        )
+        partial = {"completed": False, "status": status, "cases_done": len(log.rows), "cases": len(cases)}
+        try:
+            write_json_atomic(out / "summary.json", partial)
+            ledger.keep("summary", lambda: "summary.json says partial; the same command continues")
+        except OSError:
+            pass
+        raise
     finally:
         log.store.close()
     wall_s = time.perf_counter() - start
@@ -203,8 +222,11 @@ def _run_locked(cases, out, model, model_name, client, scheduler, workers, retri
             sum(log.rows[case.case_id]["wall_s"] for case in cases if case.case_id in log.rows)
         ),
     }
-    write_json_atomic(out / "summary.json", summary)
     maps = _plot_maps(log.rows, cases, out, model_name)
+    summary["completed"] = all(case.case_id in log.rows for case in cases)
+    summary["status"] = "completed" if summary["completed"] else "partial: cases left for a later run"
+    write_json_atomic(out / "summary.json", summary)
+    ledger.forget("cases.csv")
     return StudyOutcome(
         summary,
         out,

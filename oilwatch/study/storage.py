@@ -5,27 +5,25 @@ A study stopped at any moment (Ctrl-C, a killed process, a power cut) leaves at 
 ``cases.csv``; :meth:`CaseStore.load` drops it (and cuts it off the file, so that the next append starts on
 a fresh line), and a restarted study skips every case with a complete row.
 
-One study at a time per folder: :func:`study_lock` holds ``study.lock`` (an exclusive ``flock`` on a file
-that records the holder's pid) for the whole run, so a second study into the same ``--out`` is refused
-at once instead of running every case again. The kernel releases the lock when its holder dies, so the
-lock of a killed study is taken over by the next one without any clean-up.
+One writer at a time per folder: the study holds the folder's lock
+(:func:`oilwatch.outputs.lock.output_lock`, as every command that writes a folder) for the whole run, so a
+second study into the same ``--out`` is refused at once instead of running every case again. A row is
+written with signals held back (:func:`oilwatch.outputs.interrupts.deferred`): Ctrl-C never tears it.
 """
 
 from __future__ import annotations
 
 import csv
-import fcntl
 import io
 import json
 import math
 import os
-import tempfile
-from collections.abc import Iterator
-from contextlib import contextmanager
 from dataclasses import fields
 from pathlib import Path
 
 from oilwatch.models.validation import InputError
+from oilwatch.outputs import interrupts
+from oilwatch.outputs.atomic import write_json_atomic
 
 from .cases import CaseResult
 
@@ -34,7 +32,6 @@ _TYPES = {field.name: field.type for field in fields(CaseResult)}
 MANIFEST_FORMAT = 1
 COMPARABLE_SETTINGS = ("case_model", "duration_s", "discard_s")
 """Settings a restarted study must share with the rows already in the folder."""
-LOCK_NAME = "study.lock"
 
 
 def _parse(raw: dict) -> dict | None:
@@ -112,9 +109,10 @@ class CaseStore:
         # csv writes floats with repr(), which reads back exactly: a restarted study sums the same numbers.
         csv.writer(buffer, lineterminator="\n").writerow(values)
         # One write per line: a crash can tear only the line being written, never an earlier one.
-        self._file.write(buffer.getvalue())
-        self._file.flush()
-        os.fsync(self._file.fileno())
+        with interrupts.deferred():
+            self._file.write(buffer.getvalue())
+            self._file.flush()
+            os.fsync(self._file.fileno())
 
     def close(self) -> None:
         """Close the file (appending again reopens it)."""
@@ -139,48 +137,3 @@ def check_manifest(out_dir: Path, settings: dict) -> None:
                     "use the same value or another --out folder"
                 )
     write_json_atomic(path, {"format": MANIFEST_FORMAT, **settings})
-
-
-@contextmanager
-def study_lock(out_dir: Path) -> Iterator[Path]:
-    """Hold ``out_dir/study.lock`` for the block; InputError naming the holder's pid when another live
-    process holds it (module docstring)."""
-    path = out_dir / LOCK_NAME
-    handle = open(path, "a+", encoding="utf-8")
-    try:
-        try:
-            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            handle.seek(0)
-            holder = handle.read().strip() or "unknown"
-            raise InputError(
-                f"--out {str(out_dir)!r}: another oilwatch study (pid {holder}) is running in this folder; "
-                "wait for it to finish (then run again to continue) or use another --out folder"
-            ) from None
-        handle.seek(0)
-        handle.truncate()
-        handle.write(f"{os.getpid()}\n")
-        handle.flush()
-        try:
-            yield path
-        finally:
-            # Emptied, not removed: a removed lock file would let a waiting opener lock a stale inode.
-            handle.seek(0)
-            handle.truncate()
-            handle.flush()
-    finally:
-        handle.close()
-
-
-def write_json_atomic(path: Path, payload: dict) -> None:
-    """Write JSON to a temporary file of its own (unique per writer) and rename it over ``path``, so readers
-    never see half a file and two writers never rename each other's temporary file away."""
-    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        os.fchmod(handle, 0o644)  # mkstemp's 0600 would hide the study's files from other users
-        with os.fdopen(handle, "w", encoding="utf-8") as stream:
-            stream.write(json.dumps(payload, indent=1) + "\n")
-        os.replace(temporary, path)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise

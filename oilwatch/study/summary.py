@@ -41,7 +41,7 @@ TARGETS = {
     1.0: {"mean_err_pct": 0.9, "max_err_pct": 2.5},
     2.0: {"mean_err_pct": 1.8, "max_err_pct": 5.0},
 }
-"""Issue 8's accuracy targets (upper limits), which beat the paper's Table 6."""
+"""The accuracy targets (upper limits), which beat the paper's Table 6."""
 
 
 def _stats(rows: list[dict]) -> dict:

@@ -5,19 +5,24 @@
  * does not link libpython and takes the Python environment from whoever loads it, so a host without
  * Python fails with "undefined symbol: _Py_NoneStruct". This loader makes the FMU self-sufficient:
  *
- * 1. On the first fmi2Instantiate it reads resources/oilwatch_python.txt (written by the build:
- *    the libpython it was built with, that interpreter's prefix, the site-packages folders of the
- *    build environment). OILWATCH_PYTHON_LIB, OILWATCH_PYTHONHOME and OILWATCH_PYTHON_ENV override
- *    the three entries (OILWATCH_PYTHON_ENV: a virtual environment or a site-packages folder, several
- *    separated by ':').
+ * 1. On the first fmi2Instantiate it finds a Python environment: the folder OILWATCH_PYTHON_ENV names,
+ *    else the build's environment recorded in resources/oilwatch_python.txt (python_env=). That one
+ *    folder is the only setting: a virtual environment (its pyvenv.cfg gives the base Python's home and
+ *    version; libpython, the standard library and the environment's site-packages follow from them) or
+ *    a Python installation prefix (lib/pythonX.Y). Any Python 3.10 or newer with numpy, scipy, numba and
+ *    pythonfmu will do; the interpreter must be the environment's, not the build's, since it is the one
+ *    whose packages are installed. A parameter cannot choose it: the interpreter must run before the
+ *    FMU's variables exist (fmi2Instantiate), so the setting is an environment variable of the host.
  * 2. If the process has no Python interpreter yet (no Py_IsInitialized symbol in the global scope),
  *    it dlopens that libpython with RTLD_GLOBAL, sets its home, initializes it without signal
  *    handlers (Py_InitializeEx(0): the host keeps SIGINT), puts the environment's site-packages on
  *    sys.path in place of the interpreter's own, and releases the GIL. In a Python host (fmpy,
  *    libcosimpy) none of this happens: the host's interpreter and environment are used, as before.
- *    Either way numpy, scipy and numba must import; if not, or if a file is missing, the host's
- *    logger gets one message naming what is missing and the variable that points elsewhere, and
- *    fmi2Instantiate returns NULL.
+ *    Either way numpy, scipy, numba and pythonfmu must import, and an oilwatch the process already
+ *    imported must be the one this FMU bundles (resources/oilwatch/fmu_src/bundle.py, run by path:
+ *    the sources' digest); if not, or if a file is missing, the host's logger gets one message naming
+ *    what is missing (and OILWATCH_PYTHON_ENV when another environment would help), and fmi2Instantiate
+ *    returns NULL.
  * 3. It dlopens pythonfmu_export.so (RTLD_LOCAL) and forwards every fmi2* call to it, with two
  *    changes (below): the status of a refused input, and errors that reach the host's logger always.
  *
@@ -40,7 +45,7 @@
  * host has logging on (fmi2Instantiate's loggingOn, then fmi2SetDebugLogging), as the Modelica
  * Association's reference FMUs do.
  *
- * The fast path (issue 14: the estimator FMU's step). pythonfmu serves every call in Python: it takes the
+ * The fast path (the estimator FMU's step). pythonfmu serves every call in Python: it takes the
  * GIL, builds Python lists of the value references and values, calls the slave's method and walks its log
  * queue. A slave that keeps its per-step inputs and outputs in numpy arrays (fmu_src/slave_base.py,
  * "buffered" variables) hands them to the loader during fmi2ExitInitializationMode through the exported
@@ -150,14 +155,14 @@ static struct {
 static const char CHECK_CODE[] =
     "problem = ''\n"
     "try:\n"
-    "    import importlib, os, site, sys\n"
+    "    import importlib, importlib.util, os, site, sys\n"
     "    if configure:\n"
     "        own = set(site.getsitepackages() + [site.getusersitepackages()])\n"
     "        sys.path[:] = [p for p in sys.path if p not in own]\n"
     "        for d in [d for d in site_dirs.split(os.pathsep) if d]:\n"
     "            site.addsitedir(d)\n"
     "    missing = []\n"
-    "    for name in ('numpy', 'scipy', 'numba'):\n"
+    "    for name in ('numpy', 'scipy', 'numba', 'pythonfmu'):\n"
     "        try:\n"
     "            importlib.import_module(name)\n"
     "        except Exception as error:\n"
@@ -165,6 +170,15 @@ static const char CHECK_CODE[] =
     "    if missing:\n"
     "        where = site_dirs if configure else 'the host process\\'s Python (' + sys.prefix + ')'\n"
     "        problem = 'cannot import ' + ', '.join(missing) + ' from ' + where\n"
+    "    else:\n"
+    "        guard = os.path.join(resources, 'oilwatch', 'fmu_src', 'bundle.py')\n"
+    "        if os.path.isfile(guard):\n"
+    "            spec = importlib.util.spec_from_file_location('_oilwatch_bundle_guard', guard)\n"
+    "            module = importlib.util.module_from_spec(spec)\n"
+    "            spec.loader.exec_module(module)\n"
+    "            problem = module.admit(resources)\n"
+    "            if problem:\n"
+    "                problem = 'refused: ' + problem\n"
     "except Exception as error:\n"
     "    problem = f'checking the Python environment failed: {type(error).__name__}: {error}'\n";
 
@@ -217,6 +231,9 @@ typedef struct {
     char python_home[PATH_MAX];
     char site_dirs[4 * PATH_MAX];
     char python_version[32];
+    char env[PATH_MAX];        /* the environment folder, as set or recorded */
+    char origin[PATH_MAX + 64]; /* where env came from, for messages */
+    int is_venv;               /* a virtual environment: its site-packages replace the interpreter's own */
 } Record;
 
 static void report(const fmi2CallbackFunctions *functions, fmi2String instance, const char *format, ...)
@@ -275,44 +292,133 @@ static void copy_value(char *dst, size_t size, const char *value)
     while (n && (dst[n - 1] == '\n' || dst[n - 1] == '\r')) dst[--n] = 0;
 }
 
+/* The value of `key` in a "key = value" file (pyvenv.cfg), into `value`; 1 when found. */
+static int config_value(const char *path, const char *key, char *value, size_t size)
+{
+    FILE *file = fopen(path, "r");
+    if (!file) return 0;
+    char line[PATH_MAX + 64];
+    int found = 0;
+    while (!found && fgets(line, sizeof line, file)) {
+        char *eq = strchr(line, '=');
+        if (!eq) continue;
+        char *end = eq;
+        while (end > line && (end[-1] == ' ' || end[-1] == '\t')) --end;
+        *end = 0;
+        if (strcmp(line, key)) continue;
+        const char *start = eq + 1;
+        while (*start == ' ' || *start == '\t') ++start;
+        copy_value(value, size, start);
+        found = 1;
+    }
+    fclose(file);
+    return found;
+}
+
+/* "3.12.1" -> "3.12"; 0 when it is not a version string of Python 3.10 or newer. */
+static int minor_version(const char *full, char *version, size_t size)
+{
+    int major = 0, minor = 0;
+    if (sscanf(full, "%d.%d", &major, &minor) != 2) return 0;
+    snprintf(version, size, "%d.%d", major, minor);
+    return major == 3 && minor >= 10;
+}
+
+/* The Python version of an installation prefix: the lib/python3.X folder holding os.py (newest first). */
+static int prefix_version(const char *prefix, char *version, size_t size)
+{
+    for (int minor = 40; minor >= 10; --minor) {
+        char os_py[PATH_MAX + 64];
+        snprintf(os_py, sizeof os_py, "%s/lib/python3.%d/os.py", prefix, minor);
+        if (is_file(os_py)) {
+            snprintf(version, size, "3.%d", minor);
+            return 1;
+        }
+    }
+    return 0;
+}
+
+/* The shared libpython of the Python at `prefix` (lib, Debian's multiarch lib, lib64). */
+static int find_libpython(const char *prefix, const char *version, char *path, size_t size)
+{
+    static const char *folders[] = {"lib", "lib/x86_64-linux-gnu", "lib64"};
+    static const char *suffixes[] = {".so.1.0", ".so"};
+    for (size_t f = 0; f < sizeof folders / sizeof *folders; ++f)
+        for (size_t s = 0; s < sizeof suffixes / sizeof *suffixes; ++s) {
+            snprintf(path, size, "%s/%s/libpython%s%s", prefix, folders[f], version, suffixes[s]);
+            if (is_file(path)) return 1;
+        }
+    snprintf(path, size, "%s/lib/libpython%s.so", prefix, version);
+    return 0;
+}
+
+/* Which Python environment to use (top of the file) and what follows from it. */
 static int read_record(const char *resources, Record *record, char *error, size_t size)
 {
-    char path[PATH_MAX + 64];
-    snprintf(path, sizeof path, "%s/%s", resources, RECORD_NAME);
     memset(record, 0, sizeof *record);
-    FILE *file = fopen(path, "r");
-    if (file) {
-        char line[4 * PATH_MAX + 64];
-        while (fgets(line, sizeof line, file)) {
-            char *eq = strchr(line, '=');
-            if (!eq) continue;
-            *eq = 0;
-            const char *value = eq + 1;
-            if (!strcmp(line, "python_library")) copy_value(record->python_lib, sizeof record->python_lib, value);
-            else if (!strcmp(line, "python_home")) copy_value(record->python_home, sizeof record->python_home, value);
-            else if (!strcmp(line, "site_packages")) copy_value(record->site_dirs, sizeof record->site_dirs, value);
-            else if (!strcmp(line, "python_version"))
-                copy_value(record->python_version, sizeof record->python_version, value);
-        }
-        fclose(file);
-    }
-    const char *lib = getenv("OILWATCH_PYTHON_LIB"), *home = getenv("OILWATCH_PYTHONHOME");
     const char *env = getenv("OILWATCH_PYTHON_ENV");
-    if (lib && *lib) copy_value(record->python_lib, sizeof record->python_lib, lib);
-    if (home && *home) copy_value(record->python_home, sizeof record->python_home, home);
     if (env && *env) {
-        /* a virtual environment folder stands for its lib/pythonX.Y/site-packages */
-        char site[PATH_MAX + 64];
-        snprintf(site, sizeof site, "%s/lib/python%s/site-packages", env, record->python_version);
-        copy_value(record->site_dirs, sizeof record->site_dirs, is_dir(site) ? site : env);
+        copy_value(record->env, sizeof record->env, env);
+        snprintf(record->origin, sizeof record->origin, "OILWATCH_PYTHON_ENV");
+    } else {
+        char path[PATH_MAX + 64];
+        snprintf(path, sizeof path, "%s/%s", resources, RECORD_NAME);
+        if (!config_value(path, "python_env", record->env, sizeof record->env)) {
+            snprintf(error, size,
+                     "no Python environment: set OILWATCH_PYTHON_ENV to a virtual environment with numpy, "
+                     "scipy, numba and pythonfmu (%s names none)",
+                     path);
+            return 0;
+        }
+        snprintf(record->origin, sizeof record->origin, "the build's, in resources/%s", RECORD_NAME);
     }
-    if (!file && !(lib && *lib && home && *home && env && *env)) {
+    size_t n = strlen(record->env);
+    while (n > 1 && record->env[n - 1] == '/') record->env[--n] = 0;
+    if (!is_dir(record->env)) {
         snprintf(error, size,
-                 "%s is missing (the FMU was not built by oilwatch's build): set OILWATCH_PYTHON_LIB, "
-                 "OILWATCH_PYTHONHOME and OILWATCH_PYTHON_ENV",
-                 path);
+                 "the Python environment '%s' (%s) does not exist: set OILWATCH_PYTHON_ENV to a virtual "
+                 "environment (Python 3.10 or newer) with numpy, scipy, numba and pythonfmu",
+                 record->env, record->origin);
         return 0;
     }
+    char cfg[PATH_MAX + 64], full[64] = "";
+    snprintf(cfg, sizeof cfg, "%s/pyvenv.cfg", record->env);
+    if (is_file(cfg)) {
+        char home[PATH_MAX] = "";
+        record->is_venv = 1;
+        if (!config_value(cfg, "home", home, sizeof home)) {
+            snprintf(error, size, "%s has no 'home' line: recreate the environment with python -m venv", cfg);
+            return 0;
+        }
+        if (!config_value(cfg, "version_info", full, sizeof full)) config_value(cfg, "version", full, sizeof full);
+        /* home is the base Python's bin folder; its installation prefix is the folder above */
+        n = strlen(home);
+        while (n > 1 && home[n - 1] == '/') home[--n] = 0;
+        char *slash = strrchr(home, '/');
+        if (slash && !strcmp(slash, "/bin")) *slash = 0;
+        copy_value(record->python_home, sizeof record->python_home, home);
+        if (!full[0] || !minor_version(full, record->python_version, sizeof record->python_version)) {
+            snprintf(error, size,
+                     "the Python environment '%s' is made by Python '%s' (%s): oilwatch FMUs need Python 3.10 "
+                     "or newer; set OILWATCH_PYTHON_ENV to another",
+                     record->env, full[0] ? full : "of unknown version", cfg);
+            return 0;
+        }
+        snprintf(record->site_dirs, sizeof record->site_dirs, "%s/lib/python%s/site-packages", record->env,
+                 record->python_version);
+    } else {
+        copy_value(record->python_home, sizeof record->python_home, record->env);
+        if (!prefix_version(record->env, record->python_version, sizeof record->python_version)) {
+            snprintf(error, size,
+                     "'%s' (%s) is neither a virtual environment (no pyvenv.cfg) nor a Python 3.10 or newer "
+                     "installation (no lib/python3.X/os.py): set OILWATCH_PYTHON_ENV to one",
+                     record->env, record->origin);
+            return 0;
+        }
+        snprintf(record->site_dirs, sizeof record->site_dirs, "%s/lib/python%s/site-packages", record->env,
+                 record->python_version);
+    }
+    find_libpython(record->python_home, record->python_version, record->python_lib, sizeof record->python_lib);
     return 1;
 }
 
@@ -359,45 +465,35 @@ static int resolve_python(void *handle, char *error, size_t size)
  * whether this call initialized it (then the record's environment goes on sys.path). */
 static int start_python(const Record *record, int *started, char *error, size_t size)
 {
-    if (!record->python_lib[0] || !is_file(record->python_lib)) {
+    if (!is_file(record->python_lib)) {
         snprintf(error, size,
-                 "the Python runtime library '%s' does not exist: install Python %s as a shared library "
-                 "(libpython%s.so) or set OILWATCH_PYTHON_LIB to one",
-                 record->python_lib, record->python_version, record->python_version);
-        return 0;
-    }
-    if (!record->python_home[0] || !is_dir(record->python_home)) {
-        snprintf(error, size,
-                 "the Python home '%s' does not exist: set OILWATCH_PYTHONHOME to the prefix of the Python "
-                 "that made the environment (its sys.base_prefix)",
-                 record->python_home);
+                 "the Python %s of environment '%s' has no shared runtime library (%s is missing): "
+                 "make the environment with a Python built with --enable-shared (Debian: libpython%s), or set "
+                 "OILWATCH_PYTHON_ENV to another",
+                 record->python_version, record->env, record->python_lib, record->python_version);
         return 0;
     }
     char encodings[PATH_MAX + 64];
     snprintf(encodings, sizeof encodings, "%s/lib/python%s/encodings/__init__.py", record->python_home,
              record->python_version);
-    if (record->python_version[0] && !is_file(encodings)) {
+    if (!is_file(encodings)) {
         /* Py_InitializeEx would abort the host on a home without the standard library */
         snprintf(error, size,
-                 "the Python home '%s' has no standard library for Python %s (%s is missing): set "
-                 "OILWATCH_PYTHONHOME to the prefix of the Python that made the environment",
-                 record->python_home, record->python_version, encodings);
+                 "the Python %s of environment '%s' has no standard library (%s is missing): set "
+                 "OILWATCH_PYTHON_ENV to an environment whose base Python is installed here",
+                 record->python_version, record->env, encodings);
         return 0;
     }
-    char first[PATH_MAX];
-    copy_value(first, sizeof first, record->site_dirs);
-    char *colon = strchr(first, ':');
-    if (colon) *colon = 0;
-    if (!first[0] || !is_dir(first)) {
+    if (record->is_venv && !is_dir(record->site_dirs)) {
         snprintf(error, size,
-                 "the Python environment '%s' does not exist: set OILWATCH_PYTHON_ENV to a virtual "
-                 "environment (or its site-packages folder) that holds numpy, scipy and numba",
-                 record->site_dirs);
+                 "the Python environment '%s' has no %s: set OILWATCH_PYTHON_ENV to a virtual environment "
+                 "with numpy, scipy, numba and pythonfmu",
+                 record->env, record->site_dirs);
         return 0;
     }
     void *handle = dlopen(record->python_lib, RTLD_NOW | RTLD_GLOBAL);
     if (!handle) {
-        snprintf(error, size, "cannot load the Python runtime: %s (set OILWATCH_PYTHON_LIB)", dlerror());
+        snprintf(error, size, "cannot load the Python runtime of '%s': %s", record->env, dlerror());
         return 0;
     }
     if (!resolve_python(handle, error, size)) return 0;
@@ -413,28 +509,35 @@ static int start_python(const Record *record, int *started, char *error, size_t 
     return 1;
 }
 
-static int check_environment(const Record *record, int configure, char *error, size_t size)
+static int check_environment(const Record *record, const char *resources, int started, char *error,
+                             size_t size)
 {
     PyGILState_STATE gil = py.GILStateEnsure();
     int ok = 0;
     PyObject *globals = py.DictNew();
     PyObject *dirs = py.UnicodeDecodeFSDefault(record->site_dirs);
-    PyObject *flag = py.RunString(configure ? "True" : "False", 258 /* Py_eval_input */, globals, globals);
-    if (globals && dirs && flag) {
+    PyObject *folder = py.UnicodeDecodeFSDefault(resources);
+    /* a started virtual environment: its site-packages replace the base interpreter's own */
+    PyObject *flag = py.RunString(started && record->is_venv ? "True" : "False", 258 /* Py_eval_input */,
+                                  globals, globals);
+    if (globals && dirs && folder && flag) {
         py.DictSetItemString(globals, "__builtins__", py.EvalGetBuiltins());
         py.DictSetItemString(globals, "site_dirs", dirs);
+        py.DictSetItemString(globals, "resources", folder);
         py.DictSetItemString(globals, "configure", flag);
         PyObject *result = py.RunString(CHECK_CODE, PY_FILE_INPUT, globals, globals);
         PyObject *problem = py.DictGetItemString(globals, "problem"); /* borrowed */
         const char *text = problem ? py.UnicodeAsUTF8(problem) : NULL;
         if (!result || !text) snprintf(error, size, "the Python environment check could not run");
-        else if (text[0] && configure) {
+        else if (!strncmp(text, "refused: ", 9)) snprintf(error, size, "%s", text + 9);
+        else if (text[0] && started) {
             snprintf(error, size,
-                     "%s: point OILWATCH_PYTHON_ENV to a virtual environment that holds numpy, scipy and "
-                     "numba (made by the same Python %s)",
-                     text, record->python_version);
+                     "%s: set OILWATCH_PYTHON_ENV to a virtual environment (Python 3.10 or newer) with numpy, "
+                     "scipy, numba and pythonfmu",
+                     text);
         } else if (text[0]) {
-            snprintf(error, size, "%s: install numpy, scipy and numba into the Python that runs the host", text);
+            snprintf(error, size, "%s: install numpy, scipy, numba and pythonfmu into the Python that runs the host",
+                     text);
         } else ok = 1;
         if (result) py.DecRef(result);
     } else {
@@ -442,6 +545,7 @@ static int check_environment(const Record *record, int configure, char *error, s
     }
     py.ErrClear();
     if (flag) py.DecRef(flag);
+    if (folder) py.DecRef(folder);
     if (dirs) py.DecRef(dirs);
     if (globals) py.DecRef(globals);
     py.GILStateRelease(gil);
@@ -499,15 +603,15 @@ static int ensure_loaded(fmi2String resource_location, char *error, size_t size)
         snprintf(error, size, "fmuResourceLocation is empty");
         return 0;
     }
-    if (!read_record(resources, &record, error, size)) return 0;
+    memset(&record, 0, sizeof record);
     int (*initialized)(void) = (int (*)(void))dlsym(RTLD_DEFAULT, "Py_IsInitialized");
     int started = 0;
-    if (initialized && initialized()) {
+    if (initialized && initialized()) { /* the host's Python: no environment to find */
         if (!resolve_python(RTLD_DEFAULT, error, size)) return 0;
-    } else if (!start_python(&record, &started, error, size)) {
+    } else if (!read_record(resources, &record, error, size) || !start_python(&record, &started, error, size)) {
         return 0;
     }
-    if (!check_environment(&record, started, error, size)) return 0;
+    if (!check_environment(&record, resources, started, error, size)) return 0;
     return inner.handle || load_inner(error, size);
 }
 

@@ -1,0 +1,170 @@
+"""Cold start and steady step of the FMI 2.0 FMUs under fmpy, beside a baseline build, in one run.
+
+Each sample is a fresh Python process that imports only fmpy and numpy, unpacks the FMU into a new temporary
+folder (as fmpy's ``simulate_fmu``, libcosim and most tools do) and times:
+
+* cold start: ``fmi2Instantiate`` -> ``fmi2ExitInitializationMode`` (everything the FMU does before its
+  first step: starting its Python code, importing scipy and numba, loading or compiling its kernels,
+  building the rotor-bearing model), wall time and, beside it, the process's CPU time over the same span
+  (what it takes on an idle core: a shared machine inflates the wall time, much less the CPU time);
+* the first ``fmi2DoStep`` and the hundredth (the first one must not carry a hidden compilation);
+* the steady step: per 1 ms step, the plant's doStep and getReal of its four measured channels, the
+  estimator's setReal of its five connected inputs (the plant's record), doStep and getReal of four outputs;
+  mean per step over ``--steps`` steps.
+
+Rows: median over ``--repeats`` processes per FMU and build, the builds alternated, and the ratio
+new / baseline.
+The baseline is an FMU folder (``--baseline DIR``); by default it is built here from ``--baseline-commit``
+(a detached git worktree of that commit, built by its own ``build.py`` with the worktree first on
+``PYTHONPATH``). The new FMUs are built from this tree (``--new DIR`` to reuse a folder).
+
+Usage: ``OPENBLAS_NUM_THREADS=1 python benchmarks/fmu_cold_start.py [--repeats 5] [--steps 2000]
+[--baseline DIR | --baseline-commit 24bbdb5] [--new DIR]``
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+FMUS = ("RotorBearingPlant", "OilFlowEKF")
+CHANNELS = ("x1_um", "y1_um", "x2_um", "y2_um")
+CONNECTED = (*CHANNELS, "t_sample_s")
+EKF_OUTPUTS = ("q1_est_ml_min", "q2_est_ml_min", "q1_std_ml_min", "q2_std_ml_min")
+
+CHILD = r"""
+import json, sys, tempfile, time
+import numpy as np
+from fmpy import extract, read_model_description
+from fmpy.fmi2 import FMU2Slave
+
+fmu_path, record_path, steps = sys.argv[1], sys.argv[2], int(sys.argv[3])
+names = json.loads(sys.argv[4])
+md = read_model_description(fmu_path)
+vr = {v.name: v.valueReference for v in md.modelVariables}
+folder = extract(fmu_path, tempfile.mkdtemp(prefix="cold_start_"))
+fmu = FMU2Slave(guid=md.guid, unzipDirectory=folder, modelIdentifier=md.coSimulation.modelIdentifier,
+                instanceName="instance")
+start, cpu = time.perf_counter(), time.process_time()
+fmu.instantiate()
+fmu.setupExperiment(startTime=0.0)
+fmu.enterInitializationMode()
+fmu.exitInitializationMode()
+cold, cold_cpu = time.perf_counter() - start, time.process_time() - cpu
+plant = "q1_est_ml_min" not in vr
+if plant:
+    outputs, inputs, rows = [vr[n] for n in names["channels"]], [], None
+else:
+    outputs, inputs = [vr[n] for n in names["ekf_outputs"]], [vr[n] for n in names["connected"]]
+    rows = np.load(record_path).tolist()
+recorded, durations = [], []
+for k in range(steps):
+    begin = time.perf_counter()
+    if inputs:
+        fmu.setReal(inputs, rows[k % len(rows)])
+    fmu.doStep(k * 1e-3, 1e-3)
+    values = fmu.getReal(outputs)
+    durations.append(time.perf_counter() - begin)
+    if plant:
+        recorded.append([*values, fmu.getReal([vr["t_sample_s"]])[0]])
+if plant and record_path:
+    np.save(record_path, np.array(recorded))
+print(json.dumps({"cold_s": cold, "cold_cpu_s": cold_cpu, "first_s": durations[0],
+                  "hundredth_s": durations[99], "steady_us": 1e6 * float(np.mean(durations[200:]))}))
+"""
+
+
+def environment() -> dict[str, str]:
+    """This environment with one BLAS thread and nothing that points the FMU at a source tree."""
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    env.update(OPENBLAS_NUM_THREADS="1", NUMBA_NUM_THREADS="1")
+    return env
+
+
+def sample(fmu: Path, record: str, steps: int) -> dict:
+    """One fresh process, one fresh unpack of ``fmu`` (see the module docstring). ``record``: the plant
+    record the estimator reads, or the plant writes (empty: the plant writes none)."""
+    names = json.dumps({"channels": CHANNELS, "ekf_outputs": EKF_OUTPUTS, "connected": CONNECTED})
+    with tempfile.TemporaryDirectory(prefix="cold_start_cwd_") as cwd:
+        arguments = [sys.executable, "-c", CHILD, str(fmu), record, str(steps), names]
+        process = subprocess.run(arguments, capture_output=True, text=True, env=environment(), cwd=cwd)
+    if process.returncode != 0:
+        raise SystemExit(f"{fmu}: the child failed:\n{process.stderr[-3000:]}")
+    return json.loads(process.stdout.strip().splitlines()[-1])
+
+
+def build(out: Path, source: Path) -> Path:
+    """The FMUs built by ``source``'s own build.py (first on PYTHONPATH) into ``out``."""
+    env = environment()
+    env["PYTHONPATH"] = str(source)
+    process = subprocess.run(
+        [sys.executable, str(source / "build.py"), "--out", str(out)], cwd=source, env=env,
+        capture_output=True, text=True,
+    )  # fmt: skip
+    if process.returncode != 0:
+        raise SystemExit(f"building the FMUs in {source} failed:\n{process.stderr[-3000:]}")
+    return out
+
+
+def baseline_build(commit: str, out: Path) -> Path:
+    """The FMUs of ``commit``, built in a detached git worktree that is removed afterwards."""
+    tree = Path(tempfile.mkdtemp(prefix="cold_start_baseline_")) / "tree"
+    subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", str(tree), commit], check=True,
+                   capture_output=True)  # fmt: skip
+    try:
+        return build(out, tree)
+    finally:
+        subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", str(tree)], check=False)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--repeats", type=int, default=5, help="fresh processes per FMU and build")
+    parser.add_argument("--steps", type=int, default=2000, help="1 ms steps per process (at least 300)")
+    parser.add_argument(
+        "--baseline", type=Path, help="folder of baseline FMUs (default: build --baseline-commit)"
+    )
+    parser.add_argument("--baseline-commit", default="24bbdb5", help="commit the baseline is built from")
+    parser.add_argument(
+        "--new", type=Path, help="folder of the new FMUs (default: build them from this tree)"
+    )
+    args = parser.parse_args()
+    steps = max(args.steps, 300)
+    work = Path(tempfile.mkdtemp(prefix="cold_start_fmus_"))
+    builds = {
+        "baseline": args.baseline or baseline_build(args.baseline_commit, work / "baseline"),
+        "new": args.new or build(work / "new", ROOT),
+    }
+    record = work / "plant_record.npy"
+    sample(builds["new"] / "RotorBearingPlant.fmu", str(record), steps)
+    results = {(name, fmu): [] for name in builds for fmu in FMUS}
+    for _ in range(args.repeats):
+        for fmu in FMUS:
+            for name, folder in builds.items():
+                results[name, fmu].append(
+                    sample(folder / f"{fmu}.fmu", "" if fmu == FMUS[0] else str(record), steps)
+                )
+    load = os.getloadavg()[0]
+    print(f"fresh unpack, fresh process, median of {args.repeats}; 1-min load average {load:.2f}")
+    print(f"baseline: {builds['baseline']}  new: {builds['new']}")
+    header = f"{'FMU':18s} {'figure':22s} {'baseline':>10s} {'new':>10s} {'new/base':>9s}"
+    print(header)
+    figures = (("cold start [s]", "cold_s", 1.0), ("cold start, CPU [s]", "cold_cpu_s", 1.0),
+               ("first doStep [ms]", "first_s", 1e3),
+               ("100th doStep [ms]", "hundredth_s", 1e3), ("steady step [us]", "steady_us", 1.0))  # fmt: skip
+    for fmu in FMUS:
+        for label, key, scale in figures:
+            old = statistics.median(r[key] for r in results["baseline", fmu]) * scale
+            new = statistics.median(r[key] for r in results["new", fmu]) * scale
+            print(f"{fmu:18s} {label:22s} {old:10.3f} {new:10.3f} {new / old:9.3f}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,65 @@
+"""The generated tables of the README and the docs are what their commands write now (each regenerated into a
+copy of its page and compared), and the output-block generator (oilwatch.cli.docs_tables)."""
+
+from __future__ import annotations
+
+import re
+import shutil
+from pathlib import Path
+
+import pytest
+
+from oilwatch.cli import main
+from oilwatch.cli.docs_tables import output_blocks, run_outputs, without_machine_load
+from oilwatch.study.readme_tables import main as study_tables
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def _body(text: str, name: str) -> str:
+    name = re.escape(name)
+    found = re.search(rf"<!-- generated {name}: [^\n]*-->\n(.*?)<!-- /generated {name} -->", text, re.S)
+    assert found, f"no block {name}"
+    return found.group(1)
+
+
+def _regenerated(page: str, names: tuple[str, ...], tmp_path: Path, run) -> None:
+    copy = tmp_path / Path(page).name
+    shutil.copyfile(REPO / page, copy)
+    run(str(copy))
+    for name in names:
+        assert _body(copy.read_text(), name) == _body((REPO / page).read_text(), name), (
+            f"{page}: block {name} is stale; rerun the command in its marker"
+        )
+
+
+def test_the_study_table_is_its_summary_files(tmp_path):
+    folder = REPO / "docs" / "results" / "study" / "identification_5pct_grid"
+    _regenerated("docs/validation.md", ("study-nuisances",), tmp_path,
+                 lambda copy: study_tables(["--readme", copy, f"known, 5 % grid={folder}"]))  # fmt: skip
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("page", ["README.md", "docs/validation.md"])
+def test_the_paper_comparison_is_what_oilwatch_report_prints(page, tmp_path):
+    names = ("report-summary",) if page == "README.md" else ("report-summary", "report-tables")
+    _regenerated(page, names, tmp_path, lambda copy: main(["report", "--readme", copy]))
+
+
+@pytest.mark.slow
+def test_the_robustness_table_is_its_result_files(tmp_path):
+    files = [str(REPO / "docs" / "results" / "robustness" / name / "robustness.json")
+             for name in ("offsets_unbalance_runout_probes", "offsets_step", "operating_point")]  # fmt: skip
+    _regenerated("docs/validation.md", ("robustness",), tmp_path,
+                 lambda copy: main(["robustness", "--from-json", *files, "--readme", copy]))  # fmt: skip
+
+
+def test_an_output_block_is_its_commands_output_without_the_machine_load(tmp_path):
+    page = tmp_path / "page.md"
+    command = "python -c \"print('a, load 12.5'); print('load average at the start: 3 2 1'); print('b')\""
+    page.write_text(f"x\n<!-- generated output-demo: {command} -->\n<!-- /generated output-demo -->\n")
+    assert output_blocks(page) == {"output-demo": command}
+    assert run_outputs(page, []) == ["output-demo"]
+    assert _body(page.read_text(), "output-demo") == "```text\na\nb\n```\n"
+    assert without_machine_load("(medians; 1-min load average 14.9-14.9)") == "(medians)"
+    assert without_machine_load("force 5 N (load 3273 N)") == "force 5 N (load 3273 N)"  # a bearing's load
