@@ -5,6 +5,7 @@ be read along their axes is a one-line error."""
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -85,6 +86,8 @@ def test_the_runout_keys_give_the_estimates_of_the_record_without_runout(records
     assert off > 30 * gap, (off, gap)
     summary = (tmp_path / "compensated" / "summary.json").read_text()
     assert '"runout": "machine file [probes] runout_* keys"' in summary
+    summary = json.loads((tmp_path / "uncompensated" / "summary.json").read_text())
+    assert summary["model_mismatch"]["final"] != "consistent"
 
 
 def test_runout_with_probes_not_along_the_estimator_s_axes_is_one_line(records, tmp_path, capsys):
