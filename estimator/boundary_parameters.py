@@ -10,6 +10,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, fields
 
+from oilwatch.models.validation import MAX_PROBE_UM
+
 from .alarm_config import AlarmConfig
 from .ekf_config import DEFAULT_PRESET, ML_MIN, PRESETS, EKFConfig, preset_named
 
@@ -84,12 +86,12 @@ PRESET_PARAMETERS = tuple(row[0] for row in NUISANCE_PRIORS)
 def _estimator_parameters() -> tuple[BoundaryParameter, ...]:
     recommended = EKFConfig.recommended()
     own = (
-        ("noise_um", "noise_std_m", "um", 1e-6, 1e-3, None,
+        ("noise_um", "noise_std_m", "um", 1e-6, 1e-3, MAX_PROBE_UM,
          "Std of the white measurement noise of each probe (R = noise^2)"),
-        ("q_std_displacement_um", "displacement_process_std_m", "um", 1e-6, 0.0, None,
+        ("q_std_displacement_um", "displacement_process_std_m", "um", 1e-6, 0.0, MAX_PROBE_UM,
          "Process-noise std per step of every displacement state. Default: the recommended tuning; the "
          "paper's 10 um makes the filter inconsistent (NIS/m 0.14), more biased and slower to alarm"),
-        ("q_std_flow_ml_min", "flowrate_process_std_m3_s", "ml/min", ML_MIN, 0.0, None,
+        ("q_std_flow_ml_min", "flowrate_process_std_m3_s", "ml/min", ML_MIN, 0.0, 1000.0,
          "Process-noise std per step of each flowrate state (paper and recommended: 0.1 ml/min)"),
         ("gate_tail_probability", "gate_tail_probability", "1", 1.0, 0.0, 0.5,
          "Innovation gate, per probe: a channel whose squared standardized innovation exceeds the "

@@ -235,6 +235,9 @@ class OilFlowEKF:
             model.reset_operating_state()  # the least damped mode at the model's reference point
         self._settling = settling_steps(model, cfg.q_initial_pair(), constants)
         self._no_flow_jacobian = np.zeros((n, 2))
+        # the first sample's unused transition Jacobian: C-contiguous like the model's, so that the compiled
+        # step has one signature (a strided view of the work array compiled it a second time)
+        self._no_state_jacobian = np.zeros((n, n))
         self._shadow = ShadowJacobian(n, self._n_trailing) if free and cfg.nuisance_shadow else None
         floor = self._shadow is not None and cfg.nuisance_information_floor and hasattr(model, "maps")
         self._floor = InformationFloor(model, cfg, n, self._n_offsets, self._n_unbalance) if floor else None
@@ -391,7 +394,7 @@ class OilFlowEKF:
             flow_jac = np.ascontiguousarray(flow_jac, dtype=np.float64)
         else:
             n = self._n
-            next_state, state_jac, flow_jac = self._x[:n], self._work[:n, :n], self._work[:n, :2]
+            next_state, state_jac, flow_jac = self._x[:n], self._no_state_jacobian, self._no_flow_jacobian
         ekf_step(predict, next_state, state_jac, flow_jac, displacement, self._packed)
         if step == self._settling and step > 0:
             restart_parameters(self._x, self._P, *self._prior, self._n)

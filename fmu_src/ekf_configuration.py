@@ -75,6 +75,11 @@ def flowrates_ml_min(slave, system) -> tuple[float, float]:
     )
     initial = slave.q_initial_ml_min if slave.q_initial_ml_min > 0.0 else nominal
     low, high = (bound / ML_MIN for bound in system.flowrate_bounds_m3_s)
+    if slave.q_nominal_ml_min > 0.0 and not low <= nominal <= high:  # named as the user gave it
+        raise InputError(
+            f"q_nominal_ml_min must lie in the coefficient table's range [{low:.1f}, {high:.1f}] ml/min, "
+            f"got {nominal:g} ml/min"
+        )
     if not low <= initial <= high:
         name = (
             "q_initial_ml_min"

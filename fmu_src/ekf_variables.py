@@ -35,6 +35,7 @@ from oilwatch.estimator.step_kernel import (
 )
 from oilwatch.fmu_src.ekf_start_outputs import SETTLED_OUTPUT, START_OUTPUTS, declare_start_outputs
 from oilwatch.fmu_src.machine_parameters import declare_machine_parameters
+from oilwatch.models.validation import MAX_AGE_DAYS, MAX_FLOWRATE_ML_MIN, MAX_PROBE_UM
 
 SAMPLING_PERIOD_S = 1e-3
 POSITIONS = ("x1", "y1", "x2", "y2")
@@ -85,14 +86,14 @@ REPORT_DIVISORS = np.array([divisor for _, _, divisor in REPORT_OUTPUTS])
 OWN_REALS = (
     ("sample_period_s", SAMPLING_PERIOD_S, "s", 1e-5, 0.01,
      "Sampling period of the filter's discrete model; its samples lie on t = k period"),
-    ("q_initial_ml_min", 0.0, "ml/min", 0.0, None,
+    ("q_initial_ml_min", 0.0, "ml/min", 0.0, MAX_FLOWRATE_ML_MIN,
      "Initial flowrate estimate of both bearings (within the coefficient table's range); 0: the nominal"),
-    ("q_nominal_ml_min", 0.0, "ml/min", 0.0, None,
+    ("q_nominal_ml_min", 0.0, "ml/min", 0.0, MAX_FLOWRATE_ML_MIN,
      "Nominal flowrate, the alarm thresholds' reference; 0: the machine file's nominal flowrate"),
-    ("baseline_age_days", 0.0, "d", 0.0, None,
+    ("baseline_age_days", 0.0, "d", 0.0, MAX_AGE_DAYS,
      "Time from the baseline_file's record to this run's start: the offsets' prior std grows by the machine "
      "file's [probes] offset_drift_um_per_day per day (in quadrature); 0: just commissioned"),
-    ("q_std_velocity_um_s", -1.0, "um/s", -1.0, None,
+    ("q_std_velocity_um_s", -1.0, "um/s", -1.0, MAX_PROBE_UM * 1000.0,
      f"Process-noise std per step of every velocity state; -1: the recommended "
      f"{RECOMMENDED_DISPLACEMENT_PROCESS_STD_M * 1e6:g} um x 2 pi speed_hz; the paper's 10 um/s makes the "
      "filter inconsistent (NIS/m 0.14)"),
