@@ -11,14 +11,21 @@ from __future__ import annotations
 
 import numpy as np
 
+from oilwatch.estimator.baseline_change import STATUS_NAMES as MISMATCH_NAMES
 from oilwatch.estimator.boundary_parameters import ESTIMATOR_PARAMETERS
 from oilwatch.estimator.channels import STATUS_NAMES
-from oilwatch.estimator.ekf_config import ML_MIN, RECOMMENDED_DISPLACEMENT_PROCESS_STD_M
+from oilwatch.estimator.ekf_config import (
+    DEFAULT_PRESET,
+    ML_MIN,
+    PRESETS,
+    RECOMMENDED_DISPLACEMENT_PROCESS_STD_M,
+)
 from oilwatch.estimator.nuisance_outputs import nuisance_names
 from oilwatch.estimator.step_kernel import (
     REPORT_CONSISTENT,
     REPORT_CONVERGED,
     REPORT_FLOWRATE,
+    REPORT_MISMATCH,
     REPORT_NIS,
     REPORT_OK,
     REPORT_ROWS,
@@ -28,6 +35,7 @@ from oilwatch.estimator.step_kernel import (
 )
 from oilwatch.fmu_src.ekf_start_outputs import SETTLED_OUTPUT, START_OUTPUTS, declare_start_outputs
 from oilwatch.fmu_src.machine_parameters import declare_machine_parameters
+from oilwatch.models.validation import MAX_AGE_DAYS, MAX_FLOWRATE_ML_MIN, MAX_PROBE_UM
 
 SAMPLING_PERIOD_S = 1e-3
 POSITIONS = ("x1", "y1", "x2", "y2")
@@ -55,6 +63,7 @@ REPORT_OUTPUTS = (
     ("measurement_ok", REPORT_OK, 1.0),
     ("model_consistent", REPORT_CONSISTENT, 1.0),
     *((f"probe_status_{name}", REPORT_STATUS + i, 1.0) for i, name in enumerate(POSITIONS)),
+    ("model_mismatch", REPORT_MISMATCH, 1.0),
     (SETTLED_OUTPUT.name, REPORT_CONVERGED, 1.0),  # cleared during the starts (fmu_src.ekf_start_outputs)
 )
 """The outputs taken from the step report: name, report column (``oilwatch.estimator.step_kernel`` REPORT_*
@@ -77,14 +86,14 @@ REPORT_DIVISORS = np.array([divisor for _, _, divisor in REPORT_OUTPUTS])
 OWN_REALS = (
     ("sample_period_s", SAMPLING_PERIOD_S, "s", 1e-5, 0.01,
      "Sampling period of the filter's discrete model; its samples lie on t = k period"),
-    ("q_initial_ml_min", 0.0, "ml/min", 0.0, None,
+    ("q_initial_ml_min", 0.0, "ml/min", 0.0, MAX_FLOWRATE_ML_MIN,
      "Initial flowrate estimate of both bearings (within the coefficient table's range); 0: the nominal"),
-    ("q_nominal_ml_min", 0.0, "ml/min", 0.0, None,
+    ("q_nominal_ml_min", 0.0, "ml/min", 0.0, MAX_FLOWRATE_ML_MIN,
      "Nominal flowrate, the alarm thresholds' reference; 0: the machine file's nominal flowrate"),
-    ("baseline_age_days", 0.0, "d", 0.0, None,
+    ("baseline_age_days", 0.0, "d", 0.0, MAX_AGE_DAYS,
      "Time from the baseline_file's record to this run's start: the offsets' prior std grows by the machine "
      "file's [probes] offset_drift_um_per_day per day (in quadrature); 0: just commissioned"),
-    ("q_std_velocity_um_s", -1.0, "um/s", -1.0, None,
+    ("q_std_velocity_um_s", -1.0, "um/s", -1.0, MAX_PROBE_UM * 1000.0,
      f"Process-noise std per step of every velocity state; -1: the recommended "
      f"{RECOMMENDED_DISPLACEMENT_PROCESS_STD_M * 1e6:g} um x 2 pi speed_hz; the paper's 10 um/s makes the "
      "filter inconsistent (NIS/m 0.14)"),
@@ -94,8 +103,20 @@ max, description. The others (:data:`oilwatch.estimator.boundary_parameters.ESTI
 process noise, gate, alarm) are generated from the configuration classes."""
 
 
+PRESET_TABLE = -1
+"""``bearing_table`` start value of the estimator: the preset's (``Preset.follow_operating_point``)."""
+
+
 def declare_parameters(slave) -> None:
-    declare_machine_parameters(slave)
+    tables = "; ".join(f"{p.name}: {int(p.follow_operating_point)}" for p in PRESETS)
+    declare_machine_parameters(slave, PRESET_TABLE, f"; -1: the preset's ({tables})")
+    slave.declare_string(
+        "preset",
+        "parameter",
+        start=DEFAULT_PRESET,
+        description="The configuration the parameters at -1 take their values from: "
+        + "; ".join(f"{p.name}: {p.description}" for p in PRESETS),
+    )
     for name, start, unit, low, high, text in OWN_REALS:
         slave.declare_real(
             name, "parameter", start=start, unit=unit, minimum=low, maximum=high, description=text
@@ -166,7 +187,8 @@ def declare_inputs_outputs(slave) -> None:
             start=0.0,
             unit="ml/min",
             minimum=0.0,
-            description=f"Estimated supply flowrate of bearing {b}",
+            description=f"Estimated supply flowrate of bearing {b} (the filter's, or during a model_mismatch "
+            "of 1 the one read from the static change relative to the baseline)",
         )
     for b in (1, 2):
         real(
@@ -175,7 +197,9 @@ def declare_inputs_outputs(slave) -> None:
             start=0.0,
             unit="ml/min",
             minimum=0.0,
-            description=f"Standard deviation of the bearing-{b} estimate (from the covariance P)",
+            description=f"Standard deviation of the bearing-{b} estimate: from the covariance P while the "
+            "model is consistent, else as model_mismatch says (the static change's, or P's widened by the "
+            "NIS excess)",
         )
     real(
         "nis",
@@ -238,4 +262,15 @@ def declare_inputs_outputs(slave) -> None:
         )
     for name, unit, text, start in nuisance_names():
         real(name, "output", start=start, unit=unit, description=text)
-    declare_start_outputs(slave)  # last: the value references of the outputs before them stay as they were
+    declare_start_outputs(slave)  # the value references of the outputs before them stay as they were
+    codes = ", ".join(f"{code} {name}" for code, name in enumerate(MISMATCH_NAMES))
+    slave.declare_integer(
+        "model_mismatch",
+        "output",
+        start=0,
+        minimum=0,
+        maximum=len(MISMATCH_NAMES) - 1,
+        description=f"Model-mismatch status: {codes}. 1: model_consistent has failed and q*_est, q*_std and "
+        "the alarms come from the static change relative to the baseline_file's record; 2: no such reference "
+        "applies, the alarms are held (neither set nor cleared) and q*_std is widened by the NIS excess",
+    )

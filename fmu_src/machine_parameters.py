@@ -25,7 +25,7 @@ from oilwatch.models.machine import BUNDLED_MACHINE, Machine, load_machine
 from oilwatch.models.probes import read_probes
 from oilwatch.models.system.factory import build_system
 from oilwatch.models.system.rotor_bearing import RotorBearingSystem
-from oilwatch.models.validation import InputError
+from oilwatch.models.validation import MAX_UNBALANCE_G_MM, PHASE_RANGE_DEG, InputError
 
 MACHINE_FOLDER = "machine"
 """Folder of the FMU's own machine file and its tables, inside the bundled ``fmu_src`` package."""
@@ -59,10 +59,11 @@ OPERATING_INPUTS = (
 )
 """Real inputs both FMUs declare (the operating point): name, start, unit, min, max, description."""
 MACHINE_REALS = (
-    ("unbalance_g_mm", -1.0, "g.mm", -1.0, None,
+    ("unbalance_g_mm", -1.0, "g.mm", -1.0, MAX_UNBALANCE_G_MM,
      "Unbalance moment at the machine's unbalance node (the plant's and the estimator's must agree); -1: "
      "the machine file's ISO grade"),
-    ("unbalance_phase_deg", 0.0, "deg", None, None, "Unbalance phase phi of Eqs. 5-6 (same in both FMUs)"),
+    ("unbalance_phase_deg", 0.0, "deg", *PHASE_RANGE_DEG,
+     "Unbalance phase phi of Eqs. 5-6 (same in both FMUs)"),
     ("probe_angle_deg", MACHINE_LAYOUT, "deg", MACHINE_LAYOUT, PROBE_ANGLE_RANGE_DEG[1],
      "Mounting angle of each bearing's X probe, counter-clockwise from horizontal (+x), its Y probe 90 deg "
      "further (0: horizontal/vertical; 45: the API 670 pair either side of top dead centre); the positions "
@@ -77,9 +78,10 @@ BEARING_TABLE_DESCRIPTION = (
 )
 
 
-def declare_machine_parameters(slave) -> None:
+def declare_machine_parameters(slave, bearing_table_start: int = 0, bearing_table_note: str = "") -> None:
     """Declare ``machine_file``, the unbalance, probe-angle and ``bearing_table`` parameters, and the
-    operating-point inputs, on a slave."""
+    operating-point inputs, on a slave; ``bearing_table_start`` -1 (with ``bearing_table_note`` saying what it
+    stands for) lets the slave resolve it."""
     for name, start, unit, low, high, text in MACHINE_REALS:
         slave.declare_real(
             name, "parameter", start=start, unit=unit, minimum=low, maximum=high, description=text
@@ -93,7 +95,12 @@ def declare_machine_parameters(slave) -> None:
         description="Machine file (TOML); empty: the machine bundled in this FMU",
     )
     slave.declare_integer(
-        "bearing_table", "parameter", start=0, minimum=0, maximum=1, description=BEARING_TABLE_DESCRIPTION
+        "bearing_table",
+        "parameter",
+        start=bearing_table_start,
+        minimum=min(0, bearing_table_start),
+        maximum=1,
+        description=BEARING_TABLE_DESCRIPTION + bearing_table_note,
     )
 
 

@@ -60,7 +60,15 @@ from oilwatch.models.system.nonlinear_plant import FILM_MODELS, check_film_model
 from oilwatch.models.system.operating_point import operating_system
 from oilwatch.models.system.plant import publish_initial_sample
 from oilwatch.models.system.structure import PlantStructure, structural_system
-from oilwatch.models.validation import InputError
+from oilwatch.models.validation import (
+    MAX_FLOWRATE_ML_MIN,
+    MAX_PROBE_UM,
+    MAX_SEED,
+    MAX_UNBALANCE_G_MM,
+    NEVER_S,
+    PHASE_RANGE_DEG,
+    InputError,
+)
 
 # Per-probe parameters: (suffix, ProbeErrors field, unit, SI per unit, minimum, maximum, description).
 PROBE_PARAMETERS = (
@@ -73,9 +81,9 @@ PROBE_PARAMETERS = (
     ("runout_2x_um", "runout_2x_m", "um", 1e-6, 0.0, 100.0, "2x runout amplitude"),
     ("runout_2x_phase_deg", "runout_2x_phase_rad", "deg", math.pi / 180, -360.0, 360.0,
      "2x runout phase from the keyphasor"),
-    ("fault_time_s", "fault_time_s", "s", 1.0, 0.0, None, "time the probe's fault starts"),
+    ("fault_time_s", "fault_time_s", "s", 1.0, 0.0, NEVER_S, "time the probe's fault starts"),
     ("glitch_um", "glitch_m", "um", 1e-6, -1000.0, 1000.0, "size of a glitch fault"),
-    ("glitch_duration_s", "glitch_duration_s", "s", 1.0, 0.0, None, "length of a glitch fault"),
+    ("glitch_duration_s", "glitch_duration_s", "s", 1.0, 0.0, NEVER_S, "length of a glitch fault"),
 )  # fmt: skip
 
 # The plant's model-structure parameters: (FMU name, PlantStructure field, unit, SI per unit); the range and
@@ -130,6 +138,7 @@ class RotorBearingPlant(OilwatchSlave):
                     start=0.0,
                     unit="ml/min",
                     minimum=0.0,
+                    maximum=MAX_FLOWRATE_ML_MIN,
                     description=f"Supply flowrate of bearing {b} {text} the fault (sigmoid schedule); 0: the "
                     "machine file's nominal flowrate",
                 )
@@ -138,6 +147,8 @@ class RotorBearingPlant(OilwatchSlave):
             "parameter",
             start=10.0,
             unit="s",
+            minimum=-NEVER_S,
+            maximum=NEVER_S,
             description="Centre of the sigmoid flowrate transition (half the change done)",
         )
         real(
@@ -146,6 +157,7 @@ class RotorBearingPlant(OilwatchSlave):
             start=0.1,
             unit="s",
             minimum=1e-6,
+            maximum=NEVER_S,
             description="10 %-90 % transition time of the sigmoid",
         )
         real(
@@ -154,10 +166,16 @@ class RotorBearingPlant(OilwatchSlave):
             start=1.0,
             unit="um",
             minimum=0.0,
+            maximum=MAX_PROBE_UM,
             description="Std of the white measurement noise added to each probe",
         )
         self.declare_integer(
-            "seed", "parameter", start=1, minimum=0, description="Seed of the measurement-noise generator"
+            "seed",
+            "parameter",
+            start=1,
+            minimum=0,
+            maximum=MAX_SEED,
+            description="Seed of the measurement-noise generator",
         )
         self.declare_integer(
             "flow_source",
@@ -174,6 +192,7 @@ class RotorBearingPlant(OilwatchSlave):
                 start=0.0,
                 unit="ml/min",
                 minimum=0.0,
+                maximum=MAX_FLOWRATE_ML_MIN,
                 description=f"Supply flowrate of bearing {b} when flow_source = 1; 0: the machine file's "
                 "nominal flowrate",
             )
@@ -251,6 +270,7 @@ class RotorBearingPlant(OilwatchSlave):
             start=1e9,
             unit="s",
             minimum=0.0,
+            maximum=NEVER_S,
             description="Time of a sudden unbalance change (a blade loss), from the first step at or after",
         )
         real(
@@ -259,6 +279,7 @@ class RotorBearingPlant(OilwatchSlave):
             start=0.0,
             unit="g.mm",
             minimum=0.0,
+            maximum=MAX_UNBALANCE_G_MM,
             description="Unbalance moment after the change",
         )
         real(
@@ -266,6 +287,8 @@ class RotorBearingPlant(OilwatchSlave):
             "parameter",
             start=0.0,
             unit="deg",
+            minimum=PHASE_RANGE_DEG[0],
+            maximum=PHASE_RANGE_DEG[1],
             description="Unbalance phase after the change",
         )
 
@@ -387,8 +410,14 @@ class RotorBearingPlant(OilwatchSlave):
         check_film_model(self.film_model)
 
     def _flowrate_m3_s(self, name: str) -> float:
-        """A flowrate variable [ml/min] in m^3/s; 0 stands for the machine's nominal flowrate."""
+        """A flowrate variable [ml/min] in m^3/s; 0 stands for the machine's nominal flowrate. NaN or a
+        negative value is refused (InputError naming it), never replaced."""
         value = getattr(self, name)
+        if not 0.0 <= value <= MAX_FLOWRATE_ML_MIN:
+            raise InputError(
+                f"{name} must be a flowrate in [0, {MAX_FLOWRATE_ML_MIN:g}] ml/min (0: the machine's "
+                f"nominal), got {value!r}"
+            )
         return (value if value > 0.0 else self._nominal_ml_min) / ML_MIN_PER_M3_S
 
     def _inputs_m3_s(self) -> tuple[float, float]:
@@ -403,6 +432,12 @@ class RotorBearingPlant(OilwatchSlave):
         self._nominal_ml_min = system.nominal_flowrate_m3_s * ML_MIN_PER_M3_S
         schedules = None
         if self.flow_source == 0:
+            ignored = [f"q{b}_in_ml_min" for b in (1, 2) if getattr(self, f"q{b}_in_ml_min") != 0.0]
+            if ignored:  # refused, not ignored: the schedule would drive the flowrates
+                raise InputError(
+                    f"{ignored[0]} = {getattr(self, ignored[0])!r} is ignored while flow_source = 0 (the "
+                    "sigmoid schedule drives the flowrates): set flow_source = 1 or leave it at 0"
+                )
             schedules = tuple(
                 SigmoidFlowrate(
                     self._flowrate_m3_s(f"q{b}_initial_ml_min"),

@@ -406,8 +406,19 @@ class OilwatchSlave(Fmi2Slave):
         if self._replay is not None:
             outcome, self._replay = self._replay, None
             if isinstance(outcome, BaseException):
+                if isinstance(outcome, InputError):  # refused in the fast step: flag this (replaying) call
+                    self._flag_refused_call()
                 raise outcome
             return outcome
+        if not self._initialized:  # the wrong state: fmi2Error naming it, not an AttributeError's fmi2Fatal
+            self._flag_refused_call()
+            self.fail(
+                [
+                    f"fmi2DoStep called before {self.initialization_end_call} (the instance is not "
+                    "initialized)"
+                ],
+                "fmi2DoStep",
+            )
         try:
             return self.step(current_time, step_size) is not False
         except Exception as error:
@@ -416,6 +427,8 @@ class OilwatchSlave(Fmi2Slave):
                 f"{type(error).__name__}: {error}",
                 Fmi2Status.error,
             )
+            if isinstance(error, InputError):  # an input refused at this step: fmi2Error (module docstring)
+                self._flag_refused_call()
             raise
 
     def step(self, current_time: float, step_size: float) -> bool | None:
@@ -442,4 +455,18 @@ class OilwatchSlave(Fmi2Slave):
 
     @staticmethod
     def _fmu_state_from_bytes(state: bytes) -> dict[str, Any]:
-        return pickle.loads(state)
+        """A state of :meth:`_fmu_state_to_bytes`; other bytes raise an error that says so (pythonfmu logs
+        it with its fmi2Fatal: the call is static, it cannot flag a refusal)."""
+        try:
+            restored = pickle.loads(state)
+        except Exception as error:
+            raise InputError(
+                f"fmi2DeSerializeFMUstate: the {len(state)} bytes are not a serialized state of this FMU "
+                f"({type(error).__name__}: {error})"
+            ) from None
+        if not isinstance(restored, dict):
+            raise InputError(
+                f"fmi2DeSerializeFMUstate: the {len(state)} bytes are not a serialized state of this FMU "
+                f"(they hold a {type(restored).__name__})"
+            )
+        return restored

@@ -7,6 +7,22 @@ from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from pathlib import Path
 
+# Upper bounds of user inputs that have no narrower physical one (FMU parameters and inputs): above them a
+# value is a typing slip, not a machine, and is refused instead of computed with.
+MAX_FLOWRATE_ML_MIN = 1.0e5
+"""100 l/min: over a hundred times the supply of any fluid-film bearing oilwatch models."""
+MAX_PROBE_UM = 1000.0
+"""1 mm: beyond a proximity probe's range (noise, process-noise std along a displacement)."""
+NEVER_S = 1.0e9
+"""The "never" of fault and change times (their default), also their largest value."""
+MAX_UNBALANCE_G_MM = 1.0e6
+"""1 kg m: far above any rotor's ISO G40 unbalance."""
+PHASE_RANGE_DEG = (-360.0, 360.0)
+MAX_SEED = 2**31 - 1
+"""The largest FMI 2.0 Integer."""
+MAX_AGE_DAYS = 36500.0
+"""A century: the age of a baseline."""
+
 
 class InputError(ValueError):
     """A user-supplied value is missing, malformed or outside its allowed range.

@@ -320,6 +320,8 @@ def test_misused_run_flags_give_one_line_naming_the_flag(built_fmus, tmp_path):
         (["--seed", "4294967296"], "--seed must be an integer in [0, 2147483647], got 4294967296"),
         (["--seed", "2147483648"], "--seed must be an integer in [0, 2147483647], got 2147483648"),
         (["--q1-pct", "20"], "--q1-pct (q1_initial_ml_min) = "),
+        # an input the run would ignore (the schedule drives the flowrates) is refused, not ignored
+        (["--set", "plant.q1_in_ml_min=1"], "--set plant.q1_in_ml_min (q1_in_ml_min) = 1.0 is ignored while"),
     ]
     out = tmp_path / "out"
     out.mkdir()

@@ -18,6 +18,7 @@ import bisect
 import dataclasses
 import datetime as dt
 import json
+import math
 import platform
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -186,6 +187,11 @@ class CoefficientTable:
                 require_fields(row, f"rows[{i}]", _ROW_FIELDS)
                 for key in ("stiffness_n_per_m", "damping_n_s_per_m"):
                     require_fields(row[key], f"rows[{i}].{key}", dict.fromkeys(_PAIRS, float))
+                    bad = [pair for pair in _PAIRS if not math.isfinite(float(row[key][pair]))]
+                    if bad:  # interpolated, a NaN would fail deep inside scipy
+                        raise InputError(
+                            f"rows[{i}].{key}.{bad[0]} must be a finite number, got {row[key][bad[0]]!r}"
+                        )
             meta = {k: v for k, v in data.items() if k not in ("format", "format_version", "rows")}
             meta.pop("speed_hz", None)
             meta.pop("load_n", None)
