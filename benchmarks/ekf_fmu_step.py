@@ -73,9 +73,12 @@ def _inputs(record: np.ndarray, ramps) -> tuple[list[str], list[list[float]]]:
 
 
 def _slave(slave_class, ramps):
-    """An initialized slave object of ``slave_class`` (bearing_table 1 at the ramp's start with ``ramps``)."""
+    """An initialized slave object of ``slave_class`` (bearing_table 1 at the ramp's start with ``ramps``),
+    on the paper preset where it has presets (as :class:`FmuLoop`)."""
     slave = slave_class(instance_name="ekf", resources=None)
     vr = {v.name: v.value_reference for v in slave.vars.values()}
+    if "preset" in vr:
+        slave.preset = "paper"
     slave.setup_experiment(0.0, None, None)
     if ramps is not None and "bearing_table" in vr:
         slave.set_integer([vr["bearing_table"]], [1])

@@ -14,12 +14,13 @@ folder (as fmpy's ``simulate_fmu``, libcosim and most tools do) and times:
 
 Rows: median over ``--repeats`` processes per FMU and build, the builds alternated, and the ratio
 new / baseline.
-The baseline is an FMU folder (``--baseline DIR``); by default it is built here from ``--baseline-commit``
-(a detached git worktree of that commit, built by its own ``build.py`` with the worktree first on
-``PYTHONPATH``). The new FMUs are built from this tree (``--new DIR`` to reuse a folder).
+The baseline is an FMU folder (``--baseline DIR``) or is built here from a git revision
+(``--baseline-ref REF``: a detached git worktree of that revision, built by its own ``build.py`` with the
+worktree first on ``PYTHONPATH``, then removed). The new FMUs are built from this tree (``--new DIR`` to
+reuse a folder).
 
 Usage: ``OPENBLAS_NUM_THREADS=1 python benchmarks/fmu_cold_start.py [--repeats 5] [--steps 2000]
-[--baseline DIR | --baseline-commit 24bbdb5] [--new DIR]``
+(--baseline DIR | --baseline-ref REF) [--new DIR]``
 """
 
 from __future__ import annotations
@@ -113,10 +114,10 @@ def build(out: Path, source: Path) -> Path:
     return out
 
 
-def baseline_build(commit: str, out: Path) -> Path:
-    """The FMUs of ``commit``, built in a detached git worktree that is removed afterwards."""
+def baseline_build(ref: str, out: Path) -> Path:
+    """The FMUs of the git revision ``ref``, built in a detached git worktree that is removed afterwards."""
     tree = Path(tempfile.mkdtemp(prefix="cold_start_baseline_")) / "tree"
-    subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", str(tree), commit], check=True,
+    subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", str(tree), ref], check=True,
                    capture_output=True)  # fmt: skip
     try:
         return build(out, tree)
@@ -128,10 +129,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeats", type=int, default=5, help="fresh processes per FMU and build")
     parser.add_argument("--steps", type=int, default=2000, help="1 ms steps per process (at least 300)")
-    parser.add_argument(
-        "--baseline", type=Path, help="folder of baseline FMUs (default: build --baseline-commit)"
-    )
-    parser.add_argument("--baseline-commit", default="24bbdb5", help="commit the baseline is built from")
+    baseline = parser.add_mutually_exclusive_group(required=True)
+    baseline.add_argument("--baseline", type=Path, help="folder of the baseline FMUs")
+    baseline.add_argument("--baseline-ref", help="git revision the baseline FMUs are built from")
     parser.add_argument(
         "--new", type=Path, help="folder of the new FMUs (default: build them from this tree)"
     )
@@ -139,7 +139,7 @@ def main() -> None:
     steps = max(args.steps, 300)
     work = Path(tempfile.mkdtemp(prefix="cold_start_fmus_"))
     builds = {
-        "baseline": args.baseline or baseline_build(args.baseline_commit, work / "baseline"),
+        "baseline": args.baseline or baseline_build(args.baseline_ref, work / "baseline"),
         "new": args.new or build(work / "new", ROOT),
     }
     record = work / "plant_record.npy"

@@ -9,6 +9,9 @@ Rule (one per bearing i, evaluated every step from the estimate q_i and its std 
   ``hold_off_s``: a clearly recovered flow, with a gap between the two levels so that an estimate hovering
   near one threshold cannot make the alarm chatter.
 
+During a model mismatch (:mod:`oilwatch.estimator.baseline_change`) the rule judges the flowrates read from
+the static change relative to the commissioning baseline, or, without one, is held (:func:`hold_alarm`).
+
 Each alarm also records whether the estimator's model was consistent with the data (``model_consistent`` of
 :mod:`oilwatch.estimator.ekf`) when it was raised: ``starved_consistent``. An alarm raised while the model was
 not consistent may be the machine's departure from the model rather than starvation.
@@ -53,6 +56,15 @@ def update_alarm(flowrate: np.ndarray, std: np.ndarray, consistent: bool, record
                 record[STARVED, i] = 1
                 record[RAISED_CONSISTENT, i] = 1 if consistent else 0
                 record[ON_COUNT, i] = 0
+
+
+@njit(cache=True)
+def hold_alarm(record: np.ndarray) -> None:
+    """One step on which the estimate may not act (a model mismatch with nothing to read the flowrates from,
+    :mod:`oilwatch.estimator.baseline_change`): the flags stay as they are and no hold runs on."""
+    for i in range(record.shape[1]):
+        record[ON_COUNT, i] = 0
+        record[OFF_COUNT, i] = 0
 
 
 class StarvationAlarm:

@@ -18,7 +18,10 @@ File format (JSON, units in the keys): ``format``, ``format_version``, ``flowrat
 ``offsets_um`` (4,), ``offset_std_um`` (4,), ``offset_covariance_um2`` (4, 4), optional
 ``viscosity_factor`` / ``viscosity_factor_std`` (2,) and ``unbalance`` / ``unbalance_std`` (re, im),
 ``nuisance_covariance`` (the joint covariance of all of them in the state's order, offsets in m),
-``samples``, ``record``;
+``samples``, ``record``, ``static_reference_um`` (4,: the record's mean probe signals, from which
+:mod:`oilwatch.estimator.baseline_change` reads the flowrates' change during a model mismatch) and, when the
+record measured them, ``consistent_fraction`` (the share of the record's second half its model explained:
+``model_consistent``), ``static_reference_speed_hz`` and ``static_reference_temperature_c`` (its means);
 and/or ``runout``: the probes' slow-roll vectors with their stds (:meth:`SlowRollVectors.to_document`, from a
 slow-roll record, :func:`oilwatch.estimator.runout.fit_slow_roll`), which the estimator subtracts
 (``EKFConfig.runout``, :func:`load_runout`).
@@ -112,9 +115,14 @@ def estimate_baseline(
         "offset_std_um": (ekf.offset_std_m * 1e6).tolist(),
         "offset_covariance_um2": (covariance * 1e12).tolist(),
         "samples": len(displacements_m),
+        "static_reference_um": (np.nanmean(displacements_m, axis=0) * 1e6).tolist(),
+        "consistent_fraction": float(trace.model_consistent[len(displacements_m) // 2 :].mean()),
         "probes_flagged": [int(c) for c in np.flatnonzero(trace.probe_faulty.any(axis=0))],
     }
     document["nuisance_covariance"] = ekf.covariance[n + 2 :, n + 2 :].tolist()  # [m, 1] (class docstring)
+    for key, values in (("speed_hz", speed_hz), ("temperature_c", oil_temperature_c)):
+        if values is not None:
+            document[f"static_reference_{key}"] = float(np.mean(values))
     if config.viscosity_factor_prior_std > 0.0:
         document.update(
             viscosity_factor=ekf.viscosity_factor.tolist(),
@@ -163,9 +171,24 @@ def baseline_prior(
             else tuple(map(tuple, document["nuisance_covariance"])),
             age_s=age_s,
             drift_m_per_day=drift_m_per_day,
+            **_static_reference(document),
         )
     except (KeyError, TypeError, ValueError) as error:
         raise InputError(f"{source}: bad or missing nuisance estimates ({error})") from None
+
+
+def _static_reference(document: dict) -> dict:
+    """OffsetBaseline's static-reference fields of a document (none for a document made before them)."""
+    if "static_reference_um" not in document:
+        return {}
+    values = {
+        "flowrates_m3_s": tuple(float(v) * ML_MIN for v in document["flowrates_ml_min"]),
+        "static_reference_m": tuple(float(v) * 1e-6 for v in document["static_reference_um"]),
+    }
+    for key in ("speed_hz", "temperature_c"):
+        if f"static_reference_{key}" in document:
+            values[f"static_reference_{key}"] = float(document[f"static_reference_{key}"])
+    return values
 
 
 def load_baseline(path: str | Path, age_s: float = 0.0, drift_m_per_day: float = 0.0) -> OffsetBaseline:

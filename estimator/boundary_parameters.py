@@ -1,7 +1,8 @@
 """The estimator's configuration as a user sets it: field units, ranges and descriptions.
 
 :data:`ESTIMATOR_PARAMETERS` is generated from :class:`oilwatch.estimator.ekf_config.EKFConfig` (defaults: its
-recommended tuning) and the alarm's field metadata; the estimator FMU's parameter table and the CLI's
+recommended tuning; the nuisances' priors: :data:`PRESET_VALUE`, the chosen preset's) and the alarm's field
+metadata; the estimator FMU's parameter table and the CLI's
 ``--set ekf.NAME`` help are generated from it, never retyped.
 """
 
@@ -12,7 +13,7 @@ from dataclasses import dataclass, fields
 from oilwatch.models.validation import MAX_PROBE_UM
 
 from .alarm_config import AlarmConfig
-from .ekf_config import ML_MIN, EKFConfig
+from .ekf_config import DEFAULT_PRESET, ML_MIN, PRESETS, EKFConfig, preset_named
 
 
 @dataclass(frozen=True)
@@ -43,18 +44,43 @@ class BoundaryParameter:
 # description) and its estimate (outputs, see estimator.nuisance_outputs). The estimator FMU and
 # `oilwatch estimate` generate their variables and columns from these rows; a new nuisance is one row in each.
 # The probes' mounting angle is a machine fact both FMUs share: fmu_src/machine_parameters.py declares it.
-OFFSET_PRIOR_FROM_MACHINE = -1.0
-"""Value of ``offset_prior_std_um`` standing for the machine file's ``[probes] offset_prior_std_um``."""
+PRESET_VALUE = -1.0
+"""Value of a nuisance prior standing for the chosen preset's (:data:`oilwatch.estimator.ekf_config.PRESETS`);
+for ``offset_prior_std_um`` a preset that estimates the offsets takes the machine file's ``[probes]
+offset_prior_std_um``."""
+OFFSET_PRIOR_FROM_MACHINE = PRESET_VALUE
+
+
+def _preset_values(field: str, scale: float) -> str:
+    """'machine: 2; paper: 0': each preset's value of a field in the user's unit (the offsets: the machine
+    file's [probes] prior or 0)."""
+    parts = []
+    for preset in PRESETS:
+        if field == "offset_prior_std_m":
+            text = "the machine file's [probes] offset_prior_std_um" if preset.offsets_from_machine else "0"
+        else:
+            text = f"{preset.value(field, getattr(EKFConfig.recommended(), field)) / scale:g}"
+        parts.append(f"{preset.name}: {text}")
+    return "; ".join(parts)
+
+
 NUISANCE_PRIORS = (
-    ("offset_prior_std_um", "offset_prior_std_m", "um", 1e-6, OFFSET_PRIOR_FROM_MACHINE, 1000.0,
+    ("offset_prior_std_um", "offset_prior_std_m", "um", 1e-6, PRESET_VALUE, 1000.0,
      "Prior std of each probe's zero offset; 0: the offsets are known to be zero (the paper's calibrated "
      "probes); > 0 estimates four offset states drifting as the machine file's [probes] "
-     "offset_random_walk_um_sqrt_s; -1: the machine file's [probes] offset_prior_std_um (a real machine; "
-     "bundled turbine 25 um). A baseline_file sets the offsets' prior instead"),
-    ("unbalance_prior_std", "unbalance_prior_std", "1", 1.0, 0.0, 10.0,
+     "offset_random_walk_um_sqrt_s; -1: the preset's (" + _preset_values("offset_prior_std_m", 1e-6)
+     + "). A baseline_file sets the offsets' prior instead"),
+    ("unbalance_prior_std", "unbalance_prior_std", "1", 1.0, PRESET_VALUE, 10.0,
      "Prior std of each part of the unbalance relative to the machine file's (estimate starts at 1 + 0i); "
-     "0: the machine file's unbalance is exact; > 0 estimates it as a complex random walk"),
+     "0: the machine file's unbalance is exact; > 0 estimates it as a complex random walk; -1: the preset's ("
+     + _preset_values("unbalance_prior_std", 1.0) + ")"),
+    ("viscosity_factor_prior_std", "viscosity_factor_prior_std", "1", 1.0, PRESET_VALUE, 0.5,
+     "Prior std of each bearing's viscosity factor (film over the oil law at the measured temperature); "
+     "0: known (1); > 0 estimates both (needs bearing_table = 1); -1: the preset's ("
+     + _preset_values("viscosity_factor_prior_std", 1.0) + ")"),
 )  # fmt: skip
+PRESET_PARAMETERS = tuple(row[0] for row in NUISANCE_PRIORS)
+"""The parameters whose default (:data:`PRESET_VALUE`) is the chosen preset's."""
 
 
 def _estimator_parameters() -> tuple[BoundaryParameter, ...]:
@@ -67,9 +93,6 @@ def _estimator_parameters() -> tuple[BoundaryParameter, ...]:
          "paper's 10 um makes the filter inconsistent (NIS/m 0.14), more biased and slower to alarm"),
         ("q_std_flow_ml_min", "flowrate_process_std_m3_s", "ml/min", ML_MIN, 0.0, 1000.0,
          "Process-noise std per step of each flowrate state (paper and recommended: 0.1 ml/min)"),
-        ("viscosity_factor_prior_std", "viscosity_factor_prior_std", "1", 1.0, 0.0, 0.5,
-         "Prior std of each bearing's viscosity factor (film over the oil law at the measured temperature); "
-         "0: known (1, the paper's calibrated setting); > 0 estimates both (needs bearing_table = 1)"),
         ("gate_tail_probability", "gate_tail_probability", "1", 1.0, 0.0, 0.5,
          "Innovation gate, per probe: a channel whose squared standardized innovation exceeds the "
          "chi-square(1) quantile 1 - p times its recent innovation power is rejected (never forced through); "
@@ -80,7 +103,7 @@ def _estimator_parameters() -> tuple[BoundaryParameter, ...]:
         for name, key, unit, scale, low, high, text in own
     ]
     table += [
-        BoundaryParameter(name, key, unit, scale, getattr(recommended, key) / scale, low, high, text)
+        BoundaryParameter(name, key, unit, scale, PRESET_VALUE, low, high, text)
         for name, key, unit, scale, low, high, text in NUISANCE_PRIORS
     ]
     for spec in fields(AlarmConfig):
@@ -98,17 +121,36 @@ ESTIMATOR_PARAMETERS: tuple[BoundaryParameter, ...] = _estimator_parameters()
 """The estimator's user-settable configuration (FMU parameters of OilFlowEKF, ``--set ekf.NAME``)."""
 
 
-def config_from_parameters(values: dict[str, float], **fixed) -> EKFConfig:
-    """An :class:`EKFConfig` (recommended tuning) from user values of :data:`ESTIMATOR_PARAMETERS` by name
-    (missing ones keep their default) and further SI fields ``fixed``."""
+def preset_parameter(name: str, preset: str, machine_offset_prior_std_m: float) -> float:
+    """The user value of a :data:`PRESET_PARAMETERS` parameter left at :data:`PRESET_VALUE` under ``preset``
+    (the offsets' from ``machine_offset_prior_std_m`` [m] when the preset estimates them)."""
+    chosen = preset_named(preset)
+    if name == "offset_prior_std_um":
+        return machine_offset_prior_std_m * 1e6 if chosen.offsets_from_machine else 0.0
+    row = next(row for row in NUISANCE_PRIORS if row[0] == name)
+    return chosen.value(row[1], getattr(EKFConfig.recommended(), row[1])) / row[3]
+
+
+def config_from_parameters(
+    values: dict[str, float],
+    preset: str = DEFAULT_PRESET,
+    machine_offset_prior_std_m: float = 0.0,
+    **fixed,
+) -> EKFConfig:
+    """An :class:`EKFConfig` (the preset ``preset`` over the recommended tuning) from user values of
+    :data:`ESTIMATOR_PARAMETERS` by name (missing ones keep their default; :data:`PRESET_VALUE` ones the
+    preset's, the offsets' from ``machine_offset_prior_std_m``) and further SI fields ``fixed``."""
     direct, alarm = {}, {}
     for parameter in ESTIMATOR_PARAMETERS:
-        value = parameter.si(values.get(parameter.name, parameter.default))
+        user = values.get(parameter.name, parameter.default)
+        if parameter.name in PRESET_PARAMETERS and user == PRESET_VALUE:
+            user = preset_parameter(parameter.name, preset, machine_offset_prior_std_m)
+        value = parameter.si(user)
         if parameter.field.startswith("alarm."):
             alarm[parameter.field.removeprefix("alarm.")] = value
         else:
             direct[parameter.field] = value
-    return EKFConfig.recommended(**direct, alarm=AlarmConfig(**alarm), **fixed)
+    return EKFConfig.preset(preset, **direct, alarm=AlarmConfig(**alarm), **fixed)
 
 
 def config_field_names() -> tuple[str, ...]:

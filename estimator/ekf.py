@@ -59,6 +59,7 @@ from oilwatch.models.validation import InputError
 
 from . import channels
 from .alarm import StarvationAlarm
+from .baseline_change import CHANGE_STATUS, CONSISTENT, new_change_array, reference_applies, reset_change
 from .ekf_config import (
     CONSISTENCY_WINDOW_S,
     CONVERGED_WINDOW_S,
@@ -77,7 +78,7 @@ from .ekf_setup import (
     summary_settings,
 )
 from .filter_arrays import FilterArrays
-from .measurement import displacement_channels, velocity_channels
+from .measurement import displacement_channels, probe_rotation, velocity_channels
 from .model import AugmentedModel
 from .nuisance_start import InformationFloor, ShadowJacobian, restart_parameters, settling_steps
 from .reports import EstimateTrace, ReportView, StepReport
@@ -88,7 +89,10 @@ from .step_kernel import (
     REPORT_CHANGING,
     REPORT_CONSISTENT,
     REPORT_CONVERGED,
+    REPORT_FILTER_FLOWRATE,
+    REPORT_FILTER_STD,
     REPORT_FLOWRATE,
+    REPORT_MISMATCH,
     REPORT_NIS,
     REPORT_OFFSET,
     REPORT_OFFSET_STD,
@@ -110,6 +114,8 @@ from .step_kernel import (
 
 MIN_VISCOSITY_FACTOR = 0.2
 """The model never sees a viscosity factor below this (a random walk kept physical)."""
+_PUBLISHED = (REPORT_FLOWRATE, REPORT_FLOWRATE + 1, REPORT_STD, REPORT_STD + 1, REPORT_MISMATCH)
+"""The report entries a model mismatch publishes in place of the filter's (saved with the state)."""
 
 
 def _checked(state: dict[str, np.ndarray], key: str, shape: tuple[int, ...]) -> np.ndarray:
@@ -218,6 +224,7 @@ class OilFlowEKF:
         self._accepted = np.zeros(4, dtype=bool)
         self._window = max(1, round(CONVERGED_WINDOW_S / self._dt))
         self.alarm = StarvationAlarm(cfg.alarm, self._dt, self._q_nominal)
+        self._change = new_change_array(cfg, model, self._dt, probe_rotation(angle))
         # shadow Jacobian and settling start while the flowrates are estimated beside viscosity factors
         # that no baseline primed: the nearly unobservable direction (estimator/nuisance_start.py)
         baseline = cfg.offset_baseline
@@ -228,6 +235,9 @@ class OilFlowEKF:
             model.reset_operating_state()  # the least damped mode at the model's reference point
         self._settling = settling_steps(model, cfg.q_initial_pair(), constants)
         self._no_flow_jacobian = np.zeros((n, 2))
+        # the first sample's unused transition Jacobian: C-contiguous like the model's, so that the compiled
+        # step has one signature (a strided view of the work array compiled it a second time)
+        self._no_state_jacobian = np.zeros((n, n))
         self._shadow = ShadowJacobian(n, self._n_trailing) if free and cfg.nuisance_shadow else None
         floor = self._shadow is not None and cfg.nuisance_information_floor and hasattr(model, "maps")
         self._floor = InformationFloor(model, cfg, n, self._n_offsets, self._n_unbalance) if floor else None
@@ -282,6 +292,7 @@ class OilFlowEKF:
         self._process_noise[n : n + 2, n : n + 2] = self._q_var * np.eye(2)
         self._summary_settings[SUMMARY_STD_FLOOR : SUMMARY_STD_FLOOR + 2] = 0.0  # the alarm's std floor
         self.alarm.clear()
+        reset_change(self._change)
         self._set_last(0.0, 0, False, False, True)
         # the compiled step's arrays (estimator.filter_arrays), renewed with the ones a reset replaces
         self._arrays = FilterArrays(
@@ -310,6 +321,7 @@ class OilFlowEKF:
             self.alarm.record,
             self.alarm.settings,
             self._report,
+            self._change,
         )
         self._packed = tuple(self._arrays)
         self._prior = (self._x.copy(), self._P.copy())
@@ -352,6 +364,7 @@ class OilFlowEKF:
             raise InputError(f"displacement_m must have shape (4,), got {displacement.shape}")
         if speed_hz is not None or oil_temperature_c is not None or rotor_angle_rad is not None:
             self._set_operating_point(speed_hz, oil_temperature_c, rotor_angle_rad)
+            reference_applies(self._change, self.config.offset_baseline, *self._operating)
         if self._grid_batch is not None and speed_hz is None and oil_temperature_c is None:
             self._run_grid_batch(displacement.reshape(1, 4), self._one_row)
             return
@@ -381,7 +394,7 @@ class OilFlowEKF:
             flow_jac = np.ascontiguousarray(flow_jac, dtype=np.float64)
         else:
             n = self._n
-            next_state, state_jac, flow_jac = self._x[:n], self._work[:n, :n], self._work[:n, :2]
+            next_state, state_jac, flow_jac = self._x[:n], self._no_state_jacobian, self._no_flow_jacobian
         ekf_step(predict, next_state, state_jac, flow_jac, displacement, self._packed)
         if step == self._settling and step > 0:
             restart_parameters(self._x, self._P, *self._prior, self._n)
@@ -421,6 +434,8 @@ class OilFlowEKF:
         last              (5,)      float: nis, n_measurements, measurement_ok, converged, model_consistent
         alarm_*           (2,)      the alarm flags and hold counters (see :mod:`oilwatch.estimator.alarm`)
         operating         (4,)      (given?, speed [Hz], given?, oil temperature [degC]) last measured
+        model_mismatch    (M,)      the mismatch status and static means (estimator.baseline_change)
+        published         (5,)      the published flowrates and stds, and the mismatch status
         model_*           ...       a model's operating state, when it follows the operating point
         ================  ========  =====================================================================
         """
@@ -536,8 +551,13 @@ class OilFlowEKF:
         """The report array from the state as it is (after a reset or a restored state): the flowrates the
         next prediction starts from, the nuisances and the flags :meth:`current_report` reads."""
         report = self._report
-        report[REPORT_FLOWRATE : REPORT_FLOWRATE + 2] = self._flowrate_si()
-        report[REPORT_STD : REPORT_STD + 2] = self.flowrate_std_m3_s
+        report[REPORT_FILTER_FLOWRATE : REPORT_FILTER_FLOWRATE + 2] = self._flowrate_si()
+        report[REPORT_FILTER_STD : REPORT_FILTER_STD + 2] = self.flowrate_std_m3_s
+        status = self._change[CHANGE_STATUS]
+        report[REPORT_MISMATCH] = status
+        if status == CONSISTENT:  # else the published values stay (a restored state brings them)
+            report[REPORT_FLOWRATE : REPORT_FLOWRATE + 2] = self._flowrate_si()
+            report[REPORT_STD : REPORT_STD + 2] = self.flowrate_std_m3_s
         report[REPORT_VISCOSITY : REPORT_VISCOSITY + 2] = self.viscosity_factor
         report[REPORT_VISCOSITY_STD : REPORT_VISCOSITY_STD + 2] = self.viscosity_factor_std
         report[REPORT_OFFSET : REPORT_OFFSET + 4] = self.offset_m
@@ -708,7 +728,7 @@ class OilFlowEKF:
         (viscosity factors, unbalance) put into place."""
         n = self._n
         s = self._x[:n] if state is None else state
-        flowrate = self._report[REPORT_FLOWRATE : REPORT_FLOWRATE + 2]
+        flowrate = self._report[REPORT_FILTER_FLOWRATE : REPORT_FILTER_FLOWRATE + 2]
         trailing = self._trailing_jacobian
         if self._n_viscosity:
             factors = np.maximum(self._x[self._viscosity], MIN_VISCOSITY_FACTOR)
@@ -767,6 +787,8 @@ class OilFlowEKF:
             "last": np.array([float(v) for v in self._last]),
         }
         state.update(self.alarm.get_state())
+        state["model_mismatch"] = self._change.copy()
+        state["published"] = self._report[list(_PUBLISHED)].copy()
         speed, temperature = self._operating
         state["operating"] = np.array(
             [float(speed is not None), speed or 0.0, float(temperature is not None), temperature or 0.0]
@@ -798,6 +820,9 @@ class OilFlowEKF:
         self._changing[:] = _checked(state, "changing", (2,))
         nis, rows, ok, converged, consistent = _checked(state, "last", (5,))
         self.alarm.set_state(state)
+        if "model_mismatch" in state:
+            self._change[:] = _checked(state, "model_mismatch", self._change.shape)
+            self._report[list(_PUBLISHED)] = _checked(state, "published", (len(_PUBLISHED),))
         self._set_last(float(nis), int(rows), bool(ok), bool(converged), bool(consistent))
         if "operating" in state:
             has_speed, speed, has_temperature, temperature = (

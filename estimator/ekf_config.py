@@ -1,10 +1,17 @@
-"""Configuration of the oil-flow EKF, validated on construction.
+"""Configuration of the oil-flow EKF, validated on construction, and its named presets.
 
 All values are SI (flowrates in m^3/s). The defaults are the paper's (section 3.2): measurement noise 1 um,
 process-noise stds 10 um, 10 um/s and 0.1 ml/min per step, initial flowrates at the machine's nominal. The
 fields the paper does not give (initial covariance, gate, convergence and alarm thresholds) are documented
 where they are used. Machine facts are not defaults here: a ``None`` nominal or initial flowrate (and the
 recommended velocity process noise) is taken from the model (:meth:`EKFConfig.for_model`).
+
+:data:`PRESETS` name the configurations a user starts from (:meth:`EKFConfig.preset`): ``machine``, the
+default of the estimator FMU, ``oilwatch baseline`` and ``oilwatch estimate`` (a real machine: the probe
+offsets, the unbalance and the bearings' viscosity factors estimated, the bearing table that follows speed and
+oil temperature, and no action on an estimate the filter finds inconsistent), and ``paper``, the paper's
+calibrated filter (the nuisances known, the flowrate grid at one speed) that the paper's scenarios, ``oilwatch
+report`` and ``oilwatch study`` run.
 """
 
 from __future__ import annotations
@@ -144,6 +151,12 @@ class EKFConfig:
             quantile ``1 - p`` times its recent innovation power is rejected (0 disables the gate).
         change_flowrate_std_fraction : extra flowrate process noise (std per step, as a fraction of nominal)
             while a bearing's change test fires (:data:`CHANGE_WINDOW_S`, :data:`CHANGE_TAIL_PROBABILITY`).
+    Model mismatch (see :mod:`oilwatch.estimator.baseline_change`, whose constants set its holds and tests)
+        model_mismatch_action : while the data are not the model's (``model_consistent`` false, or the
+            filter's flowrate far from the static change relative to the baseline), the filter's estimate
+            does not act on its own: the published flowrates and the alarm come from the static change
+            relative to the baseline (``offset_baseline`` with its static reference), or the alarm is held
+            and the std widened by the NIS excess; False: the filter's estimate throughout (the paper).
     The probe-health, consistency and convergence thresholds are the module's constants.
     """
 
@@ -169,6 +182,7 @@ class EKFConfig:
     unbalance_prior_std: float = 0.0
     gate_tail_probability: float = 1.0e-6
     change_flowrate_std_fraction: float = 0.003
+    model_mismatch_action: bool = True
     alarm: AlarmConfig = field(default_factory=AlarmConfig)
 
     def __post_init__(self) -> None:
@@ -240,6 +254,16 @@ class EKFConfig:
         values.update(overrides)
         return cls(**values)
 
+    @classmethod
+    def preset(cls, name: str = "machine", speed_hz: float | None = None, **overrides) -> EKFConfig:
+        """:meth:`recommended` with the fields of the preset ``name`` (:data:`PRESETS`), then ``overrides``.
+        The machine facts a preset leaves to the machine file (the offsets' prior: ``Preset.
+        offsets_from_machine``) and the model it runs on (``Preset.follow_operating_point``) are the
+        caller's."""
+        values = dict(preset_named(name).fields)
+        values.update(overrides)
+        return cls.recommended(speed_hz, **values)
+
     def for_model(self, model) -> EKFConfig:
         """This configuration with the machine facts it left open (None) taken from ``model``.
 
@@ -286,3 +310,58 @@ class EKFConfig:
 
 INITIAL_FLOWRATE_STD_FRACTION = 0.25
 """Default initial flowrate std (P0) as a fraction of the nominal flowrate."""
+
+
+@dataclass(frozen=True)
+class Preset:
+    """A named starting configuration (:data:`PRESETS`).
+
+    name, description : as the user sees them. fields : :class:`EKFConfig` fields over
+    :meth:`EKFConfig.recommended` (as (name, value) pairs). offsets_from_machine : the probe offsets are
+    estimated with the machine file's ``[probes]`` prior (False: known to be zero). follow_operating_point :
+    the estimator's model follows the measured speed and oil temperature on the dimensionless bearing tables
+    (the estimator FMU's ``bearing_table = 1``; False: the flowrate grid at one speed).
+    """
+
+    name: str
+    description: str
+    fields: tuple[tuple[str, object], ...]
+    offsets_from_machine: bool
+    follow_operating_point: bool
+
+    def value(self, field_name: str, default=None):
+        """The preset's value of an :class:`EKFConfig` field (``default`` when it leaves it to
+        :meth:`EKFConfig.recommended`)."""
+        return dict(self.fields).get(field_name, default)
+
+
+PRESETS: tuple[Preset, ...] = (
+    Preset(
+        "machine",
+        "a real machine: probe offsets (machine file's [probes] prior or the baseline), the complex "
+        "unbalance and both bearings' viscosity factors estimated, the bearing table that follows speed and "
+        "oil temperature; an estimate the filter finds inconsistent does not act on its own",
+        (("unbalance_prior_std", 2.0), ("viscosity_factor_prior_std", 0.1)),
+        offsets_from_machine=True,
+        follow_operating_point=True,
+    ),
+    Preset(
+        "paper",
+        "the paper's calibrated filter: unbalance, film and probe offsets known, the flowrate grid at one "
+        "speed, the filter's own estimate throughout (the paper's scenarios, report and study)",
+        (("model_mismatch_action", False),),
+        offsets_from_machine=False,
+        follow_operating_point=False,
+    ),
+)
+"""The named configurations (:meth:`EKFConfig.preset`); the first is the default."""
+DEFAULT_PRESET = PRESETS[0].name  # EKFConfig.preset's default name
+PRESET_NAMES = tuple(p.name for p in PRESETS)
+
+
+def preset_named(name: str) -> Preset:
+    """The preset called ``name`` (one-line InputError naming the choices otherwise)."""
+    for preset in PRESETS:
+        if preset.name == name:
+            return preset
+    raise InputError(f"preset must be one of {', '.join(PRESET_NAMES)}, got {name!r}")

@@ -31,7 +31,8 @@ class FilterArrays(NamedTuple):
     counters (int64) : the ``COUNT_*`` of :mod:`oilwatch.estimator.step_kernel`. nis_window (C, 2), nis_sums
     (2,), history (W, 2) : the consistency and convergence ring buffers. summary_settings : the ``SUMMARY_*``.
     alarm_record, alarm_settings : :class:`oilwatch.estimator.alarm.StarvationAlarm`'s. report (REPORT_SIZE,)
-    : out.
+    : out. change : the model-mismatch status and the baseline-relative static estimate
+    (:mod:`oilwatch.estimator.baseline_change`).
     """
 
     state: np.ndarray
@@ -59,3 +60,4 @@ class FilterArrays(NamedTuple):
     alarm_record: np.ndarray
     alarm_settings: np.ndarray
     report: np.ndarray
+    change: np.ndarray

@@ -27,6 +27,12 @@ class OffsetBaseline:
         offsets' prior std is widened by the drift that time allows (:meth:`offset_prior_std_m`).
     drift_m_per_day : the probes' zero drift rate bound [m / day] (the machine file's
         ``[probes] offset_drift_um_per_day``) that ``age_s`` is multiplied by.
+    flowrates_m3_s : the baseline record's known flowrates (q1, q2) [m^3/s], or None (not recorded).
+    static_reference_m : (x1, y1, x2, y2) the baseline record's mean probe signals [m], or None: the static
+        position the flowrates' change is read from during a model mismatch
+        (:mod:`oilwatch.estimator.baseline_change`).
+    static_reference_speed_hz, static_reference_temperature_c : the baseline record's mean speed [Hz] and
+        oil temperature [degC], or None (not measured: taken as the run's).
     """
 
     offsets_m: tuple[float, float, float, float]
@@ -38,6 +44,10 @@ class OffsetBaseline:
     covariance: tuple[tuple[float, ...], ...] | None = None
     age_s: float = 0.0
     drift_m_per_day: float = 0.0
+    flowrates_m3_s: tuple[float, float] | None = None
+    static_reference_m: tuple[float, float, float, float] | None = None
+    static_reference_speed_hz: float | None = None
+    static_reference_temperature_c: float | None = None
 
     def __post_init__(self) -> None:
         for name in ("offsets_m", "std_m"):
@@ -67,6 +77,13 @@ class OffsetBaseline:
                 raise InputError(
                     f"OffsetBaseline.covariance must be a finite {size} x {size} matrix, got {matrix.shape}"
                 )
+        if (self.static_reference_m is None) != (self.flowrates_m3_s is None):
+            raise InputError("OffsetBaseline.static_reference_m and flowrates_m3_s are given together")
+        if self.static_reference_m is not None:
+            if len(self.static_reference_m) != 4 or len(self.flowrates_m3_s) != 2:
+                raise InputError("OffsetBaseline.static_reference_m needs 4 values and flowrates_m3_s 2")
+            for value in (*self.static_reference_m, *self.flowrates_m3_s):
+                require_finite("OffsetBaseline.static_reference_m", value)
         require_in_range("OffsetBaseline.age_s", self.age_s, 0.0, 1e9, "s")
         require_in_range("OffsetBaseline.drift_m_per_day", self.drift_m_per_day, 0.0, 1e-3, "m/day")
 

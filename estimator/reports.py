@@ -14,10 +14,15 @@ import numpy as np
 
 from . import channels
 from .step_kernel import (
+    REPORT_BASELINE_FLOWRATE,
+    REPORT_BASELINE_STD,
     REPORT_CHANGING,
     REPORT_CONSISTENT,
     REPORT_CONVERGED,
+    REPORT_FILTER_FLOWRATE,
+    REPORT_FILTER_STD,
     REPORT_FLOWRATE,
+    REPORT_MISMATCH,
     REPORT_NIS,
     REPORT_OFFSET,
     REPORT_OFFSET_STD,
@@ -38,8 +43,9 @@ from .step_kernel import (
 class StepReport:
     """What the filter reports after one sample.
 
-    step : index k of the sample just processed. q_m3_s, q_std_m3_s : (2,) estimates and their stds from P
-    [m^3/s]. nis : normalized innovation squared of this sample (0 when no update was made).
+    step : index k of the sample just processed. q_m3_s, q_std_m3_s : (2,) the published estimates and their
+    stds [m^3/s]: the filter's (std from P) while the model is consistent, else as ``model_mismatch`` says.
+    nis : normalized innovation squared of this sample (0 when no update was made).
     n_measurements : rows used by the update (0 when no channel was usable or all were rejected).
     converged : see module docstring. measurement_ok : the update used at least one channel.
     starved : (2,) bool alarm flags. probe_status : (4,) int codes of :mod:`oilwatch.estimator.channels` (0
@@ -47,6 +53,10 @@ class StepReport:
     the bearing. starved_consistent : (2,) bool, alarm raised while the model was consistent.
     viscosity_factor, viscosity_factor_std : (2,) each bearing's estimated viscosity factor and its std
     (1 and 0 when the factors are not estimated).
+    model_mismatch : the status of :mod:`oilwatch.estimator.baseline_change` (0 consistent, 1 mismatch read
+    from the change relative to the baseline, 2 mismatch held). filter_q_m3_s, filter_q_std_m3_s : (2,) the
+    filter's own estimates and stds. baseline_q_m3_s, baseline_q_std_m3_s : (2,) the baseline-relative static
+    estimate and std (NaN when no static reference applies).
     """
 
     step: int
@@ -63,6 +73,11 @@ class StepReport:
     starved_consistent: np.ndarray
     viscosity_factor: np.ndarray
     viscosity_factor_std: np.ndarray
+    model_mismatch: int
+    filter_q_m3_s: np.ndarray
+    filter_q_std_m3_s: np.ndarray
+    baseline_q_m3_s: np.ndarray
+    baseline_q_std_m3_s: np.ndarray
 
     @property
     def probe_faulty(self) -> np.ndarray:
@@ -141,6 +156,26 @@ class ReportView(StepReport):
     def viscosity_factor_std(self) -> np.ndarray:
         return self._values[REPORT_VISCOSITY_STD : REPORT_VISCOSITY_STD + 2]
 
+    @property
+    def model_mismatch(self) -> int:
+        return int(self._values[REPORT_MISMATCH])
+
+    @property
+    def filter_q_m3_s(self) -> np.ndarray:
+        return self._values[REPORT_FILTER_FLOWRATE : REPORT_FILTER_FLOWRATE + 2]
+
+    @property
+    def filter_q_std_m3_s(self) -> np.ndarray:
+        return self._values[REPORT_FILTER_STD : REPORT_FILTER_STD + 2]
+
+    @property
+    def baseline_q_m3_s(self) -> np.ndarray:
+        return self._values[REPORT_BASELINE_FLOWRATE : REPORT_BASELINE_FLOWRATE + 2]
+
+    @property
+    def baseline_q_std_m3_s(self) -> np.ndarray:
+        return self._values[REPORT_BASELINE_STD : REPORT_BASELINE_STD + 2]
+
 
 @dataclass
 class EstimateTrace:
@@ -165,6 +200,11 @@ class EstimateTrace:
     viscosity_factor_std: np.ndarray
     unbalance: np.ndarray
     unbalance_std: np.ndarray
+    model_mismatch: np.ndarray
+    filter_q_m3_s: np.ndarray
+    filter_q_std_m3_s: np.ndarray
+    baseline_q_m3_s: np.ndarray
+    baseline_q_std_m3_s: np.ndarray
 
     @property
     def probe_faulty(self) -> np.ndarray:
@@ -192,6 +232,11 @@ class EstimateTrace:
             viscosity_factor_std=np.zeros((count, 2)),
             unbalance=np.zeros((count, 2)),
             unbalance_std=np.zeros((count, 2)),
+            model_mismatch=np.zeros(count, dtype=np.int64),
+            filter_q_m3_s=np.zeros((count, 2)),
+            filter_q_std_m3_s=np.zeros((count, 2)),
+            baseline_q_m3_s=np.zeros((count, 2)),
+            baseline_q_std_m3_s=np.zeros((count, 2)),
         )
 
     def fill(self, table: np.ndarray, count: int) -> None:
@@ -230,5 +275,10 @@ _TRACE_COLUMNS = (
     ("viscosity_factor_std", REPORT_VISCOSITY_STD, 2),
     ("unbalance", REPORT_UNBALANCE, 2),
     ("unbalance_std", REPORT_UNBALANCE_STD, 2),
+    ("model_mismatch", REPORT_MISMATCH, 0),
+    ("filter_q_m3_s", REPORT_FILTER_FLOWRATE, 2),
+    ("filter_q_std_m3_s", REPORT_FILTER_STD, 2),
+    ("baseline_q_m3_s", REPORT_BASELINE_FLOWRATE, 2),
+    ("baseline_q_std_m3_s", REPORT_BASELINE_STD, 2),
 )
 """EstimateTrace field, first report column, width (0: a scalar column)."""

@@ -20,7 +20,8 @@ from numba import njit
 
 from oilwatch.models.system.flowrate_grid import interpolate_map
 
-from .alarm import RAISED_CONSISTENT, STARVED, update_alarm
+from .alarm import RAISED_CONSISTENT, STARVED, hold_alarm, update_alarm
+from .baseline_change import CHANGE_ACTION, CONSISTENT, MISMATCH_BASELINE, update_change
 from .channels import STATUS
 from .filter_arrays import FilterArrays
 from .kernels import UPDATE_ACCEPTED, filter_step
@@ -35,9 +36,12 @@ def _layout(*fields: tuple[str, int]) -> tuple[dict[str, int], int]:
     return starts, size
 
 
-# the report array (REPORT_SIZE,): flowrates [m^3/s] clipped to the table, their stds, the viscosity
-# factors and stds (1 and 0 if not estimated), offsets [m] and stds, unbalance and stds (0 if not
-# estimated), then the sample's scalars and flags as floats (per bearing, or per probe for the status)
+# the report array (REPORT_SIZE,): the published flowrates [m^3/s] and their stds (the filter's own while
+# the model is consistent, else as estimator.baseline_change says), the viscosity factors and stds (1 and 0
+# if not estimated), offsets [m] and stds, unbalance and stds (0 if not estimated), the sample's scalars and
+# flags as floats (per bearing, or per probe for the status), the model-mismatch status, the filter's own
+# flowrates (clipped to the table) and stds, and the baseline-relative static estimate and std (NaN when
+# no static reference applies)
 _REPORT, REPORT_SIZE = _layout(
     ("flowrate", 2),
     ("std", 2),
@@ -56,6 +60,11 @@ _REPORT, REPORT_SIZE = _layout(
     ("starved_consistent", 2),
     ("changing", 2),
     ("status", 4),
+    ("mismatch", 1),
+    ("filter_flowrate", 2),
+    ("filter_std", 2),
+    ("baseline_flowrate", 2),
+    ("baseline_std", 2),
 )
 REPORT_FLOWRATE, REPORT_STD = _REPORT["flowrate"], _REPORT["std"]
 REPORT_VISCOSITY, REPORT_VISCOSITY_STD = _REPORT["viscosity"], _REPORT["viscosity_std"]
@@ -65,6 +74,9 @@ REPORT_NIS, REPORT_ROWS, REPORT_OK = _REPORT["nis"], _REPORT["rows"], _REPORT["o
 REPORT_CONVERGED, REPORT_CONSISTENT = _REPORT["converged"], _REPORT["consistent"]
 REPORT_STARVED, REPORT_STARVED_CONSISTENT = _REPORT["starved"], _REPORT["starved_consistent"]
 REPORT_CHANGING, REPORT_STATUS = _REPORT["changing"], _REPORT["status"]
+REPORT_MISMATCH = _REPORT["mismatch"]
+REPORT_FILTER_FLOWRATE, REPORT_FILTER_STD = _REPORT["filter_flowrate"], _REPORT["filter_std"]
+REPORT_BASELINE_FLOWRATE, REPORT_BASELINE_STD = _REPORT["baseline_flowrate"], _REPORT["baseline_std"]
 # the int64 counters array: advanced in place (step, since_update) and the state's layout
 _COUNTERS, N_COUNTERS = _layout(
     ("step", 1), ("since_update", 1), ("first", 1), ("viscosity", 1), ("unbalance", 1), ("offsets", 1)
@@ -125,8 +137,8 @@ def step_summary(
     offset, -1 when not estimated; since_update: samples since the last accepted update, this one
     included). nis, rows : of this sample (0 when it made no update). nis_window (C, 2), nis_sums (2,),
     history (W, 2) : the ring buffers, advanced here. settings : the SUMMARY_* values. report : the
-    REPORT_* estimates written (flowrates clipped to the table [m^3/s], stds, nuisances: their known
-    values and std 0 when not estimated). Returns
+    REPORT_* estimates written (the filter's flowrates clipped to the table [m^3/s], stds, nuisances: their
+    known values and std 0 when not estimated). Returns
     ``(model_consistent, converged)``.
     """
     step = counters[COUNT_STEP]
@@ -155,8 +167,8 @@ def step_summary(
         history[slot, b] = scaled
         largest = max(largest, deviation)
         # clipped in SI as well: the round trip through the scaled unit may leave a bound by one ulp
-        report[REPORT_FLOWRATE + b] = min(max(scaled * scale, low), high)
-        report[REPORT_STD + b] = deviation * scale
+        report[REPORT_FILTER_FLOWRATE + b] = min(max(scaled * scale, low), high)
+        report[REPORT_FILTER_STD + b] = deviation * scale
     ones = np.ones(2)
     zeros = np.zeros(4)
     unit = np.array([1.0, 0.0])  # the machine file's unbalance
@@ -261,21 +273,50 @@ def sample_step(
             variance += summary_settings[SUMMARY_UNBALANCE_EXTRA]
         process_noise[unbalance, unbalance] = variance
         process_noise[unbalance + 1, unbalance + 1] = variance
-    # the alarm judges each flowrate with its std floored (estimator.nuisance_start.InformationFloor, set
-    # by the filter; 0 otherwise); the report keeps the filter's own std (the filter floors it itself)
-    own_1, own_2 = report[REPORT_STD], report[REPORT_STD + 1]
-    if summary_settings[SUMMARY_STD_FLOOR] > own_1:
-        report[REPORT_STD] = summary_settings[SUMMARY_STD_FLOOR]
-    if summary_settings[SUMMARY_STD_FLOOR + 1] > own_2:
-        report[REPORT_STD + 1] = summary_settings[SUMMARY_STD_FLOOR + 1]
-    update_alarm(
-        report[REPORT_FLOWRATE : REPORT_FLOWRATE + 2],
-        report[REPORT_STD : REPORT_STD + 2],
+    # the alarm judges the filter's flowrates with their std floored (estimator.nuisance_start.
+    # InformationFloor, set by the filter; 0 otherwise) while the model is consistent, the baseline-relative
+    # static estimate during a mismatch when there is one, and nothing otherwise (estimator.baseline_change)
+    change = a.change
+    status = update_change(
+        change,
+        displacement,
+        health,
         consistent,
-        alarm_record,
-        a.alarm_settings,
+        report[REPORT_FILTER_FLOWRATE : REPORT_FILTER_FLOWRATE + 2],
+        report[REPORT_FILTER_STD : REPORT_FILTER_STD + 2],
+        report[REPORT_BASELINE_FLOWRATE : REPORT_BASELINE_FLOWRATE + 2],
+        report[REPORT_BASELINE_STD : REPORT_BASELINE_STD + 2],
     )
-    report[REPORT_STD], report[REPORT_STD + 1] = own_1, own_2
+    act = change[CHANGE_ACTION] != 0.0 and status != CONSISTENT
+    # the report keeps the filter's own std (the filter floors it itself)
+    for b in range(2):
+        report[REPORT_FLOWRATE + b] = report[REPORT_FILTER_FLOWRATE + b]
+        report[REPORT_STD + b] = max(report[REPORT_FILTER_STD + b], summary_settings[SUMMARY_STD_FLOOR + b])
+    if act and status == MISMATCH_BASELINE:
+        for b in range(2):
+            flow = report[REPORT_BASELINE_FLOWRATE + b]
+            flow = max(flow, summary_settings[SUMMARY_Q_LOW])
+            report[REPORT_FLOWRATE + b] = min(flow, summary_settings[SUMMARY_Q_HIGH])
+            report[REPORT_STD + b] = report[REPORT_BASELINE_STD + b]
+    if act and status != MISMATCH_BASELINE:
+        hold_alarm(alarm_record)
+    else:
+        update_alarm(
+            report[REPORT_FLOWRATE : REPORT_FLOWRATE + 2],
+            report[REPORT_STD : REPORT_STD + 2],
+            consistent,
+            alarm_record,
+            a.alarm_settings,
+        )
+    if act and status != MISMATCH_BASELINE:
+        # the filter's estimate with its std widened by the NIS excess over the consistency window
+        excess = np.sqrt(max(1.0, a.nis_sums[0] / max(a.nis_sums[1], 1.0)))
+        for b in range(2):
+            report[REPORT_STD + b] = report[REPORT_FILTER_STD + b] * excess
+    elif not act:
+        for b in range(2):
+            report[REPORT_STD + b] = report[REPORT_FILTER_STD + b]
+    report[REPORT_MISMATCH] = status
     report[REPORT_NIS] = nis
     report[REPORT_ROWS] = rows
     report[REPORT_OK] = 1.0 if ok else 0.0
@@ -324,7 +365,7 @@ def grid_batch(
             exogenous[0] = 1.0
             exogenous[1] = np.cos(phase)
             exogenous[2] = np.sin(phase)
-            q1, q2 = report[REPORT_FLOWRATE], report[REPORT_FLOWRATE + 1]
+            q1, q2 = report[REPORT_FILTER_FLOWRATE], report[REPORT_FILTER_FLOWRATE + 1]
             next_, jacobian, flow = next_state, state_jacobian, flowrate_jacobian
             interpolate_map(
                 grid_transition, grid_forcing, axes, state[:n], exogenous, q1, q2, next_, jacobian, flow

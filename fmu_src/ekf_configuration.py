@@ -13,7 +13,8 @@ from pathlib import Path
 from oilwatch.estimator.baseline import load_baseline, load_runout
 from oilwatch.estimator.boundary_parameters import (
     ESTIMATOR_PARAMETERS,
-    OFFSET_PRIOR_FROM_MACHINE,
+    PRESET_PARAMETERS,
+    PRESET_VALUE,
     config_from_parameters,
 )
 from oilwatch.estimator.ekf_config import (
@@ -21,9 +22,10 @@ from oilwatch.estimator.ekf_config import (
     ML_MIN,
     RECOMMENDED_DISPLACEMENT_PROCESS_STD_M,
     EKFConfig,
+    preset_named,
 )
 from oilwatch.estimator.runout import runout_of_probes
-from oilwatch.fmu_src.ekf_variables import GRID_TOLERANCE
+from oilwatch.fmu_src.ekf_variables import GRID_TOLERANCE, PRESET_TABLE
 from oilwatch.fmu_src.grid_store import grid_key, load_grid, store_grid
 from oilwatch.fmu_src.machine_parameters import probe_angle_deg
 from oilwatch.models.probes import read_probes
@@ -37,7 +39,15 @@ VELOCITY_MODES = ("displacement-only", "paper", "correlated")
 
 
 def check_parameters(slave) -> None:
-    """Check the parameters beyond their declared ranges (``InputError`` naming the parameter)."""
+    """Check the parameters beyond their declared ranges (``InputError`` naming the parameter) and resolve
+    ``bearing_table`` -1 to the ``preset``'s."""
+    preset = preset_named(slave.preset)
+    if slave.bearing_table == PRESET_TABLE:
+        slave.bearing_table = int(preset.follow_operating_point)
+    for name in PRESET_PARAMETERS:
+        value = getattr(slave, name)
+        if value < 0.0 and value != PRESET_VALUE:
+            raise InputError(f"{name} must be >= 0 or {PRESET_VALUE:g} (the preset's), got {value:g}")
     if slave.q_std_velocity_um_s < 0.0 and slave.q_std_velocity_um_s != -1.0:
         raise InputError(
             f"q_std_velocity_um_s must be >= 0 um/s or -1 (recommended), got {slave.q_std_velocity_um_s:g}"
@@ -90,6 +100,13 @@ def estimator_model(slave, system, machine):
         return build_operating_model(system, machine, slave.sample_period_s)
     if slave.viscosity_factor_prior_std > 0.0:
         raise InputError("viscosity_factor_prior_std > 0 needs bearing_table = 1")
+    if slave.viscosity_factor_prior_std == PRESET_VALUE and preset_named(slave.preset).value(
+        "viscosity_factor_prior_std", 0.0
+    ):
+        raise InputError(
+            f"bearing_table = 0: the {slave.preset} preset estimates the viscosity factors, which need "
+            "bearing_table = 1; set viscosity_factor_prior_std = 0 or bearing_table = 1"
+        )
     built_by = (system.speed_hz, slave.unbalance_g_mm, slave.unbalance_phase_deg, slave.sample_period_s)
     key = grid_key(slave.resources, machine, built_by)
     grid = load_grid(slave.resources, key)  # stored by an earlier instance or the build (fmu_src.grid_store)
@@ -138,10 +155,10 @@ def estimator_config(
     )
     probes = read_probes(machine)
     values = {p.name: getattr(slave, p.name) for p in ESTIMATOR_PARAMETERS}
-    if values["offset_prior_std_um"] == OFFSET_PRIOR_FROM_MACHINE:
-        values["offset_prior_std_um"] = probes.offset_prior_std_m * 1e6
     return config_from_parameters(
         values,
+        slave.preset,
+        probes.offset_prior_std_m,
         probe_angle_deg=probe_angle_deg(slave, machine),
         offset_random_walk_m_sqrt_s=probes.offset_random_walk_m_sqrt_s,
         velocity_noise=VELOCITY_MODES[slave.velocity_channels],

@@ -86,6 +86,7 @@ FILTER_VIEWS = (
     ("alarm_record", np.int64, 2),
     ("alarm_settings", np.float64, 1),
     ("report", np.float64, 1),
+    ("change", np.float64, 1),
 )
 """The filter's arrays (:class:`oilwatch.estimator.filter_arrays.FilterArrays` order) as :func:`plain_step`
 views them: name, dtype, dimensions."""
@@ -171,6 +172,7 @@ def plain_step(table, shapes) -> int:
         _int(table, shapes, f + 22, 2),
         _float(table, shapes, f + 23, 1),
         _float(table, shapes, f + 24, 1),
+        _float(table, shapes, f + 25, 1),
     )
     grid_batch(
         _grid(table, shapes, T_GRID_TRANSITION),

@@ -11,14 +11,21 @@ from __future__ import annotations
 
 import numpy as np
 
+from oilwatch.estimator.baseline_change import STATUS_NAMES as MISMATCH_NAMES
 from oilwatch.estimator.boundary_parameters import ESTIMATOR_PARAMETERS
 from oilwatch.estimator.channels import STATUS_NAMES
-from oilwatch.estimator.ekf_config import ML_MIN, RECOMMENDED_DISPLACEMENT_PROCESS_STD_M
+from oilwatch.estimator.ekf_config import (
+    DEFAULT_PRESET,
+    ML_MIN,
+    PRESETS,
+    RECOMMENDED_DISPLACEMENT_PROCESS_STD_M,
+)
 from oilwatch.estimator.nuisance_outputs import nuisance_names
 from oilwatch.estimator.step_kernel import (
     REPORT_CONSISTENT,
     REPORT_CONVERGED,
     REPORT_FLOWRATE,
+    REPORT_MISMATCH,
     REPORT_NIS,
     REPORT_OK,
     REPORT_ROWS,
@@ -56,6 +63,7 @@ REPORT_OUTPUTS = (
     ("measurement_ok", REPORT_OK, 1.0),
     ("model_consistent", REPORT_CONSISTENT, 1.0),
     *((f"probe_status_{name}", REPORT_STATUS + i, 1.0) for i, name in enumerate(POSITIONS)),
+    ("model_mismatch", REPORT_MISMATCH, 1.0),
     (SETTLED_OUTPUT.name, REPORT_CONVERGED, 1.0),  # cleared during the starts (fmu_src.ekf_start_outputs)
 )
 """The outputs taken from the step report: name, report column (``oilwatch.estimator.step_kernel`` REPORT_*
@@ -95,8 +103,20 @@ max, description. The others (:data:`oilwatch.estimator.boundary_parameters.ESTI
 process noise, gate, alarm) are generated from the configuration classes."""
 
 
+PRESET_TABLE = -1
+"""``bearing_table`` start value of the estimator: the preset's (``Preset.follow_operating_point``)."""
+
+
 def declare_parameters(slave) -> None:
-    declare_machine_parameters(slave)
+    tables = "; ".join(f"{p.name}: {int(p.follow_operating_point)}" for p in PRESETS)
+    declare_machine_parameters(slave, PRESET_TABLE, f"; -1: the preset's ({tables})")
+    slave.declare_string(
+        "preset",
+        "parameter",
+        start=DEFAULT_PRESET,
+        description="The configuration the parameters at -1 take their values from: "
+        + "; ".join(f"{p.name}: {p.description}" for p in PRESETS),
+    )
     for name, start, unit, low, high, text in OWN_REALS:
         slave.declare_real(
             name, "parameter", start=start, unit=unit, minimum=low, maximum=high, description=text
@@ -167,7 +187,8 @@ def declare_inputs_outputs(slave) -> None:
             start=0.0,
             unit="ml/min",
             minimum=0.0,
-            description=f"Estimated supply flowrate of bearing {b}",
+            description=f"Estimated supply flowrate of bearing {b} (the filter's, or during a model_mismatch "
+            "of 1 the one read from the static change relative to the baseline)",
         )
     for b in (1, 2):
         real(
@@ -176,7 +197,9 @@ def declare_inputs_outputs(slave) -> None:
             start=0.0,
             unit="ml/min",
             minimum=0.0,
-            description=f"Standard deviation of the bearing-{b} estimate (from the covariance P)",
+            description=f"Standard deviation of the bearing-{b} estimate: from the covariance P while the "
+            "model is consistent, else as model_mismatch says (the static change's, or P's widened by the "
+            "NIS excess)",
         )
     real(
         "nis",
@@ -239,4 +262,15 @@ def declare_inputs_outputs(slave) -> None:
         )
     for name, unit, text, start in nuisance_names():
         real(name, "output", start=start, unit=unit, description=text)
-    declare_start_outputs(slave)  # last: the value references of the outputs before them stay as they were
+    declare_start_outputs(slave)  # the value references of the outputs before them stay as they were
+    codes = ", ".join(f"{code} {name}" for code, name in enumerate(MISMATCH_NAMES))
+    slave.declare_integer(
+        "model_mismatch",
+        "output",
+        start=0,
+        minimum=0,
+        maximum=len(MISMATCH_NAMES) - 1,
+        description=f"Model-mismatch status: {codes}. 1: model_consistent has failed and q*_est, q*_std and "
+        "the alarms come from the static change relative to the baseline_file's record; 2: no such reference "
+        "applies, the alarms are held (neither set nor cleared) and q*_std is widened by the NIS excess",
+    )

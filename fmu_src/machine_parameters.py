@@ -78,9 +78,10 @@ BEARING_TABLE_DESCRIPTION = (
 )
 
 
-def declare_machine_parameters(slave) -> None:
+def declare_machine_parameters(slave, bearing_table_start: int = 0, bearing_table_note: str = "") -> None:
     """Declare ``machine_file``, the unbalance, probe-angle and ``bearing_table`` parameters, and the
-    operating-point inputs, on a slave."""
+    operating-point inputs, on a slave; ``bearing_table_start`` -1 (with ``bearing_table_note`` saying what it
+    stands for) lets the slave resolve it."""
     for name, start, unit, low, high, text in MACHINE_REALS:
         slave.declare_real(
             name, "parameter", start=start, unit=unit, minimum=low, maximum=high, description=text
@@ -94,7 +95,12 @@ def declare_machine_parameters(slave) -> None:
         description="Machine file (TOML); empty: the machine bundled in this FMU",
     )
     slave.declare_integer(
-        "bearing_table", "parameter", start=0, minimum=0, maximum=1, description=BEARING_TABLE_DESCRIPTION
+        "bearing_table",
+        "parameter",
+        start=bearing_table_start,
+        minimum=min(0, bearing_table_start),
+        maximum=1,
+        description=BEARING_TABLE_DESCRIPTION + bearing_table_note,
     )
 
 

@@ -19,6 +19,9 @@ from numbers import Real
 
 from oilwatch.models.validation import InputError, require_in_range
 
+FMI2_INTEGER_MAX = 2**31 - 1
+"""The largest FMI 2.0 Integer (32 bits): settings passed to an FMU as an Integer stay below it."""
+
 
 def setting(
     default, unit: str, description: str, low: float | None = None, high: float | None = None, **extra
@@ -67,10 +70,12 @@ def check_ranges(config) -> None:
                 and math.isfinite(item)
                 and item == int(item)
             )
-            if integer and not whole:
-                raise InputError(f"{name} must be an integer ({allowed_text(spec)}), got {item!r}")
             low = -math.inf if meta["low"] is None else meta["low"]
             high = math.inf if meta["high"] is None else meta["high"]
+            if integer and not (whole and low <= item <= high):
+                finite = math.isfinite(low + high)
+                bounds = f"in [{int(low)}, {int(high)}]" if finite else f"({allowed_text(spec)})"
+                raise InputError(f"{name} must be an integer {bounds}, got {item!r}")
             require_in_range(name, item, low, high, unit)
 
 
@@ -83,7 +88,7 @@ class ScenarioConfig:
         20.0, "s", "record length, a multiple of the 1 ms sampling period; the transition is centred at half "
         "of it", 1.0, 3600.0,
     )  # fmt: skip
-    seed: int = setting(1, "1", "seed of the measurement noise (an FMI Integer)", 0)
+    seed: int = setting(1, "1", "seed of the measurement noise (an FMI Integer)", 0, FMI2_INTEGER_MAX)
     q1_pct: float = setting(100.0, "%", "constant scenario: bearing 1 flowrate, % of nominal", 1.0, 200.0)
     q2_pct: float = setting(100.0, "%", "constant scenario: bearing 2 flowrate, % of nominal", 1.0, 200.0)
 

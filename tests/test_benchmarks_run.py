@@ -37,6 +37,7 @@ ARGUMENTS = {
     ],
     "ekf_fmu_step": ["--steps", "50", "--repeats", "1", "--ramp-s", "0.2", "--fmu", "{fmus}/OilFlowEKF.fmu"],
     "ekf_step": ["--steps", "50", "--repeats", "1", "--ramp-s", "0.2", "--fmu", "{fmus}/OilFlowEKF.fmu"],
+    "fmu_cold_start": ["--repeats", "1", "--steps", "300", "--baseline", "{fmus}", "--new", "{fmus}"],
     "estimate_record": ["--hours", "0.0005", "--live-s", "0.5", "--workdir", "{tmp}"],
     "host_blas_threads": ["--fmu-dir", "{fmus}", "--warm-s", "0.05", "--stop-s", "0.1"],
     "master_overhead": ["--steps", "50", "--repeats", "1"],

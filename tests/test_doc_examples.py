@@ -115,6 +115,11 @@ def test_the_fast_examples_of_a_page_run(page, tmp_path):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("page", _page_ids(slow=True))
+@pytest.mark.parametrize(
+    "page",
+    # each page its own unit under pytest-xdist (tests/fixtures/xdist_units.py): the pages share no fixture,
+    # and together they would keep one worker busy for the whole suite
+    [pytest.param(p, marks=pytest.mark.xdist_group(f"doc-examples {p}")) for p in _page_ids(slow=True)],
+)
 def test_every_example_of_a_page_runs(page, tmp_path):
     _run_page(page, tmp_path, slow=True)

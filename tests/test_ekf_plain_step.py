@@ -20,6 +20,7 @@ from oilwatch.fmu_src.ekf_plain_step import KERNEL_DECLINED, KERNEL_DONE
 
 def initialized():
     slave = OilFlowEKF(instance_name="ekf")
+    slave.preset = "paper"  # the plain step: the flowrate grid at one speed, no nuisance states
     slave.setup_experiment(0.0, None, None)
     slave.enter_initialization_mode()
     slave.exit_initialization_mode()

@@ -2,10 +2,10 @@
 
 Relocation: a second virtual environment, made by another Python minor version than the one that built the
 FMUs (pyenv's or the system's; skipped with the reason when this machine has none with a shared libpython),
-with numpy, scipy, numba, pythonfmu and fmpy pip-installed at this environment's versions. One setting,
-``OILWATCH_PYTHON_ENV``, must be enough: the C host (tests/c_host/fmi2_host.c) runs both FMUs coupled under
-``env -i`` (no other variable at all), and fmpy runs each FMU in the second environment's Python (a host
-that has Python: no setting).
+with numpy, scipy, numba and fmpy pip-installed at this environment's versions (not pythonfmu: the FMUs
+bundle its Python part). One setting, ``OILWATCH_PYTHON_ENV``, must be enough: the C host
+(tests/c_host/fmi2_host.c) runs both FMUs coupled under ``env -i`` (no other variable at all), and fmpy
+runs each FMU in the second environment's Python (a host that has Python: no setting).
 
 Platforms: each FMU (FMI 2.0 and 3.0) holds binaries for one platform only, and the FMI 2.0 one is
 oilwatch's loader (its own entry points), the binary the C host and fmpy tests load and step.
@@ -32,7 +32,7 @@ CANDIDATES = [
     *sorted(Path("/root/.pyenv/versions").glob("3.1[0-9]*/bin/python3")),
     *(Path(p) for p in ("/usr/bin/python3.10", "/usr/bin/python3.12", "/usr/bin/python3.13")),
 ]
-PACKAGES = ("numpy", "scipy", "numba", "pythonfmu", "fmpy")
+PACKAGES = ("numpy", "scipy", "numba", "fmpy")
 STOP, STEP = 0.2, 1e-3
 
 
@@ -56,12 +56,16 @@ def _minor(python: Path) -> tuple[int, int] | None:
 def other_venv(tmp_path_factory) -> Path:
     """A virtual environment of another Python minor version (3.10 or newer) with the FMUs' packages."""
     own = sys.version_info[:2]
+    found = {}
     for python in CANDIDATES:
         version = _minor(python) if python.is_file() else None
         if version and version != own and version >= (3, 10):
-            break
-    else:
+            found.setdefault(version, python)
+    if not found:
         pytest.skip(f"no Python 3.10+ other than {own[0]}.{own[1]} with a shared libpython on this machine")
+    # the nearest newer minor first: the packages' current versions may no longer support older ones
+    version = min(found, key=lambda v: (v < own, abs(v[1] - own[1])))
+    python = found[version]
     folder = tmp_path_factory.mktemp("other_python") / "venv"
     subprocess.run([str(python), "-m", "venv", str(folder)], check=True, timeout=120)
     venv_python = folder / "bin" / "python"

@@ -13,22 +13,30 @@ PROBE_COLUMNS = ("x1_um", "y1_um", "x2_um", "y2_um")
 
 def register(subparsers) -> None:
     """Add the ``baseline`` subcommand."""
+    from .config_options import add_preset_options
+
     parser = subparsers.add_parser(
         "baseline",
         help="estimate the probe zero offsets from a record at known flowrates (commissioning)",
         description=(
-            "Read a record (CSV: time_s and the probe columns x1_um, y1_um, x2_um, y2_um along each probe's "
-            "axis; optional speed_hz and oil_temperature_c, fed to the estimator's operating model when "
-            "the viscosity factors are estimated) taken at known, healthy flowrates (default: the "
-            "machine's nominal), estimate the four probe zero offsets, the complex unbalance and the "
-            "bearings' viscosity factors with their joint covariance and write them as JSON: the "
-            "estimator's prior for later runs. With "
+            "Read a record taken at known, healthy flowrates (default: the machine's nominal), as 'oilwatch "
+            "estimate' reads it (CSV, Parquet or NI TDMS at any sample rate at or above 1 kHz, anti-alias "
+            "filtered onto the estimator's grid; the machine file's [probes] mapping, --probe overrides, "
+            "keyphasor, speed_hz and oil_temperature_c columns), estimate the four probe zero offsets and, "
+            "as the --preset says, the complex unbalance and the bearings' viscosity factors with their "
+            "joint covariance, and the record's mean probe signals (the static reference a model mismatch "
+            "is read against), and write them as JSON: the estimator's prior for later runs. With "
             "--slow-roll-record, also fit each probe's 1x and 2x slow-roll (runout) vectors to a record "
             "taken at slow roll, store them with their stds and subtract them from the commissioning "
             "record (and, in later runs, from every sample: API 670 slow-roll compensation)."
         ),
     )
-    parser.add_argument("--record", default=None, metavar="FILE", help="the commissioning record (CSV)")
+    parser.add_argument(
+        "--record",
+        default=None,
+        metavar="FILE",
+        help="the commissioning record (any record 'oilwatch estimate' reads)",
+    )
     parser.add_argument(
         "--slow-roll-record",
         default=None,
@@ -39,27 +47,26 @@ def register(subparsers) -> None:
     parser.add_argument("--machine", default=None, metavar="FILE", help="machine file (default: the turbine)")
     parser.add_argument("--q1-ml-min", type=float, default=None, help="known flowrate of bearing 1 [ml/min]")
     parser.add_argument("--q2-ml-min", type=float, default=None, help="known flowrate of bearing 2 [ml/min]")
-    parser.add_argument("--noise-um", type=float, default=1.0, help="probe noise std [um] (default: 1)")
+    parser.add_argument(
+        "--noise-um",
+        type=float,
+        default=None,
+        help="probe noise std [um] (default: the machine file's [probes] noise_um, as 'oilwatch estimate')",
+    )
+    parser.add_argument(
+        "--probe",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="override a key of the machine file's [probes] table as in 'oilwatch estimate' (repeatable)",
+    )
     parser.add_argument(
         "--offset-prior-um",
         type=float,
         default=None,
         help="prior std of each offset [um] (default: the machine file's [probes] offset_prior_std_um, 25)",
     )
-    parser.add_argument(
-        "--unbalance-prior",
-        type=float,
-        default=0.0,
-        help="prior std of the complex unbalance relative to the machine file's, e.g. 2; 0: not estimated "
-        "(default: 0)",
-    )
-    parser.add_argument(
-        "--viscosity-prior",
-        type=float,
-        default=0.0,
-        help="prior std of each bearing's viscosity factor (film over the oil law at the measured "
-        "temperature), e.g. 0.1: needs a record of tens of seconds (README); 0: not estimated (default: 0)",
-    )
+    add_preset_options(parser)
     parser.add_argument(
         "--record-start",
         metavar="TIME",
@@ -68,47 +75,6 @@ def register(subparsers) -> None:
     )
     parser.add_argument("--out", required=True, metavar="FILE", help="baseline JSON to write")
     parser.set_defaults(func=run)
-
-
-OPERATING_COLUMNS = ("speed_hz", "oil_temperature_c")
-
-
-def read_record(path: str | Path, dt_s: float):
-    """(times (K,) [s], positions (K, 4) [m], operating {column: (K,)}) from a record CSV, the operating
-    columns (speed_hz, oil_temperature_c) that it has; rows with a non-finite time are skipped."""
-    import numpy as np
-
-    from oilwatch.models.validation import InputError
-
-    try:
-        with open(path, newline="") as handle:
-            reader = csv.DictReader(handle)
-            names = reader.fieldnames or []
-            missing = [c for c in ("time_s", *PROBE_COLUMNS) if c not in names]
-            if missing:
-                raise InputError(f"--record {path}: missing column(s) {', '.join(missing)}")
-            columns = ("time_s", *PROBE_COLUMNS, *(c for c in OPERATING_COLUMNS if c in names))
-            rows = [[row[c] for c in columns] for row in reader]
-    except FileNotFoundError:
-        raise InputError(f"--record: file not found: {path}") from None
-    try:
-        table = np.array(rows, dtype=float).reshape(-1, len(columns))
-    except ValueError as error:
-        raise InputError(f"--record {path}: not numeric ({error})") from None
-    table = table[np.isfinite(table[:, 0])]
-    if len(table) < 2:
-        raise InputError(f"--record {path}: needs at least 2 samples with a finite time_s")
-    steps = np.diff(table[:, 0])
-    if not np.allclose(steps, dt_s, rtol=1e-6, atol=1e-9):
-        raise InputError(
-            f"--record {path}: samples must be {dt_s:g} s apart (the estimator's period), got "
-            f"{steps.min():g} to {steps.max():g} s"
-        )
-    operating = {c: table[:, k] for k, c in enumerate(columns) if c in OPERATING_COLUMNS}
-    for column, values in operating.items():
-        if not np.isfinite(values).all():
-            raise InputError(f"--record {path}: {column} must be finite in every row")
-    return table[:, 0], table[:, 1:5] * 1e-6, operating
 
 
 def read_slow_roll_record(path: str | Path):
@@ -162,12 +128,16 @@ def _run_locked(args: argparse.Namespace) -> int:
     from oilwatch.estimator.runout import fit_slow_roll
     from oilwatch.models.machine import load_machine
     from oilwatch.models.probes import read_probes
-    from oilwatch.models.system.augmented import GridAugmentedModel
-    from oilwatch.models.system.factory import build_system
     from oilwatch.models.validation import InputError, require_in_range
+    from oilwatch.monitoring.estimate import read_record_samples
+    from oilwatch.monitoring.estimator_setup import estimator_model
     from oilwatch.outputs.atomic import write_json_atomic
 
-    require_in_range("--noise-um", args.noise_um, 0.01, 100.0, "um")
+    from .config_options import check_preset_options, preset_prior
+
+    if args.noise_um is not None:
+        require_in_range("--noise-um", args.noise_um, 0.01, 100.0, "um")
+    check_preset_options(args)
     if args.record is None and args.slow_roll_record is None:
         raise InputError("oilwatch baseline needs --record FILE, --slow-roll-record FILE or both")
     runout = None
@@ -198,48 +168,42 @@ def _run_locked(args: argparse.Namespace) -> int:
     require_in_range("--offset-prior-um", prior_um, 0.01, 1000.0, "um")
     nominal = machine.lubrication.nominal_flowrate_m3_s
     flows = [nominal if v is None else v * ML_MIN for v in (args.q1_ml_min, args.q2_ml_min)]
-    require_in_range("--unbalance-prior", args.unbalance_prior, 0.0, 100.0)
-    require_in_range("--viscosity-prior", args.viscosity_prior, 0.0, 0.5)
-    reduced = build_system(machine, reduced=True)
-    if args.viscosity_prior > 0.0:  # the factors need the model that follows the operating point
-        from oilwatch.models.system.operating_model import build_operating_model
-
-        model = build_operating_model(reduced, machine)
-    else:
-        model = GridAugmentedModel(reduced)
+    viscosity = preset_prior(args, "viscosity_prior")
+    follow = viscosity > 0.0 and machine.oil is not None
+    if viscosity > 0.0 and not follow:
+        if args.viscosity_prior is not None:
+            raise InputError("--viscosity-prior > 0 needs the machine's oil ([oil] in the machine file)")
+        viscosity = 0.0  # the preset's factors need the model that follows the operating point
+    # the estimator's own model, as 'oilwatch estimate' builds it
+    model = estimator_model(args.machine, follow=follow)
     low, high = model.flowrate_bounds_m3_s
     for name, value in zip(("--q1-ml-min", "--q2-ml-min"), flows, strict=True):
         require_in_range(name, value / ML_MIN, low / ML_MIN, high / ML_MIN, "ml/min")
-    times, positions, operating = read_record(args.record, model.dt_s)
-    if args.viscosity_prior == 0.0:
-        operating = {}
-    first = round(times[0] / model.dt_s) * model.dt_s
-    if abs(first - times[0]) > 1e-6 * model.dt_s:
-        raise InputError(f"--record: time_s must lie on multiples of {model.dt_s:g} s, got {times[0]:g}")
-    config = EKFConfig.recommended(
+    record = read_record_samples(args.record, machine, tuple(args.probe))
+    noise_um = record["stream"].setup.noise_um if args.noise_um is None else args.noise_um
+    speed, temperature = record["speed_hz"], record["oil_temperature_c"]
+    if not follow:
+        speed = temperature = None
+    config = EKFConfig.preset(
+        args.preset,
         speed_hz=machine.nominal_speed_hz,
-        noise_std_m=args.noise_um * 1e-6,
-        first_sample_time_s=first,
-        probe_angle_deg=probes.angle_deg,
+        noise_std_m=noise_um * 1e-6,
+        first_sample_time_s=record["first_sample_time_s"],
+        probe_angle_deg=record["probe_angle_deg"],
         offset_prior_std_m=prior_um * 1e-6,
         offset_random_walk_m_sqrt_s=probes.offset_random_walk_m_sqrt_s,
         q_nominal_m3_s=nominal,
         runout=runout,
-        unbalance_prior_std=args.unbalance_prior,
-        viscosity_factor_prior_std=args.viscosity_prior,
+        unbalance_prior_std=preset_prior(args, "unbalance_prior"),
+        viscosity_factor_prior_std=viscosity,
     )
     from oilwatch.monitoring.baseline_age import BASELINE_START_KEY, parse_utc
 
     start = None if args.record_start is None else parse_utc(args.record_start, "--record-start")
     document = estimate_baseline(
-        model,
-        positions,
-        flows,
-        config,
-        speed_hz=operating.get("speed_hz"),
-        oil_temperature_c=operating.get("oil_temperature_c"),
+        model, record["measurement_m"], flows, config, speed_hz=speed, oil_temperature_c=temperature
     )
-    document.update(record=str(args.record), machine_file=args.machine)
+    document.update(record=str(args.record), machine_file=args.machine, preset=args.preset)
     if start is not None:  # the baseline's age in estimate (oilwatch.monitoring.baseline_age)
         document[BASELINE_START_KEY] = start.isoformat()
     if runout is not None:
@@ -256,5 +220,10 @@ def _run_locked(args: argparse.Namespace) -> int:
     if "unbalance" in document:
         (re, im), (s_re, s_im) = document["unbalance"], document["unbalance_std"]
         others += f"; unbalance {re:+.3f} {im:+.3f}i (std {s_re:.3f}, {s_im:.3f}) of the machine file's"
+    if document["consistent_fraction"] < 0.9:
+        others += (
+            f"; its model explained the record only {100 * document['consistent_fraction']:.0f} % of the "
+            "time (model_consistent): the nuisances above may carry the model's error"
+        )
     print(f"baseline: offsets [um] {offsets}{others}; written to {args.out}")
     return 0

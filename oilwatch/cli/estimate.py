@@ -14,6 +14,7 @@ def register(subparsers) -> None:
     from oilwatch.monitoring import OPERATING_POINTS
     from oilwatch.monitoring.resume import RESUME_CHOICES
 
+    from .config_options import add_preset_options
     from .machine_option import add_machine_option
 
     parser = subparsers.add_parser(
@@ -34,7 +35,9 @@ def register(subparsers) -> None:
             "folder at a time; every file appears whole; summary.json, written last, says whether the run "
             "completed. Exit code 2 on a bad record (one line naming the column and the row) or an output "
             "that cannot be written, 3 when the estimate sat at a coefficient-table limit or was "
-            "inconsistent with the model for over 10 % of the record (summary.json 'trust'), 130 / 143 "
+            "inconsistent with the model for over 10 % of the record, or the record ended in a model "
+            "mismatch (summary.json 'trust' and 'model_mismatch': the estimates and alarms then come from "
+            "the static change relative to the --baseline, or the alarms are held), 130 / 143 "
             "when interrupted by SIGINT / SIGTERM (estimates.csv keeps whole rows; rerun to resume). See "
             "docs/operations.md."
         ),
@@ -63,16 +66,7 @@ def register(subparsers) -> None:
         help="prior std of each probe's zero offset [um] (default: the machine file's [probes] "
         "offset_prior_std_um; 0: the offsets are known to be zero, the estimator FMU's default)",
     )
-    parser.add_argument(
-        "--viscosity-prior",
-        type=float,
-        default=0.0,
-        metavar="STD",
-        help="prior std of each bearing's viscosity factor (film over the oil law at the measured "
-        "temperature), e.g. 0.1: estimated beside the flowrates, with the start bank where no --baseline "
-        "estimated them (README); needs the model that follows the operating point; 0: known (default, "
-        "the estimator FMU's viscosity_factor_prior_std)",
-    )
+    add_preset_options(parser)
     parser.add_argument(
         "--probe",
         action="append",
@@ -132,6 +126,8 @@ def run(args: argparse.Namespace) -> int:
     from oilwatch.monitoring.estimate import EstimateOptions
     from oilwatch.records.readers import STDIN
 
+    from .config_options import check_preset_options
+
     if args.output_every < 1:
         raise InputError(f"--output-every must be an integer >= 1, got {args.output_every}")
     if STDIN in args.records and len(args.records) > 1:
@@ -152,12 +148,14 @@ def run(args: argparse.Namespace) -> int:
             baseline_age_days(args.baseline, args.record_start)  # a baseline newer than the record fails here
     if args.offset_prior_um is not None:
         require_in_range("--offset-prior-um", args.offset_prior_um, 0.0, 1000.0, "um")
-    require_in_range("--viscosity-prior", args.viscosity_prior, 0.0, 0.5)
+    check_preset_options(args)
     options = EstimateOptions(
         machine_file=args.machine,
         baseline_file=args.baseline,
         offset_prior_std_um=args.offset_prior_um,
+        preset=args.preset,
         viscosity_factor_prior_std=args.viscosity_prior,
+        unbalance_prior_std=args.unbalance_prior,
         probe_overrides=tuple(args.probe),
         output_every=args.output_every,
         views=not args.no_views,
@@ -279,6 +277,10 @@ def _describe(summary: dict) -> str:
         q, std = summary[f"q{b}_final_ml_min"], summary[f"q{b}_std_final_ml_min"]
         numbers = "n/a" if q is None else f"{q:.1f} +- {2 * std:.1f} ml/min (2 std)"
         lines.append(f"  bearing {b}: {numbers}; {summary['verdict'][f'bearing{b}']}")
+    mismatch = summary.get("model_mismatch")
+    if mismatch is not None and mismatch["final"] != "consistent":
+        share = 1.0 - mismatch["fraction"]["consistent"]
+        lines.append(f"  model mismatch at the end ({mismatch['final']}; {100 * share:.0f} % of the record)")
     for alarm in summary["alarms"]:
         lines.append(f"  alarm: bearing {alarm['bearing']} at {alarm['time_s']:.3f} s")
     if record["gap_count"]:

@@ -15,11 +15,13 @@ def register(subparsers) -> None:
         help="run the plant with each machine-vs-model discrepancy against the estimator",
         description=(
             "For each discrepancy (probe offsets, unbalance size and phase, viscosity, speed and temperature "
-            "ramps, runout, sensitivity, probe mounting angle, probe faults) and truth point (100/100 and "
-            "80/90 % of nominal), simulate the plant with it (its measurement chain, unbalance, film and "
-            "operating point), run the estimator and print the errors beside the filter's own stds, false "
-            "alarms, detections, flagged probes and the error over the nuisance Cramer-Rao bound. Writes "
-            "DIR/robustness.json (row by row) and DIR/robustness.md."
+            "ramps, runout, sensitivity, probe mounting angle, probe faults; and the model-structure ones: "
+            "film model, bearing clearance and length, unbalance over several discs, flexible pedestals, "
+            "load split, runout without a slow-roll record, a bent shaft, all at once) and truth point "
+            "(100/100 and 80/90 % of nominal), simulate the plant with it (its measurement chain, unbalance, "
+            "film, structure and operating point), run the estimator and print the errors beside the "
+            "filter's own stds, false alarms, detections, flagged probes and the error over the nuisance "
+            "Cramer-Rao bound. Writes DIR/robustness.json (row by row) and DIR/robustness.md."
         ),
     )
     parser.add_argument("--machine", default=None, metavar="FILE", help="machine file (default: the turbine)")

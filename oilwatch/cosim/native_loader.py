@@ -11,7 +11,7 @@ interpreter. :func:`install_loader` rewrites a built FMU so that
 
 In a host that has no Python the loader starts the Python of one environment folder, ``OILWATCH_PYTHON_ENV``
 or else the recorded one (a virtual environment: its ``pyvenv.cfg`` gives the base Python and its version,
-any 3.10 or newer; or a Python installation prefix), checks that numpy, scipy, numba and pythonfmu import
+any 3.10 or newer; or a Python installation prefix), checks that numpy, scipy and numba import
 and that an oilwatch the process already imported is the bundled one, and forwards every fmi2 call; see the
 comment at the top of ``native/fmi2_loader.c`` (also for the teardown fix).
 

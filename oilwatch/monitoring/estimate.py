@@ -41,7 +41,7 @@ from typing import TextIO
 
 import numpy as np
 
-from oilwatch.estimator.ekf_config import ML_MIN
+from oilwatch.estimator.ekf_config import DEFAULT_PRESET, ML_MIN, preset_named
 from oilwatch.estimator.factory import make_estimator
 from oilwatch.estimator.runout import SlowRollVectors, runout_of_probes
 from oilwatch.models.machine import Machine, load_machine
@@ -69,6 +69,7 @@ from .resume import (
     run_identity,
     save_point,
 )
+from .summary import mismatch_reason
 from .timing import CpuMarks, LatencyHistogram
 from .trust import TrustShares, apply_to_verdict
 
@@ -99,10 +100,19 @@ class EstimateOptions:
     machine_file: str | None = None
     baseline_file: str | None = None
     offset_prior_std_um: float | None = None
-    viscosity_factor_prior_std: float = 0.0
+    preset: str = DEFAULT_PRESET
+    """The estimator's configuration (:data:`oilwatch.estimator.ekf_config.PRESETS`), as the FMU's ``preset``:
+    the nuisance priors left None, the model (``auto`` follows the operating point when the preset does and
+    the machine has an ``[oil]``) and the action on a model mismatch. The probe offsets are always
+    estimated with the machine file's ``[probes]`` prior (or ``offset_prior_std_um``, or the baseline): a
+    record comes from probes whose zero is not calibrated."""
+    viscosity_factor_prior_std: float | None = None
     """> 0: each bearing's viscosity factor is estimated with this prior std (the estimator FMU's
     ``viscosity_factor_prior_std``; needs the model that follows the operating point); with no baseline for
-    the factors the estimator is the start bank (:func:`oilwatch.estimator.factory.make_estimator`)."""
+    the factors the estimator is the start bank (:func:`oilwatch.estimator.factory.make_estimator`); None:
+    the preset's."""
+    unbalance_prior_std: float | None = None
+    """The complex unbalance's prior std (the FMU's ``unbalance_prior_std``; None: the preset's)."""
     probe_overrides: tuple[str, ...] = ()
     output_every: int = 1
     chunk_rows: int = 8192
@@ -119,6 +129,53 @@ class EstimateOptions:
     estimator FMU's ``bearing_table = 1``); ``nominal``: the model at the machine's nominal speed and
     viscosity (``bearing_table = 0``); ``auto``: follow when the record has a speed (a ``speed_hz`` column or
     a keyphasor) or an oil-temperature column and the machine has an ``[oil]``."""
+
+
+def open_record_stream(
+    source: str,
+    machine: Machine,
+    probe_overrides: tuple[str, ...] = (),
+    chunk_rows: int = 8192,
+    progress: Callable[[int], None] | None = None,
+) -> RecordStream:
+    """The record as the estimator's samples (:class:`oilwatch.records.RecordStream`: any format and sample
+    rate at or above the estimator's, anti-aliased and resampled, keyphasor and speed columns, the machine
+    file's ``[probes]`` mapping with ``probe_overrides``): the one way records come in, for ``oilwatch
+    estimate`` and ``oilwatch baseline`` alike."""
+    setup = probe_setup(machine.raw.get("probes"), probe_overrides)
+    return RecordStream(
+        source,
+        setup,
+        machine.bearing.clearance_m,
+        ESTIMATOR_DT_S,
+        machine.nominal_speed_hz,
+        chunk_rows=chunk_rows,
+        progress=progress,
+    )
+
+
+def read_record_samples(source: str, machine: Machine, probe_overrides: tuple[str, ...] = ()) -> dict:
+    """A whole record through :func:`open_record_stream`: ``first_sample_time_s`` (its first grid sample's
+    model time), ``measurement_m`` (K, 4) as the estimator takes it, ``speed_hz`` / ``oil_temperature_c``
+    (K,) or None when the record has no such column, ``probe_angle_deg`` (the estimator's: the pairs'
+    angle when it takes the readings along the probes' axes, else 0) and the stream (its provenance)."""
+    stream = open_record_stream(source, machine, probe_overrides)
+    blocks = list(stream.blocks())
+    if not blocks:
+        raise InputError(f"{source}: no sample on the estimator's grid")
+
+    def joined(name: str) -> np.ndarray:
+        return np.concatenate([getattr(block, name) for block in blocks])
+
+    speed, temperature = joined("speed_hz"), joined("oil_temperature_c")
+    return {
+        "first_sample_time_s": int(blocks[0].k[0]) * ESTIMATOR_DT_S,
+        "measurement_m": joined("measurement_m"),
+        "speed_hz": speed if np.isfinite(speed).all() else None,
+        "oil_temperature_c": temperature if np.isfinite(temperature).all() else None,
+        "probe_angle_deg": stream.probe_angle_deg or 0.0,
+        "stream": stream,
+    }
 
 
 def _is_angle_key(override: str) -> bool:
@@ -174,19 +231,13 @@ class EstimateRun:
             drift = self.probes.offset_drift_m_per_day
             self.baseline = load_baseline(options.baseline_file, age_s, drift)
         chunk_rows = 1 if source == STDIN and options.live else options.chunk_rows
-        self.stream = RecordStream(
-            source,
-            self.setup,
-            self.machine.bearing.clearance_m,
-            ESTIMATOR_DT_S,
-            self.speed_hz,
-            chunk_rows=chunk_rows,
-            progress=progress,
-        )
+        self.stream = open_record_stream(source, self.machine, options.probe_overrides, chunk_rows, progress)
         if total_callback is not None:
             total_callback(self.stream.reader.total, self.stream.reader.progress_unit)
+        self.preset = preset_named(options.preset)
         self.follow, self.operating_reason = self._operating_choice()
-        if options.viscosity_factor_prior_std > 0.0 and not self.follow:
+        self.viscosity_factor_prior_std = self._prior("viscosity_factor_prior_std")
+        if self.viscosity_factor_prior_std > 0.0 and not self.follow:
             raise InputError(
                 "--viscosity-prior > 0 needs the model that follows the operating point: a record with a "
                 "speed or an oil temperature and the machine's [oil] (or --operating-point follow); "
@@ -234,6 +285,15 @@ class EstimateRun:
             )
         return runout, source
 
+    def _prior(self, field: str) -> float:
+        """A nuisance prior: the option's, else the preset's (with the model that cannot follow the operating
+        point, the preset's viscosity factors are known: the model has none)."""
+        given = getattr(self.options, field)
+        if given is not None:
+            return given
+        value = self.preset.value(field, 0.0)
+        return 0.0 if field == "viscosity_factor_prior_std" and not self.follow else value
+
     def _operating_choice(self) -> tuple[bool, str]:
         """(follow the record's speed and oil temperature?, why), from ``operating_point`` (see
         :class:`EstimateOptions`)."""
@@ -256,10 +316,12 @@ class EstimateRun:
                     "the oil temperature into a viscosity"
                 )
             return True, "follows the record's " + (" and ".join(measured) or "(constant) operating point")
-        if not measured:
-            return False, "nominal (the record has no speed and no oil temperature)"
         if self.machine.oil is None:
             return False, "nominal (the machine file has no [oil]: the model cannot follow)"
+        if not measured and self.preset.follow_operating_point:
+            return True, f"follows the (constant, nominal) operating point: the {self.preset.name} preset"
+        if not measured:
+            return False, "nominal (the record has no speed and no oil temperature)"
         return True, "follows the record's " + " and ".join(measured)
 
     def run(self) -> dict:
@@ -305,6 +367,7 @@ class EstimateRun:
         summary["identity"] = self.identity
         summary["resumed_from_time_s"] = self.resumed_from_s
         summary["trust"] = self.trust.summary()
+        mismatch_reason(summary)
         apply_to_verdict(summary)
         try:
             if self.options.views:
@@ -482,7 +545,9 @@ class EstimateRun:
             self.baseline,
             self.probe_angle_deg,
             self.runout,
-            self.options.viscosity_factor_prior_std,
+            self.viscosity_factor_prior_std,
+            self._prior("unbalance_prior_std"),
+            self.preset.value("model_mismatch_action", True),
         )
         self.filter = make_estimator(self.model, config)
         missing = np.full(4, np.nan)

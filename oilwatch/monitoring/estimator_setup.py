@@ -62,6 +62,8 @@ def estimator_config(
     probe_angle_deg: float = 0.0,
     runout: SlowRollVectors | None = None,
     viscosity_factor_prior_std: float = 0.0,
+    unbalance_prior_std: float = 0.0,
+    model_mismatch_action: bool = True,
 ) -> EKFConfig:
     """The OilFlowEKF FMU's default configuration with the machine's probe nuisances (module docstring).
 
@@ -70,8 +72,13 @@ def estimator_config(
     ``probe_angle_deg``: the probe pairs' mounting angle when the samples are along the probes' axes (the
     FMU's ``probe_angle_deg``; 0: (x, y) positions); ``runout``: the probes' slow-roll vectors, subtracted
     from each sample at its rotor angle (the samples must then be along the probes' axes);
-    ``viscosity_factor_prior_std``: the viscosity factors' prior std (0: known, the FMU's default)."""
-    nuisance = {"viscosity_factor_prior_std": viscosity_factor_prior_std}
+    ``viscosity_factor_prior_std``, ``unbalance_prior_std``: the viscosity factors' and the unbalance's
+    prior stds (0: known); ``model_mismatch_action``: the FMU preset's (estimator.baseline_change)."""
+    nuisance = {
+        "viscosity_factor_prior_std": viscosity_factor_prior_std,
+        "unbalance_prior_std": unbalance_prior_std,
+        "model_mismatch_action": model_mismatch_action,
+    }
     if probes is not None:
         nuisance |= {
             "offset_prior_std_m": probes.offset_prior_std_m,

@@ -132,6 +132,11 @@ class History:
         self.flagged_samples = np.zeros(4, dtype=np.int64)
         """Per probe, the samples it was flagged faulty (probe_status != 0)."""
         self.last_status: np.ndarray | None = None
+        self.mismatch_samples = np.zeros(3, dtype=np.int64)
+        """Samples at each model-mismatch status (oilwatch.estimator.baseline_change: 0 consistent, 1 read
+        from the baseline change, 2 held); all zero for an estimator without the status."""
+        self.last_mismatch: int | None = None
+        self._mismatch: int | None = None
         self.last_offsets_um = np.zeros(4)
         """The estimator's last probe offset estimates (along the probes' axes at :attr:`probe_angle_deg`;
         zeros when it does not estimate them)."""
@@ -187,6 +192,11 @@ class History:
             offsets = [f"offset_{name}_um" for name in ("x1", "y1", "x2", "y2")]
             self._offset_index = [columns.index(n) for n in offsets] if set(offsets) <= set(columns) else None
             self._consistent = columns.index("model_consistent") if "model_consistent" in columns else None
+            self._mismatch = columns.index("model_mismatch") if "model_mismatch" in columns else None
+        if self._mismatch is not None:
+            status = rows[:, self._mismatch].astype(np.int64)
+            self.mismatch_samples += np.bincount(status, minlength=3)[:3]
+            self.last_mismatch = int(status[-1])
         index = k - self.first_k
         times = rows[:, TIME]
         self.last_time_s = float(times[-1])
@@ -284,8 +294,8 @@ STATUS_PREFIX = "probe_status_"
 
 def _is_health(name: str) -> bool:
     """The estimator's health outputs drawn in the probe-health view: each probe's status and the model's
-    consistency (an alarm's consistency is in the alarm list)."""
-    return name.startswith(STATUS_PREFIX) or name == "model_consistent"
+    consistency and mismatch status (an alarm's consistency is in the alarm list)."""
+    return name.startswith(STATUS_PREFIX) or name in ("model_consistent", "model_mismatch")
 
 
 def _finite(value: float) -> float | None:

@@ -85,6 +85,7 @@ def summarize(run, wall_s: float, csv_path: Path) -> dict:
         "estimates_csv": str(csv_path),
     }
     summary["probes"] = _probe_summary(run)
+    summary["model_mismatch"] = _mismatch_summary(history)
     if run.latency.count:
         summary["live_latency_ms"] = run.latency.summary_ms()
     for b in (1, 2):
@@ -98,6 +99,7 @@ def summarize(run, wall_s: float, csv_path: Path) -> dict:
             if alarmed
             else "healthy"
         ) + ("" if q is None else f": {q:.1f} ml/min, {100.0 * q / nominal:.1f} % of nominal")
+        summary["verdict"][f"bearing{b}"] += MISMATCH_VERDICT.get(history.last_mismatch, "")
     mismatch = summary["speed"].get("max_deviation_fraction")
     if not run.follow and mismatch is not None and mismatch > SPEED_MISMATCH_FRACTION:
         print(
@@ -107,6 +109,41 @@ def summarize(run, wall_s: float, csv_path: Path) -> dict:
             file=sys.stderr,
         )
     return summary
+
+
+MISMATCH_VERDICT = {
+    1: " (model mismatch: read from the static change relative to the baseline)",
+    2: " (model mismatch: the estimate does not act, alarms held)",
+}
+"""What the verdict says of the model-mismatch status at the end of the record."""
+
+
+def mismatch_reason(summary: dict) -> None:
+    """A record that ends in a model mismatch (summary.json's ``model_mismatch``) is not trusted: its
+    ``trust`` gets the reason (``oilwatch estimate`` then exits with
+    :data:`oilwatch.monitoring.trust.UNTRUSTED_EXIT_CODE`)."""
+    mismatch = summary.get("model_mismatch")
+    if mismatch is None or mismatch["final"] == "consistent":
+        return
+    summary["trust"]["trusted"] = False
+    summary["trust"]["reasons"].append(f"the record ends in a model mismatch ({mismatch['final']})")
+
+
+def _mismatch_summary(history) -> dict | None:
+    """The model-mismatch status at the end and the share of the record at each status (None: the estimator
+    has none)."""
+    from oilwatch.estimator.baseline_change import STATUS_NAMES
+
+    if history.last_mismatch is None:
+        return None
+    total = max(1, int(history.mismatch_samples.sum()))
+    return {
+        "final": STATUS_NAMES[history.last_mismatch],
+        "fraction": {
+            name: round(int(n) / total, 6)
+            for name, n in zip(STATUS_NAMES, history.mismatch_samples, strict=True)
+        },
+    }
 
 
 def _probe_summary(run) -> dict:

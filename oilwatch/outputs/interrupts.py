@@ -98,7 +98,9 @@ def held() -> Iterator[None]:
     macro steps); the handlers are installed for the block when the console script did not install them
     (a library caller), and the caller's restored after it."""
     previous = None
-    if not _State.installed and threading.current_thread() is threading.main_thread():
+    # the handlers actually in place, not the flag: a caller may have replaced them since install()
+    in_place = all(signal.getsignal(signum) is _handler for signum in SIGNALS)
+    if not in_place and threading.current_thread() is threading.main_thread():
         previous = {signum: signal.getsignal(signum) for signum in SIGNALS}
         install()
     try:

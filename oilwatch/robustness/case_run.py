@@ -56,6 +56,17 @@ def _accepts(function, name: str) -> bool:
     return name in inspect.signature(function).parameters
 
 
+def case_bounds(cache: dict, machine, settings: dict, case: Case) -> CaseBounds:
+    """The :class:`CaseBounds` of the case's own record length (a case may run shorter than the run), kept
+    in ``cache``."""
+    duration = settings["duration_s"]
+    if case.duration_s is not None:
+        duration = min(case.duration_s, duration)
+    if duration not in cache:
+        cache[duration] = CaseBounds(machine, {**settings, "duration_s": duration}, DT_S)
+    return cache[duration]
+
+
 class RobustnessRun:
     """The models of one robustness run, built once per process and shared by its cases."""
 
@@ -71,16 +82,16 @@ class RobustnessRun:
         rotor = Rotor.from_machine(self.machine)
         self._unbalance = (rotor.unbalance_moment_kg_m, rotor.unbalance_phase_rad)
         self.clearance_m = self.machine.bearing.clearance_m
-        self.n_samples = round(self.duration_s / DT_S)
         self._motions: dict = {}  # true_motion's, per plant variant, point and seed
         self._other_models: dict = {}  # the estimator's models on another kind of film coefficients
+        self._bounds: dict = {}  # CaseBounds per record length
         # the estimator side: a step that takes the measured operating point, viscosity-factor states
         self.follows_operating_point = _accepts(OilFlowEKF.step, "speed_hz") and (
             "viscosity_factor_prior_std" in {f.name for f in dataclasses.fields(EKFConfig)}
         )
 
     def case_duration_s(self, case: Case) -> float:
-        """The record length of the case [s]: its own, else the run's."""
+        """The record length of the case [s]: its own (at most the run's), else the run's."""
         return self.duration_s if case.duration_s is None else min(case.duration_s, self.duration_s)
 
     def plant_system(self, case: Case):
@@ -276,9 +287,7 @@ class RobustnessRun:
 
     def bound_pct(self, case: Case, point_pct) -> np.ndarray:
         """(2,) nuisance Cramer-Rao bound [% of q] in the case's own configuration (:mod:`.bounds`)."""
-        if not hasattr(self, "_bounds"):
-            self._bounds = CaseBounds(self.machine, self.settings, DT_S)
-        return self._bounds.bound_pct(case, point_pct)
+        return case_bounds(self._bounds, self.machine, self.settings, case).bound_pct(case, point_pct)
 
     def estimate(self, case: Case, config: EKFConfig, signals, speed, temperature, single: bool = False):
         """(trace, follows): the estimator's record, and whether it was fed the measured speed and oil

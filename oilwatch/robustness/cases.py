@@ -379,6 +379,23 @@ CASES: tuple[Case, ...] = (
         structure=PlantStructure(bow_m=BOW_M, bow_phase_rad=math.radians(45.0)),
         **_STRUCTURE,
     ),
+    *(
+        Case(
+            f"{name}-known-film",
+            f"{description}; the estimator's viscosity factors taken as 1",
+            viscosity_states=False,
+            **changes,
+            **_STRUCTURE,
+        )
+        for name, description, changes in (
+            (
+                "unbalance-discs",
+                "the same three-disc unbalance",
+                {"structure": PlantStructure(unbalance_discs=UNBALANCE_DISCS)},
+            ),
+            ("runout-1-3um", "the same 1-3 um runout", {"runout_range_m": RUNOUT_RANGE_M}),
+        )
+    ),
     Case(
         "structure-all",
         "all model-structure discrepancies at once (quasi-static film, clearance +10 %, length +5 %, "

@@ -10,22 +10,23 @@ import numpy as np
 
 from oilwatch.models.machine import load_machine
 
-from .bounds import CaseBounds, configuration_label
-from .case_run import DT_S
+from .bounds import configuration_label
+from .case_run import case_bounds
 from .cases import case_by_name
 
 
 def with_case_bounds(rows: Sequence[dict], settings: dict) -> list[dict]:
     """The rows with ``bound_pct``, ``error_over_bound`` and ``bound_configuration`` computed afresh for
     each row's case in its own configuration (:mod:`.bounds`; rows of runs made before it held another)."""
-    bounds = CaseBounds(load_machine(settings["machine_file"]), settings, DT_S)
+    machine = load_machine(settings["machine_file"])
+    bounds: dict = {}
     out = []
     for row in rows:
         if "error" in row:
             out.append(row)
             continue
         case = case_by_name(row["case"])
-        bound = bounds.bound_pct(case, (row["q1_pct"], row["q2_pct"]))
+        bound = case_bounds(bounds, machine, settings, case).bound_pct(case, (row["q1_pct"], row["q2_pct"]))
         out.append(
             {
                 **row,

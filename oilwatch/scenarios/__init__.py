@@ -218,6 +218,7 @@ class ScenarioRun:
             "noise_um": self.noise_um,
             "q_initial_ml_min": self.nominal_ml_min,
             "q_nominal_ml_min": self.nominal_ml_min,
+            "preset": "paper",  # the paper's scenarios run its calibrated filter
             **self._operating("ekf"),
             **self._extra("ekf"),
             "speed_hz": self.speed_hz("ekf"),

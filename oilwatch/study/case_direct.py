@@ -9,7 +9,7 @@ with
   of the four displacement probes, seeded with ``case.rng_seed``; flowrates held constant;
 * estimator: ``oilwatch.estimator.ekf.OilFlowEKF`` on ``GridAugmentedModel`` of the REDUCED model (the
 estimator's own
-  discrete map, not the truth's), configured by ``EKFConfig.recommended`` with the case's noise level, the
+  discrete map, not the truth's), configured by ``EKFConfig.preset("paper")`` with the case's noise level, the
   first sample at t = dt (the plant's first output is its state after one step), initial estimate the paper's
   (zero states, q = the machine's nominal flowrate);
 * the record is reduced with :func:`oilwatch.study.cases.reduce_record` (mean after ``case.discard_s``).
@@ -86,7 +86,9 @@ def run_direct_case(case: Case, nuisances: str = "known") -> CaseResult:
     record = simulate_record(case)
     model = estimator_model(case.machine_file or None)
     extra = nuisance_settings(case.machine_file or None) if nuisances == "unknown" else {}
-    config = EKFConfig.recommended(noise_std_m=case.noise_um * 1e-6, first_sample_time_s=SAMPLE_DT_S, **extra)
+    config = EKFConfig.preset(
+        "paper", noise_std_m=case.noise_um * 1e-6, first_sample_time_s=SAMPLE_DT_S, **extra
+    )
     trace = OilFlowEKF(model, config).run(record)
     times = SAMPLE_DT_S * np.arange(1, case.n_samples + 1)
     return reduce_record(

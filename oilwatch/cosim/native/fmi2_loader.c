@@ -9,8 +9,9 @@
  *    else the build's environment recorded in resources/oilwatch_python.txt (python_env=). That one
  *    folder is the only setting: a virtual environment (its pyvenv.cfg gives the base Python's home and
  *    version; libpython, the standard library and the environment's site-packages follow from them) or
- *    a Python installation prefix (lib/pythonX.Y). Any Python 3.10 or newer with numpy, scipy, numba and
- *    pythonfmu will do; the interpreter must be the environment's, not the build's, since it is the one
+ *    a Python installation prefix (lib/pythonX.Y). Any Python 3.10 or newer with numpy, scipy and numba
+ *    will do (pythonfmu's Python part is bundled in resources/); the interpreter must be the
+ *    environment's, not the build's, since it is the one
  *    whose packages are installed. A parameter cannot choose it: the interpreter must run before the
  *    FMU's variables exist (fmi2Instantiate), so the setting is an environment variable of the host.
  * 2. If the process has no Python interpreter yet (no Py_IsInitialized symbol in the global scope),
@@ -18,7 +19,7 @@
  *    handlers (Py_InitializeEx(0): the host keeps SIGINT), puts the environment's site-packages on
  *    sys.path in place of the interpreter's own, and releases the GIL. In a Python host (fmpy,
  *    libcosimpy) none of this happens: the host's interpreter and environment are used, as before.
- *    Either way numpy, scipy, numba and pythonfmu must import, and an oilwatch the process already
+ *    Either way numpy, scipy and numba must import, and an oilwatch the process already
  *    imported must be the one this FMU bundles (resources/oilwatch/fmu_src/bundle.py, run by path:
  *    the sources' digest); if not, or if a file is missing, the host's logger gets one message naming
  *    what is missing (and OILWATCH_PYTHON_ENV when another environment would help), and fmi2Instantiate
@@ -162,7 +163,7 @@ static const char CHECK_CODE[] =
     "        for d in [d for d in site_dirs.split(os.pathsep) if d]:\n"
     "            site.addsitedir(d)\n"
     "    missing = []\n"
-    "    for name in ('numpy', 'scipy', 'numba', 'pythonfmu'):\n"
+    "    for name in ('numpy', 'scipy', 'numba'):\n"
     "        try:\n"
     "            importlib.import_module(name)\n"
     "        except Exception as error:\n"
@@ -366,7 +367,7 @@ static int read_record(const char *resources, Record *record, char *error, size_
         if (!config_value(path, "python_env", record->env, sizeof record->env)) {
             snprintf(error, size,
                      "no Python environment: set OILWATCH_PYTHON_ENV to a virtual environment with numpy, "
-                     "scipy, numba and pythonfmu (%s names none)",
+                     "scipy and numba (%s names none)",
                      path);
             return 0;
         }
@@ -377,7 +378,7 @@ static int read_record(const char *resources, Record *record, char *error, size_
     if (!is_dir(record->env)) {
         snprintf(error, size,
                  "the Python environment '%s' (%s) does not exist: set OILWATCH_PYTHON_ENV to a virtual "
-                 "environment (Python 3.10 or newer) with numpy, scipy, numba and pythonfmu",
+                 "environment (Python 3.10 or newer) with numpy, scipy and numba",
                  record->env, record->origin);
         return 0;
     }
@@ -487,7 +488,7 @@ static int start_python(const Record *record, int *started, char *error, size_t 
     if (record->is_venv && !is_dir(record->site_dirs)) {
         snprintf(error, size,
                  "the Python environment '%s' has no %s: set OILWATCH_PYTHON_ENV to a virtual environment "
-                 "with numpy, scipy, numba and pythonfmu",
+                 "with numpy, scipy and numba",
                  record->env, record->site_dirs);
         return 0;
     }
@@ -533,10 +534,10 @@ static int check_environment(const Record *record, const char *resources, int st
         else if (text[0] && started) {
             snprintf(error, size,
                      "%s: set OILWATCH_PYTHON_ENV to a virtual environment (Python 3.10 or newer) with numpy, "
-                     "scipy, numba and pythonfmu",
+                     "scipy and numba",
                      text);
         } else if (text[0]) {
-            snprintf(error, size, "%s: install numpy, scipy, numba and pythonfmu into the Python that runs the host",
+            snprintf(error, size, "%s: install numpy, scipy and numba into the Python that runs the host",
                      text);
         } else ok = 1;
         if (result) py.DecRef(result);
