@@ -126,17 +126,23 @@ def test_a_signal_at_a_random_moment_leaves_whole_rows_and_the_same_command_resu
         line = _one_line(stderr)
         assert f"interrupted ({signal.Signals(signum).name})" in line, line
     csv_path = out / "estimates.csv"
+    kept = 0
     if csv_path.exists():
         kept = _whole_rows(csv_path)
         assert reference.startswith(csv_path.read_bytes()) or kept == 0  # the rows kept are the run's rows
         summary = json.loads((out / "summary.json").read_text())
         assert summary["completed"] is (process.returncode == 0)
+        if process.returncode != 0 and kept > 0:  # stopped after a whole block: always at a resume point
+            assert summary["resumable"] is True, summary
     resumed = subprocess.run(
         _command(*_estimate_args(long_record, out)), cwd=REPO_ROOT, env=ENV, capture_output=True, text=True
     )
     assert resumed.returncode == 0, resumed.stderr
     assert csv_path.read_bytes() == reference
-    assert json.loads((out / "summary.json").read_text())["completed"] is True
+    final = json.loads((out / "summary.json").read_text())
+    assert final["completed"] is True
+    if process.returncode != 0 and kept > 0:
+        assert final["resumed_from_time_s"] > 0.0  # resumed, not started over
 
 
 def test_resume_continues_from_the_saved_state_with_the_estimates_of_an_uninterrupted_run(

@@ -390,6 +390,7 @@ class EstimateRun:
     def _loop(self, writer_file: RowFile, point: dict | None) -> int:
         """Estimate block after block, from the resume ``point`` if any; return the samples estimated."""
         writer = RowWriter(writer_file, self.live_stream, self.options.output_every)
+        self._writer = writer  # a stop before the first periodic save saves its point with it
         clock, spent = time.process_time, self.stages_s  # CPU time: preemption by a shared machine's load
         # would land in whichever stage it interrupts
         blocks = self.stream.blocks()
