@@ -363,13 +363,13 @@ class EstimateRun:
         self.cpu_marks.add(done, self.cpu_s, last=True)
         from .summary import summarize
 
-        summary = summarize(self, wall, csv_path)
-        summary["identity"] = self.identity
-        summary["resumed_from_time_s"] = self.resumed_from_s
-        summary["trust"] = self.trust.summary()
-        mismatch_reason(summary)
-        apply_to_verdict(summary)
-        try:
+        try:  # every row is written: a stop from here on leaves them all and a summary that says so
+            summary = summarize(self, wall, csv_path)
+            summary["identity"] = self.identity
+            summary["resumed_from_time_s"] = self.resumed_from_s
+            summary["trust"] = self.trust.summary()
+            mismatch_reason(summary)
+            apply_to_verdict(summary)
             if self.options.views:
                 from .report import write_report
                 from .views import write_views
