@@ -119,3 +119,27 @@ def test_an_output_where_no_file_can_be_made_is_one_line(out, tmp_path, capsys):
     assert main(["estimate", str(record), "--out", out, "--no-progress"]) == 2
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1 and out in lines[0], lines
+
+
+LIMITED_ATOMIC = """
+import resource, signal, sys
+from oilwatch.outputs.atomic import write_bytes_atomic
+from oilwatch.outputs.rows import OutputError
+signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+resource.setrlimit(resource.RLIMIT_FSIZE, (1000, 1000))
+try:
+    write_bytes_atomic(sys.argv[1], b"x" * 5000)
+except OutputError as error:
+    print(error)
+"""
+
+
+def test_an_atomic_write_that_cannot_finish_names_the_target_and_leaves_nothing(tmp_path):
+    path = tmp_path / "report.html"
+    path.write_text("the previous report")
+    process = subprocess.run(
+        [sys.executable, "-c", LIMITED_ATOMIC, str(path)], env=ENV, capture_output=True, text=True
+    )
+    assert process.stdout.strip() == f"cannot write {path}: the file is too large (EFBIG)", process
+    assert path.read_text() == "the previous report"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["report.html"]

@@ -122,12 +122,8 @@ def main(argv: list[str] | None = None) -> int:
         )
         return interrupts.exit_code(stop)
     except OSError as error:
-        if error.filename is None:
-            raise
-        print(
-            f"{command}: error: cannot use {error.filename}: {describe_os_error(error)}; {ledger.kept()}",
-            file=sys.stderr,
-        )
+        where = "" if error.filename is None else f"cannot use {error.filename}: "
+        print(f"{command}: error: {where}{describe_os_error(error)}; {ledger.kept()}", file=sys.stderr)
         return 2
 
 

@@ -363,13 +363,13 @@ class EstimateRun:
         self.cpu_marks.add(done, self.cpu_s, last=True)
         from .summary import summarize
 
-        summary = summarize(self, wall, csv_path)
-        summary["identity"] = self.identity
-        summary["resumed_from_time_s"] = self.resumed_from_s
-        summary["trust"] = self.trust.summary()
-        mismatch_reason(summary)
-        apply_to_verdict(summary)
-        try:
+        try:  # every row is written: a stop from here on leaves them all and a summary that says so
+            summary = summarize(self, wall, csv_path)
+            summary["identity"] = self.identity
+            summary["resumed_from_time_s"] = self.resumed_from_s
+            summary["trust"] = self.trust.summary()
+            mismatch_reason(summary)
+            apply_to_verdict(summary)
             if self.options.views:
                 from .report import write_report
                 from .views import write_views
@@ -390,6 +390,7 @@ class EstimateRun:
     def _loop(self, writer_file: RowFile, point: dict | None) -> int:
         """Estimate block after block, from the resume ``point`` if any; return the samples estimated."""
         writer = RowWriter(writer_file, self.live_stream, self.options.output_every)
+        self._writer = writer  # a stop before the first periodic save saves its point with it
         clock, spent = time.process_time, self.stages_s  # CPU time: preemption by a shared machine's load
         # would land in whichever stage it interrupts
         blocks = self.stream.blocks()

@@ -4,8 +4,9 @@ A file is written under a temporary name of its own in the target's folder (``.<
 unique per writer, so two writers never rename each other's file away), synced, and renamed over the
 target; a rename within one folder is atomic, so a reader sees the old file or the new one, never half of
 either. A write that fails (disk full, interrupted) removes its temporary file and leaves the target as it
-was. Interrupts (:mod:`.interrupts`) are held back across the rename, so that a stop never falls between
-the rename and the removal of the temporary name.
+was, and raises :class:`.rows.OutputError` naming the target. Interrupts (:mod:`.interrupts`) are held
+back across the rename, so that a stop never falls between the rename and the removal of the temporary
+name.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from contextlib import contextmanager, suppress
 from pathlib import Path
 
 from . import interrupts
+from .rows import OutputError, describe_os_error
 
 FILE_MODE = 0o644  # mkstemp's 0600 would hide the outputs from the machine's other users
 
@@ -68,6 +70,9 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     try:
         yield temporary
         commit(temporary, path)
+    except OSError as error:  # a full or read-only disk: one line naming the file, not the temporary
+        temporary.unlink(missing_ok=True)
+        raise OutputError(f"cannot write {path}: {describe_os_error(error)}") from None
     except BaseException:
         temporary.unlink(missing_ok=True)
         raise
