@@ -315,7 +315,15 @@ def sample_step(
             report[REPORT_STD + b] = report[REPORT_FILTER_STD + b] * excess
     elif not act:
         for b in range(2):
-            report[REPORT_STD + b] = report[REPORT_FILTER_STD + b]
+            own = report[REPORT_FILTER_STD + b]
+            report[REPORT_STD + b] = own
+            static = report[REPORT_BASELINE_FLOWRATE + b]
+            if change[CHANGE_ACTION] != 0.0 and np.isfinite(static):
+                # what the static change says the filter misses beyond its own noise widens its std: a
+                # disagreement under the mismatch test's threshold is still error the filter cannot explain
+                gap = report[REPORT_FILTER_FLOWRATE + b] - static
+                excess = max(0.0, gap * gap - report[REPORT_BASELINE_STD + b] ** 2)
+                report[REPORT_STD + b] = np.sqrt(own * own + excess)
     report[REPORT_MISMATCH] = status
     report[REPORT_NIS] = nis
     report[REPORT_ROWS] = rows

@@ -61,8 +61,8 @@ def test_scenario_and_study_code_defaults_are_the_configuration_defaults():
     [
         ({"noise_um": 0.0}, "--noise-um must lie in [0.001, 50] um, got 0 um"),
         ({"duration_s": 5000.0}, "--duration-s must lie in [1, 3600] s"),
-        ({"seed": 1.5}, "--seed must be an integer (>= 0), got 1.5"),
-        ({"seed": -1}, "--seed must lie in [0, inf]"),
+        ({"seed": 1.5}, "--seed must be an integer in [0, 2147483647], got 1.5"),
+        ({"seed": -1}, "--seed must be an integer in [0, 2147483647], got -1"),
         ({"q1_pct": 300.0}, "--q1-pct must lie in [1, 200] %"),
         ({"q2_pct": float("nan")}, "--q2-pct must be finite"),
     ],

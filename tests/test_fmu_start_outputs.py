@@ -46,6 +46,7 @@ def slave_of(name, factor_std):
     slave = OilFlowEKF(instance_name=name, resources=None)
     vr = {v.name: v.value_reference for v in slave.vars.values()}
     slave.setup_experiment(0.0, None, None)
+    slave.set_string([vr["preset"]], ["paper"])  # the configuration whose starts these checks were made on
     slave.set_integer([vr["bearing_table"]], [1])
     slave.set_real([vr["viscosity_factor_prior_std"]], [factor_std])
     slave.exit_initialization_mode()
@@ -133,6 +134,7 @@ FREE = {"viscosity_factor_prior_std": 0.1, "noise_um": 1.0}
 def initialize(slave, reals, integers):
     slave.setupExperiment(startTime=0.0)
     slave.enterInitializationMode()
+    slave.setString([vr["preset"]], ["paper"])  # the configuration whose starts these checks were made on
     for key, value in reals.items():
         slave.setReal([vr[key]], [value])
     for key, value in integers.items():

@@ -290,14 +290,19 @@ def test_further_fields_of_the_estimator_s_step_report_become_estimate_columns_i
     base = {"q_m3_s": np.zeros(2), "q_std_m3_s": np.zeros(2), "starved": np.zeros(2, bool),
             "probe_status": np.zeros(4, int), "changing": np.zeros(2, bool),
             "starved_consistent": np.zeros(2, bool), "viscosity_factor": np.ones(2),
-            "viscosity_factor_std": np.zeros(2)}  # fmt: skip
+            "viscosity_factor_std": np.zeros(2), "filter_q_m3_s": np.zeros(2),
+            "filter_q_std_m3_s": np.zeros(2), "baseline_q_m3_s": np.zeros(2),
+            "baseline_q_std_m3_s": np.zeros(2)}  # fmt: skip
     values = {f.name: base.get(f.name, 0) for f in fields(StepReport)}
     report = FurtherReport(**values, offset_m=np.zeros(4), film_gap_m=np.zeros(2))
     columns, extras = estimate_columns(report)
     assert columns[:5] == ["time_s", "q1_est_ml_min", "q2_est_ml_min", "q1_std_ml_min", "q2_std_ml_min"]
     assert columns[17:] == [
         "probe_status_x1", "probe_status_y1", "probe_status_x2", "probe_status_y2", "model_consistent",
-        "changing_b1", "changing_b2", "starved_consistent_b1", "starved_consistent_b2",
+        "changing_b1", "changing_b2", "starved_consistent_b1", "starved_consistent_b2", "model_mismatch",
+        "filter_q_b1_ml_min", "filter_q_b2_ml_min", "filter_q_std_b1_ml_min", "filter_q_std_b2_ml_min",
+        "baseline_q_b1_ml_min", "baseline_q_b2_ml_min",
+        "baseline_q_std_b1_ml_min", "baseline_q_std_b2_ml_min",
         "film_gap_b1_um", "film_gap_b2_um",
     ] + [row[0] for row in nuisance_names()]  # fmt: skip
     assert ("film_gap_m", 1e6, 2) in extras

@@ -51,18 +51,15 @@ factors); flags and counts are integers."""
 
 def _field_columns(name: str, value) -> tuple[list[str], float]:
     """Column names of an extra report field and the factor from its SI unit to the field unit."""
-    base, scale = name, 1.0
+    head, tail, scale = name, "", 1.0
     for suffix, unit, factor in (("_m3_s", "_ml_min", 1.0 / ML_MIN), ("_m", "_um", 1e6)):
         if name.endswith(suffix):
-            base, scale = name[: -len(suffix)] + unit, factor
+            head, tail, scale = name[: -len(suffix)], unit, factor
             break
     size = np.size(value)
     if size == 1:
-        return [base], scale
-    head, unit = [*base.rsplit("_", 1), ""][:2] if scale != 1.0 else (base, "")
-    tail = f"_{unit}" if unit else ""
-    names = [f"{head}_{label}{tail}" for label in _labels(size)]
-    return names, scale
+        return [head + tail], scale
+    return [f"{head}_{label}{tail}" for label in _labels(size)], scale
 
 
 def _labels(size: int) -> list[str]:
