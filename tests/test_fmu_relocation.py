@@ -28,10 +28,12 @@ from test_c_host import CONNECTED, HostFmu
 
 pytestmark = pytest.mark.slow
 
+PYENV_ROOT = Path(os.environ.get("PYENV_ROOT", Path.home() / ".pyenv"))
 CANDIDATES = [
-    *sorted(Path("/root/.pyenv/versions").glob("3.1[0-9]*/bin/python3")),
-    *(Path(p) for p in ("/usr/bin/python3.10", "/usr/bin/python3.12", "/usr/bin/python3.13")),
+    *sorted((PYENV_ROOT / "versions").glob("3.1[0-9]*/bin/python3")),
+    *(Path(p) for p in (shutil.which(f"python3.{minor}") for minor in range(10, 15)) if p),
 ]
+"""Interpreters of other minor versions: pyenv's, and any python3.N on the PATH."""
 PACKAGES = ("numpy", "scipy", "numba", "fmpy")
 STOP, STEP = 0.2, 1e-3
 

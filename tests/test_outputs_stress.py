@@ -169,7 +169,9 @@ def test_resume_continues_from_the_saved_state_with_the_estimates_of_an_uninterr
     )  # fmt: skip
     assert process.returncode == 0, process.stderr
     summary = json.loads((out / "summary.json").read_text())
-    assert summary["resumed_from_time_s"] > 10.0
+    # from the point saved at the stop: the sample after the last row kept (the record starts at 1 ms)
+    assert summary["resumed_from_time_s"] == pytest.approx((stopped["rows"] + 1) * 1e-3)
+    assert stopped["rows"] >= 8192
     assert csv_path.read_bytes() == reference
     assert not (out / "resume_state.pickle").exists()
 
