@@ -132,8 +132,8 @@ def _estimate_tdms(cosim: dict, tmp_path):
     for n in PROBES:
         probe += [f"{n}.column={n}_gap", f"{n}.unit=V", f"{n}.rest_gap_v={REST_GAP_V[n]}"]
     out = tmp_path / "out"
-    assert main(["estimate", str(record), "--out", str(out), "--no-views", "--no-progress", "--preset", "paper",
-                 "--operating-point", "nominal", *[f"--probe={p}" for p in probe]]) == 0  # fmt: skip
+    assert main(["estimate", str(record), "--out", str(out), "--no-views", "--no-progress", "--preset",
+                 "paper", "--operating-point", "nominal", *[f"--probe={p}" for p in probe]]) == 0  # fmt: skip
     # (the paper preset and nominal: the scenario's estimator FMU, bearing_table = 0; the keyphasor's speed
     # would otherwise move the model)
     return out
