@@ -337,6 +337,14 @@ class Preset:
 
 PRESETS: tuple[Preset, ...] = (
     Preset(
+        "paper",
+        "the paper's calibrated filter: unbalance, film and probe offsets known, the flowrate grid at one "
+        "speed, the filter's own estimate throughout (the paper's scenarios, report and study)",
+        (("model_mismatch_action", False),),
+        offsets_from_machine=False,
+        follow_operating_point=False,
+    ),
+    Preset(
         "machine",
         "a real machine: probe offsets (machine file's [probes] prior or the baseline), the complex "
         "unbalance and both bearings' viscosity factors estimated, the bearing table that follows speed and "
@@ -344,14 +352,6 @@ PRESETS: tuple[Preset, ...] = (
         (("unbalance_prior_std", 2.0), ("viscosity_factor_prior_std", 0.1)),
         offsets_from_machine=True,
         follow_operating_point=True,
-    ),
-    Preset(
-        "paper",
-        "the paper's calibrated filter: unbalance, film and probe offsets known, the flowrate grid at one "
-        "speed, the filter's own estimate throughout (the paper's scenarios, report and study)",
-        (("model_mismatch_action", False),),
-        offsets_from_machine=False,
-        follow_operating_point=False,
     ),
 )
 """The named configurations (:meth:`EKFConfig.preset`); the first is the default."""
