@@ -18,6 +18,7 @@ from fixtures.fmu_subprocess import REPO_ROOT, run_json
 from fixtures.plant_records import REST_GAP_V, gap_voltages, keyphasor, plant_run, read_estimates
 
 from oilwatch.cli import main
+from oilwatch.cli.estimate import output_folder_name
 from oilwatch.estimator.ekf import OilFlowEKF
 from oilwatch.estimator.ekf_config import ML_MIN
 from oilwatch.estimator.measurement import probe_rotation
@@ -213,7 +214,13 @@ def test_several_records_run_as_dask_tasks_one_folder_each(drop_record, tmp_path
     code = main(["estimate", str(drop_record), str(second), "--out", str(out), "--workers", "1",
                  "--preset", "paper", "--no-views", "--no-progress"])  # fmt: skip
     assert code == 0
-    first = json.loads((out / "drop" / "summary.json").read_text())
-    other = json.loads((out / "second" / "summary.json").read_text())
+    folders = {
+        name: out / output_folder_name(str(path))
+        for name, path in (("drop", drop_record), ("second", second))
+    }
+    first = json.loads((folders["drop"] / "summary.json").read_text())
+    other = json.loads((folders["second"] / "summary.json").read_text())
     assert first["q1_final_ml_min"] == other["q1_final_ml_min"]
-    assert (out / "drop" / "estimates.csv").read_text() == (out / "second" / "estimates.csv").read_text()
+    assert (folders["drop"] / "estimates.csv").read_text() == (
+        folders["second"] / "estimates.csv"
+    ).read_text()

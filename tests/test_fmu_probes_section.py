@@ -1,7 +1,7 @@
 """Both FMUs read the machine file's ``[probes]``: the probes' mounting angle (one declaration in
 ``fmu_src/machine_parameters.py``) defaults to the machine file's layout in the plant and in the estimator,
-the estimator's ``offset_prior_std_um = -1`` is the machine file's prior, and an unreadable
-``baseline_file`` is a one-line fmi2Error naming the parameter and the file, not fmi2Fatal.
+the estimator's ``offset_prior_std_um = -1`` is, on the machine preset, the machine file's prior, and an
+unreadable ``baseline_file`` is a one-line fmi2Error naming the parameter and the file, not fmi2Fatal.
 
 The machine is the bundled turbine with ``layout = "api670"`` (45 deg) and a 7 um offset prior. Every FMU
 runs in a fresh process."""
@@ -28,8 +28,9 @@ for name, strings in (("plant_api670", api), ("plant_bundled", {})):
     plant.doStep(0.0, h)
     result[name] = plant.getReal([pv[n] for n in ("x1_um", "y1_um", "x1_true_um", "y1_true_um")])
 # the estimator's offset prior: -1 is the machine file's, the default 0 keeps the offsets known
-for name, reals, strings in (("prior_machine", {"offset_prior_std_um": -1.0}, api),
-                             ("prior_bundled", {"offset_prior_std_um": -1.0}, {}),
+# -1 is the preset's prior: the machine preset's is the machine file's [probes] offset_prior_std_um
+for name, reals, strings in (("prior_machine", {"offset_prior_std_um": -1.0}, {**api, "preset": "machine"}),
+                             ("prior_bundled", {"offset_prior_std_um": -1.0}, {"preset": "machine"}),
                              ("prior_default", {}, api)):
     ekf, ev = load(EKF, name, reals, strings=strings)
     result[name] = ekf.getReal([ev["offset_x1_std_um"]])[0]
