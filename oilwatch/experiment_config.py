@@ -17,10 +17,7 @@ import math
 from dataclasses import dataclass, field, fields
 from numbers import Real
 
-from oilwatch.models.validation import InputError, require_in_range
-
-FMI2_INTEGER_MAX = 2**31 - 1
-"""The largest FMI 2.0 Integer (32 bits): settings passed to an FMU as an Integer stay below it."""
+from oilwatch.models.validation import MAX_SEED, InputError, require_in_range
 
 
 def setting(
@@ -88,7 +85,7 @@ class ScenarioConfig:
         20.0, "s", "record length, a multiple of the 1 ms sampling period; the transition is centred at half "
         "of it", 1.0, 3600.0,
     )  # fmt: skip
-    seed: int = setting(1, "1", "seed of the measurement noise (an FMI Integer)", 0, FMI2_INTEGER_MAX)
+    seed: int = setting(1, "1", "seed of the measurement noise (an FMI Integer)", 0, MAX_SEED)
     q1_pct: float = setting(100.0, "%", "constant scenario: bearing 1 flowrate, % of nominal", 1.0, 200.0)
     q2_pct: float = setting(100.0, "%", "constant scenario: bearing 2 flowrate, % of nominal", 1.0, 200.0)
 
