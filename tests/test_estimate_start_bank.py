@@ -61,6 +61,7 @@ def _direct(config, record, speed_hz, temperature_c):
     return bank, trace
 
 
+@pytest.mark.slow  # the estimate CLI and the bank run fast in test_fast_tier.py and test_start_bank.py
 def test_estimate_with_free_factors_runs_the_start_bank_bit_for_bit(tmp_path, short_window):
     machine = load_machine()
     speed, temperature = machine.nominal_speed_hz, machine.nominal_oil_temperature_c

@@ -53,6 +53,7 @@ def _coverage(trace, truth):
     return inside[window].mean(axis=0)
 
 
+@pytest.mark.slow  # a long record; the module's other tests keep it in the fast tier
 def test_the_std_covers_the_error_through_a_sudden_drop(model, sudden_drop):
     data, truth = sudden_drop
     config = EKFConfig.recommended(first_sample_time_s=DT)

@@ -68,6 +68,7 @@ def test_the_model_turns_the_unbalance_with_the_plants_speed_in_the_same_period(
     assert math.degrees(plant_angle[-1] - late[-1]) == pytest.approx(2.16, abs=0.01)  # what the test tells
 
 
+@pytest.mark.slow  # a long record; the module's other tests keep it in the fast tier
 def test_reset_leaves_no_correction_centre_behind(system, plant_run):
     measured, speed, _ = plant_run
     used = OilFlowEKF(build_operating_model(system, MACHINE), CONFIG)

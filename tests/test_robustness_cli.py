@@ -5,11 +5,13 @@ from __future__ import annotations
 import json
 
 import numpy as np
+import pytest
 
 from oilwatch.cli import main
 from oilwatch.robustness import CASES, POINTS_PCT
 
 
+@pytest.mark.slow  # runs the cases; the module's other tests keep the command in the fast tier
 def test_a_short_run_writes_one_row_per_case_and_point(tmp_path, capsys):
     out = tmp_path / "rob"
     code = main(["robustness", "--duration-s", "2", "--cases", "huge", "none", "--out", str(out)])

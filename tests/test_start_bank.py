@@ -82,6 +82,7 @@ def _stepped(bank, record) -> dict:
     return {name: np.array([getattr(report, name) for report in reports]) for name in FIELDS[:5]}
 
 
+@pytest.mark.slow  # a long record; the module's other tests keep it in the fast tier
 def test_the_bank_s_record_entries_equal_its_steps_across_the_choice(model):
     """``run_batch`` in blocks that split the window anywhere (the choice inside a block) and ``run`` give
     what as many steps give, bit for bit, and choose the same start from the same NIS sums."""
