@@ -19,7 +19,9 @@ Status (:data:`CONSISTENT`, :data:`MISMATCH_BASELINE`, :data:`MISMATCH_HELD`):
   there has been none for :data:`MISMATCH_HOLD_OFF_S` (hysteresis: an intermittent test does not chatter);
 * while it is a mismatch and the baseline's static reference applies (:data:`MISMATCH_BASELINE`), the
   published flowrates and stds are the baseline-relative static estimate's and the starvation alarm
-  judges them;
+  judges them; when the NIS test is passed (the mismatch is the two estimates' disagreement alone) the
+  published std also covers the filter's estimate, since the data do not say which part of the model is
+  wrong (a film model moves the 1x orbit, a bearing clearance off by its tolerance the static curve);
 * while it is a mismatch and no static reference applies (:data:`MISMATCH_HELD`: no baseline, a baseline
   without its static reference, another operating point, too few samples yet) the published flowrates are
   the filter's with their std widened by the NIS excess (``sqrt(NIS / dof)`` over the consistency window),

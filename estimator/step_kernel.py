@@ -297,7 +297,15 @@ def sample_step(
             flow = report[REPORT_BASELINE_FLOWRATE + b]
             flow = max(flow, summary_settings[SUMMARY_Q_LOW])
             report[REPORT_FLOWRATE + b] = min(flow, summary_settings[SUMMARY_Q_HIGH])
-            report[REPORT_STD + b] = report[REPORT_BASELINE_STD + b]
+            own = report[REPORT_BASELINE_STD + b]
+            report[REPORT_STD + b] = own
+            if consistent:
+                # the mismatch rests on the two estimates' disagreement alone, and the data do not say
+                # which part of the model is wrong (a film model moves the 1x orbit, a clearance the static
+                # curve): the published std covers the filter's estimate too
+                gap = report[REPORT_FILTER_FLOWRATE + b] - report[REPORT_BASELINE_FLOWRATE + b]
+                excess = max(0.0, gap * gap - report[REPORT_FILTER_STD + b] ** 2)
+                report[REPORT_STD + b] = np.sqrt(own * own + excess)
     if act and status != MISMATCH_BASELINE:
         hold_alarm(alarm_record)
     else:

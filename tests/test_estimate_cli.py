@@ -150,12 +150,15 @@ def test_tdms_gap_voltages_api670_offsets_keyphasor_at_5khz_give_the_estimator_s
     assert not any(a["bearing"] == 2 for a in summary["alarms"]) and not trace.starved[:, 1].any()
 
 
+PAPER_LIVE = ("--no-views", "--preset", "paper")
+
+
 @pytest.mark.slow
 def test_standard_input_gives_the_file_mode_estimates_line_by_line(drop_record, tmp_path):
     _estimate(drop_record, tmp_path / "file", "--no-views")
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1", PYTHONPATH=str(REPO_ROOT))
     process = subprocess.run(
-        [sys.executable, "-m", "oilwatch", "estimate", "-", "--out", str(tmp_path / "live"), "--no-views"],
+        [sys.executable, "-m", "oilwatch", "estimate", "-", "--out", str(tmp_path / "live"), *PAPER_LIVE],
         input=drop_record.read_text(),
         capture_output=True,
         text=True,

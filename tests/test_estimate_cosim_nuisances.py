@@ -133,7 +133,8 @@ def _estimate_tdms(cosim: dict, tmp_path):
         probe += [f"{n}.column={n}_gap", f"{n}.unit=V", f"{n}.rest_gap_v={REST_GAP_V[n]}"]
     out = tmp_path / "out"
     assert main(["estimate", str(record), "--out", str(out), "--no-views", "--no-progress", "--preset",
-                 "paper", "--operating-point", "nominal", *[f"--probe={p}" for p in probe]]) == 0  # fmt: skip
+                 "paper", "--offset-prior-um", "25", "--operating-point", "nominal",
+                 *[f"--probe={p}" for p in probe]]) == 0  # fmt: skip
     # (the paper preset and nominal: the scenario's estimator FMU, bearing_table = 0; the keyphasor's speed
     # would otherwise move the model)
     return out
@@ -223,7 +224,8 @@ def test_the_estimator_fmu_fed_the_same_samples_as_estimate_raises_the_same_alar
 import numpy as np
 positions = np.load({str(data)!r})
 ekf, vr = load({str(built_fmus / "OilFlowEKF.fmu")!r}, "ekf",
-               {{"noise_um": {NOISE_UM}, "offset_prior_std_um": 25.0, "probe_angle_deg": 45.0}})
+               {{"noise_um": {NOISE_UM}, "offset_prior_std_um": 25.0, "probe_angle_deg": 45.0}},
+               strings={{"preset": "paper"}})  # as estimate's --preset paper
 inputs = [vr[f"{{n}}_um"] for n in {PROBES!r}]
 outputs = [vr[n] for n in ("q1_est_ml_min", "q2_est_ml_min")]
 rows, flags = [], []

@@ -42,7 +42,7 @@ temperature = OperatingProfile("ramp", t0, t0 + 10.0, 0.0, 5.0)
 q = [p * {NOMINAL} / 100 for p in {TRUTH_PCT!r}]
 plant = {{"bearing_table": 1, "noise_um": 1.0, "seed": 3, "q1_initial_ml_min": q[0], "q1_final_ml_min": q[0],
           "q2_initial_ml_min": q[1], "q2_final_ml_min": q[1]}}
-ekf = {{"bearing_table": 1, "noise_um": 1.0}}
+ekf = {{"bearing_table": 1, "noise_um": 1.0, "preset": "paper"}}  # nuisances known: the ramps alone
 signals = {{f"{{i}}.{{n}}": f for i in ("plant", "ekf")
            for n, f in (("speed_hz", speed), ("oil_temperature_c", temperature))}}
 record = ["plant.t_sample_s", "plant.speed_hz", "plant.oil_temperature_c", "plant.q1_ml_min",
@@ -72,8 +72,9 @@ def test_a_record_with_speed_and_temperature_ramps_gives_the_fmu_s_flowrates_and
         "oil_temperature_c": cosim["plant.oil_temperature_c"],
     }
     record = write_record(tmp_path / "ramps.csv", columns)
-    common = ["--no-views", "--no-progress", "--offset-prior-um", "0"]  # offsets known: the FMU's default
-    assert main(["estimate", str(record), "--out", str(tmp_path / "follow"), *common]) == 0
+    common = ["--no-views", "--no-progress", "--preset", "paper"]  # the FMU's: nuisances known
+    follow = ["--operating-point", "follow"]
+    assert main(["estimate", str(record), "--out", str(tmp_path / "follow"), *common, *follow]) == 0
     summary = json.loads((tmp_path / "follow" / "summary.json").read_text())
     assert summary["estimator"]["operating_point"] == "follows the record's speed and oil temperature"
     ours = read_estimates(tmp_path / "follow")

@@ -27,16 +27,18 @@ for name, strings in (("plant_api670", api), ("plant_bundled", {})):
     plant, pv = load(PLANT, name, {"noise_um": 0.0}, strings=strings)
     plant.doStep(0.0, h)
     result[name] = plant.getReal([pv[n] for n in ("x1_um", "y1_um", "x1_true_um", "y1_true_um")])
-# the estimator's offset prior: -1 is the machine file's, the default 0 keeps the offsets known
-# -1 is the preset's prior: the machine preset's is the machine file's [probes] offset_prior_std_um
+# the estimator's offset prior: -1 is the preset's; the machine preset's (the default) is the machine file's
+# [probes] offset_prior_std_um, the paper preset's 0 keeps the offsets known
 for name, reals, strings in (("prior_machine", {"offset_prior_std_um": -1.0}, {**api, "preset": "machine"}),
                              ("prior_bundled", {"offset_prior_std_um": -1.0}, {"preset": "machine"}),
-                             ("prior_default", {}, api)):
+                             ("prior_default", {}, api),
+                             ("prior_paper", {}, {**api, "preset": "paper"})):
     ekf, ev = load(EKF, name, reals, strings=strings)
     result[name] = ekf.getReal([ev["offset_x1_std_um"]])[0]
 # the estimator's angle: the machine file's layout by default, against an explicit 0 deg on the same record
+# (the paper preset: offsets and unbalance known, so that 1 s shows the angle alone)
 plant, pv = load(PLANT, "plant", {"noise_um": 1.0}, {"seed": 3}, api)
-filters = {name: load(EKF, name, reals, strings=api)
+filters = {name: load(EKF, name, reals, strings={**api, "preset": "paper"})
            for name, reals in (("ekf_layout", {}), ("ekf_zero", {"probe_angle_deg": 0.0}))}
 rows = cosimulate(plant, pv, filters, STEPS, ["nis"])
 nis = {name: [row[0] for row in table] for name, table in rows.items()}
@@ -89,7 +91,8 @@ def test_the_plant_probe_angle_defaults_to_the_machine_file_layout(probes_run):
 def test_the_estimator_offset_prior_minus_one_is_the_machine_files(probes_run):
     assert probes_run["prior_machine"] == pytest.approx(7.0, rel=1e-9)
     assert probes_run["prior_bundled"] == pytest.approx(25.0, rel=1e-9)
-    assert probes_run["prior_default"] == 0.0  # the default: offsets known (the paper's calibrated probes)
+    assert probes_run["prior_default"] == pytest.approx(7.0, rel=1e-9)  # the default is the machine preset
+    assert probes_run["prior_paper"] == 0.0  # the paper preset: offsets known (the paper's calibrated probes)
 
 
 def test_the_estimator_probe_angle_defaults_to_the_machine_file_layout(probes_run):

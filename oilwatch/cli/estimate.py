@@ -63,8 +63,9 @@ def register(subparsers) -> None:
         "--offset-prior-um",
         type=float,
         metavar="STD",
-        help="prior std of each probe's zero offset [um] (default: the machine file's [probes] "
-        "offset_prior_std_um; 0: the offsets are known to be zero, the estimator FMU's default)",
+        help="prior std of each probe's zero offset [um] (default: the --preset's: the machine file's "
+        "[probes] offset_prior_std_um on the machine preset, 0 on the paper preset; 0: the offsets are known "
+        "to be zero)",
     )
     add_preset_options(parser)
     parser.add_argument(

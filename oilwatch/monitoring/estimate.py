@@ -2,9 +2,9 @@
 
 The estimator is the one the OilFlowEKF FMU wraps, in-process and configured as that FMU's defaults
 (``EKFConfig.recommended`` at the model's speed, the probes' ``noise_um``, initial flowrates at nominal, zero
-initial states, the first sample at the record's first grid time), except that a record's probes have unknown
-zero offsets: their prior is the machine file's ``[probes] offset_prior_std_um`` (the FMU's
-``offset_prior_std_um``, default 0 there) or a commissioning baseline (``--baseline``, the FMU's
+initial states, the first sample at the record's first grid time). The probes' zero offsets have the
+preset's prior, as the FMU's ``offset_prior_std_um = -1``: the machine file's ``[probes] offset_prior_std_um``
+on the machine preset, 0 (known) on the paper preset; or a commissioning baseline's (``--baseline``, the FMU's
 ``baseline_file``). The probes' slow-roll runout, the baseline's when it has one, else the machine file's
 ``[probes]`` ``runout_*`` keys (``--probe`` overrides them as every probe key), is subtracted from each
 sample at its rotor angle (``EKFConfig.runout``, as the FMU does). Fed the same samples with the same
@@ -216,10 +216,11 @@ class EstimateRun:
         self.probes = read_probes(
             dataclasses.replace(self.machine, raw={**self.machine.raw, "probes": section})
         )
-        if options.offset_prior_std_um is not None:
-            self.probes = dataclasses.replace(
-                self.probes, offset_prior_std_m=options.offset_prior_std_um * 1e-6
-            )
+        prior_um = options.offset_prior_std_um
+        if prior_um is None and not preset_named(options.preset).offsets_from_machine:
+            prior_um = 0.0  # a preset with the offsets known (the estimator FMU's reading of it)
+        if prior_um is not None:
+            self.probes = dataclasses.replace(self.probes, offset_prior_std_m=prior_um * 1e-6)
         self.baseline, self.baseline_age_days = None, None
         if options.baseline_file is not None:
             from oilwatch.estimator.baseline import load_baseline
