@@ -255,12 +255,13 @@ class EKFConfig:
         return cls(**values)
 
     @classmethod
-    def preset(cls, name: str = "machine", speed_hz: float | None = None, **overrides) -> EKFConfig:
-        """:meth:`recommended` with the fields of the preset ``name`` (:data:`PRESETS`), then ``overrides``.
+    def preset(cls, name: str | None = None, speed_hz: float | None = None, **overrides) -> EKFConfig:
+        """:meth:`recommended` with the fields of the preset ``name`` (:data:`PRESETS`; None: the default,
+        :data:`DEFAULT_PRESET`), then ``overrides``.
         The machine facts a preset leaves to the machine file (the offsets' prior: ``Preset.
         offsets_from_machine``) and the model it runs on (``Preset.follow_operating_point``) are the
         caller's."""
-        values = dict(preset_named(name).fields)
+        values = dict(preset_named(DEFAULT_PRESET if name is None else name).fields)
         values.update(overrides)
         return cls.recommended(speed_hz, **values)
 
@@ -337,14 +338,6 @@ class Preset:
 
 PRESETS: tuple[Preset, ...] = (
     Preset(
-        "paper",
-        "the paper's calibrated filter: unbalance, film and probe offsets known, the flowrate grid at one "
-        "speed, the filter's own estimate throughout (the paper's scenarios, report and study)",
-        (("model_mismatch_action", False),),
-        offsets_from_machine=False,
-        follow_operating_point=False,
-    ),
-    Preset(
         "machine",
         "a real machine: probe offsets (machine file's [probes] prior or the baseline), the complex "
         "unbalance and both bearings' viscosity factors estimated, the bearing table that follows speed and "
@@ -352,6 +345,14 @@ PRESETS: tuple[Preset, ...] = (
         (("unbalance_prior_std", 2.0), ("viscosity_factor_prior_std", 0.1)),
         offsets_from_machine=True,
         follow_operating_point=True,
+    ),
+    Preset(
+        "paper",
+        "the paper's calibrated filter: unbalance, film and probe offsets known, the flowrate grid at one "
+        "speed, the filter's own estimate throughout (the paper's scenarios, report and study)",
+        (("model_mismatch_action", False),),
+        offsets_from_machine=False,
+        follow_operating_point=False,
     ),
 )
 """The named configurations (:meth:`EKFConfig.preset`); the first is the default."""
