@@ -204,9 +204,12 @@ class OilFlowEKF(OilwatchSlave):
         self._publish()
 
     def _warm_up(self) -> None:
-        """Run the compiled paths (predict, update, skipped sample) once, then return to the initial state;
-        compile (or load) the compiled plain step when this configuration has one."""
-        for sample in (self._measurement, self._measurement, self._missing):
+        """Run the compiled paths (skipped sample, predict, update) once, then return to the initial state;
+        compile (or load) the compiled plain step when this configuration has one. The first sample is a
+        skipped one, as the start time's is when the host's first input is the plant's sample after one
+        step: the first prediction then starts where the first doStep's does (its model's re-centring is
+        kept, see ``operating_model.CENTRES_KEPT``)."""
+        for sample in (self._missing, self._measurement, self._missing):
             self.filter.step(sample, *self._operating_point(self.speed_hz, self.oil_temperature_c))
         self.filter.reset()
         if self._has_plain_step():

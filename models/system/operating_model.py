@@ -134,6 +134,7 @@ class OperatingAugmentedModel:
         self._w = np.zeros(3)
         self._no_unbalance = np.zeros(0)
         self.recentre_count = 0
+        self._kept: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}  # centre -> its correction's terms
         self.reset_operating_state()
 
     # ------------------------------------------------------------------ operating point
@@ -300,12 +301,22 @@ class OperatingAugmentedModel:
         )
 
     def _recentre(self, point: np.ndarray) -> None:
-        """The correction's terms at the new centre ``(q_c, p_c)`` (:mod:`operating_correction`)."""
+        """The correction's terms at the new centre ``(q_c, p_c)`` (:mod:`operating_correction`), or the kept
+        ones of an earlier re-centring at exactly that centre (:data:`CENTRES_KEPT`)."""
         a = self._arrays
-        fill_correction(
-            self.maps, point, self.speed_hz, self.reference_viscosity_pa_s, self._pairs, a.corrections_a,
-            a.corrections_g,
-        )  # fmt: skip
+        key = point.tobytes()
+        kept = self._kept.pop(key, None)
+        if kept is None:
+            fill_correction(
+                self.maps, point, self.speed_hz, self.reference_viscosity_pa_s, self._pairs, a.corrections_a,
+                a.corrections_g,
+            )  # fmt: skip
+            kept = (a.corrections_a.copy(), a.corrections_g.copy())
+            if len(self._kept) >= CENTRES_KEPT:
+                del self._kept[next(iter(self._kept))]  # the oldest
+        else:
+            a.corrections_a[...], a.corrections_g[...] = kept
+        self._kept[key] = kept
         self._centre = point.copy()
         self._held[HELD_CENTRE : HELD_CENTRE + 5] = point
         self._held[HELD_HAS_CENTRE] = 1.0
@@ -332,6 +343,11 @@ class OperatingAugmentedModel:
         mu = math.exp(self._log_oil_viscosity) * np.asarray(viscosity_factor, dtype=float)
         return self.maps.discrete_map(np.asarray(flowrate_m3_s, dtype=float), self._speed, mu)
 
+
+CENTRES_KEPT = 8
+"""Re-centrings whose terms a model keeps, by their exact centre: a filter reset and run again from the same
+start (the estimator FMU's warm-up in initialization, then its first steps; every filter of a start bank)
+takes them instead of computing them again (a re-centring is milliseconds of CPU)."""
 
 REFERENCE_TABLES = ("flowrate", "dimensionless")
 """What the exact (q1, q2) grid at p0 is built on: the machine's flowrate table at the nominal speed (today's
