@@ -203,3 +203,16 @@ def test_a_recentring_at_a_kept_centre_gives_the_computed_terms_bit_for_bit(mode
     for a, b in zip(kept, computed, strict=True):
         assert np.array_equal(a, b)
     model.reset_operating_state()
+
+
+def test_built_on_a_given_reference_grid_it_is_the_model_built_with_its_own_bit_for_bit(model):
+    """The estimator FMU stores the reference grid and builds later instances on it (fmu_src.grid_store)."""
+    again = build_operating_model(load_system(reduced=True), MACHINE, grid=model.reference.grid)
+    q = np.array([0.9, 1.05]) * model.nominal_flowrate_m3_s
+    s = _state(model, q)
+    for m in (model, again):
+        m.reset_operating_state()
+        m.set_operating_point(76.0, T0 + 3.0)
+    for a, b in zip(model.transition(s, q, 5), again.transition(s, q, 5), strict=True):
+        assert np.array_equal(a, b)
+    model.reset_operating_state()

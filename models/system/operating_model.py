@@ -44,6 +44,7 @@ from ..machine import Machine
 from ..oil import Oil
 from ..validation import InputError, require_positive
 from .augmented import GridAugmentedModel
+from .flowrate_grid import FlowrateGrid
 from .operating_correction import SECOND_ORDER_PAIRS, Recentring, fill_correction
 from .operating_kernels import (
     GRID_ONLY,
@@ -364,10 +365,12 @@ def build_operating_model(
     reference_table: str = "dimensionless",
     recentring: Recentring | None = None,
     progress=None,
+    grid: FlowrateGrid | None = None,
 ) -> OperatingAugmentedModel:
     """The operating model of ``system`` (reduced or full, from ``machine``) on the machine's dimensionless
     table (``oilwatch bearing-map``); ``reference_table`` in :data:`REFERENCE_TABLES`. InputError naming
-    the command when the table is missing."""
+    the command when the table is missing. ``grid``: the reference (q1, q2) grid built earlier for the same
+    system and table (its :attr:`reference` ``.grid``; nodes checked), instead of building it."""
     if reference_table not in REFERENCE_TABLES:
         raise InputError(f"reference_table must be one of {REFERENCE_TABLES}, got {reference_table!r}")
     synchronous_kind = machine.dynamic_coefficients != QUASI_STATIC
@@ -395,7 +398,7 @@ def build_operating_model(
         )
     # the dimensionless table is C1 Catmull-Rom between its nodes: 3 grid intervals per table interval
     subdivisions = 3 if reference_table == "dimensionless" else 5
-    reference = GridAugmentedModel(system, dt_s, subdivisions=subdivisions, progress=progress)
+    reference = GridAugmentedModel(system, dt_s, subdivisions=subdivisions, progress=progress, grid=grid)
     maps = OperatingMaps(system, table, dt_s, synchronous)
     return OperatingAugmentedModel(reference, maps, machine.oil, mu0, recentring)
 
