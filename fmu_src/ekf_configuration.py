@@ -96,8 +96,15 @@ def flowrates_ml_min(slave, system) -> tuple[float, float]:
 def estimator_model(slave, system, machine):
     """The estimator's model of ``bearing_table``: 1, the operating model following the measured speed and
     oil temperature; 0, the flowrate grid at the start speed (no viscosity factors)."""
+    built_by = (system.speed_hz, slave.unbalance_g_mm, slave.unbalance_phase_deg, slave.sample_period_s)
     if slave.bearing_table == 1:
-        return build_operating_model(system, machine, slave.sample_period_s)
+        # the reference grid on the dimensionless table: stored as the flowrate grid is (fmu_src.grid_store)
+        key = grid_key(slave.resources, machine, ("operating", *built_by))
+        grid = load_grid(slave.resources, key)
+        model = build_operating_model(system, machine, slave.sample_period_s, grid=grid)
+        if grid is None:
+            store_grid(slave.resources, key, model.reference.grid)
+        return model
     if slave.viscosity_factor_prior_std > 0.0:
         raise InputError("viscosity_factor_prior_std > 0 needs bearing_table = 1")
     if slave.viscosity_factor_prior_std == PRESET_VALUE and preset_named(slave.preset).value(
@@ -107,7 +114,6 @@ def estimator_model(slave, system, machine):
             f"bearing_table = 0: the {slave.preset} preset estimates the viscosity factors, which need "
             "bearing_table = 1; set viscosity_factor_prior_std = 0 or bearing_table = 1"
         )
-    built_by = (system.speed_hz, slave.unbalance_g_mm, slave.unbalance_phase_deg, slave.sample_period_s)
     key = grid_key(slave.resources, machine, built_by)
     grid = load_grid(slave.resources, key)  # stored by an earlier instance or the build (fmu_src.grid_store)
     model = GridAugmentedModel(system, slave.sample_period_s, grid=grid)

@@ -8,9 +8,10 @@ scale the positions to metres, run the compiled filter step on the filter's arra
 output array. :func:`plain_step` does exactly that, in the slave's order and with its arithmetic, and
 :data:`plain_step_entry` is its C entry (a numba ``cfunc``): the loader (``oilwatch/cosim/native/
 fmi2_loader.c``) calls it before it would take the GIL. It answers :data:`KERNEL_DONE` only for the plain
-sample (a finite time stamp on the filter's grid, the next sample, the speed and oil temperature still at
-their start values); for any other (a skipped, repeated, off-grid or late sample, a gap, a changed
-operating point) it returns :data:`KERNEL_DECLINED` having changed nothing, and the loader calls the
+sample (a finite time stamp on the filter's grid, the next sample or one after a gap, which it predicts
+through as missing samples, the speed and oil temperature still at their start values); for any other (a
+skipped, repeated, off-grid or late sample, a changed operating point) it returns :data:`KERNEL_DECLINED`
+having changed nothing, and the loader calls the
 slave's Python step, which handles it (logging, errors). :data:`KERNEL_FAILED`: the compiled step raised
 (a bug, as it would be on the Python path); the loader reports fmi2Fatal.
 
@@ -117,6 +118,26 @@ def _grid(table, shapes, i):
     return carray(table[i], (shapes[s], shapes[s + 1], shapes[s + 2], shapes[s + 3]), np.float64)
 
 
+@njit(inline="always")
+def _grid_step(table, shapes, constants, settings, measurement, packed) -> None:
+    """The filter's compiled step (``OilFlowEKF.step`` on the grid model) on one sample, ``measurement``."""
+    grid_batch(
+        _grid(table, shapes, T_GRID_TRANSITION),
+        _grid(table, shapes, T_GRID_FORCING),
+        _float(table, shapes, T_AXES, 1),
+        constants[C_OMEGA],
+        constants[C_DT],
+        shapes[settings + I_FIRST_STEP],
+        measurement,
+        _float(table, shapes, T_ROW, 2),
+        _float(table, shapes, T_NEXT, 1),
+        _float(table, shapes, T_JACOBIAN, 2),
+        _float(table, shapes, T_FLOW_JACOBIAN, 2),
+        _float(table, shapes, T_EXOGENOUS, 1),
+        packed,
+    )
+
+
 @njit(cache=True)
 def plain_step(table, shapes) -> int:
     """One plain doStep of the slave on the arrays of ``table`` (module docstring); KERNEL_DONE, or
@@ -137,15 +158,13 @@ def plain_step(table, shapes) -> int:
     index = np.floor(position + 0.5)  # round(): a tie is off the grid anyway
     f = T_FILTER
     counters = _int(table, shapes, F_COUNTERS, 1)
-    if abs(position - index) > tolerance or index != counters[COUNT_STEP]:
+    if abs(position - index) > tolerance or index < counters[COUNT_STEP]:
         return KERNEL_DECLINED
     if not (
         inputs[INPUT_SPEED] == constants[C_SPEED] and inputs[INPUT_TEMPERATURE] == constants[C_TEMPERATURE]
     ):
         return KERNEL_DECLINED
     measurement = carray(table[T_MEASUREMENT], (1, 4), np.float64)
-    for i in range(4):
-        measurement[0, i] = inputs[i] * 1e-6
     packed = (
         _float(table, shapes, f, 1),
         _float(table, shapes, f + 1, 2),
@@ -174,21 +193,14 @@ def plain_step(table, shapes) -> int:
         _float(table, shapes, f + 24, 1),
         _float(table, shapes, f + 25, 1),
     )
-    grid_batch(
-        _grid(table, shapes, T_GRID_TRANSITION),
-        _grid(table, shapes, T_GRID_FORCING),
-        _float(table, shapes, T_AXES, 1),
-        constants[C_OMEGA],
-        constants[C_DT],
-        shapes[settings + I_FIRST_STEP],
-        measurement,
-        _float(table, shapes, T_ROW, 2),
-        _float(table, shapes, T_NEXT, 1),
-        _float(table, shapes, T_JACOBIAN, 2),
-        _float(table, shapes, T_FLOW_JACOBIAN, 2),
-        _float(table, shapes, T_EXOGENOUS, 1),
-        packed,
-    )
+    # a gap (samples that never arrived, e.g. the start time's when the host's first input is the plant's
+    # sample after one step): predicted through one missing sample at a time, as the slave's step does
+    while counters[COUNT_STEP] < index:
+        measurement[0, :] = np.nan
+        _grid_step(table, shapes, constants, settings, measurement, packed)
+    for i in range(4):
+        measurement[0, i] = inputs[i] * 1e-6
+    _grid_step(table, shapes, constants, settings, measurement, packed)
     report, outputs = packed[24], _float(table, shapes, T_OUTPUTS, 1)
     columns, divisors = _int(table, shapes, T_COLUMNS, 1), _float(table, shapes, T_DIVISORS, 1)
     for i in range(shapes[settings + I_REPORTED]):
@@ -269,3 +281,13 @@ class PlainStepTable:
     def step(self) -> int:
         """:data:`plain_step_entry` on this table, as the loader calls it (tests, benchmarks)."""
         return plain_step_entry.ctypes(self._argument)
+
+    def step_and_undo(self) -> int:
+        """:meth:`step`, then every array of the table back to its values before it: the compiled step's code
+        and arrays run once (the slave's warm-up in initialization) and nothing has advanced."""
+        kept = [(array, array.copy()) for array, _, _ in self._arrays if array is not None]
+        try:
+            return self.step()
+        finally:
+            for array, values in kept:
+                np.copyto(array, values)

@@ -1,7 +1,9 @@
 """The estimator's flowrate grid stored in the FMU's resources folder: computed once, loaded afterwards.
 
-With ``bearing_table = 0`` most of the estimator's initialization is its flowrate grid
-(:class:`oilwatch.models.system.flowrate_grid.FlowrateGrid`: one matrix exponential per node). The grid
+Most of the estimator's initialization is its flowrate grid
+(:class:`oilwatch.models.system.flowrate_grid.FlowrateGrid`: one matrix exponential per node): with
+``bearing_table = 0`` the model's own, with ``bearing_table = 1`` the operating model's reference grid on the
+dimensionless table (its key says which). The grid
 depends only on the machine (its file and tables), the parameters that build the system (speed, unbalance
 and its phase), the sample period and the code, so an instance that finds a grid stored under the hash of
 exactly those (:func:`grid_key`) in ``resources/oilwatch_grids/`` loads it instead, and one that does not

@@ -204,9 +204,12 @@ class OilFlowEKF(OilwatchSlave):
         self._publish()
 
     def _warm_up(self) -> None:
-        """Run the compiled paths (predict, update, skipped sample) once, then return to the initial state;
-        compile (or load) the compiled plain step when this configuration has one."""
-        for sample in (self._measurement, self._measurement, self._missing):
+        """Run the compiled paths (skipped sample, predict, update) once, then return to the initial state;
+        compile (or load) the compiled plain step when this configuration has one. The first sample is a
+        skipped one, as the start time's is when the host's first input is the plant's sample after one
+        step: the first prediction then starts where the first doStep's does (its model's re-centring is
+        kept, see ``operating_model.CENTRES_KEPT``)."""
+        for sample in (self._missing, self._measurement, self._missing):
             self.filter.step(sample, *self._operating_point(self.speed_hz, self.oil_temperature_c))
         self.filter.reset()
         if self._has_plain_step():
@@ -228,6 +231,21 @@ class OilFlowEKF(OilwatchSlave):
         table = self.plain_step_table() if self.fast_path_bound else None
         if table is not None and bind_plain_step(self, table):
             self._plain_step = table
+            self._warm_plain_step(table)
+
+    def _warm_plain_step(self, table) -> None:
+        """Run the compiled plain step once on the first sample as a host sends it (one period after the
+        start, so through the start time's gap) and undo it, so that the first doStep runs code and touches
+        arrays that initialization already ran and touched."""
+        from oilwatch.fmu_src.ekf_plain_step import INPUT_STAMP
+
+        inputs = self._inputs
+        kept = inputs.copy()
+        first, period = self._first_sample_time_s, self.sample_period_s
+        inputs[INPUT_STAMP] = first + period
+        inputs[-2:] = (first, period)  # the loader's time and step size
+        table.step_and_undo()
+        inputs[:] = kept
 
     def _has_plain_step(self) -> bool:
         if self.filter is None or self.bearing_table != 0 or self.filter.settling_steps > 0:

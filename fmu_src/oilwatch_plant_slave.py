@@ -99,6 +99,9 @@ STRUCTURE_PARAMETERS = (
 )
 
 SAMPLING_PERIOD_S = 1e-3
+WARM_UP_STEPS = 16
+"""Steps taken and undone at the end of initialization (``_warm_up``): more than the few calls after
+which CPython specialises a function's bytecode."""
 OUTPUTS = ("x1", "y1", "x2", "y2")
 
 
@@ -471,7 +474,23 @@ class RotorBearingPlant(OilwatchSlave):
             )
         except InputError as error:
             raise InputError(_fmu_names(str(error))) from None
-        self._publish(publish_initial_sample(self.plant))
+        initial = publish_initial_sample(self.plant)
+        self._warm_up()
+        self._publish(initial)
+
+    def _warm_up(self) -> None:
+        """Take :data:`WARM_UP_STEPS` steps and return to the state before them, so that the first doStep
+        costs what the later ones do: the first runs of the step's code (the integrator's and the
+        measurement's arrays touched, the compiled kernels' first calls, the interpreter's specialisation
+        of the step's Python after its first few calls) happen in initialization. An error of a step is
+        left to the first doStep, which reports it."""
+        snapshot = self.plant.snapshot()
+        try:
+            for k in range(WARM_UP_STEPS):
+                self.step(self.start_time + k * self.plant.dt_s, self.plant.dt_s)
+        except Exception:  # the same step runs again at the first doStep, which reports it
+            pass
+        self.plant.restore(snapshot)
 
     def step(self, current_time: float, step_size: float) -> bool:
         if abs(step_size - self.plant.dt_s) > 1e-12 * step_size:

@@ -10,9 +10,10 @@ restore their state, and both get a fixed parameter set after initialization. Ev
 booleans, the nuisance estimates) must be bit-identical between the two, the refused set must be fmi2Error
 on both with the same message, and a step that fails (a time stamp after the step's end) must be fmi2Fatal
 with the slave's message on both. ``fmi2Reset`` drops the binding; the next initialization binds again.
-The fast instance's plain samples run in the compiled step (``fmu_src/ekf_plain_step.py``, without the GIL);
-the others (a non-finite, off-grid or repeated time stamp, the first sample, a failing step) decline to
-the slave's Python step.
+The estimators run the paper preset (the plain configuration): the fast instance's plain samples, the first
+one among them (through the start time's gap), run in the compiled step (``fmu_src/ekf_plain_step.py``,
+without the GIL); the others (a non-finite, off-grid or repeated time stamp, a failing step) decline to the
+slave's Python step.
 
 Also here (the same slave's parameters, in process): ``baseline_age_days`` widens the baseline's offsets prior
 by the machine file's ``[probes] offset_drift_um_per_day``, and the runout the filter subtracts is the
@@ -38,10 +39,11 @@ def loader_bound(slave, entry="oilwatch_loader_fast_path"):
     binary = Path(slave.unzipDirectory) / "binaries" / "linux64" / (slave.modelIdentifier + ".so")
     return getattr(ctypes.CDLL(str(binary)), entry)(ctypes.c_void_p(slave.component))
 
+PAPER = {"preset": "paper"}  # the plain configuration: the grid model at one speed, the compiled plain step
 os.environ["OILWATCH_FMU_FAST_PATH"] = "0"
-slow, ev = load(EKF, "slow", {"noise_um": 1.0})
+slow, ev = load(EKF, "slow", {"noise_um": 1.0}, strings=PAPER)
 del os.environ["OILWATCH_FMU_FAST_PATH"]
-fast, _ = load(EKF, "fast", {"noise_um": 1.0})
+fast, _ = load(EKF, "fast", {"noise_um": 1.0}, strings=PAPER)
 COMPILED = "oilwatch_loader_compiled_step"
 result = {"bound": [loader_bound(fast), loader_bound(slow)]}
 result["compiled"] = [loader_bound(fast, COMPILED), loader_bound(slow, COMPILED)]
@@ -99,6 +101,7 @@ result["bound_after_reset"] = loader_bound(fast)
 fast.setupExperiment(startTime=0.0)
 fast.enterInitializationMode()
 fast.setReal([ev["noise_um"]], [1.0])
+fast.setString([ev["preset"]], ["paper"])
 fast.exitInitializationMode()
 result["bound_after_reinitialization"] = [loader_bound(fast), loader_bound(fast, COMPILED)]
 failed = {}

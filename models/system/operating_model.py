@@ -44,6 +44,7 @@ from ..machine import Machine
 from ..oil import Oil
 from ..validation import InputError, require_positive
 from .augmented import GridAugmentedModel
+from .flowrate_grid import FlowrateGrid
 from .operating_correction import SECOND_ORDER_PAIRS, Recentring, fill_correction
 from .operating_kernels import (
     GRID_ONLY,
@@ -134,6 +135,7 @@ class OperatingAugmentedModel:
         self._w = np.zeros(3)
         self._no_unbalance = np.zeros(0)
         self.recentre_count = 0
+        self._kept: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}  # centre -> its correction's terms
         self.reset_operating_state()
 
     # ------------------------------------------------------------------ operating point
@@ -300,12 +302,22 @@ class OperatingAugmentedModel:
         )
 
     def _recentre(self, point: np.ndarray) -> None:
-        """The correction's terms at the new centre ``(q_c, p_c)`` (:mod:`operating_correction`)."""
+        """The correction's terms at the new centre ``(q_c, p_c)`` (:mod:`operating_correction`), or the kept
+        ones of an earlier re-centring at exactly that centre (:data:`CENTRES_KEPT`)."""
         a = self._arrays
-        fill_correction(
-            self.maps, point, self.speed_hz, self.reference_viscosity_pa_s, self._pairs, a.corrections_a,
-            a.corrections_g,
-        )  # fmt: skip
+        key = point.tobytes()
+        kept = self._kept.pop(key, None)
+        if kept is None:
+            fill_correction(
+                self.maps, point, self.speed_hz, self.reference_viscosity_pa_s, self._pairs, a.corrections_a,
+                a.corrections_g,
+            )  # fmt: skip
+            kept = (a.corrections_a.copy(), a.corrections_g.copy())
+            if len(self._kept) >= CENTRES_KEPT:
+                del self._kept[next(iter(self._kept))]  # the oldest
+        else:
+            a.corrections_a[...], a.corrections_g[...] = kept
+        self._kept[key] = kept
         self._centre = point.copy()
         self._held[HELD_CENTRE : HELD_CENTRE + 5] = point
         self._held[HELD_HAS_CENTRE] = 1.0
@@ -333,6 +345,11 @@ class OperatingAugmentedModel:
         return self.maps.discrete_map(np.asarray(flowrate_m3_s, dtype=float), self._speed, mu)
 
 
+CENTRES_KEPT = 8
+"""Re-centrings whose terms a model keeps, by their exact centre: a filter reset and run again from the same
+start (the estimator FMU's warm-up in initialization, then its first steps; every filter of a start bank)
+takes them instead of computing them again (a re-centring is milliseconds of CPU)."""
+
 REFERENCE_TABLES = ("flowrate", "dimensionless")
 """What the exact (q1, q2) grid at p0 is built on: the machine's flowrate table at the nominal speed (today's
 estimator, the plant's ``bearing_table = 0``) or the dimensionless table (the plant's ``bearing_table = 1``),
@@ -348,10 +365,12 @@ def build_operating_model(
     reference_table: str = "dimensionless",
     recentring: Recentring | None = None,
     progress=None,
+    grid: FlowrateGrid | None = None,
 ) -> OperatingAugmentedModel:
     """The operating model of ``system`` (reduced or full, from ``machine``) on the machine's dimensionless
     table (``oilwatch bearing-map``); ``reference_table`` in :data:`REFERENCE_TABLES`. InputError naming
-    the command when the table is missing."""
+    the command when the table is missing. ``grid``: the reference (q1, q2) grid built earlier for the same
+    system and table (its :attr:`reference` ``.grid``; nodes checked), instead of building it."""
     if reference_table not in REFERENCE_TABLES:
         raise InputError(f"reference_table must be one of {REFERENCE_TABLES}, got {reference_table!r}")
     synchronous_kind = machine.dynamic_coefficients != QUASI_STATIC
@@ -379,7 +398,7 @@ def build_operating_model(
         )
     # the dimensionless table is C1 Catmull-Rom between its nodes: 3 grid intervals per table interval
     subdivisions = 3 if reference_table == "dimensionless" else 5
-    reference = GridAugmentedModel(system, dt_s, subdivisions=subdivisions, progress=progress)
+    reference = GridAugmentedModel(system, dt_s, subdivisions=subdivisions, progress=progress, grid=grid)
     maps = OperatingMaps(system, table, dt_s, synchronous)
     return OperatingAugmentedModel(reference, maps, machine.oil, mu0, recentring)
 

@@ -728,12 +728,11 @@ static void relay_log(fmi2ComponentEnvironment environment, fmi2String name, fmi
     if (!self || !self->host.logger) return;
     if (refused_in_call && status == fmi2Fatal) return; /* pythonfmu's line for the refused call */
     if (status < fmi2Error && !self->host_logging) return;
-    char text[8192], escaped[2 * sizeof text];
-    va_list args;
-    va_start(args, message);
-    vsnprintf(text, sizeof text, message ? message : "", args);
-    va_end(args);
-    size_t n = 0; /* the host's logger takes a printf format again */
+    /* pythonfmu (cppfmu's Logger::Log) passes the slave's message as the format with no arguments and
+     * unescaped: it is text, taken verbatim (a '%' in it, "150 % of q_t", is no conversion) */
+    char escaped[2 * 8192];
+    const char *text = message ? message : "";
+    size_t n = 0; /* the host's logger takes a printf format */
     for (const char *p = text; *p && n + 2 < sizeof escaped; ++p) {
         if (*p == '%') escaped[n++] = '%';
         escaped[n++] = *p;
