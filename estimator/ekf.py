@@ -112,8 +112,12 @@ from .step_kernel import (
     grid_batch,
 )
 
-MIN_VISCOSITY_FACTOR = 0.2
-"""The model never sees a viscosity factor below this (a random walk kept physical)."""
+VISCOSITY_FACTOR_RANGE = (0.7, 1.4)
+"""The viscosity factors' estimates are kept within this range, and the model never sees one outside it:
+an oil within its ISO viscosity grade (+-10 %), a supply temperature measured within a few degC (about 3 %
+per degC for turbine oils) and ageing stay well inside it. A factor that runs further is the filter reading
+a model error (the 1x orbit of another unbalance distribution, runout) as film, which the model-mismatch
+status is for; unbounded, it left the bearing tables (a factor of 0.26 or 1.63)."""
 _PUBLISHED = (REPORT_FLOWRATE, REPORT_FLOWRATE + 1, REPORT_STD, REPORT_STD + 1, REPORT_MISMATCH)
 """The report entries a model mismatch publishes in place of the filter's (saved with the state)."""
 
@@ -396,6 +400,9 @@ class OilFlowEKF:
             n = self._n
             next_state, state_jac, flow_jac = self._x[:n], self._no_state_jacobian, self._no_flow_jacobian
         ekf_step(predict, next_state, state_jac, flow_jac, displacement, self._packed)
+        if self._n_viscosity:  # P left unchanged, as at the flowrates' bounds
+            factors = self._x[self._viscosity]
+            np.clip(factors, *VISCOSITY_FACTOR_RANGE, out=factors)
         if step == self._settling and step > 0:
             restart_parameters(self._x, self._P, *self._prior, self._n)
             if self._floor is not None:
@@ -731,7 +738,7 @@ class OilFlowEKF:
         flowrate = self._report[REPORT_FILTER_FLOWRATE : REPORT_FILTER_FLOWRATE + 2]
         trailing = self._trailing_jacobian
         if self._n_viscosity:
-            factors = np.maximum(self._x[self._viscosity], MIN_VISCOSITY_FACTOR)
+            factors = np.clip(self._x[self._viscosity], *VISCOSITY_FACTOR_RANGE)
             unbalance = self._x[self._unbalance] if self._n_unbalance else None
             next_state, state_jac, flow_jac, viscosity_jac, unbalance_jac = self.model.transition_full(
                 s, flowrate, model_step, factors, unbalance
