@@ -43,3 +43,14 @@ def test_derivatives_are_the_exact_map_s_along_every_axis(maps):
         numeric_g = (maps.discrete_map(*high[:3])[1] - maps.discrete_map(*low[:3])[1]) / width
         assert np.abs(d_ad[index] - numeric_a).max() < 1e-6 * np.abs(numeric_a).max(), axis
         assert np.abs(d_g[index] - numeric_g).max() < 1e-6 * np.abs(numeric_g).max(), axis
+
+
+def test_a_flowrate_past_the_tables_edge_at_a_moved_threshold_is_taken_at_the_edge(maps):
+    """The estimator bounds its flowrates at the reference point; at another viscosity the flooded threshold
+    moves, and a bound estimate lies past the table's range there: the film is taken at the edge (before,
+    an InputError stopped the estimator FMU's doStep)."""
+    speed, mu = 75.0, np.array([0.095, 0.095])
+    low, high = maps.flowrate_range_m3_s(speed, mu)
+    past = maps.blocks([(np.array([1.002 * high, 0.998 * low]), speed, mu)])[0]
+    edge = maps.blocks([(np.array([high, low]), speed, mu)])[0]
+    np.testing.assert_array_equal(past, edge)

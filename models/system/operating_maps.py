@@ -166,7 +166,12 @@ class OperatingMaps:
         for (speed, mu, load), (ps, bs, qs) in wanted.items():
             flowrates = np.array(qs)
             for kind in kinds:
-                rows[int(kind), ps, bs] = self._slice(speed, mu, load, kind).rows(flowrates)
+                table = self._slice(speed, mu, load, kind)
+                # the estimator's flowrates are bounded to the table's range at its reference point; where
+                # the speed, the oil or a viscosity factor moved the flooded threshold, a bound estimate (or
+                # a difference step from it) is taken at the table's edge: the film saturates there
+                low, high = table.flowrate_range_m3_s
+                rows[int(kind), ps, bs] = table.rows(np.clip(flowrates, low, high))
         return rows[0], (rows[1] if len(kinds) == 2 else None)
 
     def _unbalance_forces(self, synchronous, omega: np.ndarray, k: np.ndarray, c: np.ndarray) -> np.ndarray:
