@@ -25,7 +25,9 @@ Status (:data:`CONSISTENT`, :data:`MISMATCH_BASELINE`, :data:`MISMATCH_HELD`):
 * while it is a mismatch and no static reference applies (:data:`MISMATCH_HELD`: no baseline, a baseline
   without its static reference, another operating point, too few samples yet) the published flowrates are
   the filter's with their std widened by the NIS excess (``sqrt(NIS / dof)`` over the consistency window),
-  and the alarm neither sets nor clears: an inconsistent estimate never acts on its own.
+  and the alarm neither sets nor clears: an inconsistent estimate never acts on its own;
+* with the action on, the alarm also neither sets nor clears before the NIS window has filled once (an
+  untested model is not a consistent one), nor while the NIS test fails and the status waits for its hold.
 
 Static estimate: a fading-memory mean (time constant :data:`STATIC_WINDOW_S`) of each probe's signal
 (after any runout compensation), minus the baseline record's mean, is the change of the journal's static

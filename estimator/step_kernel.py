@@ -288,6 +288,11 @@ def sample_step(
         report[REPORT_BASELINE_STD : REPORT_BASELINE_STD + 2],
     )
     act = change[CHANGE_ACTION] != 0.0 and status != CONSISTENT
+    # with the mismatch action, an alarm waits for a tested model: until the NIS window has filled once the
+    # consistency test has nothing to say (a start-up transient read a healthy bearing as starved for 2 s)
+    untested = change[CHANGE_ACTION] != 0.0 and counters[COUNT_STEP] + 1 < a.nis_window.shape[0]
+    # nor on an estimate the NIS test already rejects while the mismatch status waits for its hold
+    untested = untested or (change[CHANGE_ACTION] != 0.0 and status == CONSISTENT and not consistent)
     # the report keeps the filter's own std (the filter floors it itself)
     for b in range(2):
         report[REPORT_FLOWRATE + b] = report[REPORT_FILTER_FLOWRATE + b]
@@ -306,7 +311,7 @@ def sample_step(
                 gap = report[REPORT_FILTER_FLOWRATE + b] - report[REPORT_BASELINE_FLOWRATE + b]
                 excess = max(0.0, gap * gap - report[REPORT_FILTER_STD + b] ** 2)
                 report[REPORT_STD + b] = np.sqrt(own * own + excess)
-    if act and status != MISMATCH_BASELINE:
+    if (act and status != MISMATCH_BASELINE) or untested:
         hold_alarm(alarm_record)
     else:
         update_alarm(
