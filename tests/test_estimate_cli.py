@@ -130,7 +130,9 @@ def test_tdms_gap_voltages_api670_offsets_keyphasor_at_5khz_give_the_estimator_s
     np.testing.assert_allclose(ours["speed_hz"][-100:], 75.0, rtol=2e-4)
 
     # the estimator FMU's way with API 670 probes: the readings along their axes, probe_angle_deg = 45
-    reference = OilFlowEKF(estimator_model(None), estimator_config(75.0, 0.3, 0.0, probe_angle_deg=45.0))
+    # --preset paper: no mismatch action
+    paper = estimator_config(75.0, 0.3, 0.0, probe_angle_deg=45.0, model_mismatch_action=False)
+    reference = OilFlowEKF(estimator_model(None), paper)
     reference.step(np.full(4, np.nan))  # as the FMU started at t = 0
     trace = reference.run(measured[4::5] @ probe_rotation(np.radians(45.0)).T)
     ref_t, ref_q = t[4::5], trace.q_m3_s / ML_MIN
