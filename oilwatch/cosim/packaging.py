@@ -20,12 +20,19 @@ Every module is then compiled to bytecode validated by a hash of its source (PEP
 ``.pyc``), which stays valid although an unpack gives the files new modification times. All these
 ``__pycache__`` files are added to the FMU, with the estimator's flowrate grids the run stored
 (:mod:`oilwatch.fmu_src.grid_store`).
+
+The warm-up's files depend only on the unpacked FMU's ``resources/`` (sources, machine file, tables), the
+warm-up itself, the Python, numpy and numba versions and the CPU, so they are kept in
+``<cache>/build/compiled/<key>/`` under a digest of all of these (:func:`compiled_key`) and a later build of
+the same content adds them without running the FMU again (``OILWATCH_FMU_CACHE=0`` turns the store off, as
+it does the unpacked folders; the :data:`KEEP_COMPILED` most recent are kept).
 """
 
 from __future__ import annotations
 
 import compileall
 import fnmatch
+import hashlib
 import json
 import os
 import py_compile
@@ -33,9 +40,11 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import time
 import zipfile
 from pathlib import Path
 
+from oilwatch.cosim.extraction import cache_root, persistent_extraction_enabled, prune
 from oilwatch.fmu_src.bundle import BUNDLE_FILE, SUBPACKAGES, source_digest
 from oilwatch.fmu_src.grid_store import GRID_FOLDER
 from oilwatch.models.validation import InputError
@@ -45,6 +54,8 @@ BUNDLE_INIT = (
     '"""oilwatch as an FMU bundles it: the models, estimator and fmu_src subpackages."""\n\nBUNDLE = {}\n'
 )
 """The bundled ``__init__.py``; ``BUNDLE`` is filled with the fingerprint (fmu_src/bundle.py reads it)."""
+KEEP_COMPILED = 8
+"""Warm-up results kept in ``<cache>/build/compiled`` (least recently used ones beyond this are deleted)."""
 WARM_UP_STEPS = 200
 WARM_UP_RUNS = (
     {},
@@ -142,33 +153,108 @@ def _child_environment() -> dict[str, str]:
     return env
 
 
-def ship_compiled(fmu: Path, label: str) -> Path:
-    """Add the compiled kernels and bytecode of ``fmu``'s bundled oilwatch to it (module docstring)."""
+def compiled_key(folder: Path) -> str:
+    """The digest that names the warm-up's files of the FMU unpacked in ``folder``: every file under its
+    ``resources/`` (path and bytes), the warm-up's script, instances and steps, and the Python, numpy and
+    numba versions and the CPU numba compiles for."""
+    import llvmlite.binding
+    import numba
+    import numpy
+
+    digest = hashlib.sha256()
+    resources = folder / "resources"
+    for path in sorted(p for p in resources.rglob("*") if p.is_file() and "__pycache__" not in p.parts):
+        digest.update(path.relative_to(resources).as_posix().encode() + b"\0")
+        digest.update(hashlib.sha256(path.read_bytes()).digest())
+    toolchain = (
+        WARM_UP,
+        WARM_UP_RUNS,
+        WARM_UP_STEPS,
+        sys.version,
+        numpy.__version__,
+        numba.__version__,
+        llvmlite.binding.get_host_cpu_name(),
+        llvmlite.binding.get_host_cpu_features().flatten(),
+    )
+    digest.update(json.dumps(toolchain, default=str).encode())
+    return digest.hexdigest()
+
+
+def _warm_up(folder: Path, label: str) -> list[Path]:
+    """Run the FMU unpacked in ``folder`` once (module docstring) and compile its bytecode; return the
+    files to ship: the ``__pycache__`` files of its bundled oilwatch and the grids the run stored."""
+    command = [sys.executable, "-c", WARM_UP, str(folder), json.dumps(WARM_UP_RUNS), str(WARM_UP_STEPS)]
+    process = subprocess.run(
+        command, capture_output=True, text=True, cwd=folder.parent, env=_child_environment()
+    )
+    if process.returncode != 0:
+        tail = (process.stderr or process.stdout).strip()[-2000:]
+        raise InputError(f"{label}: the build's warm-up run failed: {tail}")
+    bundled = folder / "resources" / ROOT_PACKAGE
+    imported = Path(process.stdout.strip().splitlines()[-1]).resolve().parent
+    if imported != bundled.resolve():
+        raise InputError(f"{label}: the warm-up run imported oilwatch from {imported}, not from the FMU")
+    for cache in bundled.rglob("__pycache__"):
+        for stale in cache.glob("*.pyc"):  # checked by modification time: useless in another unpack
+            stale.unlink()
+    ok = compileall.compile_dir(
+        bundled, quiet=1, invalidation_mode=py_compile.PycInvalidationMode.CHECKED_HASH
+    )
+    if not ok:
+        raise InputError(f"{label}: compiling the bundled sources to bytecode failed")
+    cached = sorted(p for p in bundled.rglob("*") if p.is_file() and p.parent.name == "__pycache__")
+    return cached + sorted((folder / "resources" / GRID_FOLDER).glob("*.npz"))
+
+
+def _store(files: list[Path], folder: Path, stored: Path) -> None:
+    """Keep ``files`` (under ``folder``) as ``stored``, written whole or not at all."""
+    stored.parent.mkdir(parents=True, exist_ok=True)
+    partial = Path(tempfile.mkdtemp(prefix=".partial-", dir=stored.parent))
+    try:
+        for path in files:
+            target = partial / path.relative_to(folder)
+            target.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(path, target)
+        os.replace(partial, stored)
+    except OSError:  # another build stored the same key first, or the disk is full: the FMU is unaffected
+        shutil.rmtree(partial, ignore_errors=True)
+    prune(stored.parent, KEEP_COMPILED)
+
+
+def _stored_files(stored: Path) -> dict[str, bytes] | None:
+    """{archive name: content} of an earlier warm-up kept as ``stored``; None when there is none (or it
+    was pruned while being read)."""
+    if not stored.is_dir():
+        return None
+    try:
+        os.utime(stored)  # the most recently used: the last to be pruned
+        return {
+            p.relative_to(stored).as_posix(): p.read_bytes() for p in sorted(stored.rglob("*")) if p.is_file()
+        }
+    except OSError:
+        return None
+
+
+def ship_compiled(fmu: Path, label: str) -> bool:
+    """Add the compiled kernels and bytecode of ``fmu``'s bundled oilwatch to it (module docstring); True
+    when they came from an earlier build's warm-up of the same content, False when this build ran it."""
     fmu = Path(fmu)
     with tempfile.TemporaryDirectory(prefix="oilwatch_warm_up_") as tmp:
         folder = Path(tmp) / "fmu"
         with zipfile.ZipFile(fmu) as archive:
             archive.extractall(folder)
-        command = [sys.executable, "-c", WARM_UP, str(folder), json.dumps(WARM_UP_RUNS), str(WARM_UP_STEPS)]
-        process = subprocess.run(command, capture_output=True, text=True, cwd=tmp, env=_child_environment())
-        if process.returncode != 0:
-            tail = (process.stderr or process.stdout).strip()[-2000:]
-            raise InputError(f"{label}: the build's warm-up run failed: {tail}")
-        bundled = folder / "resources" / ROOT_PACKAGE
-        imported = Path(process.stdout.strip().splitlines()[-1]).resolve().parent
-        if imported != bundled.resolve():
-            raise InputError(f"{label}: the warm-up run imported oilwatch from {imported}, not from the FMU")
-        for cache in bundled.rglob("__pycache__"):
-            for stale in cache.glob("*.pyc"):  # checked by modification time: useless in another unpack
-                stale.unlink()
-        ok = compileall.compile_dir(
-            bundled, quiet=1, invalidation_mode=py_compile.PycInvalidationMode.CHECKED_HASH
-        )
-        if not ok:
-            raise InputError(f"{label}: compiling the bundled sources to bytecode failed")
-        cached = sorted(p for p in bundled.rglob("*") if p.is_file() and p.parent.name == "__pycache__")
-        cached += sorted((folder / "resources" / GRID_FOLDER).glob("*.npz"))
+        keep = persistent_extraction_enabled()
+        stored = cache_root() / "build" / "compiled" / compiled_key(folder) if keep else None
+        shipped = _stored_files(stored) if stored is not None else None
+        reused = shipped is not None
+        if not reused:
+            files = _warm_up(folder, label)
+            shipped = {path.relative_to(folder).as_posix(): path.read_bytes() for path in files}
+            if stored is not None:
+                _store(files, folder, stored)
         with zipfile.ZipFile(fmu, "a", zipfile.ZIP_DEFLATED) as archive:
-            for path in cached:
-                archive.write(path, path.relative_to(folder).as_posix())
-    return fmu
+            for name, content in shipped.items():
+                entry = zipfile.ZipInfo(name, date_time=time.localtime()[:6])
+                entry.external_attr = 0o644 << 16
+                archive.writestr(entry, content, zipfile.ZIP_DEFLATED)
+    return reused
