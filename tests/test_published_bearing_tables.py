@@ -1,9 +1,9 @@
 """oilwatch's film against published tables: Lund & Thomsen (1978) and the short-bearing (Ocvirk) limit.
 
-Lund & Thomsen's flooded two-axial-groove bearing (tests/fixtures/published_bearings.py gives the source, the
-rows as reproduced in petrobras/ross ``ross/tests/test_fluid_film_literature.py`` and the frames): oilwatch
-solves it with both grooves full at ambient pressure (``SupplyPressure(0)``) and the project's quasi-static
-coefficients (held-partition stiffness, frozen-content damping).
+Lund & Thomsen's flooded two-axial-groove bearing (oilwatch/models/bearing/published_tables.py gives the
+source, the rows as reproduced in petrobras/ross ``ross/tests/test_fluid_film_literature.py`` and the
+frames): oilwatch solves it with both grooves full at ambient pressure (``SupplyPressure(0)``) and the
+project's quasi-static coefficients (held-partition stiffness, frozen-content damping).
 
 Why the tolerances (docs/validation-bearing.md has the measured figures):
 
@@ -25,7 +25,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from fixtures.published_bearings import (
+
+from oilwatch.models.bearing.grid import Mesh
+from oilwatch.models.bearing.published_tables import (
     COLUMNS,
     LUND_THOMSEN_1978,
     published,
@@ -33,8 +35,6 @@ from fixtures.published_bearings import (
     solve,
     two_groove_bearing,
 )
-
-from oilwatch.models.bearing.grid import Mesh
 
 ROWS = [(ld, row) for ld, rows in LUND_THOMSEN_1978.items() for row in rows]
 IDS = [f"LD{ld}-S{row[0]}" for ld, row in ROWS]

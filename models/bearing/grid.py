@@ -63,6 +63,15 @@ class Mesh:
             if value < low:
                 raise InputError(f"mesh {name} must be >= {low} (mesh too coarse), got {value}")
 
+    @classmethod
+    def from_text(cls, text: str, option: str = "--mesh") -> Mesh:
+        """The mesh written as ``N_CIRCxN_AXIAL`` (``72x24``); an InputError names ``option`` otherwise."""
+        try:
+            n_circ, n_axial = (int(part) for part in text.lower().split("x"))
+        except ValueError:
+            raise InputError(f"{option} must look like 72x24 (N_CIRCxN_AXIAL), got {text!r}") from None
+        return cls(n_circ, n_axial)
+
 
 PRODUCTION_MESH = Mesh(240, 72)
 """Mesh of the committed coefficient tables. Against a mesh twice as fine (480 x 144), at every

@@ -25,11 +25,10 @@ constant nominal conditions this is today's model, bit for bit.
 The unbalance phase is the integral of the measured speed (held over each period, as the plant does), or
 the keyphasor's angle when given (:meth:`set_operating_point`).
 
-Model error (``python scripts/operating_model_error.py --fraction F``, ``tests/test_operating_model.py``):
-the static probe positions and 1x orbit amplitudes of the model's map against the exact map's on the
-dimensionless table (worst probe) along speed and oil-temperature ramps, with the centre F thresholds away
-in every axis, stays a small fraction of the static sensitivity to a 1 % flow change up to F = 1 (where a
-step re-centres); the docs' operating-point table gives the figures.
+Model error (``tests/test_operating_model.py``): the static probe positions and 1x orbit amplitudes of the
+model's map against the exact map's on the dimensionless table (worst probe) along speed and oil-temperature
+ramps, with the centre up to the re-centring thresholds away in every axis, stay a small fraction of the
+static sensitivity to a 1 % flow change.
 """
 
 from __future__ import annotations
@@ -354,8 +353,8 @@ REFERENCE_TABLES = ("flowrate", "dimensionless")
 """What the exact (q1, q2) grid at p0 is built on: the machine's flowrate table at the nominal speed (today's
 estimator, the plant's ``bearing_table = 0``) or the dimensionless table (the plant's ``bearing_table = 1``),
 which the corrections use. With "flowrate" the two tables' difference near p0 is carried into every operating
-point: mixing the grid's stiffness with the correction's equilibrium shift costs up to about 0.5 um of static
-position at +10 degC (``scripts/operating_model_error.py``), so follow large excursions on "dimensionless"."""
+point: mixing the grid's stiffness with the correction's equilibrium shift costs static position at
++10 degC, so follow large excursions on "dimensionless"."""
 
 
 def build_operating_model(

@@ -26,6 +26,7 @@ MODELLING_COMMANDS: tuple[str, ...] = (
     "bearing",
     "bearing_table",
     "bearing_map",
+    "validate",
 )
 SUBCOMMANDS: tuple[str, ...] = USER_COMMANDS + STUDY_COMMANDS + MODELLING_COMMANDS
 

@@ -68,13 +68,8 @@ def register(subparsers) -> None:
 
 def _mesh(text: str):
     from oilwatch.models.bearing.grid import Mesh
-    from oilwatch.models.validation import InputError
 
-    try:
-        n_circ, n_axial = (int(v) for v in text.lower().split("x"))
-    except ValueError:
-        raise InputError(f"--mesh must look like 60x16 (N_CIRCxN_AXIAL), got {text!r}") from None
-    return Mesh(n_circ, n_axial)
+    return Mesh.from_text(text)
 
 
 def run(args: argparse.Namespace) -> int:
