@@ -94,7 +94,8 @@ def bearing_tables(args: argparse.Namespace) -> int:
     first = meshes[0]
     names = [f"{m.n_circ} x {m.n_axial}" for m in meshes]
     print(f"## Lund & Thomsen (1978), oilwatch on {names[0]}\n")
-    print("| L/D | S | quantity | Lund | oilwatch | " + " | ".join(f"error {n}" for n in names) + " |")
+    header = ["L/D", "S", "quantity", "Lund", "oilwatch", "error", *(f"error {n}" for n in names[1:])]
+    print("| " + " | ".join(header) + " |")
     print("|---|---|---|---|---|" + "---|" * len(meshes))
     for ld, rows in lund.items():
         for s, ref, values, _, _ in rows:
