@@ -7,7 +7,7 @@ layout is written once, here, instead of as argument lists repeated by each kern
 The filter builds it at each reset (:meth:`oilwatch.estimator.ekf.OilFlowEKF.reset`) and hands it to the
 compiled entries as ``tuple(arrays)``; they rebuild the struct inside (``FilterArrays(*packed)``, free once
 compiled). A plain tuple is dispatched by numba's C fingerprint; a NamedTuple goes through Python-level
-typing, about 5 us more per call for these 25 arrays (measured with numba 0.68), a fifth of the step.
+typing on every call, a sizeable share of a step (``benchmarks/ekf_step.py`` times the step).
 """
 
 from __future__ import annotations

@@ -1,12 +1,12 @@
 """Where an FMU is unpacked: a persistent folder per FMU content, so that compiled code survives runs.
 
-A pythonfmu FMU runs its Python sources from the folder it is unpacked into. The estimator FMU compiles
-numba kernels with ``cache=True`` on first use (5-15 s); numba keys its on-disk cache by the source file's
-path and modification time, so a fresh temporary folder per run recompiles every time. Unpacking each FMU
-once per instance name into ``<cache>/fmus/oilwatch_<instance>_<sha256 of the .fmu>/`` keeps both stable:
-the second and later runs load the compiled kernels (measured: initialization of OilFlowEKF 10-15 s ->
-0.3 s, see the README). One folder per instance name, as with temporary folders, so that two instances
-never share files.
+A pythonfmu FMU runs its Python sources from the folder it is unpacked into. The build ships the numba
+kernels compiled for its own CPU, Python and numba (:mod:`oilwatch.cosim.packaging`); on any other machine
+the kernels compile on first use, with ``cache=True``, into ``__pycache__`` beside the sources, so a fresh
+temporary folder per run would compile them every time. Unpacking each FMU once per instance name into
+``<cache>/fmus/oilwatch_<instance>_<sha256 of the .fmu>/`` keeps them: the second and later runs load what
+the first compiled. One folder per instance name, as with temporary folders, so that two instances never
+share files.
 
 ``<cache>`` is ``$OILWATCH_CACHE`` if set, else ``~/.cache/oilwatch``. ``OILWATCH_FMU_CACHE=0`` switches
 the persistent folders off (a temporary folder per instance, deleted on close). A folder is created

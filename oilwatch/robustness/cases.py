@@ -59,7 +59,7 @@ class Case:
         temperature ramp over the record; speed_ramp_hz : a measured speed ramp (start, end) over the
         record; ekf : EKFConfig fields a user would set; operating_point : the case needs the estimator to
         follow speed / temperature / viscosity (the estimator side); listed : the case is in the
-        issue's done-when list (False: an extra the report shows beside them); viscosity_states : in an
+        acceptance list (False: an extra the report shows beside them); viscosity_states : in an
         operating-point case, the estimator's viscosity factors are free (prior ``--viscosity-prior``);
         False: taken as 1 (the film as modelled); structure : the plant's model-structure discrepancy
         (:class:`oilwatch.models.system.structure.PlantStructure`; None: the machine file's structure);
@@ -414,7 +414,7 @@ CASES: tuple[Case, ...] = (
         **_GROUPS,
     ),
 )
-"""The issue's done-when list (and four more: the ramps with the film known, runout uncompensated,
+"""The acceptance list (and four more: the ramps with the film known, runout uncompensated,
 sensitivity errors)."""
 
 

@@ -51,7 +51,7 @@ def coverage_line(rows: Sequence[dict]) -> str:
     inside_list = [r for r in in_list if r["within_2_std"]]
     share = 100.0 * len(inside_list) / len(in_list) if in_list else math.nan
     line = (
-        f"Truth within +-2 std at the end: {len(inside_list)} of {len(in_list)} rows of the issue's cases "
+        f"Truth within +-2 std at the end: {len(inside_list)} of {len(in_list)} rows of the acceptance cases "
         f"({share:.0f} %), {len(inside)} of {len(run)} with the extra cases."
     )
     structure_rows = [r for r in run if r["case"] in structural]
