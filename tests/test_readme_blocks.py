@@ -46,7 +46,8 @@ def test_the_robustness_and_study_tables_come_from_their_json(tmp_path, capsys):
     readme.write_text("<!-- generated robustness: x -->\n<!-- /generated robustness -->\n")
     assert main(["robustness", "--from-json", str(first), str(second), "--readme", str(readme)]) == 0
     assert "| none | 100/100 | +0.50 / +0.60 |" in readme.read_text()
-    assert "Truth within +-2 std at the end: 1 of 1 rows of the issue's cases (100 %)" in readme.read_text()
+    line = "Truth within +-2 std at the end: 1 of 1 rows of the acceptance cases (100 %)"
+    assert line in readme.read_text()
     level = {
         "noise_um": 1.0,
         "n_cases": 4,
