@@ -243,7 +243,7 @@ def main() -> None:
             record = measurements(model, args.steps)
             cost = time_per_step(lambda m=model: _ModelOnly(m), record, args.repeats)
             rows.append((f"model transition alone, {label}", cost))
-            for mode in ("displacement-only", "correlated"):
+            for mode in ("displacement-only", "paper"):
                 config = EKFConfig(velocity_noise=mode, gate_tail_probability=0.0)
                 OilFlowEKF(model, config).run(record[:10])  # compile the kernels outside the timing
                 cost = time_per_step(lambda m=model, c=config: OilFlowEKF(m, c), record, args.repeats)

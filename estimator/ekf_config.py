@@ -34,7 +34,7 @@ from .runout import SlowRollVectors
 ML_MIN = 1.0e-6 / 60.0
 """One millilitre per minute in m^3/s."""
 
-VELOCITY_NOISE_MODES = ("displacement-only", "correlated", "paper")
+VELOCITY_NOISE_MODES = ("displacement-only", "paper")
 """How the differentiated velocities enter the update (see :mod:`oilwatch.estimator.measurement`)."""
 
 INITIAL_STATE_MODES = ("zero", "static")
@@ -92,10 +92,9 @@ class EKFConfig:
 
     Measurement and noise
         noise_std_m : std of the white displacement-measurement noise sigma_v [m].
-        velocity_noise : "displacement-only" (four channels, the default: see
-        :mod:`oilwatch.estimator.measurement`),
-            "correlated" (eight channels, exact within-step covariance of the backward difference) or "paper"
-            (eight channels, R = sigma_v^2 I as in the paper).
+        velocity_noise : "displacement-only" (four channels, the default) or "paper" (eight channels, the
+            differentiated velocities too, R = sigma_v^2 I as in the paper); see
+            :mod:`oilwatch.estimator.measurement`.
         displacement_process_std_m, velocity_process_std_m_s, flowrate_process_std_m3_s : process-noise stds
             per step (Q); the dynamic part goes through ``model.physical_covariance``.
     Initial estimate

@@ -2,28 +2,23 @@
 
 The paper (section 3.2) feeds eight channels, the four measured displacements ``d_k = H s_k + v_k`` and the
 velocities differentiated from them, ``(d_k - d_{k-1}) / dt``, modelled as ``H_v s_k`` with ``R = sigma^2 I``.
-Three treatments are offered:
+Two treatments are offered:
 
 ``"paper"``
     eight channels, ``R = sigma^2 I_8`` in SI units, literally as published. The true variance of a
     differentiated channel is ``2 sigma^2 / dt^2`` (2e6 times larger at dt = 1 ms), so the filter trusts the
     velocities far too much.
-``"correlated"``
-    eight channels with the exact within-step joint covariance of ``[v_k, (v_k - v_{k-1}) / dt]``:
-    ``[[sigma^2 I, sigma^2/dt I], [sigma^2/dt I, 2 sigma^2/dt^2 I]]``. It still ignores (a) the correlation of
-    ``(v_k - v_{k-1})/dt`` with the previous step's measurement noise ``v_{k-1}``, which the filter has
-    already used, so the same noise is counted twice, and (b) that a backward difference is the mean velocity
-    over the step (the velocity half a step earlier), not ``H_v s_k``: at 75 Hz and 1 ms that is a 13.5 deg
-phase lag.
 ``"displacement-only"``
     the four displacements, ``R = sigma^2 I_4``. Since ``(d_k - d_{k-1}) / dt`` is a linear function of
     ``d_k`` and ``d_{k-1}``, a filter that has used ``d_{k-1}`` and ``d_k`` exactly gains nothing from it;
-    this is the only one of the three whose measurement noise really is white and whose model is exact, and
-    it is the default.
+    its measurement noise really is white and its model is exact, and it is the default.
 
-On a plant whose orbits are large the two eight-channel modes are biased by the velocity lag and their
-reported std does not cover their error; with small orbits the correlated mode comes close to the
-displacement-only one but gains nothing over it.
+No eight-channel treatment can do better: even with the exact within-step joint covariance of
+``[v_k, (v_k - v_{k-1}) / dt]`` it would count the previous step's noise ``v_{k-1}`` twice (the filter has
+already used it) and model the backward difference, the mean velocity over the step (the velocity half a step
+earlier: 13.5 deg of phase at 75 Hz and 1 ms), as ``H_v s_k``. On a plant with large orbits that lag biases
+it and its reported std does not cover the error; with small orbits it comes close to the four channels but
+gains nothing over them, so the paper's treatment is kept only to reproduce the paper.
 """
 
 from __future__ import annotations
@@ -69,7 +64,7 @@ def velocity_channels(
     none.
 
     H_a is (8, n + 2 + n_offsets) = [[Rot H, 0, I], [Rot H_v, 0, 0]] (a constant offset has no velocity); R
-    (8, 8) as described in the module docstring.
+    = sigma^2 I_8 (the paper's).
     """
     if mode == "displacement-only":
         return None
@@ -78,14 +73,4 @@ def velocity_channels(
     observation = np.zeros((8, n + 2 + n_offsets))
     observation[:4] = displacement_channels(model, noise_std_m, probe_angle_rad, n_offsets)[0]
     observation[4:, :n] = rotation @ np.asarray(model.velocity_output_matrix, dtype=float)
-    variance = noise_std_m**2
-    if mode == "paper":
-        return observation, variance * np.eye(8)
-    dt = model.dt_s
-    noise = np.zeros((8, 8))
-    identity = np.eye(4)
-    noise[:4, :4] = variance * identity
-    noise[:4, 4:] = variance / dt * identity
-    noise[4:, :4] = variance / dt * identity
-    noise[4:, 4:] = 2.0 * variance / dt**2 * identity
-    return observation, noise
+    return observation, noise_std_m**2 * np.eye(8)

@@ -34,7 +34,7 @@ from oilwatch.models.system.operating_model import build_operating_model
 from oilwatch.models.validation import InputError
 
 SECONDS_PER_DAY = 86400.0
-VELOCITY_MODES = ("displacement-only", "paper", "correlated")
+VELOCITY_MODES = ("displacement-only", "paper")
 """The estimator's velocity_noise of each ``velocity_channels`` value."""
 
 

@@ -144,9 +144,9 @@ def declare_parameters(slave) -> None:
         "parameter",
         start=0,
         minimum=0,
-        maximum=2,
+        maximum=1,
         description="0: the four displacements only (default); 1: plus differentiated velocities "
-        "with R = noise^2 I (the paper); 2: plus velocities with their exact correlated noise",
+        "with R = noise^2 I (the paper)",
     )
 
 

@@ -200,8 +200,8 @@ plant.setFMUstate(plant_state)
 ekf.setFMUstate(ekf.deSerializeFMUstate(ekf.serializeFMUstate(ekf_state)))
 third = run(5000, 6000)
 result.update(first=first, second=second, third=third)
-# The same FMU serves the machine of an explicit machine file, here with the eight correlated channels.
-other, ov = load(EKF, "other", {"noise_um": 1.0}, {"velocity_channels": 2},
+# The same FMU serves the machine of an explicit machine file, here with the paper's eight channels.
+other, ov = load(EKF, "other", {"noise_um": 1.0}, {"velocity_channels": 1},
                  {"machine_file": MACHINE, "preset": "paper"})
 for k in range(6000, 6300):
     plant.doStep(k * h, h)
@@ -219,7 +219,7 @@ CASES = [
     # the paper preset's grid model holds one speed (the machine preset follows the measured speed)
     ("speed_hz", {"reals": {"speed_hz": 60.0}, "strings": {"preset": "paper"}}),
     ("q_std_velocity_um_s", {"reals": {"q_std_velocity_um_s": -0.5}}),
-    ("velocity_channels", {"integers": {"velocity_channels": 3}}),
+    ("velocity_channels", {"integers": {"velocity_channels": 2}}),
     ("machine_file", {"strings": {"machine_file": "/no/such/machine.toml"}}),
 ]
 result = {}
@@ -330,7 +330,7 @@ def test_state_restore_is_bit_identical(direct):
     assert len({row[0] for row in direct["first"]}) > 100  # the estimate really moves
 
 
-def test_another_machine_file_and_the_correlated_velocity_channels(direct):
+def test_another_machine_file_and_the_papers_velocity_channels(direct):
     q1, q2, channels = direct["other"]
     assert channels == 8
     assert all(math.isfinite(q) and 0.5 * QN < q < 1.5 * QN for q in (q1, q2))

@@ -54,7 +54,7 @@ def test_nis_averages_the_number_of_measurements(toy):
 @pytest.mark.slow
 def test_covariance_stays_symmetric_positive_definite_over_a_long_run(toy):
     record = simulate(toy, np.full((30000, 2), 0.85 * QN), 1e-6, seed=13)
-    ekf = OilFlowEKF(toy, EKFConfig.recommended(velocity_noise="correlated"))
+    ekf = OilFlowEKF(toy, EKFConfig.recommended(velocity_noise="paper"))
     for k, z in enumerate(record.displacement_m):
         ekf.step(z)
         if k % 1000 == 999:
@@ -83,7 +83,7 @@ def test_a_nan_drops_its_channel_and_inf_samples_keep_the_state_finite(toy, cons
     data[4000:4040] = np.nan  # shorter than PROBE_DEAD_S: a dropout, not a dead probe
     # gate off: this test is about bad samples only (the eight-channel modes' NIS is inflated, so a tight
     # gate would also reject a few good samples)
-    config = EKFConfig.recommended(velocity_noise="correlated", gate_tail_probability=0.0)
+    config = EKFConfig.recommended(velocity_noise="paper", gate_tail_probability=0.0)
     ekf = OilFlowEKF(toy, config)
     trace = ekf.run(data)
     bad = ~np.isfinite(data).any(axis=1)
@@ -100,19 +100,19 @@ def test_a_nan_drops_its_channel_and_inf_samples_keep_the_state_finite(toy, cons
 
 
 def test_a_spike_is_gated_on_its_own_channel_and_does_not_corrupt_the_estimate(toy, constant_record):
-    clean = OilFlowEKF(toy, EKFConfig.recommended(velocity_noise="correlated"))
-    spiked = OilFlowEKF(toy, EKFConfig.recommended(velocity_noise="correlated"))
+    clean = OilFlowEKF(toy, EKFConfig.recommended())
+    spiked = OilFlowEKF(toy, EKFConfig.recommended())
     data = constant_record.displacement_m.copy()
     data[6000, 2] += 200e-6
     reference = clean.run(constant_record.displacement_m)
     trace = spiked.run(data)
-    assert trace.measurement_ok[6000] and trace.n_measurements[6000] == 6  # three others, their velocities
-    assert trace.n_measurements[6001] == 7  # the spike is not differentiated against
+    assert trace.measurement_ok[6000] and trace.n_measurements[6000] == 3  # the three others
+    assert trace.n_measurements[6001] == 4
     assert not trace.probe_faulty.any()
     deviation = np.abs(trace.q_m3_s[6000:] - reference.q_m3_s[6000:]).max()
     assert deviation < 1e-3 * QN
     ungated = OilFlowEKF(
-        toy, EKFConfig.recommended(velocity_noise="correlated", gate_tail_probability=0.0)
+        toy, EKFConfig.recommended(gate_tail_probability=0.0)
     ).run(data)
     assert np.abs(ungated.q_m3_s[6000:] - reference.q_m3_s[6000:]).max() > 10 * deviation
 
@@ -144,7 +144,7 @@ def test_a_jump_on_one_probe_flags_that_probe_and_leaves_the_estimate(toy, const
 def test_save_and_restore_continue_bit_identically(toy, constant_record):
     data = constant_record.displacement_m.copy()
     data[2600] = np.nan
-    config = EKFConfig.recommended(velocity_noise="correlated")
+    config = EKFConfig.recommended(velocity_noise="paper")
     first = OilFlowEKF(toy, config)
     first.run(data[:2500])
     saved = first.get_state()
@@ -224,7 +224,7 @@ def test_estimates_do_not_depend_on_the_models_coordinates(toy, constant_record)
     """The protocol's physical_covariance makes Q and P0 follow the model's coordinates: the same filter on
     mixed, rescaled coordinates gives the same flowrates (to round-off)."""
     data = constant_record.displacement_m[:3000]
-    config = EKFConfig.recommended(velocity_noise="correlated")
+    config = EKFConfig.recommended()
     plain = OilFlowEKF(toy, config).run(data)
     mixed = OilFlowEKF(_MixedCoordinates(toy), config).run(data)
     np.testing.assert_allclose(mixed.q_m3_s, plain.q_m3_s, rtol=1e-7)

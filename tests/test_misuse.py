@@ -316,7 +316,7 @@ def test_misused_run_flags_give_one_line_naming_the_flag(built_fmus, tmp_path):
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1", PYTHONPATH=str(REPO_ROOT))
     cases = [
         (["--set", "ekf.alarm_hold_on_s=abc"], "--set ekf.alarm_hold_on_s must be a number in [0, "),
-        (["--set", "ekf.velocity_channels=1.5"], "--set ekf.velocity_channels must be an integer in [0, 2]"),
+        (["--set", "ekf.velocity_channels=1.5"], "--set ekf.velocity_channels must be an integer in [0, 1]"),
         (["--seed", "4294967296"], "--seed must be an integer in [0, 2147483647], got 4294967296"),
         (["--seed", "2147483648"], "--seed must be an integer in [0, 2147483647], got 2147483648"),
         (["--q1-pct", "20"], "--q1-pct (q1_initial_ml_min) = "),
