@@ -5,6 +5,8 @@
   and it limits the process's OpenBLAS to one thread itself (the host sets no OPENBLAS_NUM_THREADS).
 * The README's libcosimpy example, without OPENBLAS_NUM_THREADS, runs every OpenBLAS one thread (its time
   with and without the setting is a benchmark's figure: ``benchmarks/host_blas_threads.py``).
+* libcosim, which unpacks into fresh folders, compiles none of the FMUs' numba kernels: the build shipped
+  them all, the estimator's in the plant FMU too.
 """
 
 from __future__ import annotations
@@ -12,6 +14,7 @@ from __future__ import annotations
 import json
 import shutil
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -84,3 +87,33 @@ def test_libcosim_without_blas_settings_runs_every_openblas_one_thread(built_fmu
     host = clean_env(OILWATCH_FMU_CACHE="0")  # nothing about BLAS threads, as a user's libcosim host
     bare = time_host(LIBCOSIM, ssp, WARM_S, STOP_S, host, tmp_path)
     assert bare["threads"] and set(bare["threads"].values()) == {1}, bare["threads"]
+
+
+LIBCOSIM_START = r"""
+import os, sys
+from libcosimpy.CosimExecution import CosimExecution
+from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
+
+log_output_level(CosimLogLevel.ERROR)
+execution = CosimExecution.from_ssp_file(sys.argv[1], step_size=1_000_000)
+execution.simulate_until(50_000_000)
+print("@@done")
+sys.stdout.flush()
+os._exit(0)
+"""
+
+
+def test_a_libcosim_host_loads_every_kernel_the_build_shipped_and_compiles_none(built_fmus, tmp_path):
+    """libcosim unpacks the SSP's FMUs into a fresh folder and loads the plant first, so the estimator's code
+    comes from the plant's folder (one oilwatch per process), on the SSP's paper preset. numba's cache log
+    says what each kernel did: "data loaded" from the shipped files, "data saved" after compiling it here."""
+    env = clean_env(OILWATCH_FMU_CACHE="0", NUMBA_DEBUG_CACHE="1")
+    process = subprocess.run(
+        [sys.executable, "-c", LIBCOSIM_START, str(built_fmus / "OilStarvation.ssp")],
+        cwd=tmp_path, env=env, capture_output=True, text=True, timeout=900,
+    )  # fmt: skip
+    assert process.returncode == 0 and "@@done" in process.stdout, process.stderr[-3000:]
+    log = [line for line in process.stdout.splitlines() if line.startswith("[cache]")]
+    assert any("data loaded" in line for line in log)
+    compiled = [line for line in log if "saved" in line]
+    assert not compiled, compiled[:5]

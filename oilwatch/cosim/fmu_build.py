@@ -40,6 +40,7 @@ a failed warm-up run, invalid FMU, bad machine file).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib.util
 import shutil
 import sys
@@ -202,53 +203,60 @@ def keep_platform(fmu: Path, folder: str = PLATFORM_FOLDER) -> None:
 
 def build_fmu(entry: FmuEntry, out_dir: Path, machine=None, root: Path | None = None) -> Path:
     """Build one FMU into ``out_dir`` for ``machine`` (default: the bundled turbine) and return its path."""
+    from oilwatch.outputs.atomic import commit
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    # Built, given its loader and validated in a private folder beside the target, then renamed: the FMU
+    # appears under its name whole and valid or not at all, and two builders never rewrite one file (the
+    # loader installed twice over one FMU made the loader its inner binary).
+    with tempfile.TemporaryDirectory(prefix=f".{entry.name}.", suffix=".partial", dir=out_dir) as private:
+        built = assemble_fmu(entry, Path(private), machine, root)
+        return commit(document_and_validate(built, entry.name), out_dir / f"{entry.name}.fmu")
+
+
+def assemble_fmu(entry: FmuEntry, private: Path, machine=None, root: Path | None = None) -> Path:
+    """Build ``entry``'s FMU for ``machine`` (default: the bundled turbine) into the folder ``private``, with
+    its loader and, unless the entry says otherwise, its compiled code; return its path."""
     from pythonfmu.builder import FmuBuilder
 
     from oilwatch.cosim.native_loader import install_loader
     from oilwatch.cosim.packaging import ship_compiled, stage_sources
     from oilwatch.models.machine import load_machine
-    from oilwatch.outputs.atomic import commit
 
     machine = machine if machine is not None else load_machine()
     script = entry.script_path(root)
     if not script.is_file():
         raise InputError(f"{entry.name}: slave script {script} does not exist")
-    out_dir.mkdir(parents=True, exist_ok=True)
-    fmu_path = out_dir / f"{entry.name}.fmu"
     folders_of = {package: package_dir(package) for package in FMU_PACKAGES}
-    # Built, given its loader and validated in a private folder beside the target, then renamed: the FMU
-    # appears under its name whole and valid or not at all, and two builders never rewrite one file (the
-    # loader installed twice over one FMU made the loader its inner binary).
-    with tempfile.TemporaryDirectory(prefix=f".{entry.name}.", suffix=".partial", dir=out_dir) as private:
-        private_fmu = Path(private) / fmu_path.name
-        with tempfile.TemporaryDirectory(prefix=f"oilwatch_{entry.name}_") as tmp:
-            staging = Path(tmp)
-            staged_script, bundled = stage_sources(
-                staging, folders_of, script, oilwatch_version(), entry.data_globs
+    private_fmu = private / f"{entry.name}.fmu"
+    with tempfile.TemporaryDirectory(prefix=f"oilwatch_{entry.name}_") as tmp:
+        staging = Path(tmp)
+        staged_script, bundled = stage_sources(
+            staging, folders_of, script, oilwatch_version(), entry.data_globs
+        )
+        bundle_machine(machine, bundled / "fmu_src")
+        saved_path = list(sys.path)
+        try:
+            built = FmuBuilder.build_FMU(
+                staged_script, dest=private_fmu, project_files=[bundled], **entry.options
             )
-            bundle_machine(machine, bundled / "fmu_src")
-            saved_path = list(sys.path)
-            try:
-                built = FmuBuilder.build_FMU(
-                    staged_script, dest=private_fmu, project_files=[bundled], **entry.options
-                )
-            finally:
-                sys.path[:] = saved_path
-                _forget_modules({script.stem})
-        built = Path(built)
-        with zipfile.ZipFile(built) as archive:
-            identifier = archive.read("resources/slavemodule.txt").decode().strip()
-            names = archive.namelist()
-        if not any(n == f"{PLATFORM_FOLDER}{entry.name}.so" for n in names):
-            raise InputError(
-                f"{entry.name}: the slave class in {script.name} must be named {entry.name} "
-                f"(pythonfmu names the model after the class; module {identifier})"
-            )
-        install_loader(built, entry.name)  # self-sufficient binary: oilwatch/cosim/native_loader.py
-        keep_platform(built)
-        if entry.ship_compiled:
-            ship_compiled(built, entry.name)
-        return commit(document_and_validate(built, entry.name), fmu_path)
+        finally:
+            sys.path[:] = saved_path
+            _forget_modules({script.stem})
+    built = Path(built)
+    with zipfile.ZipFile(built) as archive:
+        identifier = archive.read("resources/slavemodule.txt").decode().strip()
+        names = archive.namelist()
+    if not any(n == f"{PLATFORM_FOLDER}{entry.name}.so" for n in names):
+        raise InputError(
+            f"{entry.name}: the slave class in {script.name} must be named {entry.name} "
+            f"(pythonfmu names the model after the class; module {identifier})"
+        )
+    install_loader(built, entry.name)  # self-sufficient binary: oilwatch/cosim/native_loader.py
+    keep_platform(built)
+    if entry.ship_compiled:
+        ship_compiled(built, entry.name)
+    return built
 
 
 def document_and_validate(built: Path, label: str) -> Path:
@@ -279,7 +287,9 @@ def build_fmus(
     :class:`oilwatch.models.machine.Machine` or a machine file; default: the bundled turbine), then every SSP
     system of ``systems`` (default: the machine's OilStarvation) whose FMUs were all built in this call.
     Returns the files written."""
+    from oilwatch.cosim.packaging import share_compiled
     from oilwatch.models.machine import Machine, load_machine
+    from oilwatch.outputs.atomic import commit
 
     if not isinstance(machine, Machine):
         machine = load_machine(machine)
@@ -294,7 +304,20 @@ def build_fmus(
     missing = [str(e.script_path(root)) for e in selected if not e.script_path(root).is_file()]
     if missing:
         raise InputError(f"slave script(s) missing: {missing}")
-    built = {entry.name: build_fmu(entry, Path(out_dir), machine, root) for entry in selected}
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    with contextlib.ExitStack() as stack:  # each FMU in a private folder until all are whole (build_fmu)
+        assembled = {}
+        for entry in selected:
+            private = stack.enter_context(
+                tempfile.TemporaryDirectory(prefix=f".{entry.name}.", suffix=".partial", dir=out)
+            )
+            assembled[entry.name] = assemble_fmu(entry, Path(private), machine, root)
+        share_compiled([assembled[e.name] for e in selected if e.ship_compiled])
+        built = {
+            name: commit(document_and_validate(path, name), out / f"{name}.fmu")
+            for name, path in assembled.items()
+        }
     written = list(built.values())
     for system in (scenario_system(machine),) if systems is None else systems:
         if all(fmu in built for _, fmu, _ in system.components):

@@ -61,10 +61,12 @@ WARM_UP_RUNS = (
     {},
     {"bearing_table": 1},
     {"q1_final_ml_min": 450.0, "q2_final_ml_min": 450.0, "fault_time_s": 0.05, "fault_duration_s": 0.05},
+    {"preset": "paper"},
 )
 """Parameter sets of the build's warm-up instances (one after the other, in one process), each used by the
-FMUs that have all its parameters: the defaults, the dimensionless bearing table, and a flowrate change
-within the run (the plant's sub-stepped path)."""
+FMUs that have all its parameters: the defaults, the dimensionless bearing table, a flowrate change within
+the run (the plant's sub-stepped path) and the estimator's paper preset (the flowrate grid at one speed,
+which the scenarios' SSP systems run)."""
 
 WARM_UP = r"""
 import json, sys
@@ -84,7 +86,8 @@ for number, parameters in enumerate(runs):
         fmu.setupExperiment(startTime=0.0)
         for name, value in parameters.items():
             v = variables[name]
-            (fmu.setInteger if v.type == "Integer" else fmu.setReal)([v.valueReference], [value])
+            setter = {"Integer": fmu.setInteger, "String": fmu.setString}.get(v.type, fmu.setReal)
+            setter([v.valueReference], [value])
         fmu.enterInitializationMode()
         fmu.exitInitializationMode()
         for k in range(steps):
@@ -258,3 +261,35 @@ def ship_compiled(fmu: Path, label: str) -> bool:
                 entry.external_attr = 0o644 << 16
                 archive.writestr(entry, content, zipfile.ZIP_DEFLATED)
     return reused
+
+
+def share_compiled(fmus: list[Path]) -> None:
+    """Give each of ``fmus`` the compiled files (``__pycache__`` of its bundled oilwatch) that the others of
+    the same bundle have and it lacks.
+
+    Two FMUs in one process share one ``oilwatch``, imported from the folder of the first that loads
+    (:mod:`oilwatch.fmu_src.bundle`): the estimator's kernels then come from the plant's folder, whose own
+    warm-up never compiled them, so without them a host that loads the plant first (libcosim, most tools)
+    compiles the estimator on first use. The bundled sources are the same, so are numba's keys.
+    """
+    compiled: dict[bytes, dict[str, bytes]] = {}
+    bundles = {}
+    prefix = f"resources/{ROOT_PACKAGE}/"
+    for fmu in fmus:
+        with zipfile.ZipFile(fmu) as archive:
+            bundle = archive.read(prefix + BUNDLE_FILE)
+            bundles[fmu] = bundle
+            known = compiled.setdefault(bundle, {})
+            for name in archive.namelist():
+                if name.startswith(prefix) and "/__pycache__/" in name and name not in known:
+                    known[name] = archive.read(name)
+    for fmu in fmus:
+        with zipfile.ZipFile(fmu) as archive:
+            present = set(archive.namelist())
+        missing = {name: data for name, data in compiled[bundles[fmu]].items() if name not in present}
+        if missing:
+            with zipfile.ZipFile(fmu, "a", zipfile.ZIP_DEFLATED) as archive:
+                for name, content in missing.items():
+                    entry = zipfile.ZipInfo(name, date_time=time.localtime()[:6])
+                    entry.external_attr = 0o644 << 16
+                    archive.writestr(entry, content, zipfile.ZIP_DEFLATED)
