@@ -12,7 +12,9 @@ folder (as fmpy's ``simulate_fmu``, libcosim and most tools do) and times:
   must cost no more than the later ones: no hidden compilation, no first-time work);
 * the steady step: per 1 ms step, the plant's doStep and getReal of its four measured channels, the
   estimator's setReal of its five connected inputs (the plant's record), doStep and getReal of four outputs;
-  mean per step over ``--steps`` steps.
+  mean per step over ``--steps`` steps;
+* the system in libcosim (``OilStarvation.ssp``, the two FMUs in one process, the plant loaded first, so the
+  estimator runs on the plant's copy of oilwatch): ``from_ssp_file`` to the end of the first 1 ms step.
 
 Rows: median over ``--repeats`` processes per FMU and build, the builds alternated, and the ratio
 new / baseline.
@@ -38,6 +40,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 FMUS = ("RotorBearingPlant", "OilFlowEKF")
+SYSTEM = "SSP in libcosim"
 CHANNELS = ("x1_um", "y1_um", "x2_um", "y2_um")
 CONNECTED = (*CHANNELS, "t_sample_s")
 EKF_OUTPUTS = ("q1_est_ml_min", "q2_est_ml_min", "q1_std_ml_min", "q2_std_ml_min")
@@ -86,6 +89,31 @@ print(json.dumps({"cold_s": cold, "cold_cpu_s": cold_cpu, "first_s": durations[0
                   "first_call_cpu_s": calls[0][1], "hundredth_call_cpu_s": calls[99][1],
                   "steady_us": 1e6 * float(np.mean(durations[200:]))}))
 """
+
+
+LIBCOSIM_CHILD = r"""
+import json, os, sys, time
+from libcosimpy.CosimExecution import CosimExecution
+from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
+
+log_output_level(CosimLogLevel.ERROR)
+start, cpu = time.perf_counter(), time.process_time()
+execution = CosimExecution.from_ssp_file(sys.argv[1], step_size=1_000_000)
+execution.simulate_until(1_000_000)
+print(json.dumps({"cold_s": time.perf_counter() - start, "cold_cpu_s": time.process_time() - cpu}))
+sys.stdout.flush()
+os._exit(0)
+"""
+
+
+def libcosim_sample(ssp: Path) -> dict:
+    """One fresh process: libcosim unpacks ``ssp``'s FMUs into new folders and runs its first step."""
+    with tempfile.TemporaryDirectory(prefix="cold_start_cwd_") as cwd:
+        arguments = [sys.executable, "-c", LIBCOSIM_CHILD, str(ssp)]
+        process = subprocess.run(arguments, capture_output=True, text=True, env=environment(), cwd=cwd)
+    if process.returncode != 0:
+        raise SystemExit(f"{ssp}: the libcosim child failed:\n{process.stderr[-3000:]}")
+    return json.loads(process.stdout.strip().splitlines()[-1])
 
 
 def environment() -> dict[str, str]:
@@ -150,13 +178,15 @@ def main() -> None:
     }
     record = work / "plant_record.npy"
     sample(builds["new"] / "RotorBearingPlant.fmu", str(record), steps)
-    results = {(name, fmu): [] for name in builds for fmu in FMUS}
+    results = {(name, fmu): [] for name in builds for fmu in (*FMUS, SYSTEM)}
     for _ in range(args.repeats):
         for fmu in FMUS:
             for name, folder in builds.items():
                 results[name, fmu].append(
                     sample(folder / f"{fmu}.fmu", "" if fmu == FMUS[0] else str(record), steps)
                 )
+        for name, folder in builds.items():
+            results[name, SYSTEM].append(libcosim_sample(folder / "OilStarvation.ssp"))
     load = os.getloadavg()[0]
     print(f"fresh unpack, fresh process, median of {args.repeats}; 1-min load average {load:.2f}")
     print(f"baseline: {builds['baseline']}  new: {builds['new']}")
@@ -173,6 +203,10 @@ def main() -> None:
             old = statistics.median(r[key] for r in results["baseline", fmu]) * scale
             new = statistics.median(r[key] for r in results["new", fmu]) * scale
             print(f"{fmu:18s} {label:22s} {old:10.3f} {new:10.3f} {new / old:9.3f}")
+    for label, key, scale in figures[:2]:
+        old = statistics.median(r[key] for r in results["baseline", SYSTEM]) * scale
+        new = statistics.median(r[key] for r in results["new", SYSTEM]) * scale
+        print(f"{SYSTEM:18s} {label:22s} {old:10.3f} {new:10.3f} {new / old:9.3f}")
 
 
 if __name__ == "__main__":
