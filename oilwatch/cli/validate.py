@@ -219,6 +219,7 @@ def bearing_map(args: argparse.Namespace) -> int:
     from oilwatch.models.bearing.grid import Mesh
     from oilwatch.models.bearing.operating_accuracy import table_error
     from oilwatch.models.bearing.operating_table import OperatingTable, operating_table_path
+    from oilwatch.models.bearing.sommerfeld import sommerfeld_number
     from oilwatch.models.bearing.table import CoefficientTable
     from oilwatch.models.rotor.assembly import Rotor
     from oilwatch.models.system.factory import flowrate_table_path
@@ -241,8 +242,7 @@ def bearing_map(args: argparse.Namespace) -> int:
     worst = np.zeros(3)
     for speed, mu, fraction in points:
         error = table_error(table, bearing, speed, mu, load, fraction, mesh, args.one_sided)
-        sommerfeld = mu * speed * bearing.length_m * 2 * bearing.radius_m
-        sommerfeld *= (bearing.radius_m / bearing.clearance_m) ** 2 / load
+        sommerfeld = sommerfeld_number(bearing, mu, speed, load)
         row = np.array([error.eccentricity_ratio, error.stiffness, error.damping]) * 100
         worst = np.maximum(worst, row)
         print(

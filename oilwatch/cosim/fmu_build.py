@@ -8,7 +8,7 @@ wrapper in a source tree) builds every FMU in :data:`REGISTRY` (or only the name
 :mod:`oilwatch.cosim.ssp`). Everything comes from the importable packages (``models``, ``estimator``,
 ``fmu_src``), wherever they are installed: no source tree is needed.
 
-For each FMU (see :func:`build_fmu`):
+For each FMU (see :func:`assemble_fmu`, then :func:`build_fmus`):
 
 1. Staging: the slave script and ``oilwatch/`` (a minimal ``__init__.py``, the ``models``, ``estimator`` and
    ``fmu_src`` subpackages unchanged, the same in every FMU, and ``bundle.json``) are copied to a temporary
@@ -26,7 +26,9 @@ For each FMU (see :func:`build_fmu`):
    pythonfmu's other platforms' binaries (its stock Windows and macOS libraries, which hold none of the
    loader and are not tested) are removed, so the FMU claims Linux x86-64 only.
 5. The compiled code: the FMU runs once in a fresh process, and numba's kernels and the bytecode go into the
-   archive (:func:`oilwatch.cosim.packaging.ship_compiled`), unless the entry says ``ship_compiled=False``.
+   archive (:func:`oilwatch.cosim.packaging.ship_compiled`), unless the entry says ``ship_compiled=False``;
+   once all FMUs of the call are built, each gets the others' too
+   (:func:`oilwatch.cosim.packaging.share_compiled`).
 6. ``documentation/index.html`` (variables with causality, unit, min, max, start, description, and fmpy
    examples) is added to the archive.
 7. ``fmpy.validation.validate_fmu`` must report no problem, else the build fails.
@@ -201,19 +203,6 @@ def keep_platform(fmu: Path, folder: str = PLATFORM_FOLDER) -> None:
     rewritten.replace(fmu)
 
 
-def build_fmu(entry: FmuEntry, out_dir: Path, machine=None, root: Path | None = None) -> Path:
-    """Build one FMU into ``out_dir`` for ``machine`` (default: the bundled turbine) and return its path."""
-    from oilwatch.outputs.atomic import commit
-
-    out_dir.mkdir(parents=True, exist_ok=True)
-    # Built, given its loader and validated in a private folder beside the target, then renamed: the FMU
-    # appears under its name whole and valid or not at all, and two builders never rewrite one file (the
-    # loader installed twice over one FMU made the loader its inner binary).
-    with tempfile.TemporaryDirectory(prefix=f".{entry.name}.", suffix=".partial", dir=out_dir) as private:
-        built = assemble_fmu(entry, Path(private), machine, root)
-        return commit(document_and_validate(built, entry.name), out_dir / f"{entry.name}.fmu")
-
-
 def assemble_fmu(entry: FmuEntry, private: Path, machine=None, root: Path | None = None) -> Path:
     """Build ``entry``'s FMU for ``machine`` (default: the bundled turbine) into the folder ``private``, with
     its loader and, unless the entry says otherwise, its compiled code; return its path."""
@@ -306,7 +295,10 @@ def build_fmus(
         raise InputError(f"slave script(s) missing: {missing}")
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    with contextlib.ExitStack() as stack:  # each FMU in a private folder until all are whole (build_fmu)
+    # Each FMU is built, given its loader and validated in a private folder beside its target, then renamed:
+    # it appears under its name whole and valid or not at all, and two builders never rewrite one file (the
+    # loader installed twice over one FMU made the loader its inner binary).
+    with contextlib.ExitStack() as stack:
         assembled = {}
         for entry in selected:
             private = stack.enter_context(

@@ -224,6 +224,17 @@ def _store(files: list[Path], folder: Path, stored: Path) -> None:
     prune(stored.parent, KEEP_COMPILED)
 
 
+def add_members(fmu: Path, members: dict[str, bytes]) -> None:
+    """Append ``members`` ({archive name: content}) to the FMU archive, as world-readable files."""
+    if not members:
+        return
+    with zipfile.ZipFile(fmu, "a", zipfile.ZIP_DEFLATED) as archive:
+        for name, content in members.items():
+            entry = zipfile.ZipInfo(name, date_time=time.localtime()[:6])
+            entry.external_attr = 0o644 << 16
+            archive.writestr(entry, content, zipfile.ZIP_DEFLATED)
+
+
 def _stored_files(stored: Path) -> dict[str, bytes] | None:
     """{archive name: content} of an earlier warm-up kept as ``stored``; None when there is none (or it
     was pruned while being read)."""
@@ -255,11 +266,7 @@ def ship_compiled(fmu: Path, label: str) -> bool:
             shipped = {path.relative_to(folder).as_posix(): path.read_bytes() for path in files}
             if stored is not None:
                 _store(files, folder, stored)
-        with zipfile.ZipFile(fmu, "a", zipfile.ZIP_DEFLATED) as archive:
-            for name, content in shipped.items():
-                entry = zipfile.ZipInfo(name, date_time=time.localtime()[:6])
-                entry.external_attr = 0o644 << 16
-                archive.writestr(entry, content, zipfile.ZIP_DEFLATED)
+        add_members(fmu, shipped)
     return reused
 
 
@@ -286,10 +293,4 @@ def share_compiled(fmus: list[Path]) -> None:
     for fmu in fmus:
         with zipfile.ZipFile(fmu) as archive:
             present = set(archive.namelist())
-        missing = {name: data for name, data in compiled[bundles[fmu]].items() if name not in present}
-        if missing:
-            with zipfile.ZipFile(fmu, "a", zipfile.ZIP_DEFLATED) as archive:
-                for name, content in missing.items():
-                    entry = zipfile.ZipInfo(name, date_time=time.localtime()[:6])
-                    entry.external_attr = 0o644 << 16
-                    archive.writestr(entry, content, zipfile.ZIP_DEFLATED)
+        add_members(fmu, {name: data for name, data in compiled[bundles[fmu]].items() if name not in present})
