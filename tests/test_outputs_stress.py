@@ -176,6 +176,9 @@ def test_resume_continues_from_the_saved_state_with_the_estimates_of_an_uninterr
     assert not (out / "resume_state.pickle").exists()
 
 
+RUN_S = 300.0
+
+
 @pytest.mark.parametrize("seed", [0, 1])
 def test_a_run_stopped_at_a_random_moment_keeps_whole_rows_and_says_so_in_one_line(
     seed, built_fmus, tmp_path
@@ -184,8 +187,10 @@ def test_a_run_stopped_at_a_random_moment_keeps_whole_rows_and_says_so_in_one_li
     signum = (signal.SIGTERM, signal.SIGINT)[seed % 2]
     delay = float(rng.uniform(0.2, 12.0))  # from the imports to the FMUs' steps
     out = tmp_path / "out"
-    process = _start("run", "constant", "--fmu-dir", str(built_fmus), "--out", str(out), "--duration-s", "20",
-                     "--no-progress")  # fmt: skip
+    # 300 s of steps (a minute of wall time at the master's real-time factor of about 5): the signal, at
+    # most 12 s in, lands in the step loop, not after the last row while the summary and plot are written
+    process = _start("run", "constant", "--fmu-dir", str(built_fmus), "--out", str(out), "--duration-s",
+                     str(RUN_S), "--no-progress")  # fmt: skip
     time.sleep(delay)
     process.send_signal(signum)
     _, stderr = process.communicate(timeout=300)
@@ -194,7 +199,7 @@ def test_a_run_stopped_at_a_random_moment_keeps_whole_rows_and_says_so_in_one_li
     assert process.returncode == 128 + signum, (delay, stderr)
     assert f"interrupted ({signal.Signals(signum).name})" in _one_line(stderr)
     if (out / "result.csv").exists():
-        assert _whole_rows(out / "result.csv") < 20001
+        assert _whole_rows(out / "result.csv") < round(RUN_S / 1e-3) + 1
         assert json.loads((out / "summary.json").read_text())["completed"] is False
 
 
