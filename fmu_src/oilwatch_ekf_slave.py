@@ -46,7 +46,9 @@ Where the rest lives: the variables (names, units, descriptions, the order of th
 :mod:`oilwatch.fmu_src.ekf_configuration`; the compiled plain step in :mod:`oilwatch.fmu_src.ekf_plain_step`.
 
 The estimator's numba kernels compile on first use in a process (5-10 s); ``setup`` warms them up during
-initialization and logs the time, so that no ``doStep`` pays for it.
+initialization and logs the time, so that no ``doStep`` pays for it. Initialization also takes the start
+time's sample as a skipped one (:meth:`OilFlowEKF._take_start_sample`), which the first doStep would
+otherwise predict through before the host's first sample, one period later.
 """
 
 from __future__ import annotations
@@ -124,6 +126,7 @@ class OilFlowEKF(OilwatchSlave):
         self._nuisances_published = 0  # the filter's step count when the nuisances were last published
         self._keyphasor_cell = np.full(1, np.nan)  # keyphasor_state's storage (the compiled step writes it)
         self._plain_step = None  # the bound compiled step's table, kept alive: the loader points into it
+        self._start_sample_taken = None  # (filter state before it, operating point): _take_start_sample
         declare_parameters(self)
         declare_inputs_outputs(self)
         self._nuisance_outputs = self._nuisance_references()
@@ -132,11 +135,15 @@ class OilFlowEKF(OilwatchSlave):
     # --------------------------------------------------------------------- initialization
     @property
     def filter_state(self):
-        """The estimator's complete state (for fmi2GetFMUstate / fmi2SetFMUstate)."""
+        """The estimator's complete state (for fmi2GetFMUstate / fmi2SetFMUstate): the state before a start
+        sample taken ahead (:meth:`_take_start_sample`), so that a host sees none."""
+        if self._start_sample_taken is not None:
+            return self._start_sample_taken[0]
         return None if self.filter is None else self.filter.get_state()
 
     @filter_state.setter
     def filter_state(self, state) -> None:
+        self._start_sample_taken = None
         if state is not None:
             self.filter.set_state(state)
             self._nuisances_published = self.filter.step_count  # the outputs were restored with the state
@@ -232,6 +239,29 @@ class OilFlowEKF(OilwatchSlave):
         if table is not None and bind_plain_step(self, table):
             self._plain_step = table
             self._warm_plain_step(table)
+        else:
+            self._take_start_sample()
+
+    def _take_start_sample(self) -> None:
+        """Take the start time's sample as a skipped one now, keeping the state before it. A host's first
+        input is usually the plant's sample one period after the start, so the first doStep would predict
+        through the start time's sample first: two samples' work (five filters' each in a start bank).
+        :meth:`step` keeps it when the first sample comes later at the same operating point, else returns
+        to the state before it. Not with the compiled plain step, which takes every sample itself."""
+        if self.filter.step_count != 0:
+            return
+        operating = self._operating_point(self.speed_hz, self.oil_temperature_c)
+        before = self.filter.get_state()
+        self.filter.step(self._missing, *operating)
+        self._start_sample_taken = (before, operating)
+
+    def _settle_start_sample(self, index: int, operating) -> None:
+        """Keep the start sample taken ahead if the first sample is a later one at its operating point, else
+        return to the state before it (:meth:`_take_start_sample`)."""
+        before, taken_at = self._start_sample_taken
+        self._start_sample_taken = None
+        if index < 1 or operating != taken_at:
+            self.filter.set_state(before)
 
     def _warm_plain_step(self, table) -> None:
         """Run the compiled plain step once on the first sample as a host sends it (one period after the
@@ -296,6 +326,8 @@ class OilFlowEKF(OilwatchSlave):
                     f"(k x {period:g} s) and is skipped; align the communication step with sample_period_s"
                 )
             return True
+        if self._start_sample_taken is not None:
+            self._settle_start_sample(index, self._operating_point(speed, temperature))
         if index < self.filter.step_count:
             return True  # a repeated sample: already used
         operating = self._operating_point(speed, temperature)

@@ -135,6 +135,7 @@ class OperatingAugmentedModel:
         self._no_unbalance = np.zeros(0)
         self.recentre_count = 0
         self._kept: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}  # centre -> its correction's terms
+        self._loaded: bytes | None = None  # the centre whose terms the kernel arrays hold
         self.reset_operating_state()
 
     # ------------------------------------------------------------------ operating point
@@ -314,9 +315,10 @@ class OperatingAugmentedModel:
             kept = (a.corrections_a.copy(), a.corrections_g.copy())
             if len(self._kept) >= CENTRES_KEPT:
                 del self._kept[next(iter(self._kept))]  # the oldest
-        else:
+        elif key != self._loaded:  # else the arrays hold them already (a reset, then the same start)
             a.corrections_a[...], a.corrections_g[...] = kept
         self._kept[key] = kept
+        self._loaded = key
         self._centre = point.copy()
         self._held[HELD_CENTRE : HELD_CENTRE + 5] = point
         self._held[HELD_HAS_CENTRE] = 1.0
