@@ -1,6 +1,7 @@
 """The machine description: load and validate a rotor-bearing machine file (TOML, units in the keys).
 
-The bundled file ``models/turbine.toml`` is the generic turbine of the paper (Tables 1-3). Users
+The bundled file ``models/turbine.toml`` is the generic turbine of the paper (Tables 1-3), and
+``models/compressor.toml`` a six-stage compressor on two-axial-groove bearings. Users
 describe their own machines the same way: any number of shaft elements, discs and bearing nodes.
 Every physical value carries its unit in its key (``element_length_mm``); :func:`load_machine`
 converts to SI and returns a frozen :class:`Machine`.
@@ -41,6 +42,29 @@ from .oil import Oil
 from .validation import InputError, naming_file, read_text_file
 
 BUNDLED_MACHINE = Path(__file__).resolve().parent / "turbine.toml"
+BUNDLED_MACHINES = {
+    "turbine": BUNDLED_MACHINE,
+    "compressor": BUNDLED_MACHINE.with_name("compressor.toml"),
+}
+"""The machine files that come with oilwatch, by the name a command's ``--machine`` takes: the paper's generic
+turbine (the default) and a six-stage compressor on two-axial-groove bearings."""
+
+
+def bundled_name(path: str | Path | None) -> str | None:
+    """The name of the bundled machine whose file ``path`` is (None: a file of the user's, or None): what a
+    result file records, so that it names the same machine in any installation."""
+    if path is None:
+        return None
+    resolved = Path(path).resolve()
+    return next((name for name, file in BUNDLED_MACHINES.items() if file.resolve() == resolved), None)
+
+
+def machine_file_path(value: str | Path) -> Path:
+    """The machine file ``value`` names: a bundled machine's file for its name (:data:`BUNDLED_MACHINES`)
+    unless a file of that name exists here, else ``value`` as a path."""
+    path = Path(value)
+    bundled = BUNDLED_MACHINES.get(str(value))
+    return bundled if bundled is not None and not path.exists() else path
 
 
 @dataclass(frozen=True, eq=False, repr=False)
@@ -214,12 +238,13 @@ def machine_from_dict(data: Mapping[str, Any], source_path: Path | str = "<dict>
 
 
 def load_machine(path: str | Path | None = None) -> Machine:
-    """Read and validate a machine file; ``None`` reads the bundled generic turbine.
+    """Read and validate a machine file; ``None`` reads the bundled generic turbine, and the name of a
+    bundled machine (:data:`BUNDLED_MACHINES`) its file.
 
     Raises :class:`InputError` when the file is missing, is not valid TOML, or holds a missing,
     non-numeric, negative or inconsistent value (the message names the field).
     """
-    source = BUNDLED_MACHINE if path is None else Path(path)
+    source = BUNDLED_MACHINE if path is None else machine_file_path(path)
     text = read_text_file("machine file", source, "a TOML machine file such as models/turbine.toml")
     try:
         data = tomllib.loads(text)

@@ -54,6 +54,13 @@ def test_the_robustness_table_is_its_result_files(tmp_path):
                  lambda copy: main(["robustness", "--from-json", *files, "--readme", copy]))  # fmt: skip
 
 
+@pytest.mark.slow
+def test_the_compressor_robustness_table_is_its_result_file(tmp_path):
+    result = str(REPO / "docs" / "results" / "robustness" / "compressor" / "robustness.json")
+    _regenerated("docs/compressor.md", ("robustness",), tmp_path,
+                 lambda copy: main(["robustness", "--from-json", result, "--readme", copy]))  # fmt: skip
+
+
 def test_an_output_block_is_its_commands_output_without_the_machine_load(tmp_path):
     page = tmp_path / "page.md"
     command = "python -c \"print('a, load 12.5'); print('load average at the start: 3 2 1'); print('b')\""

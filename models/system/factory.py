@@ -5,8 +5,8 @@ Where the tables live: next to the machine file, in ``tables/``, named after the
 bearing-table``; the suffix names the kind of coefficients, the machine file's ``[bearings]
 dynamic_coefficients``: K, C at whirl frequency = spin speed by default, no suffix for quasi-static) and
 ``tables/<stem>_speed_sweep.json`` (coefficients over speed at the nominal flowrate,
-``oilwatch speed-sweep``). For the bundled generic turbine the committed ones are in ``models/tables/``
-(``turbine_bearing_75hz.json``, read-only package data); new tables for it are written to the user cache,
+``oilwatch speed-sweep``). For the bundled machines the committed ones are in ``models/tables/``
+(``turbine_bearing_75hz.json``, read-only package data); new tables for them are written to the user cache,
 ``$OILWATCH_CACHE/tables/`` (default ``~/.cache/oilwatch/tables/``), never into the installed package, and
 read from there too. A missing table's error names the one command that makes it (with ``--machine``).
 """
@@ -21,7 +21,7 @@ import numpy as np
 from ..bearing.coefficient_kinds import QUASI_STATIC, file_suffix, table_kind
 from ..bearing.table import CoefficientTable
 from ..cache import user_cache_dir
-from ..machine import BUNDLED_MACHINE, Machine, load_machine
+from ..machine import BUNDLED_MACHINE, BUNDLED_MACHINES, Machine, load_machine
 from ..rotor.assembly import Rotor
 from ..validation import InputError, require_positive
 from .reduction import craig_bampton
@@ -35,8 +35,8 @@ LOAD_RTOL = 5e-3
 
 
 def is_bundled(machine: Machine) -> bool:
-    """Whether ``machine`` is the bundled generic turbine of the installed package."""
-    return machine.source_path.resolve() == BUNDLED_MACHINE.resolve()
+    """Whether ``machine`` is one of the installed package's bundled machines (read-only package data)."""
+    return machine.source_path.resolve() in {path.resolve() for path in BUNDLED_MACHINES.values()}
 
 
 def table_folders(machine: Machine) -> list[Path]:
@@ -94,8 +94,13 @@ def speed_sweep_name(machine: Machine, squeeze: str = "full-film") -> str:
 
 
 def machine_arguments(machine: Machine) -> list[str]:
-    """``["--machine", FILE]`` for a machine file of the user's, nothing for the bundled turbine."""
-    return [] if is_bundled(machine) else ["--machine", str(machine.source_path)]
+    """The ``--machine`` option naming ``machine`` in a command: nothing for the default (the bundled turbine),
+    another bundled machine's name, else the machine file."""
+    path = machine.source_path.resolve()
+    for name, bundled in BUNDLED_MACHINES.items():
+        if path == bundled.resolve():
+            return [] if bundled == BUNDLED_MACHINE else ["--machine", name]
+    return ["--machine", str(machine.source_path)]
 
 
 def table_command(machine: Machine, speed_hz: float, coefficients: str | None = None) -> str:

@@ -34,6 +34,7 @@ static sensitivity to a 1 % flow change.
 from __future__ import annotations
 
 import math
+import shlex
 
 import numpy as np
 
@@ -43,6 +44,7 @@ from ..machine import Machine
 from ..oil import Oil
 from ..validation import InputError, require_positive
 from .augmented import GridAugmentedModel
+from .factory import machine_arguments
 from .flowrate_grid import FlowrateGrid
 from .operating_correction import SECOND_ORDER_PAIRS, Recentring, fill_correction
 from .operating_kernels import (
@@ -378,9 +380,10 @@ def build_operating_model(
     for kind in (QUASI_STATIC, machine.dynamic_coefficients) if synchronous_kind else (QUASI_STATIC,):
         path = operating_table_path(machine.source_path, kind)
         if not path.exists():
+            command = shlex.join(["oilwatch", "bearing-map", *machine_arguments(machine), "--coefficients", kind])
             raise InputError(
                 f"following speed and oil temperature needs the dimensionless bearing table {path}: compute "
-                f"it with `oilwatch bearing-map --coefficients {kind}`"
+                f"it with `{command}`"
             )
     table = operating_table_of(machine, QUASI_STATIC)
     synchronous = operating_table_of(machine) if synchronous_kind else None

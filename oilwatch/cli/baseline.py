@@ -14,6 +14,7 @@ PROBE_COLUMNS = ("x1_um", "y1_um", "x2_um", "y2_um")
 def register(subparsers) -> None:
     """Add the ``baseline`` subcommand."""
     from .config_options import add_preset_options
+    from .machine_option import add_machine_option
 
     parser = subparsers.add_parser(
         "baseline",
@@ -44,7 +45,7 @@ def register(subparsers) -> None:
         help="a record at slow roll (CSV: time_s, the probe columns in um and rotor_angle_deg from the "
         "keyphasor, or speed_hz with time_s = 0 at a keyphasor pulse): the probes' runout vectors",
     )
-    parser.add_argument("--machine", default=None, metavar="FILE", help="machine file (default: the turbine)")
+    add_machine_option(parser)
     parser.add_argument("--q1-ml-min", type=float, default=None, help="known flowrate of bearing 1 [ml/min]")
     parser.add_argument("--q2-ml-min", type=float, default=None, help="known flowrate of bearing 2 [ml/min]")
     parser.add_argument(

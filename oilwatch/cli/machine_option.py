@@ -14,14 +14,24 @@ import argparse
 import sys
 from pathlib import Path
 
-MACHINE_HELP = "machine file (TOML, units in the keys); default: the bundled generic turbine"
+MACHINE_HELP = (
+    "machine file (TOML, units in the keys), or a bundled machine by name (turbine, compressor); default: "
+    "the bundled generic turbine"
+)
 TABLE_POINTS = 7
 """Flowrates of a table computed on demand (the paper's 7, as ``oilwatch bearing-table``)."""
 
 
 def add_machine_option(parser: argparse.ArgumentParser) -> None:
     """Add ``--machine FILE`` (default: the bundled generic turbine)."""
-    parser.add_argument("--machine", metavar="FILE", default=None, help=MACHINE_HELP)
+    parser.add_argument("--machine", metavar="FILE", default=None, type=_machine_file, help=MACHINE_HELP)
+
+
+def _machine_file(value: str) -> str:
+    """``--machine``'s value as a path: a bundled machine's file for its name."""
+    from oilwatch.models.machine import machine_file_path
+
+    return str(machine_file_path(value))
 
 
 def add_coefficients_option(parser: argparse.ArgumentParser, default_file: str) -> None:

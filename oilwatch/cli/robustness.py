@@ -10,6 +10,8 @@ from pathlib import Path
 
 def register(subparsers) -> None:
     """Add the ``robustness`` subcommand."""
+    from .machine_option import add_machine_option
+
     parser = subparsers.add_parser(
         "robustness",
         help="run the plant with each machine-vs-model discrepancy against the estimator",
@@ -24,7 +26,7 @@ def register(subparsers) -> None:
             "Cramer-Rao bound. Writes DIR/robustness.json (row by row) and DIR/robustness.md."
         ),
     )
-    parser.add_argument("--machine", default=None, metavar="FILE", help="machine file (default: the turbine)")
+    add_machine_option(parser)
     parser.add_argument("--duration-s", type=float, default=60.0, help="record length [s] (default: 60)")
     parser.add_argument("--noise-um", type=float, default=1.0, help="probe noise std [um] (default: 1)")
     parser.add_argument("--seed", type=int, default=1, help="noise seed (default: 1)")
@@ -149,6 +151,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _run_locked(args, cases, out: Path, workers: int, command: str) -> int:
     """The cases, holding the lock of ``out``; robustness.json is rewritten (whole) after every row."""
+    from oilwatch.models.machine import bundled_name
     from oilwatch.outputs.atomic import write_text_atomic
     from oilwatch.robustness import format_table, run_robustness
 
@@ -156,7 +159,7 @@ def _run_locked(args, cases, out: Path, workers: int, command: str) -> int:
 
     rows = run_robustness(
         cases,
-        machine_file=args.machine,
+        machine_file=bundled_name(args.machine) or args.machine,  # a bundled machine by name: portable
         duration_s=args.duration_s,
         noise_um=args.noise_um,
         seed=args.seed,
