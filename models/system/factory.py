@@ -94,8 +94,8 @@ def speed_sweep_name(machine: Machine, squeeze: str = "full-film") -> str:
 
 
 def machine_arguments(machine: Machine) -> list[str]:
-    """The ``--machine`` option naming ``machine`` in a command: nothing for the default (the bundled turbine),
-    another bundled machine's name, else the machine file."""
+    """The ``--machine`` option naming ``machine`` in a command: nothing for the default (the bundled
+    turbine), another bundled machine's name, else the machine file."""
     path = machine.source_path.resolve()
     for name, bundled in BUNDLED_MACHINES.items():
         if path == bundled.resolve():

@@ -380,7 +380,9 @@ def build_operating_model(
     for kind in (QUASI_STATIC, machine.dynamic_coefficients) if synchronous_kind else (QUASI_STATIC,):
         path = operating_table_path(machine.source_path, kind)
         if not path.exists():
-            command = shlex.join(["oilwatch", "bearing-map", *machine_arguments(machine), "--coefficients", kind])
+            command = shlex.join(
+                ["oilwatch", "bearing-map", *machine_arguments(machine), "--coefficients", kind]
+            )
             raise InputError(
                 f"following speed and oil temperature needs the dimensionless bearing table {path}: compute "
                 f"it with `{command}`"
