@@ -2,7 +2,7 @@
 
 ``oilwatch estimate``, the estimator FMU and the robustness report build their estimator here, so that the
 report tests the estimator the product runs: :class:`oilwatch.estimator.start_bank.StartBank` where it applies
-(the flowrates beside free viscosity factors with no baseline for them: several starts, the record's NIS picks
+(the flowrates beside nuisances no baseline primed: several starts, the record's NIS picks
 one in the first :data:`oilwatch.estimator.start_bank.SELECT_S` seconds, at ``len(START_FRACTIONS)`` filters'
 cost until then), else one :class:`oilwatch.estimator.ekf.OilFlowEKF`. Both have the same public interface.
 """

@@ -1,9 +1,12 @@
-"""A start bank for the flowrates beside free viscosity factors: several starts, the record picks one.
+"""A start bank for the flowrates beside nuisances no baseline primed: several starts, the record picks one.
 
 With the viscosity factors free and no baseline, the filter's end point along the nearly unobservable
-direction (a lower flow, a thicker film, a larger unbalance, shifted offsets: :mod:`.nuisance_start`)
-follows its start. With each end point's parameters held fixed, the record's summed innovations (NIS) have
-a minimum at each end point with a higher sum between (a local optimum of the filter model's likelihood,
+direction (a lower flow, a thicker film, a larger unbalance, shifted offsets: :mod:`.nuisance_start`) follows
+its start. So it does with only the probe offsets and the unbalance free where the flow is weakly observable:
+a supply inside the flooded band, where the flow moves the film only through the groove pressure (the bundled
+compressor near its nominal supply: one filter started at nominal stays near its start for half the robustness
+record, its std small). With each end point's parameters held fixed, the record's summed innovations (NIS)
+have a minimum at each end point with a higher sum between (a local optimum of the filter model's likelihood,
 not only a linearization artefact), and the right one has the lower sum. So the record can choose between
 starts where one filter cannot travel: multiple-model adaptive estimation (Magill, IEEE Trans. Automatic
 Control 10, 1965; Maybeck, "Stochastic Models, Estimation, and Control" vol. 2, 1982, ch. 10) used as a start.
@@ -93,13 +96,14 @@ class StartBank:
 
     @staticmethod
     def applies(config) -> bool:
-        """Whether ``config`` is the one the bank is for: flowrates estimated beside viscosity factors that
-        no baseline primed, with the shadow Jacobian (:mod:`.nuisance_start`; every other configuration
-        runs one filter, unchanged)."""
+        """Whether ``config`` is one the bank is for: flowrates estimated beside viscosity factors that no
+        baseline primed, or, with no baseline at all, beside free probe offsets or a free unbalance; with
+        the shadow Jacobian (:mod:`.nuisance_start`). Every other configuration runs one filter, unchanged."""
         baseline = config.offset_baseline
-        free = config.viscosity_factor_prior_std > 0.0
-        free = free and (baseline is None or baseline.viscosity_factor is None)
-        return free and config.flowrate_process_std_m3_s > 0.0 and config.nuisance_shadow
+        factors = config.viscosity_factor_prior_std > 0.0
+        factors = factors and (baseline is None or baseline.viscosity_factor is None)
+        others = baseline is None and (config.offset_prior_std_m > 0.0 or config.unbalance_prior_std > 0.0)
+        return (factors or others) and config.flowrate_process_std_m3_s > 0.0 and config.nuisance_shadow
 
     @property
     def config(self):

@@ -44,8 +44,8 @@ class StartOutput(NamedTuple):
 START_OUTPUTS = (
     StartOutput(
         "start_choosing", "Boolean", None, False,
-        "The start bank is still choosing the flowrates' start (free viscosity factors without a baseline "
-        "for them: starts at 1.1 to 0.7 times the initial flowrate, the least accumulated NIS continues "
+        "The start bank is still choosing the flowrates' start (nuisances that no baseline primed: "
+        "starts at 1.1 to 0.7 times the initial flowrate, the least accumulated NIS continues "
         "alone); until then the estimates are the nominal start's. False with one filter",
     ),
     StartOutput(

@@ -64,7 +64,7 @@ def machine_file_path(value: str | Path) -> Path:
     unless a file of that name exists here, else ``value`` as a path."""
     path = Path(value)
     bundled = BUNDLED_MACHINES.get(str(value))
-    return bundled if bundled is not None and not path.exists() else path
+    return bundled if bundled is not None and not path.is_file() else path
 
 
 @dataclass(frozen=True, eq=False, repr=False)

@@ -51,6 +51,9 @@ def test_a_bundled_machine_is_named_on_the_command_line_and_in_result_files(tmp_
     # the commands a message names: the default turbine without --machine, the compressor by its name
     assert machine_arguments(MACHINE) == ["--machine", "compressor"]
     assert machine_arguments(load_machine()) == []
+    (tmp_path / "compressor").mkdir()  # a folder of that name does not hide the bundled machine
+    assert machine_file_path("compressor") == BUNDLED_MACHINES["compressor"]
+    (tmp_path / "compressor").rmdir()
     (tmp_path / "compressor").write_text("", encoding="utf-8")  # a file of that name here is the user's
     assert machine_file_path("compressor") == Path("compressor")
 

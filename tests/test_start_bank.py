@@ -32,16 +32,23 @@ def model():
     return build_operating_model(build_system(machine, reduced=True), machine, DT)
 
 
-def test_the_bank_applies_only_to_free_factors_without_a_baseline():
+def test_the_bank_applies_only_to_nuisances_no_baseline_primed():
     config = free_config()
     assert StartBank.applies(config)
-    assert not StartBank.applies(dataclasses.replace(config, viscosity_factor_prior_std=0.0))
+    known_film = dataclasses.replace(config, viscosity_factor_prior_std=0.0)
+    assert StartBank.applies(known_film)  # the offsets and the unbalance still free, no baseline
+    assert StartBank.applies(dataclasses.replace(known_film, unbalance_prior_std=0.0))
+    assert StartBank.applies(dataclasses.replace(known_film, offset_prior_std_m=0.0))
+    assert not StartBank.applies(
+        dataclasses.replace(known_film, offset_prior_std_m=0.0, unbalance_prior_std=0.0)
+    )
     assert not StartBank.applies(dataclasses.replace(config, flowrate_process_std_m3_s=0.0))
     assert not StartBank.applies(dataclasses.replace(config, nuisance_shadow=False))
     offsets = dict(offsets_m=(0.0,) * 4, std_m=(1e-6,) * 4)
     primed = OffsetBaseline(**offsets, viscosity_factor=(1.0, 1.0), viscosity_factor_std=(0.01, 0.01))
     assert not StartBank.applies(dataclasses.replace(config, offset_baseline=primed))
     assert StartBank.applies(dataclasses.replace(config, offset_baseline=OffsetBaseline(**offsets)))
+    assert not StartBank.applies(dataclasses.replace(known_film, offset_baseline=OffsetBaseline(**offsets)))
 
 
 def test_the_bank_reports_the_nominal_start_then_continues_the_least_nis_start_exactly(model):
@@ -137,5 +144,7 @@ def test_the_bank_s_state_restores_bit_identically_and_reset_starts_over(model):
 
 def test_the_factory_builds_the_bank_where_it_applies_and_one_filter_elsewhere(model):
     assert isinstance(make_estimator(model, free_config()), StartBank)
-    known = dataclasses.replace(free_config(), viscosity_factor_prior_std=0.0)
+    known = dataclasses.replace(
+        free_config(), viscosity_factor_prior_std=0.0, offset_prior_std_m=0.0, unbalance_prior_std=0.0
+    )
     assert type(make_estimator(model, known)) is OilFlowEKF

@@ -12,7 +12,7 @@ second half with a consistent model, whether every alarm was raised under a cons
 over the nuisance Cramer-Rao bound of the case's own configuration (:mod:`.bounds`: the nuisances its
 estimator estimates, its baseline, its speed and temperature trajectory; the whole record). The estimator is
 the product's, built by :func:`oilwatch.estimator.factory.make_estimator` and run through ``run_batch`` as
-``oilwatch estimate`` runs it: with the viscosity factors free and no baseline for them the start bank
+``oilwatch estimate`` runs it: with nuisances that no baseline primed the start bank
 (:class:`oilwatch.estimator.start_bank.StartBank`: several starts along the flowrates' prior, the record's NIS
 picks one), else one :class:`oilwatch.estimator.ekf.OilFlowEKF`.
 """
