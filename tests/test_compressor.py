@@ -15,6 +15,7 @@ import pytest
 from fixtures.fmu_subprocess import REPO_ROOT
 from fixtures.xdist_units import session_root
 
+from oilwatch.cli.machine_option import MACHINE_HELP
 from oilwatch.models.bearing.coefficient_kinds import SYNCHRONOUS
 from oilwatch.models.bearing.equilibrium import coefficients_at, static_equilibrium
 from oilwatch.models.bearing.grid import Mesh
@@ -51,6 +52,7 @@ def test_a_bundled_machine_is_named_on_the_command_line_and_in_result_files(tmp_
     # the commands a message names: the default turbine without --machine, the compressor by its name
     assert machine_arguments(MACHINE) == ["--machine", "compressor"]
     assert machine_arguments(load_machine()) == []
+    assert all(name in MACHINE_HELP for name in BUNDLED_MACHINES)  # --machine's help names each
     (tmp_path / "compressor").mkdir()  # a folder of that name does not hide the bundled machine
     assert machine_file_path("compressor") == BUNDLED_MACHINES["compressor"]
     (tmp_path / "compressor").rmdir()
