@@ -21,7 +21,7 @@ import numpy as np
 from ..bearing.coefficient_kinds import QUASI_STATIC, file_suffix, table_kind
 from ..bearing.table import CoefficientTable
 from ..cache import user_cache_dir
-from ..machine import BUNDLED_MACHINE, BUNDLED_MACHINES, Machine, load_machine
+from ..machine import BUNDLED_MACHINE, BUNDLED_MACHINES, Machine, bundled_name, load_machine
 from ..rotor.assembly import Rotor
 from ..validation import InputError, require_positive
 from .reduction import craig_bampton
@@ -36,7 +36,7 @@ LOAD_RTOL = 5e-3
 
 def is_bundled(machine: Machine) -> bool:
     """Whether ``machine`` is one of the installed package's bundled machines (read-only package data)."""
-    return machine.source_path.resolve() in {path.resolve() for path in BUNDLED_MACHINES.values()}
+    return bundled_name(machine.source_path) is not None
 
 
 def table_folders(machine: Machine) -> list[Path]:
@@ -96,11 +96,10 @@ def speed_sweep_name(machine: Machine, squeeze: str = "full-film") -> str:
 def machine_arguments(machine: Machine) -> list[str]:
     """The ``--machine`` option naming ``machine`` in a command: nothing for the default (the bundled
     turbine), another bundled machine's name, else the machine file."""
-    path = machine.source_path.resolve()
-    for name, bundled in BUNDLED_MACHINES.items():
-        if path == bundled.resolve():
-            return [] if bundled == BUNDLED_MACHINE else ["--machine", name]
-    return ["--machine", str(machine.source_path)]
+    name = bundled_name(machine.source_path)
+    if name is not None and BUNDLED_MACHINES[name] == BUNDLED_MACHINE:
+        return []
+    return ["--machine", name or str(machine.source_path)]
 
 
 def table_command(machine: Machine, speed_hz: float, coefficients: str | None = None) -> str:
