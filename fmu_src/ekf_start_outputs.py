@@ -12,8 +12,8 @@ and
   nuisances stay out of the Jacobian while the dynamic states settle; then they restart from their prior;
 * the start bank (:mod:`oilwatch.estimator.start_bank`): five filters from fractions 1.1 to 0.7 of the initial
   flowrate run through the first ``SELECT_S`` (20 s); the one with the least accumulated NIS continues
-  alone. Until the choice the estimates are the nominal start's, which on the robustness ramps below
-  nominal flow end low where a lower start ends close to the truth (the docs' robustness section).
+  alone. Until the choice the estimates are the leading start's (the nominal one's until the record
+  prefers another: :mod:`oilwatch.estimator.start_bank`).
 
 The outputs (:data:`START_OUTPUTS`) say where the estimator is: ``start_choosing``, ``start_fraction``,
 ``start_choice_in_s``, ``settling_start_left_s`` and ``estimate_settled``, which is ``converged`` once both
@@ -46,13 +46,13 @@ START_OUTPUTS = (
         "start_choosing", "Boolean", None, False,
         "The start bank is still choosing the flowrates' start (nuisances that no baseline primed: "
         "starts at 1.1 to 0.7 times the initial flowrate, the least accumulated NIS continues "
-        "alone); until then the estimates are the nominal start's. False with one filter",
+        "alone); until then the estimates are the leading start's (start_fraction). False with one filter",
     ),
     StartOutput(
-        "start_fraction", "Real", "1", 0.0,
+        "start_fraction", "Real", "1", 1.0,
         "The start the estimates come from, as a fraction of the initial flowrate (q_initial_ml_min): the "
-        "start bank's choice; 0 while the bank is choosing; 1 with one filter (its start is the "
-        "configured one)",
+        "start bank's choice, or while it is choosing the leading start (the nominal one, 1, until the "
+        "record prefers another); 1 with one filter (its start is the configured one)",
     ),
     StartOutput(
         "start_choice_in_s", "Real", "s", 0.0,
@@ -102,7 +102,7 @@ def start_values(estimator, period_s: float) -> tuple[float, float, float, float
     left = (
         max(0, settling + 1 - estimator.step_count) if settling > 0 else 0
     )  # restart after sample `settling`
-    chosen = getattr(estimator, "chosen_fraction", 1.0)  # one filter: its start is the configured one
-    if chosen is None:  # the bank is choosing
-        return 1.0, 0.0, estimator.samples_to_choice * period_s, left * period_s
-    return 0.0, chosen, 0.0, left * period_s
+    fraction = getattr(estimator, "active_fraction", 1.0)  # one filter: its start is the configured one
+    if getattr(estimator, "chosen_fraction", 1.0) is None:  # the bank is choosing
+        return 1.0, fraction, estimator.samples_to_choice * period_s, left * period_s
+    return 0.0, fraction, 0.0, left * period_s

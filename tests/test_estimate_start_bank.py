@@ -84,7 +84,7 @@ def test_estimate_with_free_factors_runs_the_start_bank_bit_for_bit(tmp_path, sh
     for b in (1, 2):
         np.testing.assert_allclose(columns[f"q{b}_est_ml_min"], trace.q_m3_s[:, b - 1] / ML_MIN, atol=0.006)
 
-    # a record that ends inside the window: the nominal start's estimates, no choice, said so
+    # a record that ends inside the window: the leading start's estimates, no choice, said so
     short = _write(tmp_path / "short.parquet", record[:500], speed, temperature)
     run, summary = _estimate(short, tmp_path / "short")
     assert run.filter.chosen is None and summary["estimator"]["start_bank"]["chosen_start_fraction"] is None

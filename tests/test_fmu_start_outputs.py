@@ -63,7 +63,8 @@ def rows(slave, vr, k0, k1):
 
 def row(slave, vr):
     flags = slave.get_boolean([vr[n] for n in FLAGS])
-    return slave.get_real([vr[n] for n in REALS]) + [int(b) for b in flags] + [slave.filter.step_count]
+    counts = [slave.filter.step_count, getattr(slave.filter, "active_fraction", 1.0)]
+    return slave.get_real([vr[n] for n in REALS]) + [int(b) for b in flags] + counts
 
 result = {}
 bank, vr = slave_of("bank", 0.1)
@@ -90,11 +91,11 @@ def test_the_start_outputs_follow_the_bank_and_the_settling_start_and_are_plain_
     dt = 1e-3
     settling = result["settling_steps"]
     assert settling > 0  # free factors without a baseline: a settling start
-    fraction, choice_in, settling_left, choosing, settled, converged, steps = result["bank_initial"]
-    assert (fraction, choosing, settled) == (0.0, 1, 0)
+    fraction, choice_in, settling_left, choosing, settled, converged, steps, _ = result["bank_initial"]
+    assert (fraction, choosing, settled) == (1.0, 1, 0)  # the nominal start leads
     assert abs(choice_in - SELECT_S) < 1e-12 and abs(settling_left - (settling + 1) * dt) < 1e-12
     bank = np.array(result["bank"])
-    fraction, choice_in, settling_left, choosing, settled, converged, steps = bank.T
+    fraction, choice_in, settling_left, choosing, settled, converged, steps, active = bank.T
     choice_step = round(SELECT_S / dt)
     # counted in the filter's samples: the time left is the samples left (the first step also predicts
     # through its start sample, so the filter's step count leads the FMU's steps by one)
@@ -102,7 +103,7 @@ def test_the_start_outputs_follow_the_bank_and_the_settling_start_and_are_plain_
     assert np.allclose(settling_left, np.maximum(settling + 1 - steps, 0) * dt, rtol=0, atol=1e-12)
     assert (choosing == (steps < choice_step)).all()
     assert result["chosen"] in result["fractions"]
-    assert (fraction[choosing == 1] == 0.0).all() and (fraction[choosing == 0] == result["chosen"]).all()
+    assert (fraction == active).all() and (fraction[choosing == 0] == result["chosen"]).all()
     started = (choosing == 1) | (settling_left > 0)
     assert (settled[started] == 0).all() and (settled[~started] == converged[~started]).all()
     masked = int(np.sum(started & (converged == 1)))
@@ -113,7 +114,7 @@ def test_the_start_outputs_follow_the_bank_and_the_settling_start_and_are_plain_
 
     assert result["single_kind"] == "OilFlowEKF"
     single = np.array([result["single_initial"], *result["single"]])
-    fraction, choice_in, settling_left, choosing, settled, converged, _ = single.T
+    fraction, choice_in, settling_left, choosing, settled, converged, _, _ = single.T
     assert (fraction == 1.0).all() and (choice_in == 0.0).all() and (settling_left == 0.0).all()
     assert (choosing == 0).all() and (settled == converged).all() and converged.any() and not converged.all()
 
@@ -202,7 +203,7 @@ def test_the_built_fmu_publishes_the_start_outputs_on_both_paths_and_keeps_the_c
     choosing = rows[:, 4]
     assert choosing[0] == 1 and choosing[-1] == 0  # the choice falls inside the record
     fraction, choice_in, settling_left, _, choosing, settled, _ = fast["initial"]
-    assert (fraction, choosing, settled) == (0.0, 1, 0) and abs(choice_in - 0.3) < 1e-12 and settling_left > 0
+    assert (fraction, choosing, settled) == (1.0, 1, 0) and abs(choice_in - 0.3) < 1e-12 and settling_left > 0
     assert fast["restored"] == fast["first"][-1] and fast["again"] == fast["second"]
     assert fast["reset"][4] == 0  # fmi2Reset: the start values until initialized again
     assert fast["after_reset"] == fast["first"]
