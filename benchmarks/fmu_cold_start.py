@@ -49,10 +49,14 @@ import tempfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-FMUS = ("RotorBearingPlant", "OilFlowEKF")
-ESTIMATOR_PAPER = "OilFlowEKF paper"
-"""The estimator FMU at the ``paper`` preset (module docstring)."""
-STRING_PARAMETERS = {ESTIMATOR_PAPER: {"preset": "paper"}}
+PLANT = "RotorBearingPlant"
+ROWS = {
+    PLANT: (PLANT, None),
+    "OilFlowEKF": ("OilFlowEKF", None),
+    "OilFlowEKF paper": ("OilFlowEKF", {"preset": "paper"}),
+}
+"""Each row's label: (FMU, its string parameters); the last is the estimator at the ``paper`` preset (module
+docstring)."""
 EVICTION_BYTES = 32 * 2**20
 SYSTEM = "SSP in libcosim"
 CHANNELS = ("x1_um", "y1_um", "x2_um", "y2_um")
@@ -210,17 +214,15 @@ def main() -> None:
         "new": args.new or build(work / "new", ROOT),
     }
     record = work / "plant_record.npy"
-    sample(builds["new"] / "RotorBearingPlant.fmu", str(record), steps)
-    rows = (*FMUS, ESTIMATOR_PAPER)
+    sample(builds["new"] / f"{PLANT}.fmu", str(record), steps)
+    rows = tuple(ROWS)
     results = {(name, row): [] for name in builds for row in (*rows, SYSTEM)}
     for _ in range(args.repeats):
-        for row in rows:
-            fmu = row.split()[0]
+        for row, (fmu, strings) in ROWS.items():
             for name, folder in builds.items():
                 results[name, row].append(
-                    sample(folder / f"{fmu}.fmu", "" if fmu == FMUS[0] else str(record), steps,
-                           STRING_PARAMETERS.get(row))
-                )  # fmt: skip
+                    sample(folder / f"{fmu}.fmu", "" if fmu == PLANT else str(record), steps, strings)
+                )
         for name, folder in builds.items():
             results[name, SYSTEM].append(libcosim_sample(folder / "OilStarvation.ssp"))
     load = os.getloadavg()[0]

@@ -59,6 +59,11 @@ def bundled_name(path: str | Path | None) -> str | None:
     return next((name for name, file in BUNDLED_MACHINES.items() if file.resolve() == resolved), None)
 
 
+def is_default_machine(machine: Machine) -> bool:
+    """Whether ``machine`` was read from the default machine file (:data:`BUNDLED_MACHINE`, the turbine)."""
+    return machine.source_path.resolve() == BUNDLED_MACHINE.resolve()
+
+
 def machine_file_path(value: str | Path) -> Path:
     """The machine file ``value`` names: a bundled machine's file for its name (:data:`BUNDLED_MACHINES`)
     unless a file of that name exists here, else ``value`` as a path."""

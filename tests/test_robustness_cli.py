@@ -37,8 +37,18 @@ def test_a_short_run_writes_one_row_per_case_and_point(tmp_path, capsys):
     arguments = ["robustness", "--duration-s", "2", "--cases", "huge", "none", "--out", str(out), "--resume"]
     assert main(arguments) == 0
     assert "3 of 4 rows kept" in capsys.readouterr().err
-    rows = json.loads(path.read_text())["rows"]
+    document = json.loads(path.read_text())
+    rows = document["rows"]
     assert rows[0]["error_pct"] == [123.0, 456.0] and rows[-1] == dropped
+
+    # ... and none that another version of oilwatch made: the table never mixes two versions' rows
+    document["sources"] = "0" * 16
+    path.write_text(json.dumps(document))
+    assert main(arguments) == 0
+    message = capsys.readouterr().err
+    assert "0 of 4 rows kept" in message and "another version of oilwatch made it" in message
+    rows = json.loads(path.read_text())["rows"]
+    assert rows[0]["error_pct"] != [123.0, 456.0] and rows[1:] == document["rows"][1:]
 
 
 def test_an_unknown_case_is_named(tmp_path, capsys):

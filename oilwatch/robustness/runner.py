@@ -3,13 +3,16 @@
 Each case's row comes from :meth:`.case_run.RobustnessRun.run_case` (plant record, the product's estimator,
 the row's figures: see :mod:`.case_run`). Cases run in worker processes (``workers``), each building the
 models once; each finished row is written at once to ``robustness.json``, so nothing is lost when the run is
-stopped, and ``resume`` keeps an earlier run's rows. The table and the coverage line are
-:mod:`.report_table`'s.
+stopped, and ``resume`` keeps an earlier run's rows when the same settings and the same oilwatch
+(:func:`sources_digest`) made them, so that a table never mixes rows of two versions. The table and the
+coverage line are :mod:`.report_table`'s.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
+import os
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
@@ -33,6 +36,22 @@ REPORT_SETTINGS = {
 """The settings of the README's robustness report (:func:`run_robustness`'s defaults)."""
 
 _RUN: RobustnessRun | None = None
+_PACKAGE = Path(__file__).resolve().parents[1]
+_SOURCE_SUFFIXES = (".py", ".json", ".toml")
+
+
+def sources_digest(root: Path = _PACKAGE) -> str:
+    """SHA-256 (first 16 hex digits) of the names and contents of every Python source, table and machine file
+    of the oilwatch package at ``root``: what a robustness row depends on besides its settings."""
+    digest = hashlib.sha256()
+    files = []
+    for folder, subfolders, names in os.walk(root, followlinks=True):  # the source tree links subpackages
+        subfolders[:] = sorted(d for d in subfolders if d != "__pycache__")
+        files += [Path(folder) / name for name in names if name.endswith(_SOURCE_SUFFIXES)]
+    for path in sorted(files, key=lambda path: path.relative_to(root).as_posix()):
+        digest.update(path.relative_to(root).as_posix().encode() + b"\0")
+        digest.update(hashlib.sha256(path.read_bytes()).digest())
+    return digest.hexdigest()[:16]
 
 
 def _worker_row(settings: dict, name: str, point) -> dict:
@@ -60,9 +79,9 @@ def run_robustness(
     resume: bool = False,
 ) -> list[dict]:
     """Every case at both truth points, in ``workers`` processes (1: in this process); each finished row is
-    written to ``out_dir/robustness.json`` at once. Rows come back in the cases' order. ``resume``: the rows
-    an earlier run with the same settings wrote there are kept and not run again (rows that could not run
-    are run again)."""
+    written to ``out_dir/robustness.json`` at once, with the settings and the :func:`sources_digest`. Rows
+    come back in the cases' order. ``resume``: the rows an earlier run with the same settings and sources
+    wrote there are kept and not run again (rows that could not run are run again)."""
     settings = {
         "machine_file": machine_file,
         "duration_s": duration_s,
@@ -76,20 +95,22 @@ def run_robustness(
     order = {job: k for k, job in enumerate(jobs)}
     rows: dict[int, dict] = {}
     path = Path(out_dir) / "robustness.json" if out_dir is not None else None
+    sources = sources_digest() if path is not None else None
     if resume and path is not None:
-        for row in _earlier_rows(path, settings):
+        earlier, reason = _earlier_rows(path, settings, sources)
+        for row in earlier:
             job = (row["case"], (row["q1_pct"], row["q2_pct"]))
             if job in order and "error" not in row:
                 rows[order[job]] = row
         if progress is not None:
-            progress(f"{len(rows)} of {len(jobs)} rows kept from {path}")
+            progress(f"{len(rows)} of {len(jobs)} rows kept from {path}{reason}")
 
     def finished(job, row) -> None:
         rows[order[job]] = row
         if progress is not None:
             progress(f"{job[0]} at {job[1][0]:g}/{job[1][1]:g} % done ({len(rows)}/{len(jobs)})")
         if path is not None:
-            document = {"settings": settings, "rows": [rows[k] for k in sorted(rows)]}
+            document = {"settings": settings, "sources": sources, "rows": [rows[k] for k in sorted(rows)]}
             document["completed"] = len(rows) == len(jobs)  # the last row written says the run is whole
             write_json_atomic(path, document)
 
@@ -105,12 +126,15 @@ def run_robustness(
     return [rows[k] for k in sorted(rows)]
 
 
-def _earlier_rows(path: Path, settings: dict) -> list[dict]:
-    """The rows of an earlier ``robustness.json`` made with the same settings (none otherwise)."""
+def _earlier_rows(path: Path, settings: dict, sources: str) -> tuple[list[dict], str]:
+    """The rows of an earlier ``robustness.json`` made with the same settings and sources (none otherwise),
+    and why none were kept ("" when they were, or there was none)."""
     try:
         document = json.loads(path.read_text())
     except (OSError, ValueError):
-        return []
+        return [], ""
     if not isinstance(document, dict) or document.get("settings") != settings:
-        return []
-    return [row for row in document.get("rows", []) if isinstance(row, dict) and "case" in row]
+        return [], " (it was made with other settings)"
+    if document.get("sources") != sources:
+        return [], " (another version of oilwatch made it)"
+    return [row for row in document.get("rows", []) if isinstance(row, dict) and "case" in row], ""

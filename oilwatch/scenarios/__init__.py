@@ -41,7 +41,7 @@ from dataclasses import dataclass
 
 from oilwatch.experiment_config import SCENARIO_DEFAULTS, ScenarioConfig
 from oilwatch.models.bearing.supply import ML_MIN_PER_M3_S
-from oilwatch.models.machine import BUNDLED_MACHINE, Machine, load_machine
+from oilwatch.models.machine import Machine, is_default_machine, load_machine
 from oilwatch.models.system.fault import SCENARIO_DURATIONS_S
 from oilwatch.models.system.profiles import OperatingProfile, parse_profile
 from oilwatch.models.validation import InputError
@@ -302,7 +302,7 @@ def make_run(
         tuple(round(p * to_ml_min, 6) for p in scenario.q2_pct),
         round(nominal_ml_min, 6),
         machine.nominal_speed_hz,
-        "" if machine.source_path == BUNDLED_MACHINE else str(machine.source_path.resolve()),
+        "" if is_default_machine(machine) else str(machine.source_path.resolve()),
         tuple(extra),
         *profiles,
     )

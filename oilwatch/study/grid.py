@@ -17,7 +17,7 @@ import numpy as np
 
 from oilwatch.experiment_config import STUDY_DEFAULTS
 from oilwatch.models.bearing.supply import ML_MIN_PER_M3_S
-from oilwatch.models.machine import BUNDLED_MACHINE, Machine, load_machine
+from oilwatch.models.machine import Machine, is_default_machine, load_machine
 from oilwatch.models.validation import InputError, require_positive
 
 
@@ -121,7 +121,7 @@ def make_cases(
         raise InputError("--duration-s: the record after --discard-s holds no 1 ms sample")
     percents = grid_percents(grid_step_pct)
     machine_file, nominal = "", bundled_nominal_ml_min()
-    if machine is not None and machine.source_path.resolve() != BUNDLED_MACHINE.resolve():
+    if machine is not None and not is_default_machine(machine):
         machine_file = str(machine.source_path.resolve())
         nominal = machine.lubrication.nominal_flowrate_m3_s * ML_MIN_PER_M3_S
     return [
