@@ -10,6 +10,7 @@ import signal
 import subprocess
 import sys
 import textwrap
+import time
 
 import pytest
 from fixtures.fmu_subprocess import REPO_ROOT
@@ -98,6 +99,29 @@ def test_a_second_writer_is_refused_naming_the_holder_and_a_dead_holders_lock_is
         holder.wait()
     with output_lock(tmp_path, "estimate"):
         assert json.loads((tmp_path / LOCK_NAME).read_text())["command"] == "estimate"
+
+
+def test_a_writer_refused_before_the_holder_wrote_its_record_still_names_the_holder(tmp_path):
+    """The holder writes its record just after taking the lock; a second writer arriving in between waits
+    for it instead of naming no holder."""
+    import fcntl
+    import threading
+
+    record = {"pid": 4242, "command": "run", "started": "2026-01-01T00:00:00Z"}
+    with open(tmp_path / LOCK_NAME, "a+", encoding="utf-8") as holder:
+        fcntl.flock(holder, fcntl.LOCK_EX | fcntl.LOCK_NB)  # locked, its record not yet written
+
+        def write_record():
+            time.sleep(0.2)
+            holder.write(json.dumps(record) + "\n")
+            holder.flush()
+
+        writer = threading.Thread(target=write_record)
+        writer.start()
+        with pytest.raises(InputError) as refused, output_lock(tmp_path, "estimate"):
+            pass
+        writer.join()
+    assert "oilwatch run (pid 4242, started 2026-01-01T00:00:00Z) is writing" in str(refused.value)
 
 
 def test_estimate_into_a_locked_folder_is_one_line_and_writes_nothing(tmp_path, capsys):

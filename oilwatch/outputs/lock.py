@@ -27,9 +27,19 @@ def lock_path_of(output: Path, kind: str) -> Path:
     return output / LOCK_NAME if kind == "folder" else output.parent / f".{output.name}.lock"
 
 
+HOLDER_WAIT_S = 2.0
+"""How long a refused writer waits for the holder's record: the holder writes it just after taking the lock,
+and a second writer that arrives in between would otherwise name no holder."""
+
+
 def _holder_text(handle) -> str:
-    handle.seek(0)
-    text = handle.read().strip()
+    deadline = time.monotonic() + HOLDER_WAIT_S
+    while True:
+        handle.seek(0)
+        text = handle.read().strip()
+        if text.endswith("}") or time.monotonic() > deadline:
+            break
+        time.sleep(0.01)
     try:
         holder = json.loads(text)
         return f"oilwatch {holder['command']} (pid {holder['pid']}, started {holder['started']})"
