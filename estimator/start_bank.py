@@ -19,12 +19,12 @@ the same to first order for filters with the same measurement noise and settled 
 continues it alone. Before the choice the reports are the leading start's: the nominal start's until
 another start's accumulated NIS is lower than the leader's by :data:`LEAD_MARGIN`, then that start's (the
 record so far prefers it at a likelihood ratio of about 90; without the margin the lead would change hands
-on the NIS's sample noise while the sums are small). So the bank is causal, costs ``len(starts)`` filters
-for the window only, and does not report, or alarm on, a start the record already rejects: on the bundled
-compressor with three times its unbalance at nominal flow the nominal start drifts to -16 % in the window
-and alarms, while the 1.1 start, which the record prefers from its first second, never does. A record
-shorter than the window ends before the choice: its estimates are the leading start's
-(:attr:`StartBank.chosen` stays None).
+on the NIS's sample noise while the sums are small). So the bank is causal, costs at most ``len(starts)``
+filters for the window only, and does not report, or alarm on, a start the record already rejects: on the
+bundled compressor with three times its unbalance at nominal flow the nominal start drifts to -16 % in the
+window and alarms, while the 1.1 start, which the record prefers from its first second, never does. A start
+that trails the least sum by :data:`PRUNE_MARGIN` stops running. A record shorter than the window ends
+before the choice: its estimates are the leading start's (:attr:`StartBank.chosen` stays None).
 
 The bank has the filter's public interface (:meth:`step`, :meth:`run`, :meth:`run_batch`, :meth:`reset`,
 the reports, the nuisance estimates, :meth:`get_state` / :meth:`set_state`), so that every caller builds its
@@ -52,6 +52,11 @@ START_FRACTIONS = (1.1, 1.0, 0.9, 0.8, 0.7)
 LEAD_MARGIN = 9.0
 """How much lower another start's accumulated NIS must be than the leading start's for it to lead (a
 difference of -2 ln L; 9 is the three-sigma likelihood ratio of one parameter)."""
+
+PRUNE_MARGIN = 100.0
+"""A start whose accumulated NIS exceeds the least by more than this stops running (a likelihood ratio of
+e^50 against it; on the robustness records no start that once trailed by 50 led again, and two or three of
+the five are out within a few seconds, which the window's cost follows). Its sum becomes inf."""
 
 SELECT_S = 20.0
 """The selection window from the first sample [s]: a third of the robustness record; the filters'
@@ -99,7 +104,7 @@ class StartBank:
         self.settling_steps = self.filters[self._nominal].settling_steps
         """Samples of the settling start: the NIS is summed from the next one on."""
         self.nis = np.zeros(len(self.filters))
-        """Each start's NIS summed since the settling start's restart."""
+        """Each start's NIS summed since the settling start's restart (inf: stopped, :data:`PRUNE_MARGIN`)."""
         self.chosen: int | None = None
         """The index of the start chosen (None until the window ends)."""
         self.leader = self._nominal
@@ -178,13 +183,18 @@ class StartBank:
         if self.chosen is not None:
             return self.active.step(displacement_m, *operating)
         index = self.step_count
-        reports = [ekf.step(displacement_m, *operating) for ekf in self.filters]
+        reports = {k: self.filters[k].step(displacement_m, *operating) for k in self._running()}
         if index > self.settling_steps:
-            for k, report in enumerate(reports):
+            for k, report in reports.items():
                 self.nis[k] += report.nis
+            _prune(self.nis)
             self.leader = _lead(self.leader, self.nis)
         self._choose_when_due()
         return reports[self.leader if self.chosen is None else self.chosen]
+
+    def _running(self) -> np.ndarray:
+        """The starts still running (before the choice)."""
+        return np.flatnonzero(np.isfinite(self.nis))
 
     def run(
         self,
@@ -241,16 +251,20 @@ class StartBank:
             first = self.step_count
             window = stop - start if self._select_step is None else max(1, self._select_step - first)
             rows = slice(start, min(stop, start + window))
-            traces = [through(ekf, rows) for ekf in self.filters]
-            done = traces[self._nominal].nis.shape[0]
+            running = self._running()
+            traces = {k: through(self.filters[k], rows) for k in running}
+            done = traces[running[0]].nis.shape[0]
             skipped = min(done, max(0, self.settling_steps + 1 - first))
-            # in the order of the samples, as step() adds: the sums decide the lead and the choice
-            sums = np.cumsum(np.column_stack([self.nis, [t.nis[skipped:] for t in traces]]), axis=1)
+            # in the order of the samples, as step() adds: the sums decide the lead, the stops and the choice
+            counted = [traces[k].nis[skipped:] for k in running]
+            sums = np.cumsum(np.column_stack([self.nis[running], counted]), axis=1)
             leaders = np.empty(done, dtype=int)
             leaders[:skipped] = self.leader
+            nis = self.nis
             for row in range(skipped, done):
-                self.leader = leaders[row] = _lead(self.leader, sums[:, row - skipped + 1])
-            self.nis[:] = sums[:, -1]
+                nis[running] = np.where(np.isfinite(nis[running]), sums[:, row - skipped + 1], np.inf)
+                _prune(nis)
+                self.leader = leaders[row] = _lead(self.leader, nis)
             self._choose_when_due()
             if self.chosen is not None:  # the sample that completes the window reports the chosen start
                 leaders[-1] = self.chosen
@@ -275,12 +289,12 @@ class StartBank:
         return self.active.current_report()
 
     def get_state(self) -> dict[str, np.ndarray]:
-        """The bank's state: the choice, the leader, the NIS sums and the state of every start until the
-        choice (of the chosen one after it), keys prefixed ``start{k}_`` (copies; restoring continues
+        """The bank's state: the choice, the leader, the NIS sums and the state of every running start until
+        the choice (of the chosen one after it), keys prefixed ``start{k}_`` (copies; restoring continues
         bit-identically)."""
         chosen = -1.0 if self.chosen is None else float(self.chosen)
         state = {"bank": np.r_[chosen, float(self.leader), self.nis]}
-        members = range(len(self.filters)) if self.chosen is None else (self.chosen,)
+        members = self._running() if self.chosen is None else (self.chosen,)
         for k in members:
             state.update({f"start{k}_{key}": value for key, value in self.filters[k].get_state().items()})
         return state
@@ -291,13 +305,18 @@ class StartBank:
         if bank.shape != (2 + len(self.filters),):
             raise InputError(f"start bank state 'bank' must have shape ({2 + len(self.filters)},)")
         chosen = None if bank[0] < 0 else int(bank[0])
-        members = range(len(self.filters)) if chosen is None else (chosen,)
+        members = np.flatnonzero(np.isfinite(bank[2:])) if chosen is None else (chosen,)
         for k in members:
             prefix = f"start{k}_"
             self.filters[k].set_state(
                 {key.removeprefix(prefix): value for key, value in state.items() if key.startswith(prefix)}
             )
         self.chosen, self.leader, self.nis[:] = chosen, int(bank[1]), bank[2:]
+
+
+def _prune(nis: np.ndarray) -> None:
+    """Stop (sum inf) every start whose sum exceeds the least by more than :data:`PRUNE_MARGIN`."""
+    nis[nis - nis.min() > PRUNE_MARGIN] = np.inf
 
 
 def _lead(leader: int, nis: np.ndarray) -> int:
