@@ -18,13 +18,14 @@ start's restart is smallest (the log-likelihood up to the log-determinant of the
 the same to first order for filters with the same measurement noise and settled dynamic states) and
 continues it alone. Before the choice the reports are the leading start's: the nominal start's until
 another start's accumulated NIS is lower than the leader's by :data:`LEAD_MARGIN`, then that start's (the
-record so far prefers it at a likelihood ratio of about 90; without the margin the lead would change hands
-on the NIS's sample noise while the sums are small). So the bank is causal, costs at most ``len(starts)``
-filters for the window only, and does not report, or alarm on, a start the record already rejects: on the
-bundled compressor with three times its unbalance at nominal flow the nominal start drifts to -16 % in the
-window and alarms, while the 1.1 start, which the record prefers from its first second, never does. A start
-that trails the least sum by :data:`PRUNE_MARGIN` stops running. A record shorter than the window ends
-before the choice: its estimates are the leading start's (:attr:`StartBank.chosen` stays None).
+record so far prefers it at a likelihood ratio of about 90; without the margin the leading start would
+change on the NIS's sample noise while the sums are small). So the bank is causal, costs at most
+``len(starts)`` filters for the window only, and does not report, or alarm on, a start the record already
+rejects: on the bundled compressor with three times its unbalance at nominal flow the nominal start drifts
+to -16 % in the window and alarms, while the 1.1 start, which the record prefers from its first second,
+never does. A start that trails the least sum by :data:`PRUNE_MARGIN` stops running. A record shorter than
+the window ends before the choice: its estimates are the leading start's (:attr:`StartBank.chosen`
+stays None).
 
 The bank has the filter's public interface (:meth:`step`, :meth:`run`, :meth:`run_batch`, :meth:`reset`,
 the reports, the nuisance estimates, :meth:`get_state` / :meth:`set_state`), so that every caller builds its
@@ -141,9 +142,14 @@ class StartBank:
     covariance = _of_active("covariance")
 
     @property
+    def _followed(self) -> int:
+        """The index of the start whose reports are given: the chosen one, else the leading one."""
+        return self.leader if self.chosen is None else self.chosen
+
+    @property
     def active(self):
         """The filter whose reports are given (the chosen one, else the leading start's)."""
-        return self.filters[self.leader if self.chosen is None else self.chosen]
+        return self.filters[self._followed]
 
     @property
     def chosen_fraction(self) -> float | None:
@@ -154,7 +160,7 @@ class StartBank:
     def active_fraction(self) -> float:
         """The start the reports come from (the chosen one, else the leading one), as a fraction of the
         configured initial flowrate."""
-        return self.fractions[self.leader if self.chosen is None else self.chosen]
+        return self.fractions[self._followed]
 
     @property
     def samples_to_choice(self) -> float:
@@ -190,7 +196,7 @@ class StartBank:
             _prune(self.nis)
             self.leader = _lead(self.leader, self.nis)
         self._choose_when_due()
-        return reports[self.leader if self.chosen is None else self.chosen]
+        return reports[self._followed]
 
     def _running(self) -> np.ndarray:
         """The starts still running (before the choice)."""
@@ -255,7 +261,7 @@ class StartBank:
             traces = {k: through(self.filters[k], rows) for k in running}
             done = traces[running[0]].nis.shape[0]
             skipped = min(done, max(0, self.settling_steps + 1 - first))
-            # in the order of the samples, as step() adds: the sums decide the lead, the stops and the choice
+            # in the order of the samples, as step() adds: the sums decide the leader, stops and choice
             counted = [traces[k].nis[skipped:] for k in running]
             sums = np.cumsum(np.column_stack([self.nis[running], counted]), axis=1)
             leaders = np.empty(done, dtype=int)

@@ -66,9 +66,9 @@ def test_the_bank_reports_the_nominal_start_then_continues_the_least_nis_start_e
     np.testing.assert_array_equal(q_bank, alone)
 
 
-def test_a_start_below_nominal_takes_the_lead_on_a_low_flow_record_and_continues_as_that_filter_alone(model):
-    """The lead passes when the other start's NIS sum (each filter's own, run alone) is LEAD_MARGIN below
-    the nominal start's, before the choice; the reports are the leader's filter's, bit for bit."""
+def test_a_start_below_nominal_leads_on_a_low_flow_record_and_continues_as_that_filter_alone(model):
+    """The other start leads from the sample where its NIS sum (each filter's own, run alone) is LEAD_MARGIN
+    below the nominal start's, before the choice; the reports are the leader's filter's, bit for bit."""
     config = free_config()
     steps, select_s, fractions = 1400, 1.0, (1.0, 0.8)
     record = _record(model, steps, 0.8)
@@ -146,7 +146,7 @@ def test_the_bank_s_record_entries_equal_its_steps_across_the_choice(model):
     stepped = StartBank(model, config, select_s=1.0)
     expected = _stepped(stepped, record)
     assert stepped.chosen is not None
-    assert len(set(expected["leader"][:999])) > 1  # the lead changes hands inside a block
+    assert len(set(expected["leader"][:999])) > 1  # the leading start changes inside a block
     assert np.isinf(stepped.nis).any()  # and some starts stop inside one
     batched = StartBank(model, config, select_s=1.0)
     out = EstimateTrace.empty(400)  # reused by every block, as oilwatch estimate does

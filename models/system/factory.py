@@ -21,7 +21,7 @@ import numpy as np
 from ..bearing.coefficient_kinds import QUASI_STATIC, file_suffix, table_kind
 from ..bearing.table import CoefficientTable
 from ..cache import user_cache_dir
-from ..machine import BUNDLED_MACHINE, BUNDLED_MACHINES, Machine, bundled_name, load_machine
+from ..machine import Machine, bundled_name, is_default_machine, load_machine
 from ..rotor.assembly import Rotor
 from ..validation import InputError, require_positive
 from .reduction import craig_bampton
@@ -96,10 +96,9 @@ def speed_sweep_name(machine: Machine, squeeze: str = "full-film") -> str:
 def machine_arguments(machine: Machine) -> list[str]:
     """The ``--machine`` option naming ``machine`` in a command: nothing for the default (the bundled
     turbine), another bundled machine's name, else the machine file."""
-    name = bundled_name(machine.source_path)
-    if name is not None and BUNDLED_MACHINES[name] == BUNDLED_MACHINE:
+    if is_default_machine(machine):
         return []
-    return ["--machine", name or str(machine.source_path)]
+    return ["--machine", bundled_name(machine.source_path) or str(machine.source_path)]
 
 
 def table_command(machine: Machine, speed_hz: float, coefficients: str | None = None) -> str:
