@@ -124,6 +124,37 @@ def test_a_writer_refused_before_the_holder_wrote_its_record_still_names_the_hol
     assert "oilwatch run (pid 4242, started 2026-01-01T00:00:00Z) is writing" in str(refused.value)
 
 
+FINALIZER_AT_EXIT = """
+import sys
+import oilwatch.cli as cli
+
+class HalfBuilt:  # as an llvmlite object a signal left mid-compilation: its finalizer fails at exit
+    def __del__(self):
+        raise AttributeError("no attribute '_as_parameter_'")
+
+def main():
+    cli.LEFT = HalfBuilt()
+    print("oilwatch estimate: interrupted (SIGTERM); no output written", file=sys.stderr)
+    return int(sys.argv[1])
+
+cli.main = main
+cli.console_main()
+"""
+
+
+@pytest.mark.parametrize("code", [143, 130, 0])
+def test_an_interrupted_command_says_one_line_even_when_a_finalizer_fails_at_exit(code):
+    process = subprocess.run(
+        [sys.executable, "-c", FINALIZER_AT_EXIT, str(code)], env=ENV, capture_output=True, text=True
+    )
+    lines = [line for line in process.stderr.splitlines() if line.strip()]
+    assert process.returncode == code
+    if code:
+        assert lines == ["oilwatch estimate: interrupted (SIGTERM); no output written"], lines
+    else:  # a command that ends normally still reports a failing finalizer
+        assert any("_as_parameter_" in line for line in lines), lines
+
+
 def test_estimate_into_a_locked_folder_is_one_line_and_writes_nothing(tmp_path, capsys):
     record = tmp_path / "r.csv"
     rows = "".join(f"{k / 1000},0,0,0,0\n" for k in range(1, 50))

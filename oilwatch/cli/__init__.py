@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import signal
 import sys
 
 from oilwatch.models.validation import InputError
@@ -140,7 +141,16 @@ def console_main() -> None:
     from oilwatch.outputs import interrupts
 
     interrupts.install()
-    sys.exit(main())
+    code = main()
+    if code in (128 + signal.SIGINT, 128 + signal.SIGTERM):
+        # a signal may have cut a numba compilation short: its half-built llvmlite objects fail in their
+        # finalizers at interpreter exit, which would print tracebacks after the one-line message
+        sys.unraisablehook = _ignore_unraisable
+    sys.exit(code)
+
+
+def _ignore_unraisable(unraisable) -> None:
+    """Drop an exception raised in a finalizer (after an interrupted command has said what it kept)."""
 
 
 if __name__ == "__main__":
