@@ -55,6 +55,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from oilwatch.models.system.operating_kernels import RECENTRE
 from oilwatch.models.validation import InputError
 
 from . import channels
@@ -86,6 +87,7 @@ from .runout import RunoutCompensation
 from .step_kernel import (
     COUNT_SINCE_UPDATE,
     COUNT_STEP,
+    DECLINED,
     REPORT_CHANGING,
     REPORT_CONSISTENT,
     REPORT_CONVERGED,
@@ -110,6 +112,7 @@ from .step_kernel import (
     SUMMARY_STD_FLOOR,
     ekf_step,
     grid_batch,
+    operating_step,
 )
 
 VISCOSITY_FACTOR_RANGE = (0.7, 1.4)
@@ -152,7 +155,9 @@ class OilFlowEKF:
     call, :func:`oilwatch.estimator.step_kernel.grid_batch`). The model's prediction calls the transition
     the nuisance states need (``transition``, ``transition_with_unbalance`` or ``transition_full``) and puts
     their Jacobian columns in place; the measured operating point goes to a model that follows it before the
-    prediction to the sample (a model at one speed accepts only that speed).
+    prediction to the sample (a model at one speed accepts only that speed). On the operating model
+    (``compiled_transition``) a predicted sample is one compiled call,
+    :func:`oilwatch.estimator.step_kernel.operating_step`, with the same digits; Python only re-centres.
     """
 
     def __init__(self, model: AugmentedModel, config: EKFConfig | None = None) -> None:
@@ -217,6 +222,11 @@ class OilFlowEKF:
             self._follows or self._n_unbalance or self._n_viscosity or self._runout.vectors is not None
         )
         self._grid_batch = batch() if callable(batch) and plain else None
+        # the operating model: a predicted sample's transitions and update in one compiled call
+        compiled = getattr(model, "compiled_transition", None)
+        self._operating_step = compiled() if callable(compiled) else None
+        self._factor_range = np.array(VISCOSITY_FACTOR_RANGE)
+        self._no_shadow = np.zeros(0)
         self._batch_next, self._batch_exogenous = np.zeros(n), np.zeros(3)
         self._batch_transition, self._batch_flow_jacobian = np.zeros((n, n)), np.zeros((n, 2))
         self._counters = layout.counters()
@@ -379,6 +389,49 @@ class OilFlowEKF:
             angle_of = self._rotor_angle_of
             angle = angle_of(self._first_step + step) if angle_of is not None else None
             displacement = self._runout.compensate(displacement, step, angle)
+        if not (step > 0 and self._compiled_prediction(displacement, step)):
+            self._predict_and_update(displacement, step)
+        if step == self._settling and step > 0:
+            restart_parameters(self._x, self._P, *self._prior, self._n)
+            if self._floor is not None:
+                self._floor.reset()
+            self._refresh_report()
+        elif self._floor is not None and step > self._settling:  # estimator/nuisance_start.py
+            if self._floor.due():
+                unbalance = self.unbalance if self._n_unbalance else (1.0, 0.0)
+                self._floor.begin(self._flowrate_si(), self.viscosity_factor, unbalance)
+            self._floor.work()  # one stage of an update under way
+            reported = self._report[REPORT_STD : REPORT_STD + 2]
+            np.maximum(reported, self._floor.std, out=reported)
+        if self._floor is not None and step >= self._settling:  # the alarm's floor from the next step
+            self._summary_settings[SUMMARY_STD_FLOOR : SUMMARY_STD_FLOOR + 2] = self._floor.std
+
+    def _compiled_prediction(self, displacement: np.ndarray, step: int) -> bool:
+        """The prediction to sample ``step`` (> 0) and its update as one compiled call on the operating model
+        (:func:`oilwatch.estimator.step_kernel.operating_step`), re-centring the model when it asks to; False
+        (nothing done) on another model or a sample the Python path must take."""
+        if self._operating_step is None:
+            return False
+        arrays, exogenous, limits = self._operating_step
+        model_step = self._first_step + step - 1
+        phase = self.model.transition_phase(model_step)
+        shadow, shadow_state = self._shadow, self._no_shadow
+        if shadow is not None:
+            if shadow.state is None:
+                shadow.state = self._x[: self._n].copy()
+            shadow_state = shadow.state
+        while True:
+            answer = operating_step(
+                arrays, exogenous, limits, phase, model_step, self._factor_range, shadow_state,
+                step <= self._settling, self._no_flow_jacobian, displacement, self._packed,
+            )  # fmt: skip
+            if answer != RECENTRE:
+                return answer != DECLINED
+            self.model.recentre_due(model_step)
+
+    def _predict_and_update(self, displacement: np.ndarray, step: int) -> None:
+        """The prediction to sample ``step`` with the model's Python entries (none at the first sample), then
+        the compiled update (:func:`oilwatch.estimator.step_kernel.ekf_step`)."""
         predict = step > 0
         if predict:
             model_step = self._first_step + step - 1
@@ -403,20 +456,6 @@ class OilFlowEKF:
         if self._n_viscosity:  # P left unchanged, as at the flowrates' bounds
             factors = self._x[self._viscosity]
             np.clip(factors, *VISCOSITY_FACTOR_RANGE, out=factors)
-        if step == self._settling and step > 0:
-            restart_parameters(self._x, self._P, *self._prior, self._n)
-            if self._floor is not None:
-                self._floor.reset()
-            self._refresh_report()
-        elif self._floor is not None and step > self._settling:  # estimator/nuisance_start.py
-            if self._floor.due():
-                unbalance = self.unbalance if self._n_unbalance else (1.0, 0.0)
-                self._floor.begin(self._flowrate_si(), self.viscosity_factor, unbalance)
-            self._floor.work()  # one stage of an update under way
-            reported = self._report[REPORT_STD : REPORT_STD + 2]
-            np.maximum(reported, self._floor.std, out=reported)
-        if self._floor is not None and step >= self._settling:  # the alarm's floor from the next step
-            self._summary_settings[SUMMARY_STD_FLOOR : SUMMARY_STD_FLOOR + 2] = self._floor.std
 
     def get_state(self) -> dict[str, np.ndarray]:
         """The complete filter state as copies of numpy arrays (restoring it continues bit-identically, so

@@ -64,7 +64,8 @@ class ShadowJacobian:
 
     ``predict(model_step, state)`` is the filter's own prediction (``(s_next, df/ds, df/dq)``, with the
     nuisance columns written to ``trailing``); :meth:`jacobians` runs it from the shadow, keeps its
-    parameter columns and advances the shadow.
+    parameter columns and advances the shadow. The filter's compiled step on the operating model advances
+    ``state`` in place instead (:func:`oilwatch.estimator.step_kernel.operating_step`).
     """
 
     def __init__(self, n: int, n_trailing: int) -> None:

@@ -8,9 +8,11 @@ process noise of the next prediction (wider while the model is inconsistent) and
 by the ``REPORT_*`` slices below, so that the per-sample Python work is one call and one copy, and a batch of
 samples (:meth:`oilwatch.estimator.ekf.OilFlowEKF.run_batch`) stores a row per sample. For a model on a
 flowrate grid at one speed (``GridAugmentedModel.batch_transition``) :func:`grid_batch` runs a whole record in
-one call: the grid's compiled transition, then :func:`sample_step`, sample after sample. Both take the
-filter's arrays as one :class:`oilwatch.estimator.filter_arrays.FilterArrays`; :func:`ekf_step` is the
-one-sample entry from Python.
+one call: the grid's compiled transition, then :func:`sample_step`, sample after sample; for the operating
+model (``OperatingAugmentedModel.compiled_transition``) :func:`operating_step` runs one sample's transitions
+and :func:`sample_step` in one call, back to Python only when the correction's centre must move first. They
+take the filter's arrays as one :class:`oilwatch.estimator.filter_arrays.FilterArrays`; :func:`ekf_step` is
+the one-sample entry from Python after a transition evaluated there.
 """
 
 from __future__ import annotations
@@ -19,6 +21,12 @@ import numpy as np
 from numba import njit
 
 from oilwatch.models.system.flowrate_grid import interpolate_map
+from oilwatch.models.system.operating_kernels import (
+    CORRECTED,
+    RECENTRE,
+    operating_next_state,
+    operating_transition,
+)
 
 from .alarm import RAISED_CONSISTENT, STARVED, hold_alarm, update_alarm
 from .baseline_change import CHANGE_ACTION, CONSISTENT, MISMATCH_BASELINE, update_change
@@ -393,3 +401,107 @@ def grid_batch(
             )
         sample_step(a, predict, next_state, state_jacobian, flowrate_jacobian, record[k])
         table[k, :] = report
+
+
+DECLINED = -2
+""":func:`operating_step`'s answer for a sample it leaves to the Python path (nothing changed): flowrates off
+the model's grid or a viscosity factor that is not positive, which the model's Python entry reports."""
+
+
+@njit(cache=True)
+def operating_step(
+    model_arrays: tuple,
+    exogenous: np.ndarray,
+    limits: np.ndarray,
+    phase: float,
+    model_step: int,
+    factor_range: np.ndarray,
+    shadow: np.ndarray,
+    settling: bool,
+    no_flow_jacobian: np.ndarray,
+    displacement: np.ndarray,
+    packed: tuple,
+) -> int:
+    """One predicted sample on the operating model in one call, as :meth:`oilwatch.estimator.ekf.OilFlowEKF.
+    step` predicts with the model's Python entry: the transition
+    (:func:`oilwatch.models.system.operating_kernels.operating_transition` on the struct ``model_arrays``
+    with its ``exogenous`` work array, ``limits`` the grid's flowrate range, at the rotor angle ``phase``
+    of the transition from ``model_step``), then :func:`sample_step` on ``packed`` (the filter's arrays as
+    ``tuple(FilterArrays)``) and the viscosity factors clipped to ``factor_range`` (2,).
+
+    The flowrates are the report's filter flowrates, the factors the state's clipped to ``factor_range`` and
+    the unbalance the state's (those the counters say are estimated). ``shadow`` (n,) or (0,): the shadow
+    state of :class:`oilwatch.estimator.nuisance_start.ShadowJacobian`, advanced in place; the transition
+    is then the shadow's, whose flowrate and nuisance Jacobians the update takes, and the estimate's
+    prediction at the same point only its next state
+    (:func:`oilwatch.models.system.operating_kernels.operating_next_state`: the state Jacobian is the same
+    at every state). ``settling``: the parameters out of the Jacobian (``no_flow_jacobian``, zero nuisance
+    columns). Returns the transition's answer (``GRID_ONLY`` or ``CORRECTED``), or ``RECENTRE`` or
+    :data:`DECLINED` with nothing changed: the centre must move first (then call again), or the sample is
+    the Python path's."""
+    a = FilterArrays(*packed)
+    state, counters, report, trailing = a.state, a.counters, a.report, a.trailing_jacobian
+    q1, q2 = report[REPORT_FILTER_FLOWRATE], report[REPORT_FILTER_FLOWRATE + 1]
+    if not (limits[0] <= q1 <= limits[1] and limits[2] <= q2 <= limits[3]):
+        return DECLINED
+    viscosity, unbalance = counters[COUNT_VISCOSITY], counters[COUNT_UNBALANCE]
+    with_factors = viscosity >= 0
+    f1 = f2 = 1.0
+    if with_factors:
+        f1 = _clipped(state[viscosity], factor_range)
+        f2 = _clipped(state[viscosity + 1], factor_range)
+        if not (f1 > 0.0 and f2 > 0.0):
+            return DECLINED
+    u = state[unbalance : unbalance + 2] if unbalance >= 0 else state[:0]
+    nxt, state_jacobian, flow_jacobian = model_arrays[8], model_arrays[9], model_arrays[10]
+    viscosity_jacobian, unbalance_jacobian = model_arrays[11], model_arrays[12]
+    n = nxt.shape[0]
+    shadowed = shadow.shape[0] > 0
+    if shadowed:
+        answer = operating_transition(
+            model_arrays, shadow, exogenous, phase, u, q1, q2, f1, f2, with_factors, model_step
+        )
+        if answer == RECENTRE:
+            return RECENTRE
+        shadow[:] = nxt
+        # the estimate's prediction at the same point: the shadow's A_d, the next state alone
+        operating_next_state(model_arrays, state[:n], q1, q2, answer == CORRECTED, nxt)
+    else:
+        answer = operating_transition(
+            model_arrays, state[:n], exogenous, phase, u, q1, q2, f1, f2, with_factors, model_step
+        )
+        if answer == RECENTRE:
+            return RECENTRE
+    parameters = flow_jacobian
+    if settling:
+        parameters = no_flow_jacobian
+        trailing[:, :] = 0.0
+    else:
+        _nuisance_columns(trailing, with_factors, unbalance >= 0, viscosity_jacobian, unbalance_jacobian)
+    sample_step(a, True, nxt, state_jacobian, parameters, displacement)
+    if with_factors:  # P left unchanged, as at the flowrates' bounds
+        state[viscosity] = _clipped(state[viscosity], factor_range)
+        state[viscosity + 1] = _clipped(state[viscosity + 1], factor_range)
+    return answer
+
+
+@njit(cache=True, inline="always")
+def _clipped(value, bounds):
+    """``value`` within ``bounds`` (2,) as ``np.clip`` (a NaN stays NaN)."""
+    if value < bounds[0]:
+        return bounds[0]
+    if value > bounds[1]:
+        return bounds[1]
+    return value
+
+
+@njit(cache=True)
+def _nuisance_columns(trailing, with_factors, with_unbalance, viscosity_jacobian, unbalance_jacobian):
+    """The transition's nuisance columns into ``trailing``: the viscosity factors' first, the unbalance's
+    after them."""
+    first = 0
+    if with_factors:
+        trailing[:, :2] = viscosity_jacobian
+        first = 2
+    if with_unbalance:
+        trailing[:, first : first + 2] = unbalance_jacobian

@@ -148,10 +148,7 @@ def interpolate_map(transition, forcing, axes, state, exogenous, q1, q2, nxt, ad
     """Into ``nxt``, ``ad``, ``jq``: the interpolated ``A_d s + G w``, ``A_d`` and the flowrate Jacobian at
     (q1, q2), from the grid arrays of :attr:`FlowrateGrid.kernel_arrays`."""
     h1, h2 = axes[1], axes[4]
-    i, t1 = _cell(q1, axes[0], h1, int(axes[2]))
-    j, t2 = _cell(q2, axes[3], h2, int(axes[5]))
-    wa, da = _catmull_rom_weights(t1)
-    wb, db = _catmull_rom_weights(t2)
+    i, j, wa, da, wb, db = _stencil(axes, q1, q2)
     n = state.shape[0]
     m = exogenous.shape[0]
     nxt[:] = 0.0
@@ -175,3 +172,36 @@ def interpolate_map(transition, forcing, axes, state, exogenous, q1, q2, nxt, ad
                 nxt[r] += w * y
                 jq[r, 0] += d1 * y
                 jq[r, 1] += d2 * y
+
+
+@numba.njit(cache=True, inline="always")
+def _stencil(axes, q1, q2):  # pragma: no cover - compiled
+    """The cell ``(i, j)`` of (q1, q2) and the Catmull-Rom weights and their derivatives along each axis."""
+    h1, h2 = axes[1], axes[4]
+    i, t1 = _cell(q1, axes[0], h1, int(axes[2]))
+    j, t2 = _cell(q2, axes[3], h2, int(axes[5]))
+    wa, da = _catmull_rom_weights(t1)
+    wb, db = _catmull_rom_weights(t2)
+    return i, j, wa, da, wb, db
+
+
+@numba.njit(cache=True)
+def interpolate_next(transition, forcing, axes, state, exogenous, q1, q2, nxt):  # pragma: no cover
+    """Into ``nxt``: the interpolated ``A_d s + G w`` at (q1, q2) alone, in :func:`interpolate_map`'s
+    arithmetic (the same digits), for a second state at a point whose ``A_d`` is known already."""
+    i, j, wa, _, wb, _ = _stencil(axes, q1, q2)
+    n = state.shape[0]
+    m = exogenous.shape[0]
+    nxt[:] = 0.0
+    for a in range(4):
+        for b in range(4):
+            w = wa[a] * wb[b]
+            node_a = transition[i + a, j + b]
+            node_g = forcing[i + a, j + b]
+            for r in range(n):
+                y = 0.0
+                for c in range(n):
+                    y += node_a[r, c] * state[c]
+                for c in range(m):
+                    y += node_g[r, c] * exogenous[c]
+                nxt[r] += w * y

@@ -19,7 +19,7 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
-from .flowrate_grid import interpolate_map
+from .flowrate_grid import interpolate_map, interpolate_next
 
 HELD_SPEED = 0
 """The measured speed [Hz] held over the next transitions."""
@@ -163,6 +163,18 @@ def operating_transition(
     return CORRECTED if correct else GRID_ONLY
 
 
+@numba.njit(cache=True)
+def operating_next_state(arrays, state, q1, q2, corrected, out):  # pragma: no cover - compiled
+    """Into ``out``: the next state from ``state`` of the transition :func:`operating_transition` has just
+    evaluated (its flowrates (q1, q2), operating point and input; ``corrected``: it answered
+    :data:`CORRECTED`), in its arithmetic (the same digits) without the Jacobians: the filter's prediction
+    where the Jacobians are another state's (the shadow of :mod:`oilwatch.estimator.nuisance_start`)."""
+    transition, forcing, axes, ca, cg, _, coefficients, _, _, _, _, _, _, loaded = arrays
+    interpolate_next(transition, forcing, axes, state, loaded, q1, q2, out)
+    if corrected:
+        _correction_next(ca, cg, coefficients, state, loaded, out)
+
+
 # Reassociation lets the compiler vectorize the row sums (a few ulps from the sequential sums); no other
 # fast-math assumption.
 @numba.njit(cache=True, fastmath={"reassoc", "contract"})
@@ -171,7 +183,6 @@ def _apply_correction(ca, cg, pairs, coefficients, state, w, nxt, ad, jq, jf, f1
     (a second-order term ``w_ij d_i d_j`` adds ``d_j`` times its ``A s + G w`` along axis i and ``d_i``
     along j), the latter divided by the viscosity factors (the Jacobian per unit of factor)."""
     n = state.shape[0]
-    m = w.shape[0]
     for r in range(n):
         jf[r, 0] = 0.0
         jf[r, 1] = 0.0
@@ -189,12 +200,7 @@ def _apply_correction(ca, cg, pairs, coefficients, state, w, nxt, ad, jq, jf, f1
                 for col in range(n):
                     out[col] += c * row[col]
         for r in range(n):
-            row = a_k[r]
-            y = 0.0
-            for col in range(n):
-                y += row[col] * state[col]
-            for col in range(m):
-                y += g_k[r, col] * w[col]
+            y = _row_response(a_k, g_k, r, state, w)
             if c != 0.0:
                 nxt[r] += c * y
             if k == 1 and corrected:
@@ -213,6 +219,35 @@ def _apply_correction(ca, cg, pairs, coefficients, state, w, nxt, ad, jq, jf, f1
     for r in range(n):
         jf[r, 0] /= f1
         jf[r, 1] /= f2
+
+
+@numba.njit(cache=True, fastmath={"reassoc", "contract"})
+def _correction_next(ca, cg, coefficients, state, w, nxt):  # pragma: no cover - compiled
+    """Add ``sum_k c_k (A_k s + G_k w)`` to ``nxt`` in :func:`_apply_correction`'s arithmetic (its row sums
+    written the same way, so that they vectorize alike)."""
+    n = state.shape[0]
+    corrected = coefficients[0] != 0.0
+    for k in range(ca.shape[0]):
+        if k >= 6 and not corrected:
+            break
+        c = coefficients[k]
+        if c == 0.0:
+            continue
+        a_k = ca[k]
+        g_k = cg[k]
+        for r in range(n):
+            nxt[r] += c * _row_response(a_k, g_k, r, state, w)
+
+
+@numba.njit(cache=True, inline="always")
+def _row_response(a_k, g_k, r, state, w):  # pragma: no cover - compiled
+    """Row r of ``A_k s + G_k w`` (inlined: the caller's fast-math flags vectorize its sums)."""
+    y = 0.0
+    for col in range(state.shape[0]):
+        y += a_k[r, col] * state[col]
+    for col in range(w.shape[0]):
+        y += g_k[r, col] * w[col]
+    return y
 
 
 @numba.njit(cache=True, inline="always")

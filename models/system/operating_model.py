@@ -231,11 +231,12 @@ class OperatingAugmentedModel:
 
     def exogenous(self, step: int) -> np.ndarray:
         """``w_k = [1, cos(phi_k), sin(phi_k)]``, phi_k the integral of the speed (or the keyphasor's)."""
-        phase = self._transition_phase(step)
+        phase = self.transition_phase(step)
         return np.array([1.0, math.cos(phase), math.sin(phase)])
 
-    def _transition_phase(self, step: int) -> float:
-        """phi_k of the transition from ``step``, which anchors a keyphasor angle given for it."""
+    def transition_phase(self, step: int) -> float:
+        """phi_k of the transition from ``step``, which anchors a keyphasor angle given for it (the same
+        value when asked again for the same step)."""
         if self._keyphasor is not None:
             self._anchor = (step, self._keyphasor)
             self._keyphasor = None
@@ -281,7 +282,7 @@ class OperatingAugmentedModel:
             f1 = f2 = 1.0
         w = self._w
         if exogenous is None:
-            phase = self._transition_phase(step)  # w from it in the compiled call
+            phase = self.transition_phase(step)  # w from it in the compiled call
         else:
             phase = math.nan
             w[:] = exogenous
@@ -291,8 +292,7 @@ class OperatingAugmentedModel:
         arrays = self._kernel_arrays
         answer = operating_transition(arrays, state, w, phase, u, q1, q2, f1, f2, with_factors, step)
         if answer == RECENTRE:
-            self._recentre(self._held[HELD_POINT : HELD_POINT + 5].copy())
-            self._held[HELD_CENTRE_STEP] = step
+            self.recentre_due(step)
             answer = operating_transition(arrays, state, w, phase, u, q1, q2, f1, f2, with_factors, step)
         a = self._arrays
         return (
@@ -302,6 +302,20 @@ class OperatingAugmentedModel:
             a.viscosity_jacobian if answer != GRID_ONLY else None,
             None if unbalance is None else a.unbalance_jacobian,
         )
+
+    def compiled_transition(self) -> tuple[tuple[np.ndarray, ...], np.ndarray, np.ndarray]:
+        """``(arrays, exogenous, limits)``: what a compiled caller needs to run :func:`operating_transition`
+        itself, as :meth:`transition_full` does: the struct (refilled in place by a re-centring), the
+        exogenous input's work array (3,) and the grid's flowrate range ``(q1_min, q1_max, q2_min, q2_max)``
+        [m^3/s] outside which :meth:`transition_full` raises. The caller passes the phase of
+        :meth:`transition_phase` and, on :data:`RECENTRE`, calls :meth:`recentre_due` and runs it again."""
+        return self._kernel_arrays, self._w, np.array(self._grid.bounds_m3_s, dtype=float).ravel()
+
+    def recentre_due(self, step: int) -> None:
+        """Move the correction's centre to the point of the transition from ``step`` that answered
+        :data:`RECENTRE` (the point it left in the struct)."""
+        self._recentre(self._held[HELD_POINT : HELD_POINT + 5].copy())
+        self._held[HELD_CENTRE_STEP] = step
 
     def _recentre(self, point: np.ndarray) -> None:
         """The correction's terms at the new centre ``(q_c, p_c)`` (:mod:`operating_correction`), or the kept
