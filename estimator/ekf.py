@@ -227,6 +227,7 @@ class OilFlowEKF:
         self._operating_step = compiled() if callable(compiled) else None
         self._factor_range = np.array(VISCOSITY_FACTOR_RANGE)
         self._no_shadow = np.zeros(0)
+        self._predicted = np.zeros(n)  # the estimate's next state beside the shadow's
         self._batch_next, self._batch_exogenous = np.zeros(n), np.zeros(3)
         self._batch_transition, self._batch_flow_jacobian = np.zeros((n, n)), np.zeros((n, 2))
         self._counters = layout.counters()
@@ -423,7 +424,7 @@ class OilFlowEKF:
         while True:
             answer = operating_step(
                 arrays, exogenous, limits, phase, model_step, self._factor_range, shadow_state,
-                step <= self._settling, self._no_flow_jacobian, displacement, self._packed,
+                self._predicted, step <= self._settling, self._no_flow_jacobian, displacement, self._packed,
             )  # fmt: skip
             if answer != RECENTRE:
                 return answer != DECLINED

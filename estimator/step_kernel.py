@@ -22,9 +22,7 @@ from numba import njit
 
 from oilwatch.models.system.flowrate_grid import interpolate_map
 from oilwatch.models.system.operating_kernels import (
-    CORRECTED,
     RECENTRE,
-    operating_next_state,
     operating_transition,
 )
 
@@ -417,6 +415,7 @@ def operating_step(
     model_step: int,
     factor_range: np.ndarray,
     shadow: np.ndarray,
+    predicted: np.ndarray,
     settling: bool,
     no_flow_jacobian: np.ndarray,
     displacement: np.ndarray,
@@ -433,8 +432,8 @@ def operating_step(
     the unbalance the state's (those the counters say are estimated). ``shadow`` (n,) or (0,): the shadow
     state of :class:`oilwatch.estimator.nuisance_start.ShadowJacobian`, advanced in place; the transition
     is then the shadow's, whose flowrate and nuisance Jacobians the update takes, and the estimate's
-    prediction at the same point only its next state
-    (:func:`oilwatch.models.system.operating_kernels.operating_next_state`: the state Jacobian is the same
+    prediction at the same point only its next state, into ``predicted`` (n,) (``second_state`` of
+    :func:`oilwatch.models.system.operating_kernels.operating_transition`: the state Jacobian is the same
     at every state). ``settling``: the parameters out of the Jacobian (``no_flow_jacobian``, zero nuisance
     columns). Returns the transition's answer (``GRID_ONLY`` or ``CORRECTED``), or ``RECENTRE`` or
     :data:`DECLINED` with nothing changed: the centre must move first (then call again), or the sample is
@@ -458,14 +457,15 @@ def operating_step(
     n = nxt.shape[0]
     shadowed = shadow.shape[0] > 0
     if shadowed:
+        # the estimate's prediction at the same point in the same pass: the shadow's A_d, its next state alone
         answer = operating_transition(
-            model_arrays, shadow, exogenous, phase, u, q1, q2, f1, f2, with_factors, model_step
-        )
+            model_arrays, shadow, exogenous, phase, u, q1, q2, f1, f2, with_factors, model_step,
+            state[:n], predicted,
+        )  # fmt: skip
         if answer == RECENTRE:
             return RECENTRE
         shadow[:] = nxt
-        # the estimate's prediction at the same point: the shadow's A_d, the next state alone
-        operating_next_state(model_arrays, state[:n], q1, q2, answer == CORRECTED, nxt)
+        nxt = predicted
     else:
         answer = operating_transition(
             model_arrays, state[:n], exogenous, phase, u, q1, q2, f1, f2, with_factors, model_step

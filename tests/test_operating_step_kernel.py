@@ -22,6 +22,7 @@ from oilwatch.estimator.ekf_config import EKFConfig
 from oilwatch.estimator.start_bank import StartBank
 from oilwatch.models.machine import load_machine
 from oilwatch.models.system.factory import load_system
+from oilwatch.models.system.operating_kernels import RECENTRE, operating_transition
 from oilwatch.models.system.operating_model import build_operating_model
 
 MACHINE = load_machine()
@@ -112,3 +113,32 @@ def test_the_start_bank_s_compiled_steps_give_the_python_path_s_estimates(model,
         assert np.array_equal(
             getattr(traces[0], field.name), getattr(traces[1], field.name), equal_nan=True
         ), field.name
+
+
+def test_a_second_state_s_next_state_is_that_of_a_transition_of_its_own(model):
+    """The estimate's prediction beside the shadow's (one pass over the grid nodes and the correction's
+    matrices) has the digits of the model's transition from the estimate, on the grid and corrected."""
+    model = copy.deepcopy(model)
+    arrays, w, _ = model.compiled_transition()
+    rng = np.random.default_rng(3)
+    static = model.static_state(TRUTH)
+    first, second = (static * (1.0 + 0.1 * rng.standard_normal(static.size)) for _ in range(2))
+    unbalance = np.array([1.1, -0.2])
+
+    def transition(step, phase, state, *second):
+        arguments = (arrays, state, w, phase, unbalance, *TRUTH, *FACTORS, True, step, *second)
+        while operating_transition(*arguments) == RECENTRE:
+            model.recentre_due(step)
+
+    for step, (speed, temperature) in enumerate([(model.speed_hz, None), (75.0, T0 + 4.0)]):
+        model.set_operating_point(speed, temperature)
+        phase = model.transition_phase(step)
+        alone = []
+        for state in (first, second):
+            transition(step, phase, state)
+            alone.append([a.copy() for a in arrays[8:13]])
+        beside = np.empty(static.size)
+        transition(step, phase, first, second, beside)
+        assert np.array_equal(beside, alone[1][0])
+        for together, own in zip(arrays[8:13], alone[0], strict=True):
+            assert np.array_equal(together, own)

@@ -144,16 +144,22 @@ class FlowrateGrid:
 # (tests/test_ekf_reference_trace.py failed in one test order and passed in another); in IEEE order every
 # build gives the same digits, at about 5 us more per call.
 @numba.njit(cache=True)
-def interpolate_map(transition, forcing, axes, state, exogenous, q1, q2, nxt, ad, jq):  # pragma: no cover
+def interpolate_map(
+    transition, forcing, axes, state, exogenous, q1, q2, nxt, ad, jq, second_state=None, second_next=None
+):  # pragma: no cover - compiled
     """Into ``nxt``, ``ad``, ``jq``: the interpolated ``A_d s + G w``, ``A_d`` and the flowrate Jacobian at
-    (q1, q2), from the grid arrays of :attr:`FlowrateGrid.kernel_arrays`."""
+    (q1, q2), from the grid arrays of :attr:`FlowrateGrid.kernel_arrays`; with ``second_state`` (n,), its
+    ``A_d s + G w`` into ``second_next`` in the same arithmetic (the digits of a call of its own), each
+    node's matrix read once for both states."""
     h1, h2 = axes[1], axes[4]
     i, j, wa, da, wb, db = _stencil(axes, q1, q2)
     n = state.shape[0]
-    m = exogenous.shape[0]
     nxt[:] = 0.0
     ad[:, :] = 0.0
     jq[:, :] = 0.0
+    if second_next is not None:
+        second_next[:] = 0.0
+    blocked = n - n % 4
     for a in range(4):
         for b in range(4):
             w = wa[a] * wb[b]
@@ -162,16 +168,66 @@ def interpolate_map(transition, forcing, axes, state, exogenous, q1, q2, nxt, ad
             node_a = transition[i + a, j + b]
             node_g = forcing[i + a, j + b]
             for r in range(n):
-                y = 0.0
                 for c in range(n):
-                    v = node_a[r, c]
-                    ad[r, c] += w * v
-                    y += v * state[c]
-                for c in range(m):
-                    y += node_g[r, c] * exogenous[c]
-                nxt[r] += w * y
-                jq[r, 0] += d1 * y
-                jq[r, 1] += d2 * y
+                    ad[r, c] += w * node_a[r, c]
+            # four rows' sums side by side (each in its own order: the digits of one row at a time), as the
+            # sums' latency, not the arithmetic, bounds a row at a time
+            for r in range(0, blocked, 4):
+                y0, y1, y2, y3 = _four_rows(node_a, node_g, state, exogenous, r)
+                _add_row(r, w * y0, d1 * y0, d2 * y0, nxt, jq)
+                _add_row(r + 1, w * y1, d1 * y1, d2 * y1, nxt, jq)
+                _add_row(r + 2, w * y2, d1 * y2, d2 * y2, nxt, jq)
+                _add_row(r + 3, w * y3, d1 * y3, d2 * y3, nxt, jq)
+                if second_state is not None:
+                    y0, y1, y2, y3 = _four_rows(node_a, node_g, second_state, exogenous, r)
+                    second_next[r] += w * y0
+                    second_next[r + 1] += w * y1
+                    second_next[r + 2] += w * y2
+                    second_next[r + 3] += w * y3
+            for r in range(blocked, n):
+                y = row_response(node_a, node_g, r, state, exogenous)
+                _add_row(r, w * y, d1 * y, d2 * y, nxt, jq)
+                if second_state is not None:
+                    second_next[r] += w * row_response(node_a, node_g, r, second_state, exogenous)
+
+
+@numba.njit(cache=True, inline="always")
+def _four_rows(node_a, node_g, state, exogenous, r):  # pragma: no cover - compiled
+    """Rows r .. r + 3 of ``A s + G w`` of one node, each summed in column order."""
+    y0, y1, y2, y3 = _four_sums(node_a, state, r, 0.0, 0.0, 0.0, 0.0)
+    return _four_sums(node_g, exogenous, r, y0, y1, y2, y3)
+
+
+@numba.njit(cache=True, inline="always")
+def _four_sums(matrix, vector, r, y0, y1, y2, y3):  # pragma: no cover - compiled
+    """``y0 .. y3`` plus rows r .. r + 3 of ``matrix @ vector``, each in column order."""
+    for c in range(vector.shape[0]):
+        v = vector[c]
+        y0 += matrix[r, c] * v
+        y1 += matrix[r + 1, c] * v
+        y2 += matrix[r + 2, c] * v
+        y3 += matrix[r + 3, c] * v
+    return y0, y1, y2, y3
+
+
+@numba.njit(cache=True, inline="always")
+def row_response(node_a, node_g, r, state, exogenous):  # pragma: no cover - compiled
+    """Row r of ``A s + G w``, summed in column order (inlined: a caller's fast-math flags vectorize its
+    sums)."""
+    y = 0.0
+    for c in range(state.shape[0]):
+        y += node_a[r, c] * state[c]
+    for c in range(exogenous.shape[0]):
+        y += node_g[r, c] * exogenous[c]
+    return y
+
+
+@numba.njit(cache=True, inline="always")
+def _add_row(r, next_term, q1_term, q2_term, nxt, jq):  # pragma: no cover - compiled
+    """One node's terms of row r of the next state and of the flowrate Jacobian."""
+    nxt[r] += next_term
+    jq[r, 0] += q1_term
+    jq[r, 1] += q2_term
 
 
 @numba.njit(cache=True, inline="always")
@@ -183,25 +239,3 @@ def _stencil(axes, q1, q2):  # pragma: no cover - compiled
     wa, da = _catmull_rom_weights(t1)
     wb, db = _catmull_rom_weights(t2)
     return i, j, wa, da, wb, db
-
-
-@numba.njit(cache=True)
-def interpolate_next(transition, forcing, axes, state, exogenous, q1, q2, nxt):  # pragma: no cover
-    """Into ``nxt``: the interpolated ``A_d s + G w`` at (q1, q2) alone, in :func:`interpolate_map`'s
-    arithmetic (the same digits), for a second state at a point whose ``A_d`` is known already."""
-    i, j, wa, _, wb, _ = _stencil(axes, q1, q2)
-    n = state.shape[0]
-    m = exogenous.shape[0]
-    nxt[:] = 0.0
-    for a in range(4):
-        for b in range(4):
-            w = wa[a] * wb[b]
-            node_a = transition[i + a, j + b]
-            node_g = forcing[i + a, j + b]
-            for r in range(n):
-                y = 0.0
-                for c in range(n):
-                    y += node_a[r, c] * state[c]
-                for c in range(m):
-                    y += node_g[r, c] * exogenous[c]
-                nxt[r] += w * y

@@ -19,7 +19,7 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
-from .flowrate_grid import interpolate_map, interpolate_next
+from .flowrate_grid import interpolate_map, row_response
 
 HELD_SPEED = 0
 """The measured speed [Hz] held over the next transitions."""
@@ -93,13 +93,28 @@ class OperatingArrays(NamedTuple):
 
 @numba.njit(cache=True)
 def operating_transition(
-    arrays, state, w, phase, unbalance, q1, q2, f1, f2, with_factors, step
+    arrays,
+    state,
+    w,
+    phase,
+    unbalance,
+    q1,
+    q2,
+    f1,
+    f2,
+    with_factors,
+    step,
+    second_state=None,
+    second_next=None,
 ):  # pragma: no cover - compiled
     """The model's transition from ``state`` at flowrates (q1, q2), viscosity factors (f1, f2) (exactly 1
     unless ``with_factors``), exogenous input ``w`` (3,) (``[1, cos, sin]`` of ``phase`` written into it
     unless ``phase`` is NaN) and the unbalance (a, b) when ``unbalance`` has 2 entries, into the output
     arrays: :data:`GRID_ONLY` or :data:`CORRECTED`; or :data:`RECENTRE` (and nothing computed) when the
-    centre must move first.
+    centre must move first. With ``second_state`` (n,), the next state from it at the same point into
+    ``second_next`` as well, in the digits of a transition of its own (the filter's prediction where the
+    Jacobians are another state's, the shadow of :mod:`oilwatch.estimator.nuisance_start`; the state
+    Jacobian is the same at every state).
 
     As the model's docstring: at the reference point without factors today's grid map exactly; else the
     correction ``sum_k c_k (A_k s + G_k w)`` with ``c = (1, d, w_ij d_i d_j)``, ``d = (q - q_c, p - p_c)``,
@@ -155,33 +170,27 @@ def operating_transition(
     else:
         loaded[1] = w[1]
         loaded[2] = w[2]
-    interpolate_map(transition, forcing, axes, state, loaded, q1, q2, nxt, ad, jq)
+    interpolate_map(transition, forcing, axes, state, loaded, q1, q2, nxt, ad, jq, second_state, second_next)
     if correct:
-        _apply_correction(ca, cg, pairs, coefficients, state, loaded, nxt, ad, jq, jf, f1, f2)
+        _apply_correction(
+            ca, cg, pairs, coefficients, state, loaded, nxt, ad, jq, jf, f1, f2, second_state, second_next
+        )
     if with_unbalance:
         _unbalance_jacobian(forcing, axes, ca.shape[0], cg, coefficients, not at_reference, w, q1, q2, ju)
     return CORRECTED if correct else GRID_ONLY
 
 
-@numba.njit(cache=True)
-def operating_next_state(arrays, state, q1, q2, corrected, out):  # pragma: no cover - compiled
-    """Into ``out``: the next state from ``state`` of the transition :func:`operating_transition` has just
-    evaluated (its flowrates (q1, q2), operating point and input; ``corrected``: it answered
-    :data:`CORRECTED`), in its arithmetic (the same digits) without the Jacobians: the filter's prediction
-    where the Jacobians are another state's (the shadow of :mod:`oilwatch.estimator.nuisance_start`)."""
-    transition, forcing, axes, ca, cg, _, coefficients, _, _, _, _, _, _, loaded = arrays
-    interpolate_next(transition, forcing, axes, state, loaded, q1, q2, out)
-    if corrected:
-        _correction_next(ca, cg, coefficients, state, loaded, out)
-
-
 # Reassociation lets the compiler vectorize the row sums (a few ulps from the sequential sums); no other
 # fast-math assumption.
 @numba.njit(cache=True, fastmath={"reassoc", "contract"})
-def _apply_correction(ca, cg, pairs, coefficients, state, w, nxt, ad, jq, jf, f1, f2):  # pragma: no cover
+def _apply_correction(
+    ca, cg, pairs, coefficients, state, w, nxt, ad, jq, jf, f1, f2, second_state=None, second_next=None
+):  # pragma: no cover - compiled
     """Add ``sum_k c_k (A_k s + G_k w)`` to the map; the q and ln mu Jacobians from the derivative terms
     (a second-order term ``w_ij d_i d_j`` adds ``d_j`` times its ``A s + G w`` along axis i and ``d_i``
-    along j), the latter divided by the viscosity factors (the Jacobian per unit of factor)."""
+    along j), the latter divided by the viscosity factors (the Jacobian per unit of factor). With
+    ``second_state``, its ``sum_k c_k (A_k s + G_k w)`` added to ``second_next``, its row sums written as
+    the first state's (so that they vectorize alike: the digits of a call of its own)."""
     n = state.shape[0]
     for r in range(n):
         jf[r, 0] = 0.0
@@ -200,9 +209,11 @@ def _apply_correction(ca, cg, pairs, coefficients, state, w, nxt, ad, jq, jf, f1
                 for col in range(n):
                     out[col] += c * row[col]
         for r in range(n):
-            y = _row_response(a_k, g_k, r, state, w)
+            y = row_response(a_k, g_k, r, state, w)
             if c != 0.0:
                 nxt[r] += c * y
+                if second_state is not None:
+                    second_next[r] += c * row_response(a_k, g_k, r, second_state, w)
             if k == 1 and corrected:
                 jq[r, 0] += y
             elif k == 2 and corrected:
@@ -219,35 +230,6 @@ def _apply_correction(ca, cg, pairs, coefficients, state, w, nxt, ad, jq, jf, f1
     for r in range(n):
         jf[r, 0] /= f1
         jf[r, 1] /= f2
-
-
-@numba.njit(cache=True, fastmath={"reassoc", "contract"})
-def _correction_next(ca, cg, coefficients, state, w, nxt):  # pragma: no cover - compiled
-    """Add ``sum_k c_k (A_k s + G_k w)`` to ``nxt`` in :func:`_apply_correction`'s arithmetic (its row sums
-    written the same way, so that they vectorize alike)."""
-    n = state.shape[0]
-    corrected = coefficients[0] != 0.0
-    for k in range(ca.shape[0]):
-        if k >= 6 and not corrected:
-            break
-        c = coefficients[k]
-        if c == 0.0:
-            continue
-        a_k = ca[k]
-        g_k = cg[k]
-        for r in range(n):
-            nxt[r] += c * _row_response(a_k, g_k, r, state, w)
-
-
-@numba.njit(cache=True, inline="always")
-def _row_response(a_k, g_k, r, state, w):  # pragma: no cover - compiled
-    """Row r of ``A_k s + G_k w`` (inlined: the caller's fast-math flags vectorize its sums)."""
-    y = 0.0
-    for col in range(state.shape[0]):
-        y += a_k[r, col] * state[col]
-    for col in range(w.shape[0]):
-        y += g_k[r, col] * w[col]
-    return y
 
 
 @numba.njit(cache=True, inline="always")
