@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 
 from oilwatch.cli import main
+from oilwatch.cli.docs_tables import main as docs_tables
 from oilwatch.cli.docs_tables import output_blocks, run_outputs, without_machine_load
 from oilwatch.study.readme_tables import main as study_tables
 
@@ -70,3 +71,14 @@ def test_an_output_block_is_its_commands_output_without_the_machine_load(tmp_pat
     assert _body(page.read_text(), "output-demo") == "```text\na\nb\n```\n"
     assert without_machine_load("(medians; 1-min load average 14.9-14.9)") == "(medians)"
     assert without_machine_load("force 5 N (load 3273 N)") == "force 5 N (load 3273 N)"  # a bearing's load
+
+
+def test_a_bad_page_or_block_name_is_one_line_naming_it(tmp_path, capsys):
+    page = tmp_path / "page.md"
+    page.write_text("# a page without blocks\n", encoding="utf-8")
+    assert docs_tables(["--page", str(page), "--outputs", "output-nothing"]) == 2
+    message = capsys.readouterr().err.strip()
+    assert "\n" not in message and "output-nothing" in message
+    assert docs_tables(["--page", str(tmp_path / "missing.md")]) == 2
+    message = capsys.readouterr().err.strip()
+    assert "\n" not in message and "missing.md" in message

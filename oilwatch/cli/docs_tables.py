@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import re
 import subprocess
+import sys
 from pathlib import Path
 
 from oilwatch.models.machine_keys import markdown_table
@@ -80,11 +81,15 @@ def main(argv: list[str] | None = None) -> int:
         help="rerun the page's output blocks (all, or named)",
     )
     args = parser.parse_args(argv)
-    for page in args.page:
-        if args.outputs is not None:
-            run_outputs(page, args.outputs)
-        elif "<!-- /generated machine-keys -->" in Path(page).read_text(encoding="utf-8"):
-            replace_blocks(page, {"machine-keys": markdown_table()}, f"{COMMAND} --page {page}")
+    try:
+        for page in args.page:
+            if args.outputs is not None:
+                run_outputs(page, args.outputs)
+            elif "<!-- /generated machine-keys -->" in Path(page).read_text(encoding="utf-8"):
+                replace_blocks(page, {"machine-keys": markdown_table()}, f"{COMMAND} --page {page}")
+    except (InputError, OSError) as error:
+        print(f"{COMMAND}: error: {error}", file=sys.stderr)
+        return 2
     return 0
 
 
