@@ -152,7 +152,10 @@ def interpolate_map(
     ``A_d s + G w`` into ``second_next`` in the same arithmetic (the digits of a call of its own), each
     node's matrix read once for both states."""
     h1, h2 = axes[1], axes[4]
-    i, j, wa, da, wb, db = _stencil(axes, q1, q2)
+    i, t1 = _cell(q1, axes[0], h1, int(axes[2]))
+    j, t2 = _cell(q2, axes[3], h2, int(axes[5]))
+    wa, da = _catmull_rom_weights(t1)
+    wb, db = _catmull_rom_weights(t2)
     n = state.shape[0]
     nxt[:] = 0.0
     ad[:, :] = 0.0
@@ -228,14 +231,3 @@ def _add_row(r, next_term, q1_term, q2_term, nxt, jq):  # pragma: no cover - com
     nxt[r] += next_term
     jq[r, 0] += q1_term
     jq[r, 1] += q2_term
-
-
-@numba.njit(cache=True, inline="always")
-def _stencil(axes, q1, q2):  # pragma: no cover - compiled
-    """The cell ``(i, j)`` of (q1, q2) and the Catmull-Rom weights and their derivatives along each axis."""
-    h1, h2 = axes[1], axes[4]
-    i, t1 = _cell(q1, axes[0], h1, int(axes[2]))
-    j, t2 = _cell(q2, axes[3], h2, int(axes[5]))
-    wa, da = _catmull_rom_weights(t1)
-    wb, db = _catmull_rom_weights(t2)
-    return i, j, wa, da, wb, db
