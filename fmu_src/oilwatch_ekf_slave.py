@@ -48,7 +48,9 @@ Where the rest lives: the variables (names, units, descriptions, the order of th
 The estimator's numba kernels compile on first use in a process (5-10 s); ``setup`` warms them up during
 initialization and logs the time, so that no ``doStep`` pays for it. Initialization also takes the start
 time's sample as a skipped one (:meth:`OilFlowEKF._take_start_sample`), which the first doStep would
-otherwise predict through before the host's first sample, one period later.
+otherwise predict through before the host's first sample, one period later, and runs the slave's step on a
+host's first samples and undoes them (:meth:`OilFlowEKF._warm_step`), so that the first doStep runs
+specialised Python.
 """
 
 from __future__ import annotations
