@@ -48,11 +48,14 @@ Where the rest lives: the variables (names, units, descriptions, the order of th
 The estimator's numba kernels compile on first use in a process (5-10 s); ``setup`` warms them up during
 initialization and logs the time, so that no ``doStep`` pays for it. Initialization also takes the start
 time's sample as a skipped one (:meth:`OilFlowEKF._take_start_sample`), which the first doStep would
-otherwise predict through before the host's first sample, one period later.
+otherwise predict through before the host's first sample, one period later, and runs the slave's step on a
+host's first samples and undoes them (:meth:`OilFlowEKF._warm_step`), so that the first doStep runs
+specialised Python.
 """
 
 from __future__ import annotations
 
+import copy
 import math
 import time
 
@@ -98,6 +101,11 @@ from oilwatch.fmu_src.machine_parameters import (
 )
 from oilwatch.fmu_src.slave_base import OilwatchSlave
 from oilwatch.models.validation import InputError
+
+WARM_UP_STEPS = 8
+"""Samples :meth:`OilFlowEKF._warm_step` takes and undoes at the end of initialization: the calls after which
+CPython (3.11) specialises a function's bytecode."""
+STAMP_INPUT = STEP_INPUTS.index("t_sample_s")
 
 
 class OilFlowEKF(OilwatchSlave):
@@ -241,6 +249,7 @@ class OilFlowEKF(OilwatchSlave):
             self._warm_plain_step(table)
         else:
             self._take_start_sample()
+            self._warm_step()
 
     def _take_start_sample(self) -> None:
         """Take the start time's sample as a skipped one now, keeping the state before it. A host's first
@@ -254,6 +263,34 @@ class OilFlowEKF(OilwatchSlave):
         before = self.filter.get_state()
         self.filter.step(self._missing, *operating)
         self._start_sample_taken = (before, operating)
+
+    def _warm_step(self) -> None:
+        """Take :data:`WARM_UP_STEPS` samples through :meth:`step` as a host's first ones (one period apart
+        from the first sample time, the other inputs as initialization left them) and return to the state
+        before them, so that the first doStep runs Python the interpreter has already specialised (the
+        filter's warm-up in :meth:`setup` calls the step's functions only a few times, the slave's own step
+        never). Everything a step changes goes back: the filter's state, the start sample taken ahead, the
+        input, output and measurement arrays, the keyphasor and the log. A sample's error is left to the
+        first doStep, which reports it."""
+        state, taken = self.filter.get_state(), copy.deepcopy(self._start_sample_taken)
+        kept = (self._nuisances_published, self._warned_off_grid, len(self.log_queue))
+        arrays = [
+            (array, array.copy())
+            for array in (self._inputs, self._outputs, self._measurement, self._keyphasor_cell)
+        ]
+        first, period = self._first_sample_time_s, self.sample_period_s
+        try:
+            for k in range(WARM_UP_STEPS):
+                self._inputs[STAMP_INPUT] = first + (k + 1) * period
+                self.step(first + k * period, period)
+        except Exception:  # the same sample fails again at the first doStep, which reports it
+            pass
+        self.filter.set_state(state)
+        self._start_sample_taken = taken
+        self._nuisances_published, self._warned_off_grid, logged = kept
+        del self.log_queue[logged:]
+        for array, values in arrays:
+            np.copyto(array, values)
 
     def _settle_start_sample(self, index: int, operating) -> None:
         """Keep the start sample taken ahead if the first sample is a later one at its operating point, else

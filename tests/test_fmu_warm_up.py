@@ -1,6 +1,7 @@
 """The FMU slaves' warm-ups in initialization (so that the first doStep costs what the later ones do) change
-no result: the plant's steps taken and undone, the estimator's compiled plain step run and undone, and the
-estimator's start sample taken ahead, kept or undone."""
+no result: the plant's steps taken and undone, the estimator's compiled plain step run and undone (its
+model's grid, which it does not copy, unchanged), the estimator's start sample taken ahead, kept or undone,
+and the estimator's own step taken and undone."""
 
 from __future__ import annotations
 
@@ -35,7 +36,7 @@ result = {"same": cold == warm, "moved": cold[0] != cold[-1], "steps": steps}
 ESTIMATOR = """
 import numpy as np
 from oilwatch.fmu_src.oilwatch_ekf_slave import OilFlowEKF
-from oilwatch.fmu_src.ekf_plain_step import KERNEL_DONE
+from oilwatch.fmu_src.ekf_plain_step import KERNEL_DONE, READ_ONLY
 
 slave = OilFlowEKF(instance_name="ekf")
 slave.preset = "paper"  # the plain step: the flowrate grid at one speed, no nuisance states
@@ -45,12 +46,15 @@ slave.exit_initialization_mode()
 table = slave.plain_step_table()
 arrays = [*slave.filter._packed, slave._outputs, slave._keyphasor_cell, slave._inputs, slave._measurement]
 before = [a.copy() for a in arrays]
+grids = [table._arrays[i][0] for i in sorted(READ_ONLY)]
+grids_before = [a.copy() for a in grids]
 slave._inputs[4] = 1e-3  # the first sample as a host sends it, after one step: through the start's gap
 slave._inputs[-2:] = (0.0, 1e-3)
 answer = table.step_and_undo()
 slave._inputs[4], slave._inputs[-2:] = before[-2][4], before[-2][-2:]
 same = all(np.array_equal(a, b, equal_nan=True) for a, b in zip(arrays, before, strict=True))
-result = {"done": answer == KERNEL_DONE, "same": same}
+same_grids = all(np.array_equal(a, b) for a, b in zip(grids, grids_before, strict=True))
+result = {"done": answer == KERNEL_DONE, "same": same, "same_grids": same_grids, "grids": len(grids)}
 """
 
 
@@ -64,10 +68,12 @@ def test_the_estimator_plain_step_warm_up_runs_the_step_and_leaves_every_array_a
     result = run_json(ESTIMATOR, timeout=600)
     assert result["done"]  # the compiled step ran (it took the sample), then was undone
     assert result["same"]
+    assert result["grids"] == 3 and result["same_grids"]  # read only: not restored, and need not be
 
 
 START_SAMPLE = """
 import numpy as np
+from oilwatch.fmu_src import oilwatch_ekf_slave
 from oilwatch.fmu_src.oilwatch_ekf_slave import OilFlowEKF
 from oilwatch.models.machine import load_machine
 
@@ -76,14 +82,16 @@ OUT = ("q1_est_ml_min", "q2_est_ml_min", "q1_std_ml_min", "q2_std_ml_min", "nis"
 PORTS = ("x1_um", "y1_um", "x2_um", "y2_um", "t_sample_s", "speed_hz")
 taken = OilFlowEKF._take_start_sample
 
-def run(first_stamp, ahead, speed_change=0.0, via_state=False):
+def run(first_stamp, ahead, speed_change=0.0, via_state=False, warm_up_steps=0):
     OilFlowEKF._take_start_sample = taken if ahead else (lambda slave: None)
+    oilwatch_ekf_slave.WARM_UP_STEPS = warm_up_steps
     slave = OilFlowEKF(instance_name="ekf")  # the default (machine) preset: the start bank, no plain step
     vr = {v.name: v.value_reference for v in slave.vars.values()}
     slave.setup_experiment(0.0, None, None)
     slave.enter_initialization_mode()
     slave.exit_initialization_mode()
     pending = slave._start_sample_taken is not None
+    logged = len(slave.log_queue)
     if via_state:  # a host's state right after initialization holds no sample taken ahead
         state = slave._get_fmu_state()
         slave.do_step(0.0, 1e-3)
@@ -96,17 +104,39 @@ def run(first_stamp, ahead, speed_change=0.0, via_state=False):
         slave.set_real([vr[n] for n in PORTS], [*(orbit + [10.0, -5.0, 10.0, -5.0]), stamp, speed])
         slave.do_step(k * 1e-3, 1e-3)
         rows.append(slave.get_real([vr[n] for n in OUT]))
-    return rows, pending
+    return rows, pending, logged
 
-result = {}
-for name, (stamp, change, via_state) in {
+CASES = {
     "later": (1e-3, 0.0, False),
     "at start": (0.0, 0.0, False),
     "other speed": (1e-3, 0.5, False),
     "state, then a sample at the start": (0.0, 0.0, True),
-}.items():
-    (ahead, pending), (plain, _) = run(stamp, True, change, via_state), run(stamp, False, change, via_state)
+}  # name: (first sample's time stamp [s], speed change [Hz], via a restored state)
+result = {}
+for name, (stamp, change, via_state) in CASES.items():
+    ahead, pending, _ = run(stamp, True, change, via_state)
+    plain, _, _ = run(stamp, False, change, via_state)
     result[name] = {"same": ahead == plain, "pending": pending, "moved": plain[0] != plain[-1]}
+"""
+
+STEP_WARM_UP = START_SAMPLE.split("result = {}")[0] + """
+steps = oilwatch_ekf_slave.WARM_UP_STEPS
+stepped = []  # the steps that succeeded
+
+def counted(self, current_time, step_size, _step=OilFlowEKF.step):
+    answer = _step(self, current_time, step_size)
+    stepped.append(answer)
+    return answer
+
+OilFlowEKF.step = counted
+result = {"steps": steps}
+for name, (stamp, change, via_state) in CASES.items():
+    warm = run(stamp, True, change, via_state, steps)
+    warmed = len(stepped)
+    cold = run(stamp, True, change, via_state, 0)
+    warmed -= len(stepped) - warmed  # the warm run's steps less the cold run's
+    result[name] = {"same": warm == cold, "moved": cold[0][0] != cold[0][-1], "warmed": warmed}
+    stepped.clear()
 """
 
 
@@ -117,4 +147,16 @@ def test_the_estimators_start_sample_taken_in_initialization_changes_no_output()
     result = run_json(START_SAMPLE, timeout=900)
     for case in result.values():
         assert case["pending"] and case["moved"]
+        assert case["same"]
+
+
+def test_the_estimators_step_warm_up_changes_no_output():
+    """The slave's step run on the first samples in initialization and undone (:func:`OilFlowEKF._warm_step`)
+    leaves every output of every later step, the pending start sample and the log as without it: with the
+    first sample one period later or at the start, at another speed, and after a restored state."""
+    result = run_json(STEP_WARM_UP, timeout=900)
+    steps = result.pop("steps")
+    for case in result.values():
+        assert case["warmed"] == steps > 0  # every warm-up sample ran the step through
+        assert case["moved"]
         assert case["same"]
