@@ -48,6 +48,10 @@ BUNDLED_MACHINES = {
 }
 """The machine files that come with oilwatch, by the name a command's ``--machine`` takes: the paper's generic
 turbine (the default) and a six-stage compressor on two-axial-groove bearings."""
+DEFAULT_REDUCTION_CUTOFF_HZ = 500.0
+"""Fixed-interface modes kept by the reduced model unless the machine file says otherwise: below 500 Hz, the
+Nyquist frequency of 1 kHz sampling. A rotor whose interior modes just above it still shape the 1x response
+at its running speed needs more (:func:`oilwatch.models.system.reduction_check.reduction_flow_bias`)."""
 
 
 def bundled_name(path: str | Path | None) -> str | None:
@@ -101,6 +105,8 @@ class Machine:
         :mod:`oilwatch.models.bearing.coefficient_kinds`): "synchronous" (default) or "quasi-static".
     nominal_oil_temperature_c : oil supply temperature [degC] at which ``bearing.viscosity_pa_s`` holds
         (None without ``[oil]``).
+    reduction_cutoff_hz : the reduced (Craig-Bampton) model keeps the fixed-interface modes below this
+        frequency (``reduced_model.cutoff_hz``, default :data:`DEFAULT_REDUCTION_CUTOFF_HZ`).
     """
 
     name: str
@@ -121,6 +127,7 @@ class Machine:
     oil: Oil | None = None
     nominal_oil_temperature_c: float | None = None
     dynamic_coefficients: str = DEFAULT_KIND
+    reduction_cutoff_hz: float = DEFAULT_REDUCTION_CUTOFF_HZ
 
     def __repr__(self) -> str:
         return (
@@ -216,6 +223,12 @@ def machine_from_dict(data: Mapping[str, Any], source_path: Path | str = "<dict>
     beta = 0.0
     if "stiffness_proportional_s" in damping:
         beta = read_real(damping, "rotor_damping", "stiffness_proportional_s", "s", strict=False)
+    reduced_model = data.get("reduced_model", {})
+    if not isinstance(reduced_model, Mapping):
+        raise InputError("[reduced_model] must be a table")
+    cutoff = DEFAULT_REDUCTION_CUTOFF_HZ
+    if "cutoff_hz" in reduced_model:
+        cutoff = read_real(reduced_model, "reduced_model", "cutoff_hz", "Hz")
     machine = Machine(
         name=name,
         source_path=Path(str(source_path)),
@@ -238,6 +251,7 @@ def machine_from_dict(data: Mapping[str, Any], source_path: Path | str = "<dict>
             read_table(data, "bearings").get("dynamic_coefficients", DEFAULT_KIND),
             "bearings.dynamic_coefficients",
         ),
+        reduction_cutoff_hz=cutoff,
     )
     return _with_nominal_flowrate(machine, (str(source_path), repr(sorted(data.items()))))
 

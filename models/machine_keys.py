@@ -220,6 +220,15 @@ MACHINE_KEYS: tuple[MachineKey, ...] = (
         "0",
     ),
     _key(
+        "reduced_model",
+        "cutoff_hz",
+        "> 0",
+        "The reduced (Craig-Bampton) model of the estimator and the reduced plant keeps the fixed-interface "
+        "modes below this frequency; raise it until `oilwatch validate reduction` shows a flow-equivalent "
+        "error far below the estimator's std.",
+        "500",
+    ),
+    _key(
         "probes",
         "layout",
         '"xy" or "api670"',

@@ -28,9 +28,6 @@ from .reduction import craig_bampton
 from .rotor_bearing import RotorBearingSystem
 from .speed_sweep import SpeedSweep
 
-DEFAULT_CUTOFF_HZ = 500.0
-"""Fixed-interface modes kept by the reduced model: below 500 Hz, the Nyquist frequency of 1 kHz sampling."""
-
 LOAD_RTOL = 5e-3
 
 
@@ -173,7 +170,7 @@ def build_system(
     speed_hz: float | None = None,
     *,
     reduced: bool = True,
-    cutoff_hz: float = DEFAULT_CUTOFF_HZ,
+    cutoff_hz: float | None = None,
     table_path: str | Path | None = None,
     unbalance_moment_kg_m: float | None = None,
     unbalance_phase_rad: float | None = None,
@@ -182,7 +179,8 @@ def build_system(
     """The rotor-bearing system of a loaded machine at ``speed_hz`` (default: its nominal speed).
 
     ``reduced`` selects the Craig-Bampton model (bearing dofs, fixed-interface modes below ``cutoff_hz``,
-    static correction for gravity and unbalance); otherwise all physical dofs are kept. The unbalance
+    default the machine file's ``reduced_model.cutoff_hz``, static correction for gravity and unbalance);
+    otherwise all physical dofs are kept. The unbalance
     arguments override the machine file's unbalance moment and phase. ``coefficients`` overrides the
     machine file's kind of bearing coefficients: "synchronous" keeps the quasi-static table for the dynamics
     and takes the 1x unbalance response from the synchronous table
@@ -198,7 +196,8 @@ def build_system(
         bearing_dofs = [rotor.dof(node, axis) for node in rotor.bearing_nodes for axis in ("x", "y")]
         unit_unbalance = rotor.unbalance_amplitude(1.0)
         loads = np.column_stack([rotor.gravity_force, unit_unbalance.real, unit_unbalance.imag])
-        basis = craig_bampton(rotor.mass_matrix, rotor.stiffness_matrix, bearing_dofs, cutoff_hz, loads)
+        cutoff = machine.reduction_cutoff_hz if cutoff_hz is None else cutoff_hz
+        basis = craig_bampton(rotor.mass_matrix, rotor.stiffness_matrix, bearing_dofs, cutoff, loads)
     return RotorBearingSystem(
         rotor,
         tables,
@@ -233,7 +232,7 @@ def load_system(
     speed_hz: float | None = None,
     *,
     reduced: bool = True,
-    cutoff_hz: float = DEFAULT_CUTOFF_HZ,
+    cutoff_hz: float | None = None,
     table_path: str | Path | None = None,
     unbalance_moment_kg_m: float | None = None,
     unbalance_phase_rad: float | None = None,

@@ -32,7 +32,6 @@ from ..bearing.transient import BDF, TransientFilm, TransientFilmState
 from ..machine import Machine
 from ..rotor.assembly import Rotor
 from ..validation import InputError, require_positive
-from .factory import DEFAULT_CUTOFF_HZ
 from .reduction import craig_bampton
 
 BETA, GAMMA = 0.25, 0.5
@@ -62,7 +61,7 @@ class ReducedRotor:
     transform: np.ndarray
 
 
-def reduced_rotor(machine: Machine, speed_hz: float, cutoff_hz: float = DEFAULT_CUTOFF_HZ) -> ReducedRotor:
+def reduced_rotor(machine: Machine, speed_hz: float) -> ReducedRotor:
     """The machine's rotor reduced as in :func:`oilwatch.models.system.factory.build_system`, at
     ``speed_hz``."""
     speed = require_positive("speed_hz", speed_hz, "Hz")
@@ -70,7 +69,8 @@ def reduced_rotor(machine: Machine, speed_hz: float, cutoff_hz: float = DEFAULT_
     dofs = [rotor.dof(node, axis) for node in rotor.bearing_nodes for axis in ("x", "y")]
     unit = rotor.unbalance_amplitude(1.0)
     loads = np.column_stack([rotor.gravity_force, unit.real, unit.imag])
-    t = craig_bampton(rotor.mass_matrix, rotor.stiffness_matrix, dofs, cutoff_hz, loads).basis
+    cutoff = machine.reduction_cutoff_hz
+    t = craig_bampton(rotor.mass_matrix, rotor.stiffness_matrix, dofs, cutoff, loads).basis
     omega = 2.0 * np.pi * speed
     moment = rotor.unbalance_moment_kg_m * omega**2 * np.exp(1j * rotor.unbalance_phase_rad)
     force = np.zeros(rotor.n_dof, dtype=complex)

@@ -4,6 +4,9 @@
 the Ocvirk short-bearing limit (:mod:`oilwatch.models.bearing.published_tables`), the tables and the plot of
 docs/validation-bearing.md. ``bearing-map``: the machine's dimensionless operating table against direct solves
 off its nodes (:mod:`oilwatch.models.bearing.operating_accuracy`), the figures of docs/bearings.md.
+``reduction``: the machine's reduced rotor model against all its dofs, as the flowrate its error is worth
+(:mod:`oilwatch.models.system.reduction_check`), at the machine file's ``reduced_model.cutoff_hz`` and
+higher ones.
 """
 
 from __future__ import annotations
@@ -17,7 +20,7 @@ from oilwatch.models.validation import InputError
 
 from .machine_option import add_machine_option, load_machine_option
 
-TARGETS = ("bearing-tables", "bearing-map")
+TARGETS = ("bearing-tables", "bearing-map", "reduction")
 
 MAP_POINTS = ((60.0, 0.07, 0.8), (60.0, 0.07, 1.0), (90.0, 0.12, 0.8), (90.0, 0.12, 1.0))
 """(speed [Hz], viscosity [Pa s], fraction of the flooded threshold q_t) where ``bearing-map`` compares: off
@@ -43,7 +46,8 @@ def register(subparsers) -> None:
     """Add the ``validate`` subcommand."""
     parser = subparsers.add_parser(
         "validate",
-        help="the bearing model against published tables and direct solves (the docs' validation figures)",
+        help="the bearing model against published tables and direct solves, the reduced rotor model against "
+        "the full one (the docs' validation figures)",
         description=__doc__.split("\n\n", 1)[1],
     )
     parser.add_argument("target", choices=TARGETS, metavar="TARGET", help=f"one of: {', '.join(TARGETS)}")
@@ -81,7 +85,43 @@ def run(args: argparse.Namespace) -> int:
         return bearing_tables(args)
     if args.mesh or args.plot:
         raise InputError("--mesh and --plot are bearing-tables'")
+    if args.target == "reduction":
+        if args.quick or args.near_threshold or args.one_sided or args.coefficients:
+            raise InputError("--quick, --near-threshold, --one-sided and --coefficients are bearing-map's")
+        return reduction(args)
     return bearing_map(args)
+
+
+REDUCTION_CUTOFFS_HZ = (500.0, 700.0, 1000.0, 2000.0)
+"""Cutoffs ``reduction`` compares beside the machine file's."""
+
+
+def reduction(args: argparse.Namespace) -> int:
+    """Print the reduced model's flow-equivalent error per cutoff and truth point (markdown table)."""
+    from oilwatch.models.system.factory import build_system
+    from oilwatch.models.system.reduction_check import reduction_flow_bias
+
+    machine = load_machine_option(args)
+    full = build_system(machine, reduced=False)
+    own = machine.reduction_cutoff_hz
+    print(
+        f"reduced model against all {full.n_coordinates} coordinates; the machine file's cutoff: {own:g} Hz"
+    )
+    print("flow-equivalent error with probe offsets and unbalance free [% of nominal], bearing 1 / 2\n")
+    print(
+        "| cutoff [Hz] | coordinates | flowrates % | 1x error, worst probe [um] "
+        "| 1x per 1 % flow, least [um] | flow error % |"
+    )
+    print("|---|---|---|---|---|---|")
+    for cutoff in sorted({own, *REDUCTION_CUTOFFS_HZ}):
+        for e in reduction_flow_bias(machine, cutoff, full=full):
+            mark = " (file)" if cutoff == own else ""
+            print(
+                f"| {cutoff:g}{mark} | {e.n_coordinates} | {e.flowrates_pct[0]:g}/{e.flowrates_pct[1]:g} "
+                f"| {e.orbit_error_um.max():.4f} | {e.orbit_sensitivity_um.min():.3f} "
+                f"| {e.flow_bias_pct[0]:+.3f} / {e.flow_bias_pct[1]:+.3f} |"
+            )
+    return 0
 
 
 def bearing_tables(args: argparse.Namespace) -> int:
