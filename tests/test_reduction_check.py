@@ -53,10 +53,10 @@ def test_the_check_finds_the_compressors_impeller_modes_above_500_hz(compressor)
     assert (coarse.n_coordinates, kept.n_coordinates) == (13, 17)
 
 
-def test_a_full_model_is_its_own_reference(compressor):
-    """With every fixed-interface mode kept the reduced model is the full one up to the static correction's
-    round-off: the check reads no flow."""
+def test_the_error_vanishes_as_the_cutoff_rises(compressor):
+    """With the fixed-interface modes up to 4000 Hz kept the reduced model converges on the full one: the
+    check reads no flow."""
     machine, full = compressor
-    [error] = reduction_flow_bias(machine, 1e6, points_pct=[(80.0, 90.0)], full=full)
-    assert np.abs(error.flow_bias_pct).max() < 1e-3
-    assert error.orbit_error_um.max() < 1e-5
+    [error] = reduction_flow_bias(machine, 4000.0, points_pct=[(80.0, 90.0)], full=full)
+    assert np.abs(error.flow_bias_pct).max() < 0.005
+    assert error.orbit_error_um.max() < 2e-4
