@@ -115,6 +115,19 @@ class InformationFloor:
     -0.34 / +13.63 %: along the nearly unobservable direction any change of the gain moves the end point
     by several %, and none of it towards the truth.
 
+    Slow-roll compensation (``config.runout``) subtracts 1x vectors known only to the fit's std s per
+    component. That residual turns with the rotor like the 1x orbit, so it does not average out with the
+    samples as white noise does: the filter reads it as flow, unbalance and offsets. The floor carries the
+    bias it causes as a "consider" covariance (Schmidt; Crassidis & Junkins 2012, *Optimal Estimation of
+    Dynamic Systems*, sec. 2.6): the response of an estimate to a constant error delta in the 1x
+    observations, ``b = S delta``, follows each update as the information filter's mean does
+    (``S+ = P+ (P-^-1 S + I_k)``, ``I_k`` the update's information per unit observation), and its
+    covariance ``S diag(s^2) S^T`` adds to the bound's. The estimator it follows is the bound's with the
+    viscosity factors held: the filter's shadow Jacobian keeps the factors off the nearly unobservable
+    direction, and with them free the term claimed 4-5 times the spread the filter shows
+    (``tests/test_slow_roll_consider.py``, by direct simulation). Each 0.01 um of s is worth about 0.4 % of
+    flow on the bundled turbine; without slow-roll vectors the term is absent and the floor is the bound.
+
     The work of an update is spread over :data:`STAGES` steps, so that no step pays for all of it: at the
     step an update is due (:meth:`due`) the estimates and the operating point are taken (:meth:`begin`),
     and that step and the next ones each evaluate half of one response (:meth:`work`); the last applies it,
@@ -159,6 +172,17 @@ class InformationFloor:
         c = self._columns
         self._prior = np.diag(prior[c] ** 2)
         self._walk = np.diag(walk[c] ** 2) * self._every * self._dt
+        # the slow-roll fit's variance per observation row (static rows 0:4, the 1x parts 4:12): the same
+        # std for a probe's real and imaginary parts; None without slow-roll vectors
+        runout = config.runout
+        once = None if runout is None else np.asarray(runout.once_std_m, dtype=float) ** 2
+        self._residual_variance = None if once is None or not once.any() else np.r_[np.zeros(4), once, once]
+        # the consider term's estimator: the bound's with the viscosity factors held (class docstring)
+        self._held = [i for i, column in enumerate(c) if column not in (2, 3)]
+        self._held_prior = self._prior[np.ix_(self._held, self._held)]
+        self._held_walk = self._walk[np.ix_(self._held, self._held)]
+        self._held_covariance = self._held_prior.copy()
+        self._bias_gain = np.zeros((len(self._held), 12))  # S: its bias per unit 1x residual
         # the update under way: stage (-1: none), then its inputs (flowrates, factors, unbalance, speed,
         # viscosity) and the responses evaluated so far
         self._pending = np.full(1 + _INPUTS + POINTS * 12, np.nan)
@@ -169,6 +193,8 @@ class InformationFloor:
     def reset(self) -> None:
         """Back to the prior (the filter's reset or the settling start's restart)."""
         self.covariance = self._prior.copy()
+        self._held_covariance = self._held_prior.copy()
+        self._bias_gain[:] = 0.0
         self.std = self.std_m3_s()
         self._since = 0
         self._pending[:] = np.nan
@@ -183,24 +209,35 @@ class InformationFloor:
         return True
 
     def get_state(self) -> np.ndarray:
-        """The bound's covariance, step counter and the update under way, flattened (a copy, for the
-        filter's state)."""
-        return np.r_[self.covariance.ravel(), float(self._since), self._pending, self._block.ravel()]
+        """The bound's covariance, step counter, the update under way and the slow-roll bias gain, flattened
+        (a copy, for the filter's state)."""
+        head = np.r_[self.covariance.ravel(), float(self._since), self._pending]
+        return np.r_[head, self._block.ravel(), self._held_covariance.ravel(), self._bias_gain.ravel()]
 
     def set_state(self, state) -> None:
         """Restore :meth:`get_state`."""
         values = np.asarray(state, dtype=float)
         size = self.covariance.size
         self.covariance = values[:size].reshape(self.covariance.shape).copy()
-        self.std = self.std_m3_s()
         self._since = int(values[size])
         pending = self._pending.size
         self._pending[:] = values[size + 1 : size + 1 + pending]
-        self._block.ravel()[:] = values[size + 1 + pending :]
+        block = size + 1 + pending
+        held = block + self._block.size
+        self._block.ravel()[:] = values[block:held]
+        gain = held + self._held_covariance.size
+        self._held_covariance = values[held:gain].reshape(self._held_covariance.shape).copy()
+        self._bias_gain.ravel()[:] = values[gain:]
+        self.std = self.std_m3_s()
 
     def std_m3_s(self) -> np.ndarray:
-        """(2,) the bound on the flowrates' std now [m^3/s]."""
-        return np.sqrt(np.diag(self.covariance)[:2])
+        """(2,) the bound on the flowrates' std now [m^3/s], with the slow-roll residual's bias (class
+        docstring)."""
+        variance = np.diag(self.covariance)[:2]
+        if self._residual_variance is not None:
+            gain = self._bias_gain[:2]
+            variance = variance + np.einsum("ij,j,ij->i", gain, self._residual_variance, gain)
+        return np.sqrt(variance)
 
     def begin(self, flowrate_m3_s, factors, unbalance) -> None:
         """Start an update at these estimates and the model's operating point now (:meth:`work` does it; the
@@ -246,7 +283,14 @@ class InformationFloor:
         jacobian[:, :2] /= q  # per m^3/s
         weights = np.r_[np.ones(4), np.full(8, 0.5)]
         information = self._every * (jacobian.T * weights) @ jacobian / self._noise**2
-        self.covariance = np.linalg.inv(np.linalg.inv(self.covariance + self._walk) + information)
+        predicted = np.linalg.inv(self.covariance + self._walk)
+        self.covariance = np.linalg.inv(predicted + information)
+        if self._residual_variance is not None:
+            held = jacobian[:, self._held]
+            per_observation = self._every * (held.T * weights) / self._noise**2
+            predicted = np.linalg.inv(self._held_covariance + self._held_walk)
+            self._held_covariance = np.linalg.inv(predicted + per_observation @ held)
+            self._bias_gain = self._held_covariance @ (predicted @ self._bias_gain + per_observation)
         self.std = self.std_m3_s()
 
 
