@@ -254,8 +254,16 @@ class OilFlowEKF:
         # step has one signature (a strided view of the work array compiled it a second time)
         self._no_state_jacobian = np.zeros((n, n))
         self._shadow = ShadowJacobian(n, self._n_trailing) if free and cfg.nuisance_shadow else None
-        floor = self._shadow is not None and cfg.nuisance_information_floor and hasattr(model, "maps")
-        self._floor = InformationFloor(model, cfg, n, self._n_offsets, self._n_unbalance) if floor else None
+        floor = cfg.nuisance_information_floor and hasattr(model, "maps")
+        floor = floor and cfg.flowrate_process_std_m3_s > 0.0
+        runout = cfg.runout is not None and any(cfg.runout.once_std_m)
+        bound = floor and self._shadow is not None
+        consider = floor and runout  # the slow-roll residual's consider term alone, with a baseline
+        self._floor = (
+            InformationFloor(model, cfg, n, self._n_offsets, self._n_unbalance, bound=bound)
+            if bound or consider
+            else None
+        )
         self.reset()
 
     def reset(self) -> None:
@@ -403,9 +411,10 @@ class OilFlowEKF:
                 self._floor.begin(self._flowrate_si(), self.viscosity_factor, unbalance)
             self._floor.work()  # one stage of an update under way
             reported = self._report[REPORT_STD : REPORT_STD + 2]
-            np.maximum(reported, self._floor.std, out=reported)
+            reported[:] = self._floor.published_std(reported)
         if self._floor is not None and step >= self._settling:  # the alarm's floor from the next step
-            self._summary_settings[SUMMARY_STD_FLOOR : SUMMARY_STD_FLOOR + 2] = self._floor.std
+            floor = self._floor.std if self._floor.bound else self._report[REPORT_STD : REPORT_STD + 2]
+            self._summary_settings[SUMMARY_STD_FLOOR : SUMMARY_STD_FLOOR + 2] = floor
 
     def _compiled_prediction(self, displacement: np.ndarray, step: int) -> bool:
         """The prediction to sample ``step`` (> 0) and its update as one compiled call on the operating model
@@ -502,9 +511,8 @@ class OilFlowEKF:
         if self._floor is not None and "nuisance_floor" in state:
             self._floor.set_state(state["nuisance_floor"])
             applied = int(self._counters[COUNT_STEP]) > self._settling
-            self._summary_settings[SUMMARY_STD_FLOOR : SUMMARY_STD_FLOOR + 2] = (
-                self._floor.std if applied else 0.0
-            )
+            floor = self._floor.std if self._floor.bound else self._report[REPORT_STD : REPORT_STD + 2]
+            self._summary_settings[SUMMARY_STD_FLOOR : SUMMARY_STD_FLOOR + 2] = floor if applied else 0.0
 
     @property
     def flowrate_m3_s(self) -> np.ndarray:

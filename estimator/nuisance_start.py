@@ -127,6 +127,9 @@ class InformationFloor:
     direction, and with them free the term claimed 4-5 times the spread the filter shows
     (``tests/test_slow_roll_consider.py``, by direct simulation). Each 0.01 um of s is worth about 0.4 % of
     flow on the bundled turbine; without slow-roll vectors the term is absent and the floor is the bound.
+    Where a commissioning baseline primed the nuisances there is no bound to floor (``bound`` False: the
+    filter's std is the record's), and the floor is the consider term alone, from the baseline's prior,
+    added to the filter's std in quadrature (:meth:`published_std`).
 
     The work of an update is spread over :data:`STAGES` steps, so that no step pays for all of it: at the
     step an update is due (:meth:`due`) the estimates and the operating point are taken (:meth:`begin`),
@@ -139,7 +142,14 @@ class InformationFloor:
     """
 
     def __init__(
-        self, model, config, n: int, n_offsets: int, n_unbalance: int, update_s: float = UPDATE_S
+        self,
+        model,
+        config,
+        n: int,
+        n_offsets: int,
+        n_unbalance: int,
+        update_s: float = UPDATE_S,
+        bound: bool = True,
     ) -> None:
         from oilwatch.models.system.trajectory_bound import parameter_columns
 
@@ -177,9 +187,19 @@ class InformationFloor:
         runout = config.runout
         once = None if runout is None else np.asarray(runout.once_std_m, dtype=float) ** 2
         self._residual_variance = None if once is None or not once.any() else np.r_[np.zeros(4), once, once]
-        # the consider term's estimator: the bound's with the viscosity factors held (class docstring)
+        # the consider term's estimator: the bound's with the viscosity factors held (class docstring),
+        # from the commissioning baseline's prior where one primed the nuisances
+        self.bound = bool(bound)
+        """Whether :attr:`std` holds the bound (else only the consider term: :meth:`published_std`)."""
         self._held = [i for i, column in enumerate(c) if column not in (2, 3)]
-        self._held_prior = self._prior[np.ix_(self._held, self._held)]
+        held_prior = prior.copy()
+        baseline = config.offset_baseline
+        if baseline is not None:
+            held_prior[6:10] = baseline.offset_prior_std_m() * 1e6
+            if baseline.unbalance_std is not None:
+                held_prior[4:6] = baseline.unbalance_std
+        held_columns = [c[i] for i in self._held]
+        self._held_prior = np.diag(held_prior[held_columns] ** 2)
         self._held_walk = self._walk[np.ix_(self._held, self._held)]
         self._held_covariance = self._held_prior.copy()
         self._bias_gain = np.zeros((len(self._held), 12))  # S: its bias per unit 1x residual
@@ -230,10 +250,17 @@ class InformationFloor:
         self._bias_gain.ravel()[:] = values[gain:]
         self.std = self.std_m3_s()
 
+    def published_std(self, filter_std_m3_s: np.ndarray) -> np.ndarray:
+        """(2,) the std to publish beside the filter's own ``filter_std_m3_s`` [m^3/s]: the larger of the two
+        with the bound; the filter's and the consider term in quadrature without it."""
+        if self.bound:
+            return np.maximum(filter_std_m3_s, self.std)
+        return np.hypot(filter_std_m3_s, self.std)
+
     def std_m3_s(self) -> np.ndarray:
-        """(2,) the bound on the flowrates' std now [m^3/s], with the slow-roll residual's bias (class
-        docstring)."""
-        variance = np.diag(self.covariance)[:2]
+        """(2,) the bound on the flowrates' std now [m^3/s] (without :attr:`bound`: zero), with the slow-roll
+        residual's bias (class docstring)."""
+        variance = np.diag(self.covariance)[:2] if self.bound else np.zeros(2)
         if self._residual_variance is not None:
             gain = self._bias_gain[:2]
             variance = variance + np.einsum("ij,j,ij->i", gain, self._residual_variance, gain)
