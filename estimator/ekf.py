@@ -413,8 +413,12 @@ class OilFlowEKF:
             reported = self._report[REPORT_STD : REPORT_STD + 2]
             reported[:] = self._floor.published_std(reported)
         if self._floor is not None and step >= self._settling:  # the alarm's floor from the next step
-            floor = self._floor.std if self._floor.bound else self._report[REPORT_STD : REPORT_STD + 2]
-            self._summary_settings[SUMMARY_STD_FLOOR : SUMMARY_STD_FLOOR + 2] = floor
+            self._summary_settings[SUMMARY_STD_FLOOR : SUMMARY_STD_FLOOR + 2] = self._alarm_std_floor()
+
+    def _alarm_std_floor(self) -> np.ndarray:
+        """(2,) the std the alarm judges at least: the bound with the consider term where the floor holds the
+        bound, else the published std (the filter's and the consider term in quadrature)."""
+        return self._floor.std if self._floor.bound else self._report[REPORT_STD : REPORT_STD + 2]
 
     def _compiled_prediction(self, displacement: np.ndarray, step: int) -> bool:
         """The prediction to sample ``step`` (> 0) and its update as one compiled call on the operating model
@@ -511,8 +515,8 @@ class OilFlowEKF:
         if self._floor is not None and "nuisance_floor" in state:
             self._floor.set_state(state["nuisance_floor"])
             applied = int(self._counters[COUNT_STEP]) > self._settling
-            floor = self._floor.std if self._floor.bound else self._report[REPORT_STD : REPORT_STD + 2]
-            self._summary_settings[SUMMARY_STD_FLOOR : SUMMARY_STD_FLOOR + 2] = floor if applied else 0.0
+            floor = self._alarm_std_floor() if applied else 0.0
+            self._summary_settings[SUMMARY_STD_FLOOR : SUMMARY_STD_FLOOR + 2] = floor
 
     @property
     def flowrate_m3_s(self) -> np.ndarray:

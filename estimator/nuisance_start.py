@@ -315,9 +315,9 @@ class InformationFloor:
         if self._residual_variance is not None:
             held = jacobian[:, self._held]
             per_observation = self._every * (held.T * weights) / self._noise**2
-            predicted = np.linalg.inv(self._held_covariance + self._held_walk)
-            self._held_covariance = np.linalg.inv(predicted + per_observation @ held)
-            self._bias_gain = self._held_covariance @ (predicted @ self._bias_gain + per_observation)
+            held_predicted = np.linalg.inv(self._held_covariance + self._held_walk)
+            self._held_covariance = np.linalg.inv(held_predicted + per_observation @ held)
+            self._bias_gain = self._held_covariance @ (held_predicted @ self._bias_gain + per_observation)
         self.std = self.std_m3_s()
 
 

@@ -24,7 +24,7 @@ from ..cache import user_cache_dir
 from ..machine import Machine, bundled_name, is_default_machine, load_machine
 from ..rotor.assembly import Rotor
 from ..validation import InputError, require_positive
-from .reduction import craig_bampton
+from .reduction import ReductionBasis, craig_bampton
 from .rotor_bearing import RotorBearingSystem
 from .speed_sweep import SpeedSweep
 
@@ -191,13 +191,7 @@ def build_system(
     speed = machine.nominal_speed_hz if speed_hz is None else require_positive("speed_hz", speed_hz, "Hz")
     rotor = Rotor.from_machine(machine)
     tables, synchronous = _system_tables(machine, rotor, speed, table_path, coefficients)
-    basis = None
-    if reduced:
-        bearing_dofs = [rotor.dof(node, axis) for node in rotor.bearing_nodes for axis in ("x", "y")]
-        unit_unbalance = rotor.unbalance_amplitude(1.0)
-        loads = np.column_stack([rotor.gravity_force, unit_unbalance.real, unit_unbalance.imag])
-        cutoff = machine.reduction_cutoff_hz if cutoff_hz is None else cutoff_hz
-        basis = craig_bampton(rotor.mass_matrix, rotor.stiffness_matrix, bearing_dofs, cutoff, loads)
+    basis = rotor_reduction(machine, rotor, cutoff_hz) if reduced else None
     return RotorBearingSystem(
         rotor,
         tables,
@@ -208,6 +202,17 @@ def build_system(
         machine.lubrication.nominal_flowrate_m3_s,
         synchronous,
     )
+
+
+def rotor_reduction(machine: Machine, rotor: Rotor, cutoff_hz: float | None = None) -> ReductionBasis:
+    """The Craig-Bampton basis of the machine's rotor: its bearing dofs, the fixed-interface modes below
+    ``cutoff_hz`` (default the machine file's ``reduced_model.cutoff_hz``), the static correction for gravity
+    and the unbalance force."""
+    bearing_dofs = [rotor.dof(node, axis) for node in rotor.bearing_nodes for axis in ("x", "y")]
+    unit_unbalance = rotor.unbalance_amplitude(1.0)
+    loads = np.column_stack([rotor.gravity_force, unit_unbalance.real, unit_unbalance.imag])
+    cutoff = machine.reduction_cutoff_hz if cutoff_hz is None else cutoff_hz
+    return craig_bampton(rotor.mass_matrix, rotor.stiffness_matrix, bearing_dofs, cutoff, loads)
 
 
 def table_kinds(machine: Machine, coefficients: str | None = None) -> tuple[str, ...]:

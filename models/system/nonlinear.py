@@ -32,7 +32,7 @@ from ..bearing.transient import BDF, TransientFilm, TransientFilmState
 from ..machine import Machine
 from ..rotor.assembly import Rotor
 from ..validation import InputError, require_positive
-from .reduction import craig_bampton
+from .factory import rotor_reduction
 
 BETA, GAMMA = 0.25, 0.5
 LOOSE_TOLERANCE_M = 1e-9
@@ -66,11 +66,7 @@ def reduced_rotor(machine: Machine, speed_hz: float) -> ReducedRotor:
     ``speed_hz``."""
     speed = require_positive("speed_hz", speed_hz, "Hz")
     rotor = Rotor.from_machine(machine)
-    dofs = [rotor.dof(node, axis) for node in rotor.bearing_nodes for axis in ("x", "y")]
-    unit = rotor.unbalance_amplitude(1.0)
-    loads = np.column_stack([rotor.gravity_force, unit.real, unit.imag])
-    cutoff = machine.reduction_cutoff_hz
-    t = craig_bampton(rotor.mass_matrix, rotor.stiffness_matrix, dofs, cutoff, loads).basis
+    t = rotor_reduction(machine, rotor).basis
     omega = 2.0 * np.pi * speed
     moment = rotor.unbalance_moment_kg_m * omega**2 * np.exp(1j * rotor.unbalance_phase_rad)
     force = np.zeros(rotor.n_dof, dtype=complex)
