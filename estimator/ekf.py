@@ -254,11 +254,13 @@ class OilFlowEKF:
         # step has one signature (a strided view of the work array compiled it a second time)
         self._no_state_jacobian = np.zeros((n, n))
         self._shadow = ShadowJacobian(n, self._n_trailing) if free and cfg.nuisance_shadow else None
-        floor = cfg.nuisance_information_floor and hasattr(model, "maps")
+        floor = cfg.nuisance_information_floor and getattr(model, "maps", None) is not None
         floor = floor and cfg.flowrate_process_std_m3_s > 0.0
         runout = cfg.runout is not None and any(cfg.runout.once_std_m)
         bound = floor and self._shadow is not None
-        consider = floor and runout  # the slow-roll residual's consider term alone, with a baseline
+        # the considered errors' term alone (a baseline, or the grid model): the slow-roll fit's residual
+        # and the probes' scale factors
+        consider = floor and (runout or cfg.probe_scale_factor_std > 0.0)
         self._floor = (
             InformationFloor(model, cfg, n, self._n_offsets, self._n_unbalance, bound=bound)
             if bound or consider

@@ -121,6 +121,10 @@ class EKFConfig:
             file's (initial estimate 1 + 0i); 0 keeps the machine file's unbalance exact, > 0 adds two
             unbalance states (a random walk of :data:`UNBALANCE_RANDOM_WALK_SQRT_S` per sqrt(s), plus
             :data:`UNBALANCE_INCONSISTENT_STD` per step while ``model_consistent`` is false).
+        probe_scale_factor_std : each probe's scale-factor error std relative to its nominal (the machine
+            file's ``[probes] scale_factor_tolerance_pct`` / sqrt(3) for a real machine; 0: calibrated). Not a
+            state: its effect on the flowrates is added to their published std as a consider term
+            (:class:`oilwatch.estimator.nuisance_start.InformationFloor`).
         offset_baseline : an :class:`OffsetBaseline` from a commissioning record: the offsets' initial
             estimate and prior std (it adds the offset states even when offset_prior_std_m is 0).
         runout : the probes' slow-roll (runout) vectors, :class:`oilwatch.estimator.runout.SlowRollVectors`
@@ -172,6 +176,7 @@ class EKFConfig:
     probe_angle_deg: float = 0.0
     offset_prior_std_m: float = 0.0
     offset_random_walk_m_sqrt_s: float = 0.2e-6
+    probe_scale_factor_std: float = 0.0
     offset_baseline: OffsetBaseline | None = None
     runout: SlowRollVectors | None = None
     viscosity_factor_prior_std: float = 0.0
@@ -222,6 +227,7 @@ class EKFConfig:
         ):
             require_non_negative(f"EKFConfig.{name}", getattr(self, name))
         require_in_range("EKFConfig.viscosity_factor_prior_std", self.viscosity_factor_prior_std, 0.0, 0.5)
+        require_in_range("EKFConfig.probe_scale_factor_std", self.probe_scale_factor_std, 0.0, 0.3)
         if self.runout is not None and not isinstance(self.runout, SlowRollVectors):
             raise InputError(f"EKFConfig.runout must be SlowRollVectors, got {type(self.runout)!r}")
         if self.offset_baseline is not None and not isinstance(self.offset_baseline, OffsetBaseline):
@@ -317,8 +323,10 @@ class Preset:
     """A named starting configuration (:data:`PRESETS`).
 
     name, description : as the user sees them. fields : :class:`EKFConfig` fields over
-    :meth:`EKFConfig.recommended` (as (name, value) pairs). offsets_from_machine : the probe offsets are
-    estimated with the machine file's ``[probes]`` prior (False: known to be zero). follow_operating_point :
+    :meth:`EKFConfig.recommended` (as (name, value) pairs). offsets_from_machine : the probes as installed:
+    their offsets are estimated with the machine file's ``[probes]`` prior and their scale factors known to
+    its ``scale_factor_tolerance_pct`` (False: calibrated probes, offsets zero and scale factors exact).
+    follow_operating_point :
     the estimator's model follows the measured speed and oil temperature on the dimensionless bearing tables
     (the estimator FMU's ``bearing_table = 1``; False: the flowrate grid at one speed).
     """

@@ -36,6 +36,7 @@ import math
 import numpy as np
 
 from .ekf_config import UNBALANCE_RANDOM_WALK_SQRT_S, VISCOSITY_FACTOR_RANDOM_WALK_SQRT_S
+from .measurement import probe_rotation
 
 
 def settling_steps(model, flowrate_m3_s, time_constants: float) -> int:
@@ -126,10 +127,23 @@ class InformationFloor:
     viscosity factors held: the filter's shadow Jacobian keeps the factors off the nearly unobservable
     direction, and with them free the term claimed 4-5 times the spread the filter shows
     (``tests/test_slow_roll_consider.py``, by direct simulation). Each 0.01 um of s is worth about 0.4 % of
-    flow on the bundled turbine; without slow-roll vectors the term is absent and the floor is the bound.
+    flow on the bundled turbine; without slow-roll vectors that part is absent.
+
+    The probes' scale factors (``config.probe_scale_factor_std``: API 670 allows +-5 % per probe, cable and
+    driver set) are a second considered error: probe i reads its displacement times ``1 + delta_i``, an
+    error ``delta_i`` times the static position and the 1x orbit it reads (along the probe's axis), which
+    the filter reads as flow, unbalance and offsets like any other 1x error. Its columns of ``S`` follow
+    the same recursion with the observation error per unit ``delta`` (:func:`scale_columns`) at each
+    update's point. A commissioning baseline taken with the same probes learnt its offsets and unbalance
+    from readings scaled the same way: the record's estimator starts with their bias, the least-squares
+    projection of the baseline point's scale error on those nuisances, so that only what changed since
+    the baseline is read as flow.
+
     Where a commissioning baseline primed the nuisances there is no bound to floor (``bound`` False: the
     filter's std is the record's), and the floor is the consider term alone, from the baseline's prior,
-    added to the filter's std in quadrature (:meth:`published_std`).
+    added to the filter's std in quadrature (:meth:`published_std`). On the model on the flowrate grid
+    (the paper's, at one speed) the exact maps are the grid's own (``GridAugmentedModel.maps``) and the floor
+    is the consider term alone too: that model has no viscosity factors, so no bound.
 
     The work of an update is spread over :data:`STAGES` steps, so that no step pays for all of it: at the
     step an update is due (:meth:`due`) the estimates and the operating point are taken (:meth:`begin`),
@@ -182,11 +196,15 @@ class InformationFloor:
         c = self._columns
         self._prior = np.diag(prior[c] ** 2)
         self._walk = np.diag(walk[c] ** 2) * self._every * self._dt
-        # the slow-roll fit's variance per observation row (static rows 0:4, the 1x parts 4:12): the same
-        # std for a probe's real and imaginary parts; None without slow-roll vectors
+        # the considered errors' variances (class docstring): the slow-roll fit's per observation row (static
+        # rows 0:4, the 1x parts 4:12, the same std for a probe's real and imaginary parts), then each
+        # probe's scale factor
         runout = config.runout
-        once = None if runout is None else np.asarray(runout.once_std_m, dtype=float) ** 2
-        self._residual_variance = None if once is None or not once.any() else np.r_[np.zeros(4), once, once]
+        once = np.zeros(4) if runout is None else np.asarray(runout.once_std_m, dtype=float) ** 2
+        scale = np.full(4, float(config.probe_scale_factor_std) ** 2)
+        self._consider_variance = np.r_[np.zeros(4), once, once, scale]
+        self._considered = bool(self._consider_variance.any())
+        self._rotation = probe_rotation(math.radians(config.probe_angle_deg))
         # the consider term's estimator: the bound's with the viscosity factors held (class docstring),
         # from the commissioning baseline's prior where one primed the nuisances
         self.bound = bool(bound)
@@ -202,7 +220,9 @@ class InformationFloor:
         self._held_prior = np.diag(held_prior[held_columns] ** 2)
         self._held_walk = self._walk[np.ix_(self._held, self._held)]
         self._held_covariance = self._held_prior.copy()
-        self._bias_gain = np.zeros((len(self._held), 12))  # S: its bias per unit 1x residual
+        # S: its bias per unit considered error, at the start the baseline's (class docstring)
+        self._initial_bias_gain = self._baseline_bias_gain(config, held_columns, q0)
+        self._bias_gain = self._initial_bias_gain.copy()
         # the update under way: stage (-1: none), then its inputs (flowrates, factors, unbalance, speed,
         # viscosity) and the responses evaluated so far
         self._pending = np.full(1 + _INPUTS + POINTS * 12, np.nan)
@@ -214,11 +234,40 @@ class InformationFloor:
         """Back to the prior (the filter's reset or the settling start's restart)."""
         self.covariance = self._prior.copy()
         self._held_covariance = self._held_prior.copy()
-        self._bias_gain[:] = 0.0
+        self._bias_gain[:] = self._initial_bias_gain
         self.std = self.std_m3_s()
         self._since = 0
         self._pending[:] = np.nan
         self._pending[0] = -1.0
+
+    def _baseline_bias_gain(self, config, held_columns: list[int], flowrate_m3_s) -> np.ndarray:
+        """(held, :data:`CONSIDERED`) the bias gain of the held estimator's prior: zero, but for the scale
+        factors' columns after a commissioning baseline, whose offsets and unbalance absorbed the
+        least-squares projection of the scale error of the baseline point's readings (class docstring)."""
+        gain = np.zeros((len(held_columns), CONSIDERED))
+        baseline = config.offset_baseline
+        if baseline is None or not self._consider_variance[12:].any():
+            return gain
+        from oilwatch.models.system.trajectory_bound import (
+            OperatingSegment,
+            map_response,
+            sensitivity_columns,
+        )
+
+        q = flowrate_m3_s if baseline.flowrates_m3_s is None else baseline.flowrates_m3_s
+        factors = (1.0, 1.0) if baseline.viscosity_factor is None else baseline.viscosity_factor
+        unbalance = 1.0 if baseline.unbalance is None else complex(*baseline.unbalance)
+        speed, viscosity = self._model.operating_point
+        segment = OperatingSegment(speed, viscosity, self._dt)
+        model = self._model
+        response = map_response(model.maps, model.output_matrix, self._dt, q, segment, factors, unbalance)
+        # the unbalance and offset columns need only the point's own response
+        columns = sensitivity_columns([response] * POINTS, unbalance)
+        nuisances = [i for i, column in enumerate(held_columns) if column >= 4]
+        root = np.sqrt(_ROW_WEIGHTS)[:, None]
+        design = root * columns[:, [held_columns[i] for i in nuisances]]
+        gain[nuisances, 12:] = np.linalg.lstsq(design, root * scale_columns(response, self._rotation))[0]
+        return gain
 
     def due(self) -> bool:
         """Count one step; True every ``update_s`` (then call :meth:`begin`)."""
@@ -229,8 +278,8 @@ class InformationFloor:
         return True
 
     def get_state(self) -> np.ndarray:
-        """The bound's covariance, step counter, the update under way and the slow-roll bias gain, flattened
-        (a copy, for the filter's state)."""
+        """The bound's covariance, step counter, the update under way and the considered errors' bias gain,
+        flattened (a copy, for the filter's state)."""
         head = np.r_[self.covariance.ravel(), float(self._since), self._pending]
         return np.r_[head, self._block.ravel(), self._held_covariance.ravel(), self._bias_gain.ravel()]
 
@@ -261,9 +310,9 @@ class InformationFloor:
         """(2,) the bound on the flowrates' std now [m^3/s] (without :attr:`bound`: zero), with the slow-roll
         residual's bias (class docstring)."""
         variance = np.diag(self.covariance)[:2] if self.bound else np.zeros(2)
-        if self._residual_variance is not None:
+        if self._considered:
             gain = self._bias_gain[:2]
-            variance = variance + np.einsum("ij,j,ij->i", gain, self._residual_variance, gain)
+            variance = variance + np.einsum("ij,j,ij->i", gain, self._consider_variance, gain)
         return np.sqrt(variance)
 
     def begin(self, flowrate_m3_s, factors, unbalance) -> None:
@@ -308,19 +357,36 @@ class InformationFloor:
         pending[0] = -1.0
         jacobian = sensitivity_columns(list(responses), unbalance)[:, self._columns]
         jacobian[:, :2] /= q  # per m^3/s
-        weights = np.r_[np.ones(4), np.full(8, 0.5)]
-        information = self._every * (jacobian.T * weights) @ jacobian / self._noise**2
+        information = self._every * (jacobian.T * _ROW_WEIGHTS) @ jacobian / self._noise**2
         predicted = np.linalg.inv(self.covariance + self._walk)
         self.covariance = np.linalg.inv(predicted + information)
-        if self._residual_variance is not None:
+        if self._considered:
             held = jacobian[:, self._held]
-            per_observation = self._every * (held.T * weights) / self._noise**2
+            per_observation = self._every * (held.T * _ROW_WEIGHTS) / self._noise**2
             held_predicted = np.linalg.inv(self._held_covariance + self._held_walk)
             self._held_covariance = np.linalg.inv(held_predicted + per_observation @ held)
-            self._bias_gain = self._held_covariance @ (held_predicted @ self._bias_gain + per_observation)
+            errors = np.hstack([np.eye(12), scale_columns(responses[0], self._rotation)])
+            self._bias_gain = self._held_covariance @ (
+                held_predicted @ self._bias_gain + per_observation @ errors
+            )
         self.std = self.std_m3_s()
 
 
+def scale_columns(response: np.ndarray, rotation: np.ndarray) -> np.ndarray:
+    """(12, 4) the observation error per unit scale-factor error of each probe: probe i reads its displacement
+    (the ``rotation``'s row i of the bearing's x, y) times ``1 + delta_i``, in the static position and the
+    1x orbit's parts of ``response`` (12,), expressed back in the model's axes."""
+    columns = np.zeros((12, 4))
+    for rows in (slice(0, 4), slice(4, 8), slice(8, 12)):
+        columns[rows] = rotation.T * (rotation @ response[rows])[None, :]
+    return columns
+
+
+CONSIDERED = 16
+"""The considered errors of :class:`InformationFloor`: one per observation row (the slow-roll fit's), one
+per probe's scale factor."""
+_ROW_WEIGHTS = np.r_[np.ones(4), np.full(8, 0.5)]
+"""The information per sample of the static rows and of each 1x part (the mean of cos^2 over a turn)."""
 _INPUTS = 8
 """The inputs an update takes (:meth:`InformationFloor.begin`): two flowrates, two factors, the unbalance's
 two parts, the speed and the oil viscosity."""

@@ -150,7 +150,8 @@ def estimator_config(
     baseline_runout,
 ) -> EKFConfig:
     """The estimator's configuration from the parameters (field units -> SI) and the machine file's
-    ``[probes]`` (mounting angle and offset prior for the sentinels; the offsets' drift, always). The
+    ``[probes]`` (mounting angle and offset prior for the sentinels; the offsets' drift, always; the scale
+    factors' tolerance under a preset with the probes as installed). The
     runout vectors the filter subtracts at the model's rotor angle are the baseline's when it has them,
     else those of the ``[probes]`` ``runout_*`` keys (as ``oilwatch estimate`` chooses)."""
     omega = 2.0 * math.pi * speed_hz
@@ -167,6 +168,9 @@ def estimator_config(
         probes.offset_prior_std_m,
         probe_angle_deg=probe_angle_deg(slave, machine),
         offset_random_walk_m_sqrt_s=probes.offset_random_walk_m_sqrt_s,
+        probe_scale_factor_std=(
+            probes.scale_factor_std if preset_named(slave.preset).offsets_from_machine else 0.0
+        ),
         velocity_noise=VELOCITY_MODES[slave.velocity_channels],
         velocity_process_std_m_s=velocity_std,
         q_initial_m3_s=initial_ml_min * ML_MIN,

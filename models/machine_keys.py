@@ -291,6 +291,14 @@ MACHINE_KEYS: tuple[MachineKey, ...] = (
         "0.1",
     ),
     _key(
+        "probes",
+        "scale_factor_tolerance_pct",
+        "0..50",
+        "Tolerance of each probe's scale factor (API 670: +-5 % per probe, cable and driver set); the "
+        "estimator's published std includes what it can cost in flow (0: probes calibrated as a set).",
+        "5",
+    ),
+    _key(
         "probes.<probe>", "column", "text", "Record column of the probe.", "x1_um ... (x1_v ... with unit V)"
     ),
     _key(

@@ -9,6 +9,7 @@ Read from :attr:`oilwatch.models.machine.Machine.raw` (the section is optional; 
     offset_prior_std_um = 25.0       # std of each probe's zero offset before any baseline
     offset_random_walk_um_sqrt_s = 0.2   # drift of the offsets within a run [um / sqrt(s)]
     offset_drift_um_per_day = 0.1    # bound on the zero drift since a commissioning baseline [um / day]
+    scale_factor_tolerance_pct = 5.0 # each probe's scale factor within +- this of its nominal (API 670)
     # x1.runout_1x_um = 2.0          # a probe's slow-roll (runout) vectors when known from the field's own
     # x1.runout_1x_phase_deg = 30.0  # slow-roll measurement: 1x and 2x amplitude, phase from the keyphasor
     # x1.runout_1x_std_um = 0.05     # and each component's std (keys runout_{1x,2x}_{um,phase_deg,std_um})
@@ -29,6 +30,13 @@ bound, 0.1 um/day: API 670 allows a probe, cable and driver set a deviation from
 25 um x 20/45 / 90 days = 0.12 um/day; a baseline a month old is then trusted to 3 um (``oilwatch
 robustness``'s offsets-step case).
 
+The scale factors: API 670 allows a probe, cable and driver set +-5 % on its scale factor (nominally
+7.87 V/mm), and an installation whose sets were not calibrated together reads every displacement that much
+off. ``scale_factor_tolerance_pct`` is that tolerance; read as a uniform error within it (the GUM's type-B
+reading of a tolerance), each probe's scale factor has the std tolerance / sqrt(3)
+(:attr:`Probes.scale_factor_std`, 2.9 % by default), which the estimator carries into its published std
+(``EKFConfig.probe_scale_factor_std``). 0: probes calibrated as a set.
+
 Runout: :attr:`Probes.runout` holds the per-probe ``runout_*`` keys as the lists a baseline file stores
 (``oilwatch.estimator.runout.SlowRollVectors.from_document`` reads it:
 :func:`oilwatch.estimator.runout.runout_of_probes`); None when no probe has one. A probe's missing keys are 0.
@@ -45,7 +53,12 @@ from .validation import InputError, require_in_range
 LAYOUTS = {"xy": (0.0, 90.0), "api670": (45.0, 135.0)}
 """Mounting angles (X probe, Y probe) [deg] of the named layouts, counter-clockwise from the model's +x."""
 
-DEFAULTS = {"offset_prior_std_um": 25.0, "offset_random_walk_um_sqrt_s": 0.2, "offset_drift_um_per_day": 0.1}
+DEFAULTS = {
+    "offset_prior_std_um": 25.0,
+    "offset_random_walk_um_sqrt_s": 0.2,
+    "offset_drift_um_per_day": 0.1,
+    "scale_factor_tolerance_pct": 5.0,
+}
 
 RUNOUT_KEYS = {
     "runout_1x_um": (0.0, 100.0),
@@ -61,13 +74,15 @@ RUNOUT_KEYS = {
 @dataclass(frozen=True)
 class Probes:
     """SI values of the ``[probes]`` section: angle_deg (the X probes' angle) [deg], offset_prior_std_m [m],
-    offset_random_walk_m_sqrt_s [m / sqrt(s)], offset_drift_m_per_day [m / day]; runout: the per-probe
-    runout keys as {key: [x1, y1, x2, y2]} in the field's units, or None (module docstring)."""
+    offset_random_walk_m_sqrt_s [m / sqrt(s)], offset_drift_m_per_day [m / day]; scale_factor_std: each
+    probe's scale-factor std relative to its nominal [-] (module docstring); runout: the per-probe runout
+    keys as {key: [x1, y1, x2, y2]} in the field's units, or None (module docstring)."""
 
     angle_deg: float
     offset_prior_std_m: float
     offset_random_walk_m_sqrt_s: float
     offset_drift_m_per_day: float = 0.0
+    scale_factor_std: float = 0.0
     runout: dict | None = None
 
 
@@ -151,5 +166,9 @@ def read_probes(machine: Machine) -> Probes:
             "probes.offset_drift_um_per_day", float(values["offset_drift_um_per_day"]), 0.0, 1000.0, "um/day"
         )
         * 1e-6,
+        scale_factor_std=require_in_range(
+            "probes.scale_factor_tolerance_pct", float(values["scale_factor_tolerance_pct"]), 0.0, 50.0, "%"
+        )
+        / (100.0 * math.sqrt(3.0)),
         runout=_runout(section),
     )

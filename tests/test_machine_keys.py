@@ -92,7 +92,7 @@ def test_the_probe_readers_accept_exactly_the_declared_keys():
     }
     table |= {"layout": "api670", "noise_um": 0.5, "keyphasor_edge": "rising", "keyphasor_threshold_v": -2.0,
               "keyphasor_angle_deg": 40.0, "offset_prior_std_um": 25.0, "offset_random_walk_um_sqrt_s": 0.2,
-              "offset_drift_um_per_day": 0.1}  # fmt: skip
+              "offset_drift_um_per_day": 0.1, "scale_factor_tolerance_pct": 5.0}  # fmt: skip
     probe = {"column": "c", "angle_deg": 45.0, "unit": "V", "zero_um": 0.0, "sensitivity_v_per_mm": 7.87,
              "rest_gap_v": -9.0} | {key: 0.0 for key in RUNOUT_KEYS}  # fmt: skip
     assert set(table) == set(keys_of("probes")) and set(probe) == set(keys_of("probes.<probe>"))

@@ -12,12 +12,13 @@ Flowrates are in m^3/s; ``step`` k gives ``t_k = k dt``.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from functools import cached_property
 
 import numba
 import numpy as np
-from scipy.linalg import expm_frechet, pinv
+from scipy.linalg import expm, expm_frechet, pinv
 
 from ..validation import InputError, require_positive
 from .flowrate_grid import FlowrateGrid
@@ -122,6 +123,30 @@ class ExactAugmentedModel(_AugmentedModelBase):
         return d_ad, d_forcing
 
 
+class FixedPointMaps:
+    """The exact one-step maps of ``system`` at its own speed and film (its flowrate tables): the two methods
+    of :class:`oilwatch.models.system.operating_maps.OperatingMaps` that the estimator's information floor
+    calls (:class:`oilwatch.estimator.nuisance_start.InformationFloor`), for the model on the flowrate grid,
+    whose grid tabulates these maps (harmonic hold)."""
+
+    def __init__(self, system: RotorBearingSystem, dt_s: float) -> None:
+        self.system = system
+        self.dt_s = require_positive("dt_s", dt_s, "s")
+
+    def block(self, flowrates_m3_s, speed_hz: float, viscosities_pa_s) -> np.ndarray:
+        """The continuous block of the map at the flowrates. ``speed_hz`` and ``viscosities_pa_s`` are
+        :class:`OperatingMaps`'s arguments; a system on flowrate tables has one speed and one film, its own
+        (the :attr:`GridAugmentedModel.operating_point` the floor passes back)."""
+        a, b = self.system.state_space(np.asarray(flowrates_m3_s, dtype=float))
+        return _block_matrix(a, b, self.system.omega_rad_s)
+
+    def discrete_of_block(self, block: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(A_d, G)`` of a continuous :meth:`block`: its exponential over one step."""
+        m = self.system.n_states
+        exponential = expm(block * self.dt_s)
+        return exponential[:m, :m], exponential[:m, m:]
+
+
 def _block_matrix(a: np.ndarray, b: np.ndarray, omega: float) -> np.ndarray:
     """The exponent of ``harmonic_input_map`` (state, loads, exosystem)."""
     n = a.shape[0]
@@ -171,6 +196,8 @@ class GridAugmentedModel(_AugmentedModelBase):
         elif not (np.array_equal(grid.q1_nodes_m3_s, nodes) and np.array_equal(grid.q2_nodes_m3_s, nodes)):
             raise InputError("the given flowrate grid's nodes are not this system's (a stale stored grid)")
         self.grid = grid
+        # the exact maps the grid tabulates, for the estimator's consider terms (harmonic hold only)
+        self.maps = FixedPointMaps(system, self.dt_s) if hold == "harmonic" else None
         n = self.n_states
         self._next = np.empty(n)
         self._transition = np.empty((n, n))
@@ -196,6 +223,12 @@ class GridAugmentedModel(_AugmentedModelBase):
             self._transition,
             self._flow_jacobian,
         )
+
+    @property
+    def operating_point(self) -> tuple[float, float]:
+        """(speed [Hz], film viscosity [Pa s]) of the grid's maps: the system's speed and its tables'."""
+        viscosity = self.system.tables[0].metadata.get("bearing", {}).get("viscosity_pa_s", math.nan)
+        return self.speed_hz, float(viscosity)
 
     def batch_transition(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, float]:
         """``(transition, forcing, axes, Omega [rad/s], dt [s])``: what a compiled loop needs to evaluate

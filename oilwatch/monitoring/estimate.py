@@ -217,8 +217,11 @@ class EstimateRun:
             dataclasses.replace(self.machine, raw={**self.machine.raw, "probes": section})
         )
         prior_um = options.offset_prior_std_um
-        if prior_um is None and not preset_named(options.preset).offsets_from_machine:
-            prior_um = 0.0  # a preset with the offsets known (the estimator FMU's reading of it)
+        if not preset_named(options.preset).offsets_from_machine:
+            # a preset with calibrated probes (the estimator FMU's reading of it): scale factors exact and,
+            # unless given, the offsets known
+            self.probes = dataclasses.replace(self.probes, scale_factor_std=0.0)
+            prior_um = 0.0 if prior_um is None else prior_um
         if prior_um is not None:
             self.probes = dataclasses.replace(self.probes, offset_prior_std_m=prior_um * 1e-6)
         self.baseline, self.baseline_age_days = None, None

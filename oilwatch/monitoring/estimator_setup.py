@@ -67,8 +67,9 @@ def estimator_config(
 ) -> EKFConfig:
     """The OilFlowEKF FMU's default configuration with the machine's probe nuisances (module docstring).
 
-    ``probes``: the machine file's ``[probes]`` offsets prior and drift (None: offsets known, the FMU's
-    default); ``baseline``: a commissioning baseline's offsets prior (the FMU's ``baseline_file``);
+    ``probes``: the machine file's ``[probes]`` offsets prior, drift and scale factors' std (None: offsets
+    known and scale factors exact, the FMU's default); ``baseline``: a commissioning baseline's offsets
+    prior (the FMU's ``baseline_file``);
     ``probe_angle_deg``: the probe pairs' mounting angle when the samples are along the probes' axes (the
     FMU's ``probe_angle_deg``; 0: (x, y) positions); ``runout``: the probes' slow-roll vectors, subtracted
     from each sample at its rotor angle (the samples must then be along the probes' axes);
@@ -83,6 +84,7 @@ def estimator_config(
         nuisance |= {
             "offset_prior_std_m": probes.offset_prior_std_m,
             "offset_random_walk_m_sqrt_s": probes.offset_random_walk_m_sqrt_s,
+            "probe_scale_factor_std": probes.scale_factor_std,
         }
     return EKFConfig.recommended(
         speed_hz=speed_hz,

@@ -43,8 +43,8 @@ UNITS = ("um", "V")
 EDGES = ("falling", "rising")
 API670_SENSITIVITY_V_PER_MM = 7.87
 """API 670 scale factor, 200 mV/mil."""
-FOREIGN_KEYS_PREFIX = ("offset_", "prior_")
-"""[probes] keys of the estimator's nuisance priors: accepted here, not used by the reader."""
+FOREIGN_KEYS_PREFIX = ("offset_", "prior_", "scale_factor_")
+"""[probes] keys of the estimator's nuisance priors and probe tolerances: accepted here, not read here."""
 RUNOUT_PREFIX = "runout_"
 """Per-probe keys of the estimator's slow-roll vectors (:mod:`oilwatch.models.probes`): accepted here, not
 used by the reader."""
@@ -157,7 +157,7 @@ def probe_setup(table: Mapping[str, object] | None = None, overrides: Iterable[s
         if not known:
             raise InputError(
                 f"probes.{key}: unknown key; allowed: {', '.join(TOP_KEYS + PROBE_NAMES)} (and the "
-                "estimator's offset_*/prior_* keys)"
+                "estimator's offset_*, prior_* and scale_factor_* keys)"
             )
         if key in PROBE_NAMES and not isinstance(value, Mapping):
             raise InputError(f"probes.{key} must be a table of {', '.join(PROBE_KEYS)}")

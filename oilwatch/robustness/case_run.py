@@ -240,6 +240,7 @@ class RobustnessRun:
             noise_std_m=self.noise_m,
             offset_prior_std_m=self.settings["offset_prior_um"] * 1e-6,
             offset_random_walk_m_sqrt_s=self.probes.offset_random_walk_m_sqrt_s,
+            probe_scale_factor_std=self.probes.scale_factor_std,
             unbalance_prior_std=self.settings["unbalance_prior"],
             probe_angle_deg=self.mounting_angle_deg(case),
         )
