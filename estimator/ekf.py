@@ -221,7 +221,6 @@ class OilFlowEKF:
         plain = not (
             self._follows or self._n_unbalance or self._n_viscosity or self._runout.vectors is not None
         )
-        self._grid_batch = batch() if callable(batch) and plain else None
         # the operating model: a predicted sample's transitions and update in one compiled call
         compiled = getattr(model, "compiled_transition", None)
         self._operating_step = compiled() if callable(compiled) else None
@@ -266,6 +265,8 @@ class OilFlowEKF:
             if bound or consider
             else None
         )
+        # (the compiled batch has no floor: only without one)
+        self._grid_batch = batch() if callable(batch) and plain and self._floor is None else None
         self.reset()
 
     def reset(self) -> None:

@@ -319,7 +319,10 @@ class InformationFloor:
         """Start an update at these estimates and the model's operating point now (:meth:`work` does it; the
         first update from the prior is done here, whole: class docstring)."""
         speed, viscosity = self._model.operating_point
-        self._pending[: 1 + _INPUTS] = np.r_[0.0, flowrate_m3_s, factors, unbalance, speed, viscosity]
+        low, high = self._model.flowrate_bounds_m3_s
+        # an estimate at the table's edge: the update's differences step either way, inside the table
+        q = np.clip(flowrate_m3_s, low * (1.0 + _EDGE), high / (1.0 + _EDGE))
+        self._pending[: 1 + _INPUTS] = np.r_[0.0, q, factors, unbalance, speed, viscosity]
         if np.array_equal(self.covariance, self._prior):
             while self._pending[0] >= 0.0:
                 self.work()
@@ -387,6 +390,8 @@ CONSIDERED = 16
 per probe's scale factor."""
 _ROW_WEIGHTS = np.r_[np.ones(4), np.full(8, 0.5)]
 """The information per sample of the static rows and of each 1x part (the mean of cos^2 over a turn)."""
+_EDGE = 2e-3
+"""How far inside the model's flowrate range an update is evaluated (twice the differences' relative step)."""
 _INPUTS = 8
 """The inputs an update takes (:meth:`InformationFloor.begin`): two flowrates, two factors, the unbalance's
 two parts, the speed and the oil viscosity."""

@@ -22,7 +22,7 @@ from oilwatch.estimator.baseline import baseline_prior, estimate_baseline
 from oilwatch.estimator.ekf import OilFlowEKF
 from oilwatch.estimator.ekf_config import EKFConfig
 from oilwatch.estimator.measurement import probe_rotation
-from oilwatch.estimator.nuisance_start import scale_columns
+from oilwatch.estimator.nuisance_start import InformationFloor, scale_columns
 from oilwatch.models.machine import load_machine
 from oilwatch.models.probes import read_probes
 from oilwatch.models.system.augmented import GridAugmentedModel
@@ -73,20 +73,21 @@ def _record(model, fractions, steps: int) -> tuple[np.ndarray, np.ndarray]:
     return record, q
 
 
-def _config(scale_std: float, baseline=None) -> EKFConfig:
+def _config(scale_std: float, baseline=None, unbalance_prior_std: float = 2.0) -> EKFConfig:
     return EKFConfig.recommended(
         first_sample_time_s=DT,
         offset_prior_std_m=25e-6,
-        unbalance_prior_std=2.0,
+        unbalance_prior_std=unbalance_prior_std,
         probe_scale_factor_std=scale_std,
         offset_baseline=baseline,
     )
 
 
-def test_without_a_tolerance_there_is_no_floor_and_with_one_the_std_widens(model):
+@pytest.mark.parametrize("unbalance_prior_std", [2.0, 0.0], ids=["unbalance free", "offsets alone"])
+def test_without_a_tolerance_there_is_no_floor_and_with_one_the_std_widens(model, unbalance_prior_std):
     record, _ = _record(model, (0.8, 0.9), 2600)
-    plain = OilFlowEKF(model, _config(0.0)).run(record)
-    considered = OilFlowEKF(model, _config(SCALE_STD)).run(record)
+    plain = OilFlowEKF(model, _config(0.0, unbalance_prior_std=unbalance_prior_std)).run(record)
+    considered = OilFlowEKF(model, _config(SCALE_STD, unbalance_prior_std=unbalance_prior_std)).run(record)
     np.testing.assert_array_equal(plain.q_m3_s, considered.q_m3_s)  # the filter itself is unchanged
     assert np.all(considered.q_std_m3_s[-1] > 1.1 * plain.q_std_m3_s[-1])
     # the floor's first update is at 2 s
@@ -117,3 +118,11 @@ def test_the_published_std_covers_the_spread_scale_factor_errors_cause(model, ba
     # 12 draws: the rms is known to about 20 %. Measured: no baseline 2.2 / 1.8 % (16 draws) against
     # 3.1 / 2.3 % claimed, the filter's own std 1.0 / 0.8 %; baseline 2.3 / 1.9 % against 3.1 / 2.3 %
     assert np.all((0.5 * spread < considered) & (considered < 2.0 * spread)), (spread, considered)
+
+
+def test_an_estimate_at_the_tables_edge_is_considered_inside_it(model):
+    config = _config(SCALE_STD).for_model(model)
+    floor = InformationFloor(model, config, model.n_states, 4, 2, bound=False)
+    low = model.flowrate_bounds_m3_s[0]
+    floor.begin(np.full(2, low), np.ones(2), np.array([1.0, 0.0]))  # the first update is done whole
+    assert np.all(np.isfinite(floor.std)) and np.all(floor.std > 0.0)
