@@ -60,7 +60,14 @@ from oilwatch.models.validation import InputError
 
 from . import channels
 from .alarm import StarvationAlarm
-from .baseline_change import CHANGE_STATUS, CONSISTENT, new_change_array, reference_applies, reset_change
+from .baseline_change import (
+    CHANGE_STATUS,
+    CONSISTENT,
+    MISMATCH_BASELINE,
+    new_change_array,
+    reference_applies,
+    reset_change,
+)
 from .ekf_config import (
     CONSISTENCY_WINDOW_S,
     CONVERGED_WINDOW_S,
@@ -413,8 +420,11 @@ class OilFlowEKF:
                 unbalance = self.unbalance if self._n_unbalance else (1.0, 0.0)
                 self._floor.begin(self._flowrate_si(), self.viscosity_factor, unbalance)
             self._floor.work()  # one stage of an update under way
-            reported = self._report[REPORT_STD : REPORT_STD + 2]
-            reported[:] = self._floor.published_std(reported)
+            # the floor is the filter's: not where the static change since the baseline is published, whose
+            # std carries its own model error (estimator.baseline_change)
+            if self._report[REPORT_MISMATCH] != MISMATCH_BASELINE:
+                reported = self._report[REPORT_STD : REPORT_STD + 2]
+                reported[:] = self._floor.published_std(reported)
         if self._floor is not None and step >= self._settling:  # the alarm's floor from the next step
             self._summary_settings[SUMMARY_STD_FLOOR : SUMMARY_STD_FLOOR + 2] = self._alarm_std_floor()
 
