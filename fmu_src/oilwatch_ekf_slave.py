@@ -145,8 +145,9 @@ class OilFlowEKF(OilwatchSlave):
     def filter_state(self):
         """The estimator's complete state (for fmi2GetFMUstate / fmi2SetFMUstate): the state before a start
         sample taken ahead (:meth:`_take_start_sample`), so that a host sees none."""
-        if self._start_sample_taken is not None:
-            return self._start_sample_taken[0]
+        taken = self._pending_start_sample()
+        if taken is not None:
+            return taken[0]
         return None if self.filter is None else self.filter.get_state()
 
     @filter_state.setter
@@ -244,11 +245,11 @@ class OilFlowEKF(OilwatchSlave):
         loader's doStep runs the plain sample without entering Python."""
         super()._bind_fast_path()
         table = self.plain_step_table() if self.fast_path_bound else None
+        self._take_start_sample()
         if table is not None and bind_plain_step(self, table):
             self._plain_step = table
             self._warm_plain_step(table)
         else:
-            self._take_start_sample()
             self._warm_step()
 
     def _take_start_sample(self) -> None:
@@ -256,7 +257,8 @@ class OilFlowEKF(OilwatchSlave):
         input is usually the plant's sample one period after the start, so the first doStep would predict
         through the start time's sample first: two samples' work (five filters' each in a start bank).
         :meth:`step` keeps it when the first sample comes later at the same operating point, else returns
-        to the state before it. Not with the compiled plain step, which takes every sample itself."""
+        to the state before it; the compiled plain step keeps it by taking a later sample, which only it
+        takes at the start's operating point (:meth:`_pending_start_sample`)."""
         if self.filter.step_count != 0:
             return
         operating = self._operating_point(self.speed_hz, self.oil_temperature_c)
@@ -292,18 +294,30 @@ class OilFlowEKF(OilwatchSlave):
         for array, values in arrays:
             np.copyto(array, values)
 
+    def _pending_start_sample(self):
+        """The start sample taken ahead (:meth:`_take_start_sample`: the state before it, its operating point)
+        while no later sample has settled it, else None. The compiled plain step settles it without telling
+        the slave: it takes only samples after it at its operating point, which keep it, so a filter past
+        its second sample has kept it."""
+        if self._start_sample_taken is not None and self.filter.step_count > 1:
+            self._start_sample_taken = None
+        return self._start_sample_taken
+
     def _settle_start_sample(self, index: int, operating) -> None:
         """Keep the start sample taken ahead if the first sample is a later one at its operating point, else
         return to the state before it (:meth:`_take_start_sample`)."""
-        before, taken_at = self._start_sample_taken
+        taken = self._pending_start_sample()
+        if taken is None:
+            return
+        before, taken_at = taken
         self._start_sample_taken = None
         if index < 1 or operating != taken_at:
             self.filter.set_state(before)
 
     def _warm_plain_step(self, table) -> None:
         """Run the compiled plain step once on the first sample as a host sends it (one period after the
-        start, so through the start time's gap) and undo it, so that the first doStep runs code and touches
-        arrays that initialization already ran and touched."""
+        start, after the start time's sample taken ahead) and undo it, so that the first doStep runs code and
+        touches arrays that initialization already ran and touched."""
         from oilwatch.fmu_src.ekf_plain_step import INPUT_STAMP
 
         inputs = self._inputs

@@ -11,9 +11,9 @@ booleans, the nuisance estimates) must be bit-identical between the two, the ref
 on both with the same message, and a step that fails (a time stamp after the step's end) must be fmi2Fatal
 with the slave's message on both. ``fmi2Reset`` drops the binding; the next initialization binds again.
 The estimators run the paper preset (the plain configuration): the fast instance's plain samples, the first
-one among them (through the start time's gap), run in the compiled step (``fmu_src/ekf_plain_step.py``,
-without the GIL); the others (a non-finite, off-grid or repeated time stamp, a failing step) decline to the
-slave's Python step.
+one among them (after the start time's sample, taken ahead in initialization), run in the compiled step
+(``fmu_src/ekf_plain_step.py``, without the GIL); the others (a non-finite, off-grid or repeated time stamp, a
+failing step) decline to the slave's Python step.
 
 Also here (the same slave's parameters, in process): ``baseline_age_days`` widens the baseline's offsets prior
 by the machine file's ``[probes] offset_drift_um_per_day``, and the runout the filter subtracts is the
