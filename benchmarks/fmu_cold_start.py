@@ -42,6 +42,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shutil
 import statistics
 import subprocess
 import sys
@@ -145,16 +146,20 @@ def libcosim_sample(ssp: Path) -> dict:
     """One fresh process: libcosim unpacks ``ssp``'s FMUs into new folders and runs its first step."""
     with tempfile.TemporaryDirectory(prefix="cold_start_cwd_") as cwd:
         arguments = [sys.executable, "-c", LIBCOSIM_CHILD, str(ssp)]
-        process = subprocess.run(arguments, capture_output=True, text=True, env=environment(), cwd=cwd)
+        process = subprocess.run(arguments, capture_output=True, text=True, env=environment(cwd), cwd=cwd)
     if process.returncode != 0:
         raise SystemExit(f"{ssp}: the libcosim child failed:\n{process.stderr[-3000:]}")
     return json.loads(process.stdout.strip().splitlines()[-1])
 
 
-def environment() -> dict[str, str]:
-    """This environment with one BLAS thread and nothing that points the FMU at a source tree."""
+def environment(scratch: str | None = None) -> dict[str, str]:
+    """This environment with one BLAS thread and nothing that points the FMU at a source tree; with
+    ``scratch``, the child's temporary files there (its FMU unpacks and libcosim's, which a child that
+    exits at once leaves behind: the caller removes ``scratch``)."""
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
     env.update(OPENBLAS_NUM_THREADS="1", NUMBA_NUM_THREADS="1")
+    if scratch is not None:
+        env["TMPDIR"] = scratch
     return env
 
 
@@ -166,7 +171,7 @@ def sample(fmu: Path, record: str, steps: int, strings: dict[str, str] | None = 
     with tempfile.TemporaryDirectory(prefix="cold_start_cwd_") as cwd:
         arguments = [sys.executable, "-c", CHILD, str(fmu), record, str(steps), names,
                      json.dumps(strings or {}), str(EVICTION_BYTES)]  # fmt: skip
-        process = subprocess.run(arguments, capture_output=True, text=True, env=environment(), cwd=cwd)
+        process = subprocess.run(arguments, capture_output=True, text=True, env=environment(cwd), cwd=cwd)
     if process.returncode != 0:
         raise SystemExit(f"{fmu}: the child failed:\n{process.stderr[-3000:]}")
     return json.loads(process.stdout.strip().splitlines()[-1])
@@ -194,6 +199,7 @@ def baseline_build(ref: str, out: Path) -> Path:
         return build(out, tree)
     finally:
         subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", str(tree)], check=False)
+        shutil.rmtree(tree.parent, ignore_errors=True)
 
 
 def main() -> None:
@@ -209,6 +215,14 @@ def main() -> None:
     args = parser.parse_args()
     steps = max(args.steps, 300)
     work = Path(tempfile.mkdtemp(prefix="cold_start_fmus_"))
+    try:
+        measure(args, steps, work)
+    finally:
+        shutil.rmtree(work, ignore_errors=True)  # the builds and the record: 50-100 MB a run
+
+
+def measure(args, steps: int, work: Path) -> None:
+    """Build (or take) both sets of FMUs into ``work``, sample them and print the table."""
     builds = {
         "baseline": args.baseline or baseline_build(args.baseline_ref, work / "baseline"),
         "new": args.new or build(work / "new", ROOT),
