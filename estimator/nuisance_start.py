@@ -251,23 +251,22 @@ class InformationFloor:
         if baseline is None or not self._consider_variance[12:].any():
             return gain
         from oilwatch.models.system.trajectory_bound import (
+            ORBIT_WEIGHTS,
             OperatingSegment,
             map_response,
-            sensitivity_columns,
+            nuisance_columns,
         )
 
         q = flowrate_m3_s if baseline.flowrates_m3_s is None else baseline.flowrates_m3_s
         factors = (1.0, 1.0) if baseline.viscosity_factor is None else baseline.viscosity_factor
         unbalance = 1.0 if baseline.unbalance is None else complex(*baseline.unbalance)
-        speed, viscosity = self._model.operating_point
-        segment = OperatingSegment(speed, viscosity, self._dt)
         model = self._model
+        segment = OperatingSegment(*model.operating_point, self._dt)
         response = map_response(model.maps, model.output_matrix, self._dt, q, segment, factors, unbalance)
-        # the unbalance and offset columns need only the point's own response
-        columns = sensitivity_columns([response] * POINTS, unbalance)
+        # the held nuisances (unbalance, offsets) are the parameter columns from 4 on
         nuisances = [i for i, column in enumerate(held_columns) if column >= 4]
-        root = np.sqrt(_ROW_WEIGHTS)[:, None]
-        design = root * columns[:, [held_columns[i] for i in nuisances]]
+        root = np.sqrt(ORBIT_WEIGHTS)[:, None]
+        design = root * nuisance_columns(response, unbalance)[:, [held_columns[i] - 4 for i in nuisances]]
         gain[nuisances, 12:] = np.linalg.lstsq(design, root * scale_columns(response, self._rotation))[0]
         return gain
 
@@ -337,6 +336,7 @@ class InformationFloor:
         if stage < 0:
             return
         from oilwatch.models.system.trajectory_bound import (
+            ORBIT_WEIGHTS,
             OperatingSegment,
             block_response,
             map_block,
@@ -362,12 +362,12 @@ class InformationFloor:
         pending[0] = -1.0
         jacobian = sensitivity_columns(list(responses), unbalance)[:, self._columns]
         jacobian[:, :2] /= q  # per m^3/s
-        information = self._every * (jacobian.T * _ROW_WEIGHTS) @ jacobian / self._noise**2
+        information = self._every * (jacobian.T * ORBIT_WEIGHTS) @ jacobian / self._noise**2
         predicted = np.linalg.inv(self.covariance + self._walk)
         self.covariance = np.linalg.inv(predicted + information)
         if self._considered:
             held = jacobian[:, self._held]
-            per_observation = self._every * (held.T * _ROW_WEIGHTS) / self._noise**2
+            per_observation = self._every * (held.T * ORBIT_WEIGHTS) / self._noise**2
             held_predicted = np.linalg.inv(self._held_covariance + self._held_walk)
             self._held_covariance = np.linalg.inv(held_predicted + per_observation @ held)
             errors = np.hstack([np.eye(12), scale_columns(responses[0], self._rotation)])
@@ -390,8 +390,6 @@ def scale_columns(response: np.ndarray, rotation: np.ndarray) -> np.ndarray:
 CONSIDERED = 16
 """The considered errors of :class:`InformationFloor`: one per observation row (the slow-roll fit's), one
 per probe's scale factor."""
-_ROW_WEIGHTS = np.r_[np.ones(4), np.full(8, 0.5)]
-"""The information per sample of the static rows and of each 1x part (the mean of cos^2 over a turn)."""
 _EDGE = 2e-3
 """How far inside the model's flowrate range an update is evaluated (twice the differences' relative step)."""
 _INPUTS = 8

@@ -23,7 +23,7 @@ the probe's own axis and in its own (possibly mis-scaled) units, as the probe re
   out with the samples, the bias it causes in the flowrates (about 0.4 % of flow per 0.01 um of s on the
   bundled turbine, where a 60 s slow-roll record at 1 um gives s of about 0.01 um) is added to the published
   std by the information floor (:class:`oilwatch.estimator.nuisance_start.InformationFloor`) of the filter
-  that follows the operating point; the filter on the fixed-speed grid leaves it out.
+  (on either model: the one that follows the operating point and the fixed-speed grid).
 """
 
 from __future__ import annotations

@@ -18,9 +18,10 @@ from functools import cached_property
 
 import numba
 import numpy as np
-from scipy.linalg import expm, expm_frechet, pinv
+from scipy.linalg import expm_frechet, pinv
 
 from ..validation import InputError, require_positive
+from .discretization import block_map, harmonic_input_block
 from .flowrate_grid import FlowrateGrid
 from .rotor_bearing import RotorBearingSystem
 
@@ -85,7 +86,7 @@ class ExactAugmentedModel(_AugmentedModelBase):
 
     def _block(self, flowrate_m3_s: np.ndarray) -> np.ndarray:
         a, b = self.system.state_space(flowrate_m3_s)
-        return _block_matrix(a, b, self.system.omega_rad_s)
+        return harmonic_input_block(a, b, self.system.omega_rad_s)
 
     def transition(
         self, state: np.ndarray, flowrate_m3_s: np.ndarray, step: int
@@ -138,24 +139,11 @@ class FixedPointMaps:
         :class:`OperatingMaps`'s arguments; a system on flowrate tables has one speed and one film, its own
         (the :attr:`GridAugmentedModel.operating_point` the floor passes back)."""
         a, b = self.system.state_space(np.asarray(flowrates_m3_s, dtype=float))
-        return _block_matrix(a, b, self.system.omega_rad_s)
+        return harmonic_input_block(a, b, self.system.omega_rad_s)
 
     def discrete_of_block(self, block: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(A_d, G)`` of a continuous :meth:`block`: its exponential over one step."""
-        m = self.system.n_states
-        exponential = expm(block * self.dt_s)
-        return exponential[:m, :m], exponential[:m, m:]
-
-
-def _block_matrix(a: np.ndarray, b: np.ndarray, omega: float) -> np.ndarray:
-    """The exponent of ``harmonic_input_map`` (state, loads, exosystem)."""
-    n = a.shape[0]
-    block = np.zeros((n + 3, n + 3))
-    block[:n, :n] = a
-    block[:n, n:] = b
-    block[n + 1, n + 2] = -omega
-    block[n + 2, n + 1] = omega
-    return block
+        return block_map(block, self.dt_s)
 
 
 class GridAugmentedModel(_AugmentedModelBase):

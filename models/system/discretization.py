@@ -59,12 +59,26 @@ def harmonic_input_map(
     ``s(t_k + dt) = A_d s(t_k) + G w_k`` exactly.
     """
     dt_s = require_positive("dt_s", dt_s, "s")
+    return block_map(harmonic_input_block(state_matrix, force_columns, omega_rad_s), dt_s)
+
+
+def harmonic_input_block(
+    state_matrix: np.ndarray, force_columns: np.ndarray, omega_rad_s: float
+) -> np.ndarray:
+    """The (n + 3) square exponent of :func:`harmonic_input_map`: the state matrix, the input columns and the
+    exosystem of the inputs ``d/dt [1, c, s] = [0, -w s, w c]``."""
     n = state_matrix.shape[0]
     block = np.zeros((n + 3, n + 3))
     block[:n, :n] = state_matrix
     block[:n, n:] = force_columns
-    # Exosystem of the inputs: d/dt [1, c, s] = [0, -w s, w c].
     block[n + 1, n + 2] = -omega_rad_s
     block[n + 2, n + 1] = omega_rad_s
+    return block
+
+
+def block_map(block: np.ndarray, dt_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(A_d, G)`` of a :func:`harmonic_input_block` (any (n + 3) square one): its exponential over ``dt_s``,
+    split into the state's n columns and the inputs' three."""
+    n = block.shape[0] - 3
     exponential = expm(block * dt_s)
     return exponential[:n, :n], exponential[:n, n:]

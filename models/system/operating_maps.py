@@ -26,9 +26,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.linalg import expm, lu_factor, lu_solve
+from scipy.linalg import lu_factor, lu_solve
 
 from ..bearing.operating_table import OperatingTable
+from .discretization import block_map
 from .frechet import expm_frechet_many
 from .rotor_bearing import RotorBearingSystem
 
@@ -218,9 +219,7 @@ class OperatingMaps:
 
     def discrete_of_block(self, block: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(A_d, G)`` of a continuous :meth:`block`: its exponential over one step."""
-        m = 2 * self._n
-        exponential = expm(block * self.dt_s)
-        return exponential[:m, :m], exponential[:m, m:]
+        return block_map(block, self.dt_s)
 
     def derivatives(
         self, flowrates_m3_s, speed_hz: float, viscosities_pa_s, axes=AXES

@@ -41,7 +41,9 @@ TRAJECTORY_PARAMETERS = (
 (relative to the machine file's) per unit, offsets per um."""
 
 _GROUP_COLUMNS = {"viscosity": (2, 3), "unbalance": (4, 5), "offsets": (6, 7, 8, 9)}
-_ORBIT_WEIGHTS = np.r_[np.ones(4), np.full(8, 0.5)]  # mean of 1, cos^2, sin^2 over whole revolutions
+ORBIT_WEIGHTS = np.r_[np.ones(4), np.full(8, 0.5)]
+"""The information per sample of a response's static rows and of each 1x part (the mean of 1, cos^2 and
+sin^2 over whole revolutions)."""
 
 
 @dataclass(frozen=True)
@@ -126,12 +128,15 @@ def sensitivity_points(flowrates_m3_s, factors, unbalance: complex, relative_ste
 def sensitivity_columns(responses, unbalance: complex, relative_step: float = 1e-3) -> np.ndarray:
     """(12, 10) :func:`map_sensitivity` from the :func:`map_response` at each of its
     :func:`sensitivity_points` (in their order)."""
-    base = responses[0]
     columns = [(responses[1 + 2 * j] - responses[2 + 2 * j]) / (2.0 * relative_step) for j in range(4)]
-    orbit = (base[4:8] - 1j * base[8:]) / complex(unbalance)  # the unit unbalance's orbit
-    for unit in (1.0, 1j):
-        turned = unit * orbit
-        columns.append(np.r_[np.zeros(4), turned.real, -turned.imag])
+    return np.column_stack([*columns, nuisance_columns(responses[0], unbalance)])
+
+
+def nuisance_columns(response, unbalance: complex) -> np.ndarray:
+    """(12, 6) the unbalance's and the offsets' columns of :func:`map_sensitivity` (they enter linearly:
+    exact from the :func:`map_response` at the point itself)."""
+    orbit = (response[4:8] - 1j * response[8:]) / complex(unbalance)  # the unit unbalance's orbit
+    columns = [np.r_[np.zeros(4), turned.real, -turned.imag] for turned in (orbit, 1j * orbit)]
     columns += [1e-6 * np.eye(12)[i] for i in range(4)]
     return np.column_stack(columns)
 
@@ -153,7 +158,7 @@ def trajectory_information(
     for segment in segments:
         jac = map_sensitivity(maps, output_matrix, dt_s, flowrates_m3_s, segment, factors, unbalance)
         samples = require_positive("segment duration_s", segment.duration_s, "s") / dt_s
-        information += samples * (jac.T * _ORBIT_WEIGHTS) @ jac / sigma**2
+        information += samples * (jac.T * ORBIT_WEIGHTS) @ jac / sigma**2
     return information
 
 
