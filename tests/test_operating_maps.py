@@ -6,7 +6,7 @@ import pytest
 
 from oilwatch.models.machine import load_machine
 from oilwatch.models.system.factory import load_system
-from oilwatch.models.system.operating_maps import AXES
+from oilwatch.models.system.operating_maps import AXES, SLICES_KEPT
 from oilwatch.models.system.operating_model import build_operating_model
 
 MACHINE = load_machine()
@@ -54,3 +54,16 @@ def test_a_flowrate_past_the_tables_edge_at_a_moved_threshold_is_taken_at_the_ed
     past = maps.blocks([(np.array([1.002 * high, 0.998 * low]), speed, mu)])[0]
     edge = maps.blocks([(np.array([high, low]), speed, mu)])[0]
     np.testing.assert_array_equal(past, edge)
+
+
+def test_the_table_slices_held_stay_bounded_as_the_viscosity_wanders(maps):
+    """With the viscosity factors estimated every re-centring asks for slices at new viscosities; a long run
+    must not keep them all (it grew by about 100 slices, 0.25 MB, per 10 s of a constant operating point),
+    and a slice dropped and made again gives the same block."""
+    q = np.array([0.8, 0.9]) * MACHINE.lubrication.nominal_flowrate_m3_s
+    first = (q, 75.0, np.array([0.08, 0.08]))
+    before = maps.blocks([first])[0]
+    for mu in np.linspace(0.06, 0.1, 2 * SLICES_KEPT):
+        maps.blocks([(q, 75.0, np.array([mu, 1.01 * mu]))])
+    assert maps.slice_count <= SLICES_KEPT
+    np.testing.assert_array_equal(maps.blocks([first])[0], before)

@@ -36,6 +36,11 @@ from .rotor_bearing import RotorBearingSystem
 AXES = ("q1", "q2", "speed", "ln_mu1", "ln_mu2")
 """The operating axes, in the order of :meth:`OperatingMaps.derivatives`: flowrates [m^3/s], speed [Hz],
 natural logarithms of each bearing's film viscosity."""
+SLICES_KEPT = 256
+"""Table slices (one per speed, viscosity, load and kind) kept, the least recently used dropped: a
+re-centring asks for about 40, and with the viscosity factors estimated every re-centring's are new, so an
+unbounded cache grows with the run (about 2 kB a slice, 100 slices per 10 s at a constant operating
+point)."""
 SECOND_STEP = 1e-4
 """The forward step of :meth:`OperatingMaps.second_derivatives` (relative in q and speed, absolute in ln
 mu)."""
@@ -67,7 +72,7 @@ class OperatingMaps:
         self._reference_omega = system.omega_rad_s
         self._loads = system.static_loads_n
         self._mass_lu = lu_factor(system.mass)
-        self._slices: dict[tuple[float, float, float], object] = {}
+        self._slices: dict[tuple[float, float, float, bool], object] = {}  # least recently used first
         # M^-1 of what the block's rows are linear in, once: the rotor's stiffness, structural damping,
         # gyroscopic matrix and gravity, and each bearing's map P_b^T (a block is then small products)
         mass_lu = self._mass_lu
@@ -81,16 +86,20 @@ class OperatingMaps:
 
     def _slice(self, speed_hz: float, viscosity_pa_s: float, load_n: float, synchronous: bool = False):
         key = (speed_hz, viscosity_pa_s, load_n, synchronous)
-        found = self._slices.get(key)
+        slices = self._slices
+        found = slices.pop(key, None)
         if found is None:
-            if len(self._slices) > 64:
-                # a re-centring brings about 20 new slices; the reference speed's stay (every re-centring
-                # asks for them again)
-                reference = self.system.speed_hz
-                self._slices = {k: v for k, v in self._slices.items() if k[0] == reference}
             table = self.synchronous_table if synchronous else self.table
-            found = self._slices[key] = table.at(speed_hz, viscosity_pa_s, load_n)
+            found = table.at(speed_hz, viscosity_pa_s, load_n)
+            if len(slices) >= SLICES_KEPT:
+                del slices[next(iter(slices))]
+        slices[key] = found  # the most recently used last: a dict keeps insertion order
         return found
+
+    @property
+    def slice_count(self) -> int:
+        """Table slices held (at most :data:`SLICES_KEPT`)."""
+        return len(self._slices)
 
     def flowrate_range_m3_s(self, speed_hz: float, viscosities_pa_s) -> tuple[float, float]:
         """Flowrates [m^3/s] every bearing's table slice covers at the speed and viscosities."""
