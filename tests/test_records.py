@@ -229,6 +229,9 @@ def test_columns_that_are_missing_or_in_a_unit_that_cannot_be_right(
 def test_a_missing_record_file_or_an_output_that_is_a_file_is_one_line(tmp_path, capsys):
     assert main(["estimate", str(tmp_path / "none.csv"), "--no-progress"]) == 2
     assert "none.csv: no such record file" in capsys.readouterr().err
+    assert main(["estimate", str(tmp_path / "none.csv")]) == 2  # with its progress bar: no empty bar first
+    error = capsys.readouterr().err.strip()
+    assert error.endswith("none.csv: no such record file") and len(error.splitlines()) == 1, error
     record, blocker = _csv(tmp_path, _good_rows()), tmp_path / "file"
     blocker.write_text("")
     assert main(["estimate", str(record), "--out", str(blocker), "--no-progress"]) == 2

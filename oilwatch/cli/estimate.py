@@ -210,7 +210,10 @@ def _run_one(source: str, out: Path, options, progress: bool, live=None) -> dict
 
     from oilwatch.monitoring.estimate import EstimateRun
 
-    bar = tqdm(disable=not progress, desc=f"estimate {_stem(source)}", unit_scale=True, file=sys.stderr)
+    # shown after a second: a record refused at once (a missing file, a bad column) prints its error alone
+    bar = tqdm(
+        disable=not progress, desc=f"estimate {_stem(source)}", unit_scale=True, file=sys.stderr, delay=1.0
+    )
 
     def total(amount, unit):
         bar.total, bar.unit = amount, unit
