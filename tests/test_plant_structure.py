@@ -8,8 +8,10 @@ import math
 import numpy as np
 import pytest
 
-from oilwatch.models.bearing.equilibrium import static_equilibrium
+from oilwatch.models.bearing.equilibrium import coefficients_at, static_equilibrium
+from oilwatch.models.bearing.grid import PRODUCTION_MESH
 from oilwatch.models.bearing.supply import SupplyFlow
+from oilwatch.models.bearing.table import flooded_threshold
 from oilwatch.models.machine import load_machine
 from oilwatch.models.system.factory import build_system
 from oilwatch.models.system.structure import PlantStructure, bow_shape, structural_rotor, structural_system
@@ -137,6 +139,37 @@ def test_a_clearance_change_moves_the_journal_as_a_direct_film_solve_at_that_cle
     assert (
         np.linalg.norm(e_table) / (factor * bearing.clearance_m) > np.linalg.norm(base) / bearing.clearance_m
     )
+
+
+@pytest.mark.parametrize("fraction", [0.99, 1.01])
+def test_a_one_sided_threshold_plant_has_the_direct_solves_coefficients_beside_q_t(machine, fraction):
+    """Just below and above bearing 1's flooded threshold at the nominal point, the plant with
+    ``threshold_one_sided`` against an independent p-theta solve (production mesh, quasi-static
+    coefficients): within 1 % of the largest stiffness and damping, where the estimator's interpolation across
+    the threshold (the default plant's) is off by more than twice as much in stiffness."""
+    load = float(structural_system(machine, PlantStructure()).static_loads_n[0])
+    q_t, _ = flooded_threshold(machine.bearing, load, machine.nominal_speed_hz, PRODUCTION_MESH)
+    q = fraction * q_t
+    eq = static_equilibrium(machine.bearing, load, machine.nominal_speed_hz, SupplyFlow(q), PRODUCTION_MESH)
+    stiffness, damping = coefficients_at(
+        machine.bearing, eq, machine.nominal_speed_hz, SupplyFlow(q), PRODUCTION_MESH
+    )
+
+    def errors(structure):
+        row = structural_system(machine, structure).tables[0].evaluate(q)
+        return (
+            np.abs(row.stiffness - stiffness).max() / np.abs(stiffness).max(),
+            np.abs(row.damping - damping).max() / np.abs(damping).max(),
+        )
+
+    one_sided, across = errors(PlantStructure(threshold_one_sided=True)), errors(PlantStructure())
+    assert max(one_sided) < 0.01, one_sided
+    assert across[0] > 2.0 * one_sided[0], (across, one_sided)
+
+
+def test_a_one_sided_threshold_needs_the_machines_bearing_length():
+    with pytest.raises(InputError, match="threshold_one_sided needs length_factor 1"):
+        PlantStructure(threshold_one_sided=True, length_factor=1.05)
 
 
 def test_the_statics_split_of_the_turbine_is_its_reactions(machine):

@@ -24,10 +24,22 @@ from .rotor_bearing import RotorBearingSystem
 
 
 class ConditionedTable:
-    """One bearing's view of the dimensionless table at its load and the current (speed, viscosity)."""
+    """One bearing's view of the dimensionless table at its load and the current (speed, viscosity).
 
-    def __init__(self, table: OperatingTable, load_n: float, speed_hz: float, viscosity_pa_s: float):
+    ``one_sided``: the starved and the flooded nodes interpolated separately, each up to its own limit on the
+    flooded threshold (:meth:`oilwatch.models.bearing.operating_table.OperatingTable.interpolate`): the jump
+    of K and C there, as a direct solve has it; else (the default, the estimator's) one cubic across it."""
+
+    def __init__(
+        self,
+        table: OperatingTable,
+        load_n: float,
+        speed_hz: float,
+        viscosity_pa_s: float,
+        one_sided: bool = False,
+    ):
         self.table = table
+        self.one_sided = bool(one_sided)
         self.load_n = require_positive("bearing load", load_n, "N")
         # "bearing" as in a flowrate table's metadata; its viscosity is the one the table was set up at.
         bearing = {
@@ -41,7 +53,7 @@ class ConditionedTable:
         """Move to another speed [Hz] and film viscosity [Pa s] (checked against the table's range)."""
         self.speed_hz = require_positive("speed", speed_hz, "Hz")
         self.viscosity_pa_s = require_positive("film viscosity", viscosity_pa_s, "Pa s")
-        self._slice = self.table.at(self.speed_hz, self.viscosity_pa_s, self.load_n)
+        self._slice = self.table.at(self.speed_hz, self.viscosity_pa_s, self.load_n, self.one_sided)
 
     @property
     def conditions(self) -> tuple[float, float]:

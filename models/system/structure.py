@@ -20,6 +20,11 @@ plant differs; :func:`structural_system` builds the plant's full-order rotor-bea
   phase relative to the machine's phase;
 * ``pedestals``: a mass, spring and damper under each bearing in x and y
   (:mod:`oilwatch.models.rotor.pedestals`);
+* ``threshold_one_sided``: the film coefficients at each bearing's flooded threshold q_t take their one-sided
+  limits, starved below and flooded above, with the jump a direct solve has there; the estimator's
+  dimensionless table interpolates one cubic across it, which smooths the jump over the neighbouring cells
+  (2-7 % of the largest K within 1 % of q_t, docs/bearings.md). Needs ``length_factor`` 1 (the solved
+  tables of another length interpolate across q_t);
 * ``bow_m``: a bent shaft. The bow is the shape the shaft takes on rigid point supports at the bearing
   nodes under a uniform lateral load, scaled to ``bow_m`` at its largest between the bearings and turning
   with the shaft at ``bow_phase_rad`` from the keyphasor. Its load on the rotor is K_shaft b (the shaft's
@@ -89,6 +94,7 @@ class PlantStructure:
     bow_phase_rad: float = field(
         default=0.0, metadata=_meta("rad", -2 * math.pi, 2 * math.pi, "phase of the bow from the keyphasor")
     )
+    threshold_one_sided: bool = False
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -102,6 +108,13 @@ class PlantStructure:
             )
         if self.load_split not in (None, "equal", "reactions"):
             raise InputError(f"load_split must be 'equal' or 'reactions', got {self.load_split!r}")
+        if not isinstance(self.threshold_one_sided, bool):
+            raise InputError(f"threshold_one_sided must be True or False, got {self.threshold_one_sided!r}")
+        if self.threshold_one_sided and self.length_factor != 1.0:
+            raise InputError(
+                "threshold_one_sided needs length_factor 1: the tables solved for another bearing length "
+                "interpolate across the flooded threshold"
+            )
         if (self.pedestal_mass_kg > 0.0) != (self.pedestal_stiffness_n_m > 0.0):
             raise InputError("pedestal_mass_kg and pedestal_stiffness_n_m: give both (> 0) or neither")
         for node, share, phase in self.unbalance_discs:
@@ -127,17 +140,23 @@ class ClearanceTable(ConditionedTable):
     """
 
     def __init__(
-        self, table, load_n: float, speed_hz: float, viscosity_pa_s: float, clearance_factor: float
+        self,
+        table,
+        load_n: float,
+        speed_hz: float,
+        viscosity_pa_s: float,
+        clearance_factor: float,
+        one_sided: bool = False,
     ) -> None:
         self.clearance_factor = require_in_range("clearance factor", clearance_factor, 0.5, 2.0)
-        super().__init__(table, load_n, speed_hz, viscosity_pa_s)
+        super().__init__(table, load_n, speed_hz, viscosity_pa_s, one_sided)
         self.metadata["bearing"]["clearance_m"] = table.geometry["clearance_m"] * clearance_factor
 
     def set_conditions(self, speed_hz: float, viscosity_pa_s: float) -> None:
         """Move to another speed [Hz] and film viscosity [Pa s]."""
         super().set_conditions(speed_hz, viscosity_pa_s)
         self._slice = self.table.at(
-            self.speed_hz, self.viscosity_pa_s / self.clearance_factor**2, self.load_n
+            self.speed_hz, self.viscosity_pa_s / self.clearance_factor**2, self.load_n, self.one_sided
         )
 
     @property
@@ -217,7 +236,12 @@ def structural_system(
         groups = [
             [
                 ClearanceTable(
-                    operating_table_of(machine, k), w, speed, viscosity, structure.clearance_factor
+                    operating_table_of(machine, k),
+                    w,
+                    speed,
+                    viscosity,
+                    structure.clearance_factor,
+                    structure.threshold_one_sided,
                 )
                 for w in rotor.bearing_static_loads_n
             ]

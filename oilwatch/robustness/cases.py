@@ -376,6 +376,13 @@ CASES: tuple[Case, ...] = (
         **_STRUCTURE,
     ),
     Case(
+        "threshold-one-sided",
+        "film coefficients at their one-sided limits on the flooded threshold (the jump); the estimator "
+        "interpolates across it",
+        structure=PlantStructure(threshold_one_sided=True),
+        **_STRUCTURE,
+    ),
+    Case(
         "runout-1-3um",
         "1x and 2x runout of 1-3 um on every probe, keyphasor, no slow-roll record",
         runout_range_m=RUNOUT_RANGE_M,
