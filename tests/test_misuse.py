@@ -99,6 +99,18 @@ def test_argument_errors_are_one_line(capsys):
     assert "oilwatch run --help" in line
 
 
+@pytest.mark.parametrize(
+    ("option", "named"),
+    [(["--workers", "0"], "--workers must be an integer >= 1"), (["--scheduler", "nowhere"], "--scheduler")],
+)
+def test_cluster_options_are_checked_with_one_record_too(capsys, tmp_path, option, named):
+    """One record runs in this process, but a bad cluster option is still the user's error, not ignored."""
+    record = tmp_path / "record.csv"
+    record.write_text("time_s,x1_um,y1_um,x2_um,y2_um\n0,0,0,0,0\n0.001,0,0,0,0\n")
+    line = one_line_error(capsys, ["estimate", str(record), "--out", str(tmp_path / "out"), *option])
+    assert named in line and not (tmp_path / "out").exists()
+
+
 def test_out_onto_a_file_or_a_folder_is_refused_before_any_work(capsys, tmp_path):
     a_file = tmp_path / "a_file"
     a_file.write_text("keep me")

@@ -131,6 +131,10 @@ def run(args: argparse.Namespace) -> int:
 
     if args.output_every < 1:
         raise InputError(f"--output-every must be an integer >= 1, got {args.output_every}")
+    if args.scheduler is not None or args.workers is not None:  # checked with one record too
+        from oilwatch.study.runner import check_cluster_options
+
+        check_cluster_options(args.scheduler, args.workers)
     if STDIN in args.records and len(args.records) > 1:
         raise InputError("- (standard input) must be the only record")
     live = args.records == [STDIN]
@@ -241,9 +245,8 @@ def _run_many(args, options) -> int:
 
     from oilwatch.models.validation import InputError
     from oilwatch.records.readers import open_record
-    from oilwatch.study.runner import check_cluster_options, dask_client
+    from oilwatch.study.runner import dask_client
 
-    check_cluster_options(args.scheduler, args.workers)
     stems = [output_folder_name(source) for source in args.records]
     if len(set(stems)) != len(stems):
         raise InputError("a record is given twice; give each record once (one folder each)")
