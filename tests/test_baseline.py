@@ -47,6 +47,23 @@ def test_the_baseline_recovers_the_offsets_and_primes_the_estimator(record, tmp_
     assert np.abs(trace.q_m3_s[2000:].mean(axis=0) / QN - 1).max() < 0.02
 
 
+def test_a_baseline_its_model_cannot_explain_is_written_and_exits_3(record, tmp_path, capsys):
+    """A commissioning record with 5 um of 2x on one probe (no model the estimator has makes it): the file is
+    written, the line says the model explained the record only part of the time, and the exit status is 3,
+    as for an estimate it cannot trust (docs/operations.md)."""
+    _, data = record
+    times = DT * np.arange(1, len(data) + 1)
+    disturbed = data.copy()
+    disturbed[:, 1] += 5e-6 * np.sin(2.0 * np.pi * 150.0 * times)
+    bad = tmp_path / "disturbed.csv"
+    table = np.column_stack([times, disturbed * 1e6, np.full(len(data), 75.0)])
+    np.savetxt(bad, table, delimiter=",", header="time_s,x1_um,y1_um,x2_um,y2_um,speed_hz", comments="")
+    out = tmp_path / "baseline.json"
+    assert main(["baseline", "--record", str(bad), "--out", str(out), "--preset", "paper"]) == 3
+    assert "its model explained the record only" in capsys.readouterr().out
+    assert load_baseline(out) is not None
+
+
 def test_bad_records_are_named(tmp_path, capsys):
     bad = tmp_path / "bad.csv"
     bad.write_text("time_s,x1_um,y1_um\n0.001,1,2\n")
