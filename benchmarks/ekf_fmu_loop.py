@@ -4,7 +4,9 @@ benchmarks (``benchmarks/ekf_step.py``, ``benchmarks/ekf_fmu_step.py``): :class:
 
 from __future__ import annotations
 
+import shutil
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -39,9 +41,10 @@ class FmuLoop:
 
         md = read_model_description(str(fmu_path))
         bare = md.coSimulation.modelIdentifier == "BareFilter"
+        self.unpacked = tempfile.mkdtemp(prefix="oilwatch_fmu_loop_")  # removed by close()
         self.fmu = fmu = FMU2Slave(
             guid=md.guid,
-            unzipDirectory=extract(str(fmu_path)),
+            unzipDirectory=extract(str(fmu_path), self.unpacked),
             modelIdentifier=md.coSimulation.modelIdentifier,
             instanceName="ekf",
         )
@@ -89,8 +92,10 @@ class FmuLoop:
         return wall / steps * 1e6, cpu / steps * 1e6
 
     def close(self) -> None:
+        """End the instance and remove its unpacked FMU."""
         self.fmu.terminate()
         self.fmu.freeInstance()
+        shutil.rmtree(self.unpacked, ignore_errors=True)
 
 
 def time_fmu(

@@ -33,7 +33,8 @@ def _raw_slaves(folder: Path):
     for name in ("ToyPlant", "ToyFilter"):
         path = str(folder / f"{name}.fmu")
         md = read_model_description(path)
-        slave = FMU2Slave(guid=md.guid, unzipDirectory=extract(path), modelIdentifier=name, instanceName=name)
+        unpacked = extract(path, str(folder / f"{name}_unpacked"))  # inside the run's folder, removed with it
+        slave = FMU2Slave(guid=md.guid, unzipDirectory=unpacked, modelIdentifier=name, instanceName=name)
         slave.instantiate()
         slave.setupExperiment(startTime=0.0)
         slave.enterInitializationMode()

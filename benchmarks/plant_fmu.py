@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import shutil
 import statistics
 import sys
 import tempfile
@@ -71,8 +72,12 @@ def bare_run(fmu: Path, parameters: dict, duration: float) -> float:
     from fmpy.fmi2 import FMU2Slave
 
     md = read_model_description(str(fmu))
+    unpacked = tempfile.mkdtemp(prefix="oilwatch_plant_fmu_")
     slave = FMU2Slave(
-        guid=md.guid, unzipDirectory=extract(str(fmu)), modelIdentifier="RotorBearingPlant", instanceName="p"
+        guid=md.guid,
+        unzipDirectory=extract(str(fmu), unpacked),
+        modelIdentifier="RotorBearingPlant",
+        instanceName="p",
     )
     slave.instantiate()
     slave.setupExperiment(startTime=0.0)
@@ -88,6 +93,7 @@ def bare_run(fmu: Path, parameters: dict, duration: float) -> float:
     wall = time.perf_counter() - start
     slave.terminate()
     slave.freeInstance()
+    shutil.rmtree(unpacked, ignore_errors=True)
     return wall
 
 

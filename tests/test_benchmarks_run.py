@@ -49,6 +49,9 @@ ARGUMENTS = {
     "transient_plant_sample": ["--samples", "3"],
 }
 """The smallest settings of each benchmark ({fmus}: the session's built FMUs, {tmp}: a fresh folder)."""
+THIRD_PARTY_SCRATCH = ("libcosim_", "dask-scratch-space")
+"""What libcosim (master_overhead's SSP run) and dask (study_scaling's local cluster) leave in the temporary
+folder; everything else a benchmark writes there it must remove."""
 NEEDS_FMUS = {name for name, arguments in ARGUMENTS.items() if any("{fmus}" in a for a in arguments)}
 
 
@@ -59,8 +62,13 @@ def test_every_benchmark_script_is_listed():
 
 def _run(name: str, fmus, tmp_path, cache) -> None:
     arguments = [a.format(fmus=fmus, tmp=tmp_path) for a in ARGUMENTS[name]]
+    # the system's temporary folder of the benchmark: each must remove what it unpacks or writes there (an
+    # FMU unpack is 4-26 MB, and leftovers over many runs filled the disk)
+    scratch = tmp_path / "tmpdir"
+    scratch.mkdir()
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1", OILWATCH_CACHE=str(cache), MPLBACKEND="Agg")
     env["PYTHONPATH"] = os.pathsep.join([str(REPO_ROOT), env.get("PYTHONPATH", "")])
+    env["TMPDIR"] = str(scratch)
     process = subprocess.run(
         [sys.executable, str(BENCHMARKS / f"{name}.py"), *arguments],
         cwd=REPO_ROOT,
@@ -71,6 +79,9 @@ def _run(name: str, fmus, tmp_path, cache) -> None:
     )
     assert process.returncode == 0, process.stderr[-3000:]
     assert re.search(r"\d+\.\d", process.stdout), process.stdout[-2000:]
+    # libcosim's unpacks and dask's worker space are the libraries' own: contained here, removed with tmp_path
+    left = sorted(p.name for p in scratch.iterdir() if not p.name.startswith(THIRD_PARTY_SCRATCH))
+    assert not left, f"left in the temporary folder: {left}"
 
 
 @pytest.fixture(scope="module")
