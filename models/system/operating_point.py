@@ -53,7 +53,14 @@ class ConditionedTable:
         """Move to another speed [Hz] and film viscosity [Pa s] (checked against the table's range)."""
         self.speed_hz = require_positive("speed", speed_hz, "Hz")
         self.viscosity_pa_s = require_positive("film viscosity", viscosity_pa_s, "Pa s")
-        self._slice = self.table.at(self.speed_hz, self.viscosity_pa_s, self.load_n, self.one_sided)
+        self._slice = self.table.at(
+            self.speed_hz, self.table_viscosity_pa_s(self.viscosity_pa_s), self.load_n, self.one_sided
+        )
+
+    def table_viscosity_pa_s(self, viscosity_pa_s: float) -> float:
+        """The viscosity [Pa s] the dimensionless table is read at for the film's ``viscosity_pa_s``: the same
+        for the machine's own bearing."""
+        return viscosity_pa_s
 
     @property
     def conditions(self) -> tuple[float, float]:

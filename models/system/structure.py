@@ -152,12 +152,9 @@ class ClearanceTable(ConditionedTable):
         super().__init__(table, load_n, speed_hz, viscosity_pa_s, one_sided)
         self.metadata["bearing"]["clearance_m"] = table.geometry["clearance_m"] * clearance_factor
 
-    def set_conditions(self, speed_hz: float, viscosity_pa_s: float) -> None:
-        """Move to another speed [Hz] and film viscosity [Pa s]."""
-        super().set_conditions(speed_hz, viscosity_pa_s)
-        self._slice = self.table.at(
-            self.speed_hz, self.viscosity_pa_s / self.clearance_factor**2, self.load_n, self.one_sided
-        )
+    def table_viscosity_pa_s(self, viscosity_pa_s: float) -> float:
+        """The Sommerfeld number at clearance g c is the table's at viscosity mu / g^2 (class docstring)."""
+        return viscosity_pa_s / self.clearance_factor**2
 
     @property
     def flowrate_range_m3_s(self) -> tuple[float, float]:
