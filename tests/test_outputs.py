@@ -155,6 +155,37 @@ def test_an_interrupted_command_says_one_line_even_when_a_finalizer_fails_at_exi
         assert any("_as_parameter_" in line for line in lines), lines
 
 
+SLOW_TEARDOWN = """
+import sys, time
+import oilwatch.cli as cli
+
+class SlowTeardown:  # destroyed with the modules, after Python has handed its signals back
+    def __del__(self):
+        sys.__stderr__.write("tearing down\\n")
+        sys.__stderr__.flush()
+        time.sleep(2.0)
+
+def main():
+    cli.LEFT = SlowTeardown()
+    return 0
+
+cli.main = main
+cli.console_main()
+"""
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
+def test_a_signal_during_the_teardown_of_a_finished_command_leaves_its_exit_code(signum):
+    process = subprocess.Popen(
+        [sys.executable, "-c", SLOW_TEARDOWN], env=ENV, stderr=subprocess.PIPE, text=True
+    )
+    assert process.stderr.readline() == "tearing down\n"
+    process.send_signal(signum)
+    _, stderr = process.communicate(timeout=30)
+    assert process.returncode == 0, (process.returncode, stderr)  # -signum before: the default action
+    assert stderr == ""
+
+
 def test_estimate_into_a_locked_folder_is_one_line_and_writes_nothing(tmp_path, capsys):
     record = tmp_path / "r.csv"
     rows = "".join(f"{k / 1000},0,0,0,0\n" for k in range(1, 50))

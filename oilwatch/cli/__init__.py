@@ -119,9 +119,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{command}: error: {error}", file=sys.stderr)
         return 2
     except KeyboardInterrupt as stop:
-        print(
-            f"{command}: interrupted ({interrupts.signal_name(stop)}); {ledger.kept()}", file=sys.stderr
-        )
+        print(f"{command}: interrupted ({interrupts.signal_name(stop)}); {ledger.kept()}", file=sys.stderr)
         return interrupts.exit_code(stop)
     except OSError as error:
         where = "" if error.filename is None else f"cannot use {error.filename}: "
@@ -132,7 +130,7 @@ def main(argv: list[str] | None = None) -> int:
 def console_main() -> None:
     """The console script: SIGINT and SIGTERM handled first (:mod:`oilwatch.outputs.interrupts`; the
     modules imported before this line take a few milliseconds), then :func:`main`, then a normal
-    interpreter exit.
+    interpreter exit, during which both are ignored (the command has finished and set its exit code).
 
     oilwatch's FMUs carry their own loader (``oilwatch/cosim/native/fmi2_loader.c``), which fixes
     pythonfmu 0.7's double release of its interpreter guard at process exit (PythonFMU issues #228,
@@ -141,6 +139,7 @@ def console_main() -> None:
     from oilwatch.outputs import interrupts
 
     interrupts.install()
+    interrupts.ignore_at_exit()
     code = main()
     if code in (128 + signal.SIGINT, 128 + signal.SIGTERM):
         # a signal may have cut a numba compilation short: its half-built llvmlite objects fail in their

@@ -8,11 +8,13 @@ between macro steps: a signal raised inside an FMU call would come back as an FM
 further signals are noted but do not interrupt the clean-up (the partial summary, the one line); a third
 one ends the process at once with the same exit code.
 
-Exit codes (the shell's convention, 128 + the signal's number): 130 for SIGINT, 143 for SIGTERM.
+Exit codes (the shell's convention, 128 + the signal's number): 130 for SIGINT, 143 for SIGTERM. A signal
+after the command has finished (during the interpreter's teardown) is ignored: :func:`ignore_at_exit`.
 """
 
 from __future__ import annotations
 
+import atexit
 import os
 import signal
 import threading
@@ -68,6 +70,20 @@ def install() -> bool:
 def installed() -> bool:
     """Whether :func:`install` ran in this process."""
     return _State.installed
+
+
+def ignore_at_exit() -> None:
+    """Ignore SIGINT and SIGTERM once the interpreter exits (the console script registers this first, so
+    it runs after every other exit handler). Python gives a signal it handled back its default action
+    before it destroys its modules, so one arriving in those last tenths of a second would kill a process
+    whose files are whole and whose exit code is set (exit -2, no message); an ignored signal stays
+    ignored."""
+    atexit.register(_ignore_signals)
+
+
+def _ignore_signals() -> None:
+    for signum in SIGNALS:
+        signal.signal(signum, signal.SIG_IGN)
 
 
 def checkpoint() -> None:
@@ -128,4 +144,4 @@ def reset_for_tests() -> None:
     _State.depth, _State.pending, _State.received = 0, None, 0
 
 
-__all__ = ["Interrupted", "checkpoint", "deferred", "exit_code", "install", "signal_name"]
+__all__ = ["Interrupted", "checkpoint", "deferred", "exit_code", "ignore_at_exit", "install", "signal_name"]
