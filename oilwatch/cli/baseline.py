@@ -221,10 +221,10 @@ def _run_locked(args: argparse.Namespace) -> int:
     if "unbalance" in document:
         (re, im), (s_re, s_im) = document["unbalance"], document["unbalance_std"]
         others += f"; unbalance {re:+.3f} {im:+.3f}i (std {s_re:.3f}, {s_im:.3f}) of the machine file's"
-    from oilwatch.monitoring.trust import NOTICEABLE_SHARE, UNTRUSTED_EXIT_CODE
+    from oilwatch.monitoring.trust import UNTRUSTED_EXIT_CODE, noticeable
 
     # as oilwatch estimate's trust: written, but not trustworthy when the model could not explain the record
-    trusted = document["consistent_fraction"] >= 1.0 - NOTICEABLE_SHARE
+    trusted = not noticeable(1.0 - document["consistent_fraction"])
     if not trusted:
         others += (
             f"; its model explained the record only {100 * document['consistent_fraction']:.0f} % of the "

@@ -19,6 +19,12 @@ summary's ``trust.trusted`` false). docs/operations.md."""
 FLOWRATES = slice(1, 3)  # estimates.csv's q1_est_ml_min, q2_est_ml_min (oilwatch.monitoring.columns)
 
 
+def noticeable(share: float) -> bool:
+    """Whether a share of the record (at a table limit, inconsistent) is above :data:`NOTICEABLE_SHARE`: the
+    rule by which ``oilwatch estimate`` and ``oilwatch baseline`` call a result not trustworthy."""
+    return share > NOTICEABLE_SHARE
+
+
 class TrustShares:
     """Counts, over the samples estimated, those at a table limit (per bearing) and those inconsistent."""
 
@@ -52,9 +58,9 @@ class TrustShares:
             f"bearing {b[-1]}'s estimate at the coefficient table's limit for {100 * share:.1f} % of the "
             "record"
             for b, share in at_limit.items()
-            if share > NOTICEABLE_SHARE
+            if noticeable(share)
         ]
-        if inconsistent > NOTICEABLE_SHARE:
+        if noticeable(inconsistent):
             reasons.append(f"model inconsistent with the data for {100 * inconsistent:.1f} % of the record")
         return {
             "trusted": not reasons,
