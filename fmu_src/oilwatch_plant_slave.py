@@ -318,10 +318,24 @@ class RotorBearingPlant(OilwatchSlave):
             maximum=1,
             description="Plant only: 0 the machine file's bearing load split, 1 the support reactions",
         )
+        self.declare_integer(
+            "threshold_one_sided",
+            "parameter",
+            start=0,
+            minimum=0,
+            maximum=1,
+            description="Plant only: 1 the film coefficients' one-sided limits at each flooded threshold "
+            "(the jump a direct solve has; needs length_factor 1), 0 interpolated across it as the estimator "
+            "does",
+        )
 
     def _structure(self) -> PlantStructure:
         values = {field: getattr(self, name) * si for name, field, _, si in STRUCTURE_PARAMETERS}
-        return PlantStructure(**values, load_split="reactions" if self.load_split_reactions else None)
+        return PlantStructure(
+            **values,
+            load_split="reactions" if self.load_split_reactions else None,
+            threshold_one_sided=bool(self.threshold_one_sided),
+        )
 
     def _declare_measurement_chain(self) -> None:
         for probe in PROBE_NAMES:

@@ -210,6 +210,26 @@ except SlaveError as error:
     assert named in result["raised"]
 
 
+def test_the_one_sided_threshold_reaches_the_plants_structure(fmu):
+    """threshold_one_sided = 1 is the structure's flag: with another bearing length it is refused as the
+    library refuses it (tests/test_plant_structure.py checks its film coefficients)."""
+    result = _run(
+        fmu,
+        """
+from oilwatch.cosim import SlaveError
+def refused(parameters):
+    try:
+        simulate(parameters, 0.002, ["x1_um"])
+    except SlaveError as error:
+        return str(error) + " " + " ".join(map(str, error.log))
+result = {"alone": refused({"threshold_one_sided": 1}),
+          "with length": refused({"threshold_one_sided": 1, "length_factor": 1.05})}
+""",
+    )
+    assert result["alone"] is None
+    assert "threshold_one_sided needs length_factor 1" in result["with length"]
+
+
 def test_operating_point_inputs_and_measurement_chain_parameters(fmu):
     # bearing_table = 1: the speed input ramps down 2 Hz in 0.2 s; probe x1 dies at 0.1 s; y1 has a 5 um
     # zero offset; the new outputs (film state, rotor angle) are published. Then bearing_table = 0 refuses

@@ -9,11 +9,10 @@ pass, as for FMI 2.0.
 
 The binaries are pythonfmu3's own, behind a thin layer (``native/fmi3_refusal.c``) that answers a refused
 input (a parameter out of range at initialization, a fixed parameter set after it) with fmi3Error instead of
-pythonfmu3's fmi3Fatal, as the FMI 2.0 loader does. They need a host that already runs Python (fmpy,
-libcosimpy); the self-sufficient loader exists for FMI 2.0 only (``native/fmi2_loader.c``). pythonfmu3's
-Windows binary is removed: only ``x86_64-linux`` is built and tested. pythonfmu3's
-export binary has pythonfmu's teardown defect too; :class:`oilwatch.cosim.fmi3_loading.Slave3` releases its
-interpreter guard when it frees the instance.
+pythonfmu3's fmi3Fatal, as the FMI 2.0 loader does, and releases pythonfmu3's interpreter guard at exit
+(its binary has pythonfmu 0.7's teardown defect, as the FMI 2.0 loader's notes say). They need a host that
+already runs Python (fmpy, libcosimpy); the self-sufficient loader exists for FMI 2.0 only
+(``native/fmi2_loader.c``). pythonfmu3's Windows binary is removed: only ``x86_64-linux`` is built and tested.
 """
 
 from __future__ import annotations

@@ -8,10 +8,8 @@ both versions alike; only the FMI calls differ (``fmi3EnterInitializationMode`` 
 number of values).
 
 Teardown: pythonfmu3's binary has pythonfmu 0.7's defect (its interpreter guard is released twice at
-process exit, PythonFMU issues #228/#229). :meth:`Slave3.close` calls the binary's exported
-``finalizePythonInterpreter`` after freeing the instance, which releases the guard once, while the library
-is loaded; the exit-time releases then find it empty. In a Python host the guard owns no interpreter, so
-this finalizes nothing.
+process exit, PythonFMU issues #228/#229); the FMU's own layer in front of it (``native/fmi3_refusal.c``)
+releases the guard once, first, in any host.
 """
 
 from __future__ import annotations
@@ -177,12 +175,9 @@ class Slave3(Slave):
         self.call("fmi3Terminate", self.fmu.terminate)
 
     def close(self) -> None:
-        """Free the instance, release pythonfmu3's interpreter guard (module docstring), remove files."""
+        """Free the instance and the library, remove files."""
         if self.instantiated and not self.dead:
             self.fmu.fmi3FreeInstance(self.component)
-            release = getattr(self.fmu.dll, "finalizePythonInterpreter", None)
-            if release is not None:
-                release()
             self.fmu.freeLibrary()
         self.instantiated = False
         self._remove_extraction()

@@ -17,6 +17,18 @@
  * fmi3FreeInstance, which put a relay between pythonfmu3 and the host's logger. Every other fmi3* symbol a
  * host looks up with dlsym on this library's handle is pythonfmu3's, found in this library's dependency
  * (dlsym searches a handle's dependency tree breadth first), so nothing else is forwarded by hand.
+ *
+ * Teardown. pythonfmu3's binary has pythonfmu 0.7's defect (fmi2_loader.c, "Teardown"): its interpreter
+ * guard, a static std::shared_ptr, is released by its static destructor at exit and again by its
+ * __attribute__((destructor)) function, the second time through a control block already freed, which
+ * corrupts the heap or aborts ("corrupted double-linked list") in any host that does not release the guard
+ * itself. pythonfmu3's binary is this library's dependency, so its static constructors, which register that
+ * destructor with atexit, have run before this library's constructor, which registers a handler that calls
+ * pythonfmu3's exported finalizePythonInterpreter(): atexit handlers run in reverse order, so the guard is
+ * released once, properly, and both later releases find it empty. The handler also runs when the host
+ * dlcloses this library (glibc runs a library's atexit handlers then); pythonfmu3's binary stays loaded
+ * (its STB_GNU_UNIQUE symbols) and makes a new guard at its next instantiation. In a Python host the guard
+ * owns no interpreter, so this finalizes nothing.
  */
 #define _GNU_SOURCE
 #include <dlfcn.h>
@@ -47,6 +59,19 @@ typedef void (*fmi3IntermediateUpdateCallback)(fmi3InstanceEnvironment, fmi3Floa
 /* pythonfmu3's function of the same name: the next definition after this library in its lookup scope, i.e.
  * in the dependency the dynamic linker bound (the same one the host's other fmi3* lookups reach) */
 static void *inner(const char *name) { return dlsym(RTLD_NEXT, name); }
+
+static void (*finalize_inner)(void);
+
+static void release_pythonfmu3(void)
+{
+    if (finalize_inner) finalize_inner();
+}
+
+__attribute__((constructor)) static void register_release(void)
+{
+    *(void **)(&finalize_inner) = inner("finalizePythonInterpreter");
+    if (finalize_inner) atexit(release_pythonfmu3);
+}
 
 /* Set by the slave during the call whose input it refuses (same thread as the host's call). */
 static __thread int refused_in_call;
