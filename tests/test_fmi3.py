@@ -4,16 +4,20 @@ Same variables (names, value references, causality, variability, units, ranges, 
 same unit definitions and documentation; state get/set/serialize through fmpy.fmi3; the sudden-drop scenario
 through oilwatch's master with the FMI 3.0 SSP gives the FMI 2.0 SSP's results for the same seed; the FMI 3.0
 SSP loads; a refused input (a bad parameter, a fixed parameter set after initialization) is fmi3Error, as
-in FMI 2.0, not pythonfmu3's fmi3Fatal. Runs happen in fresh subprocesses (the FMUs share the host
+in FMI 2.0, not pythonfmu3's fmi3Fatal; a fresh unpack in plain fmpy compiles none of the kernels (the build
+shipped them) and the process exits cleanly. Runs happen in fresh subprocesses (the FMUs share the host
 interpreter).
 """
 
 from __future__ import annotations
 
+import subprocess
+import sys
 import zipfile
 
 import pytest
-from fixtures.fmu_subprocess import run_json
+from fixtures.fmu_subprocess import assert_shipped_kernels_loaded_and_none_compiled, run_json
+from fixtures.venvs import clean_env
 from fmpy import read_model_description
 
 NAMES = ("RotorBearingPlant", "OilFlowEKF")
@@ -139,6 +143,39 @@ def test_fmi3_state_get_set_and_serialize_restore_the_run(
     assert result["size"] > 0
     assert result["again"] == result["first"]
     assert result["from_bytes"] == result["first"]
+
+
+FRESH_UNPACK = """
+import sys, tempfile
+from fmpy import extract, read_model_description
+from fmpy.fmi3 import FMU3Slave
+path = sys.argv[1]
+md = read_model_description(path)
+fmu = FMU3Slave(guid=md.guid, unzipDirectory=extract(path, tempfile.mkdtemp(dir=sys.argv[2])),
+                modelIdentifier=md.coSimulation.modelIdentifier, instanceName="x")
+fmu.instantiate()
+fmu.enterInitializationMode(startTime=0.0)
+fmu.exitInitializationMode()
+for k in range(50):
+    fmu.doStep(k * 1e-3, 1e-3)
+fmu.terminate()
+fmu.freeInstance()
+print("@@done")
+"""
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_a_fresh_unpack_in_plain_fmpy_loads_the_shipped_kernels_compiles_none_and_exits_cleanly(
+    built_fmi3_fmus, name, tmp_path
+):
+    """numba's cache log says what each kernel did: "data loaded" from the shipped files, "data saved" after
+    compiling it here. The host exits normally (no os._exit): the FMU's layer mends pythonfmu3's teardown."""
+    env = clean_env(NUMBA_DEBUG_CACHE="1", OPENBLAS_NUM_THREADS="1", TMPDIR=str(tmp_path))
+    process = subprocess.run(
+        [sys.executable, "-c", FRESH_UNPACK, str(built_fmi3_fmus / f"{name}.fmu"), str(tmp_path)],
+        cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600,
+    )  # fmt: skip
+    assert_shipped_kernels_loaded_and_none_compiled(process)
 
 
 SCENARIO = """

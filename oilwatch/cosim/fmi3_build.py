@@ -13,6 +13,9 @@ pythonfmu3's fmi3Fatal, as the FMI 2.0 loader does, and releases pythonfmu3's in
 (its binary has pythonfmu 0.7's teardown defect, as the FMI 2.0 loader's notes say). They need a host that
 already runs Python (fmpy, libcosimpy); the self-sufficient loader exists for FMI 2.0 only
 (``native/fmi2_loader.c``). pythonfmu3's Windows binary is removed: only ``x86_64-linux`` is built and tested.
+The compiled code ships as in FMI 2.0 (:func:`oilwatch.cosim.packaging.ship_compiled`: the build runs each
+FMU once under fmpy.fmi3 and adds numba's kernels, the bytecode and the estimator's grids), so a fresh unpack
+initializes without compiling.
 """
 
 from __future__ import annotations
@@ -28,7 +31,7 @@ from oilwatch.models.validation import InputError
 
 from .fmu_build import REGISTRY, FmuEntry
 from .native_loader import FMI3_PLATFORM, install_fmi3_refusal
-from .packaging import stage_sources
+from .packaging import share_compiled, ship_compiled, stage_sources
 
 FMI3_OPTIONS = {"canGetAndSetFMUState": True, "canSerializeFMUState": True}
 BINARY = "binaries/x86_64-linux/{name}.so"
@@ -112,6 +115,7 @@ def build_fmi3_fmu(entry: Fmi3Entry, out_dir: Path, machine=None) -> Path:
             raise InputError(f"{entry.name}: the class in {script.name} must be named {entry.name}")
     install_fmi3_refusal(built, entry.name)  # refused input: fmi3Error (oilwatch/cosim/native_loader.py)
     keep_platform(built, f"binaries/{FMI3_PLATFORM}/")  # pythonfmu3's Windows binary is not tested
+    ship_compiled(built, f"{entry.name} (FMI 3.0)")
     return document_and_validate(built, f"{entry.name} (FMI 3.0)")
 
 
@@ -141,4 +145,5 @@ def build_fmi3_fmus(
     """Build every entry of ``registry`` into ``out_dir`` (FMI 3.0) for ``machine`` (default: the bundled
     turbine), then the FMI 3.0 twin of each FMI 2.0 SSP of ``fmi2_systems``; return the files written."""
     fmus = {entry.name: build_fmi3_fmu(entry, Path(out_dir), machine) for entry in registry}
+    share_compiled(list(fmus.values()))
     return [*fmus.values(), *(fmi3_system(Path(ssp), fmus, Path(out_dir)) for ssp in fmi2_systems)]

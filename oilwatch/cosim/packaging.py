@@ -11,12 +11,12 @@ they cannot.
 Shipping compiled code (:func:`ship_compiled`): a pythonfmu FMU runs its sources in the host's Python, so
 whatever is compiled at run time (numba's kernels, Python's bytecode) is compiled again in every fresh
 unpack, which is what most tools do on every run (seconds to tens of seconds of numba per FMU). The build
-therefore runs the built FMU once, in a fresh process under fmpy, unpacked into a temporary folder: each
-instance of :data:`WARM_UP_RUNS` initializes and steps, so numba writes every kernel the FMU uses into the
-``__pycache__`` folders beside its sources. numba keys that cache by the source file's content (not its
-path or time) and each entry by signature, CPU, Python minor version and numba version, so the entries hit in
-any other unpack on a machine with the same CPU, Python minor and numba; elsewhere numba compiles as before.
-Every module is then compiled to bytecode validated by a hash of its source (PEP 552, checked-hash
+therefore runs the built FMU (FMI 2.0 or 3.0) once, in a fresh process under fmpy, unpacked into a temporary
+folder: each instance of :data:`WARM_UP_RUNS` initializes and steps, so numba writes every kernel the FMU uses
+into the ``__pycache__`` folders beside its sources. numba keys that cache by the source file's content (not
+its path or time) and each entry by signature, CPU, Python minor version and numba version, so the entries
+hit in any other unpack on a machine with the same CPU, Python minor and numba; elsewhere numba compiles as
+before. Every module is then compiled to bytecode validated by a hash of its source (PEP 552, checked-hash
 ``.pyc``), which stays valid although an unpack gives the files new modification times. All these
 ``__pycache__`` files are added to the FMU, with the estimator's flowrate grids the run stored
 (:mod:`oilwatch.fmu_src.grid_store`).
@@ -71,24 +71,33 @@ which the scenarios' SSP systems run)."""
 WARM_UP = r"""
 import json, sys
 from fmpy import read_model_description
-from fmpy.fmi2 import FMU2Slave
 
 folder, runs, steps = sys.argv[1], json.loads(sys.argv[2]), int(sys.argv[3])
 md = read_model_description(folder + "/modelDescription.xml")
 variables = {v.name: v for v in md.modelVariables}
+fmi3 = md.fmiVersion.startswith("3.")
+if fmi3:
+    from fmpy.fmi3 import FMU3Slave as Slave
+else:
+    from fmpy.fmi2 import FMU2Slave as Slave
 for number, parameters in enumerate(runs):
     if not set(parameters) <= set(variables):
         continue
-    fmu = FMU2Slave(guid=md.guid, unzipDirectory=folder, modelIdentifier=md.coSimulation.modelIdentifier,
-                    instanceName=f"warm_up_{number}")
+    fmu = Slave(guid=md.guid, unzipDirectory=folder, modelIdentifier=md.coSimulation.modelIdentifier,
+                instanceName=f"warm_up_{number}")
     fmu.instantiate()
     try:
-        fmu.setupExperiment(startTime=0.0)
+        if fmi3:
+            fmu.enterInitializationMode(startTime=0.0)
+            setters, default = {"Int32": fmu.setInt32, "String": fmu.setString}, fmu.setFloat64
+        else:
+            fmu.setupExperiment(startTime=0.0)
+            setters, default = {"Integer": fmu.setInteger, "String": fmu.setString}, fmu.setReal
         for name, value in parameters.items():
             v = variables[name]
-            setter = {"Integer": fmu.setInteger, "String": fmu.setString}.get(v.type, fmu.setReal)
-            setter([v.valueReference], [value])
-        fmu.enterInitializationMode()
+            setters.get(v.type, default)([v.valueReference], [value])
+        if not fmi3:
+            fmu.enterInitializationMode()
         fmu.exitInitializationMode()
         for k in range(steps):
             fmu.doStep(k * 1e-3, 1e-3)
