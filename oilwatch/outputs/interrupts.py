@@ -73,11 +73,11 @@ def installed() -> bool:
 
 
 def ignore_at_exit() -> None:
-    """Ignore SIGINT and SIGTERM once the interpreter exits (the console script registers this first, so
-    it runs after every other exit handler). Python gives a signal it handled back its default action
-    before it destroys its modules, so one arriving in those last tenths of a second would kill a process
-    whose files are whole and whose exit code is set (exit -2, no message); an ignored signal stays
-    ignored."""
+    """Ignore SIGINT and SIGTERM once the interpreter exits (the console script registers this before its
+    command imports anything, so it runs after the exit handlers those imports register). Python gives a
+    signal it handled back its default action before it destroys its modules, so one arriving in those
+    last tenths of a second would kill a process whose files are whole and whose exit code is set (exit -2,
+    no message); an ignored signal stays ignored."""
     atexit.register(_ignore_signals)
 
 
