@@ -24,7 +24,9 @@ record measured them, ``consistent_fraction`` (the share of the record's second 
 ``model_consistent``), ``static_reference_speed_hz`` and ``static_reference_temperature_c`` (its means);
 and/or ``runout``: the probes' slow-roll vectors with their stds (:meth:`SlowRollVectors.to_document`, from a
 slow-roll record, :func:`oilwatch.estimator.runout.fit_slow_roll`), which the estimator subtracts
-(``EKFConfig.runout``, :func:`load_runout`).
+(``EKFConfig.runout``, :func:`load_runout`); and/or ``clearance_factor`` (2,): each bearing's radial clearance
+over the machine file's, measured from a coast-down record (:func:`clearance_document`), which the estimator's
+model takes (:func:`load_clearance_factors`).
 """
 
 from __future__ import annotations
@@ -35,7 +37,8 @@ from pathlib import Path
 
 import numpy as np
 
-from oilwatch.models.validation import InputError
+from oilwatch.models.bearing.centreline import CLEARANCE_FACTOR_RANGE
+from oilwatch.models.validation import InputError, require_in_range
 
 from .ekf import OilFlowEKF
 from .ekf_config import ML_MIN, EKFConfig
@@ -205,3 +208,40 @@ def load_runout(path: str | Path) -> SlowRollVectors | None:
     if not isinstance(data["runout"], dict):
         raise InputError(f"baseline file {path}: runout must be a table")
     return SlowRollVectors.from_document(data["runout"], f"baseline file {path}")
+
+
+def clearance_document(fits, record: str | None = None) -> dict:
+    """The baseline's coast-down part from each bearing's
+    :class:`oilwatch.models.bearing.centreline.ClearanceFit` (:mod:`oilwatch.models.system.clearance`):
+    ``clearance_factor`` and ``clearance_factor_std`` (the estimator's model takes the factors), and how well
+    the locus fitted (``coast_down``)."""
+    return {
+        "clearance_factor": [f.clearance_factor for f in fits],
+        "clearance_factor_std": [f.clearance_factor_std for f in fits],
+        "coast_down": {
+            "record": record,
+            "viscosity_factor": [f.viscosity_factor for f in fits],
+            "viscosity_factor_std": [f.viscosity_factor_std for f in fits],
+            "residual_rms_um": [f.residual_rms_m * 1e6 for f in fits],
+            "points": [f.points for f in fits],
+            "speed_span": [f.speed_span for f in fits],
+        },
+    }
+
+
+def clearance_factors_of(document: dict, source: str = "baseline") -> tuple[float, ...] | None:
+    """The bearings' clearance factors a coast-down measured (None when the document has none)."""
+    if "clearance_factor" not in document:
+        return None
+    try:
+        factors = tuple(float(v) for v in document["clearance_factor"])
+    except (TypeError, ValueError) as error:
+        raise InputError(f"{source}: bad clearance_factor ({error})") from None
+    for factor in factors:
+        require_in_range(f"{source}: clearance_factor", factor, *CLEARANCE_FACTOR_RANGE)
+    return factors
+
+
+def load_clearance_factors(path: str | Path) -> tuple[float, ...] | None:
+    """The clearance factors of a baseline file (:func:`clearance_factors_of`)."""
+    return clearance_factors_of(_read_document(path), f"baseline file {path}")

@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from oilwatch.estimator.baseline import load_baseline, load_runout
+from oilwatch.estimator.baseline import load_baseline, load_clearance_factors, load_runout
 from oilwatch.estimator.boundary_parameters import (
     ESTIMATOR_PARAMETERS,
     PRESET_PARAMETERS,
@@ -95,16 +95,26 @@ def flowrates_ml_min(slave, system) -> tuple[float, float]:
 
 def estimator_model(slave, system, machine):
     """The estimator's model of ``bearing_table``: 1, the operating model following the measured speed and
-    oil temperature; 0, the flowrate grid at the start speed (no viscosity factors)."""
+    oil temperature, with the clearances the ``baseline_file``'s coast-down measured; 0, the flowrate grid
+    at the start speed (no viscosity factors, the machine file's clearance)."""
     built_by = (system.speed_hz, slave.unbalance_g_mm, slave.unbalance_phase_deg, slave.sample_period_s)
+    factors = _baseline_read(slave, load_clearance_factors)
     if slave.bearing_table == 1:
-        # the reference grid on the dimensionless table: stored as the flowrate grid is (fmu_src.grid_store)
-        key = grid_key(slave.resources, machine, ("operating", *built_by))
+        # the reference grid on the dimensionless table: stored as the flowrate grid is (fmu_src.grid_store);
+        # a measured clearance's is built at the first instantiation and stored for the next
+        key = grid_key(slave.resources, machine, ("operating", *built_by, *(factors or ())))
         grid = load_grid(slave.resources, key)
-        model = build_operating_model(system, machine, slave.sample_period_s, grid=grid)
+        model = build_operating_model(
+            system, machine, slave.sample_period_s, grid=grid, clearance_factors=factors
+        )
         if grid is None:
             store_grid(slave.resources, key, model.reference.grid)
         return model
+    if factors is not None:
+        raise InputError(
+            f"baseline_file {slave.baseline_file!r} holds the clearances a coast-down measured, which need "
+            "bearing_table = 1"
+        )
     if slave.viscosity_factor_prior_std > 0.0:
         raise InputError("viscosity_factor_prior_std > 0 needs bearing_table = 1")
     if slave.viscosity_factor_prior_std == PRESET_VALUE and preset_named(slave.preset).value(
@@ -128,13 +138,24 @@ def baseline_prior(slave, machine):
     ``machine``'s offset drift bound, the runout None when the baseline has none."""
     if not slave.baseline_file:
         return None, None
+    drift = read_probes(machine).offset_drift_m_per_day
+
+    def prior_and_runout(path: Path):
+        return load_baseline(path, SECONDS_PER_DAY * slave.baseline_age_days, drift), load_runout(path)
+
+    return _baseline_read(slave, prior_and_runout)
+
+
+def _baseline_read(slave, read):
+    """``read(path)`` of the ``baseline_file`` parameter (None when it is empty; a relative path is relative
+    to the resources); a one-line InputError naming the parameter when the file is bad."""
+    if not slave.baseline_file:
+        return None
     path = Path(slave.baseline_file)
     if not path.is_absolute() and slave.resources:
         path = Path(slave.resources) / path
     try:
-        drift = read_probes(machine).offset_drift_m_per_day
-        prior = load_baseline(path, SECONDS_PER_DAY * slave.baseline_age_days, drift)
-        return prior, load_runout(path)
+        return read(path)
     except (InputError, OSError, UnicodeDecodeError) as error:
         reason = error if isinstance(error, InputError) else f"cannot read {path}: {error}"
         raise InputError(f"baseline_file {slave.baseline_file!r}: {reason}") from None

@@ -137,7 +137,9 @@ def declare_parameters(slave) -> None:
         start="",
         description="Commissioning baseline (JSON written by 'oilwatch baseline'): the probe offsets' "
         "prior and, when it has them, the runout vectors (they replace the machine file's [probes] "
-        "runout_* keys); an absolute path or one relative to this FMU's resources folder; empty: none",
+        "runout_* keys) and the bearings' clearances a coast-down measured (the model takes them; they "
+        "need bearing_table = 1); an absolute path or one relative to this FMU's resources folder; "
+        "empty: none",
     )
     slave.declare_integer(
         "velocity_channels",

@@ -26,7 +26,7 @@ def test_help_lists_the_commands_a_user_runs_first():
     listed = [name.replace("_", "-") for name in SUBCOMMANDS]
     positions = [re.search(rf"\n    {name}\b", text).start() for name in listed]
     assert positions == sorted(positions)
-    assert listed[: len(USER_COMMANDS)] == ["estimate", "baseline", "demo", "run", "build-fmus"]
+    assert listed[: len(USER_COMMANDS)] == ["estimate", "baseline", "demo", "run", "coast-down", "build-fmus"]
 
 
 def test_two_records_of_one_name_get_two_output_folders(tmp_path):

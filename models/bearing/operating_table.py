@@ -27,6 +27,7 @@ at one operating point :mod:`oilwatch.models.bearing.operating_table_interpolati
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import json
 import math
@@ -186,6 +187,16 @@ class OperatingTable:
     def fraction_range(self) -> tuple[float, float]:
         """(lowest, highest) tabulated flowrate as a fraction of the flooded threshold."""
         return float(self.fraction_nodes[0]), float(self.fraction_nodes[-1])
+
+    def with_clearance(self, clearance_m: float) -> OperatingTable:
+        """The same table for the bearing of radial clearance ``clearance_m``: with R, L and the grooves
+        unchanged the dimensionless film depends on c only through S and the flow unit q_c (exact: the
+        Sommerfeld scaling of :mod:`oilwatch.models.bearing.sommerfeld`), so only the geometry's c changes;
+        the node values are shared."""
+        require_positive("bearing clearance", clearance_m, "m")
+        other = copy.copy(self)
+        other.geometry = {**self.geometry, "clearance_m": float(clearance_m)}
+        return other
 
     def check_geometry(self, bearing: JournalBearing) -> None:
         """Raise :class:`InputError` unless ``bearing`` has the table's geometry (viscosity may differ)."""

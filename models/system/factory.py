@@ -78,6 +78,16 @@ def flowrate_table_path(machine: Machine, speed_hz: float, coefficients: str | N
     return _table_path(machine, flowrate_table_name(machine, speed_hz, coefficients))
 
 
+def locus_table_name(machine: Machine) -> str:
+    """File name of the machine's flooded loci (``oilwatch bearing-locus``)."""
+    return f"{machine.source_path.stem}_bearing_locus.json"
+
+
+def locus_table_path(machine: Machine) -> Path:
+    """Path of the machine's flooded loci: the existing one, else where a computed one is kept."""
+    return _table_path(machine, locus_table_name(machine))
+
+
 def speed_sweep_path(machine: Machine, squeeze: str = "full-film") -> Path:
     """Path of the machine's speed sweep (a suffix names a non-default squeeze model): the existing one, else
     where ``oilwatch speed-sweep`` writes it."""

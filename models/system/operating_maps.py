@@ -51,20 +51,25 @@ class OperatingMaps:
 
     ``system`` supplies the rotor (mass, stiffness, structural damping, gyroscopic matrix, gravity, unbalance
     force at its own speed), the bearing dofs and each bearing's static load; its flowrate tables are not
-    used. ``synchronous_table``: the dimensionless table of the synchronous coefficients, for the 1x load
-    of a system with synchronous tables (None: the unbalance force itself).
+    used. ``table``: one dimensionless table for every bearing, or one per bearing (bearings of another
+    clearance: :meth:`OperatingTable.with_clearance`). ``synchronous_table``: likewise, the table of the
+    synchronous coefficients, for the 1x load of a system with synchronous tables (None: the unbalance force
+    itself).
     """
 
     def __init__(
         self,
         system: RotorBearingSystem,
-        table: OperatingTable,
+        table: OperatingTable | tuple[OperatingTable, ...],
         dt_s: float,
-        synchronous_table: OperatingTable | None = None,
+        synchronous_table: OperatingTable | tuple[OperatingTable, ...] | None = None,
     ) -> None:
+        count = len(system.static_loads_n)
         self.system = system
-        self.table = table
-        self.synchronous_table = synchronous_table
+        self.tables = _per_bearing(table, count)
+        self.synchronous_tables = (
+            None if synchronous_table is None else _per_bearing(synchronous_table, count)
+        )
         self.dt_s = float(dt_s)
         n = system.n_coordinates
         self._n = n
@@ -72,7 +77,7 @@ class OperatingMaps:
         self._reference_omega = system.omega_rad_s
         self._loads = system.static_loads_n
         self._mass_lu = lu_factor(system.mass)
-        self._slices: dict[tuple[float, float, float, bool], object] = {}  # least recently used first
+        self._slices: dict[tuple[int, float, float, float, bool], object] = {}  # least recently used first
         # M^-1 of what the block's rows are linear in, once: the rotor's stiffness, structural damping,
         # gyroscopic matrix and gravity, and each bearing's map P_b^T (a block is then small products)
         mass_lu = self._mass_lu
@@ -84,12 +89,13 @@ class OperatingMaps:
         self._minv = lu_solve(mass_lu, np.eye(n))
         self._select = system.bearing_maps.reshape(-1, n)
 
-    def _slice(self, speed_hz: float, viscosity_pa_s: float, load_n: float, synchronous: bool = False):
-        key = (speed_hz, viscosity_pa_s, load_n, synchronous)
+    def _slice(self, bearing: int, speed_hz: float, viscosity_pa_s: float, synchronous: bool = False):
+        load_n = self._loads[bearing]
+        key = (bearing, speed_hz, viscosity_pa_s, load_n, synchronous)
         slices = self._slices
         found = slices.pop(key, None)
         if found is None:
-            table = self.synchronous_table if synchronous else self.table
+            table = (self.synchronous_tables if synchronous else self.tables)[bearing]
             found = table.at(speed_hz, viscosity_pa_s, load_n)
             if len(slices) >= SLICES_KEPT:
                 del slices[next(iter(slices))]
@@ -103,10 +109,10 @@ class OperatingMaps:
 
     def flowrate_range_m3_s(self, speed_hz: float, viscosities_pa_s) -> tuple[float, float]:
         """Flowrates [m^3/s] every bearing's table slice covers at the speed and viscosities."""
-        kinds = (False,) if self.synchronous_table is None else (False, True)
+        kinds = (False,) if self.synchronous_tables is None else (False, True)
         ranges = [
-            self._slice(speed_hz, mu, w, kind).flowrate_range_m3_s
-            for mu, w in zip(viscosities_pa_s, self._loads, strict=True)
+            self._slice(b, speed_hz, mu, kind).flowrate_range_m3_s
+            for b, mu in enumerate(viscosities_pa_s)
             for kind in kinds
         ]
         return max(r[0] for r in ranges), min(r[1] for r in ranges)
@@ -164,24 +170,23 @@ class OperatingMaps:
     def _table_rows(self, points) -> tuple[np.ndarray, np.ndarray | None]:
         """The quasi-static and (with a synchronous table, else None) synchronous table rows (P, nb, 10) of
         each bearing at each point, one ``rows`` call per table slice."""
-        wanted: dict[tuple, tuple[list[int], list[int], list[float]]] = {}
+        wanted: dict[tuple, tuple[list[int], list[float]]] = {}
         for p, (flowrates, speed, viscosities) in enumerate(points):
-            for b, (q, mu, load) in enumerate(zip(flowrates, viscosities, self._loads, strict=True)):
-                where = wanted.setdefault((float(speed), float(mu), load), ([], [], []))
+            for b, (q, mu) in enumerate(zip(flowrates, viscosities, strict=True)):
+                where = wanted.setdefault((b, float(speed), float(mu)), ([], []))
                 where[0].append(p)
-                where[1].append(b)
-                where[2].append(float(q))
-        kinds = (False,) if self.synchronous_table is None else (False, True)
+                where[1].append(float(q))
+        kinds = (False,) if self.synchronous_tables is None else (False, True)
         rows = np.empty((len(kinds), len(points), len(self._loads), 10))
-        for (speed, mu, load), (ps, bs, qs) in wanted.items():
+        for (b, speed, mu), (ps, qs) in wanted.items():
             flowrates = np.array(qs)
             for kind in kinds:
-                table = self._slice(speed, mu, load, kind)
+                table = self._slice(b, speed, mu, kind)
                 # the estimator's flowrates are bounded to the table's range at its reference point; where
                 # the speed, the oil or a viscosity factor moved the flooded threshold, a bound estimate (or
                 # a difference step from it) is taken at the table's edge: the film saturates there
                 low, high = table.flowrate_range_m3_s
-                rows[int(kind), ps, bs] = table.rows(np.clip(flowrates, low, high))
+                rows[int(kind), ps, b] = table.rows(np.clip(flowrates, low, high))
         return rows[0], (rows[1] if len(kinds) == 2 else None)
 
     def _unbalance_forces(self, synchronous, omega: np.ndarray, k: np.ndarray, c: np.ndarray) -> np.ndarray:
@@ -328,3 +333,13 @@ class OperatingMaps:
         log_mu = math.log(mu[i]) + sign * step
         mu[i] = math.exp(log_mu)
         return q, speed_hz, mu, log_mu
+
+
+def _per_bearing(table, count: int) -> tuple[OperatingTable, ...]:
+    """One table per bearing: ``table`` for each, or the given sequence of ``count``."""
+    if isinstance(table, OperatingTable):
+        return (table,) * count
+    tables = tuple(table)
+    if len(tables) != count:
+        raise ValueError(f"need one dimensionless table per bearing ({count}), got {len(tables)}")
+    return tables

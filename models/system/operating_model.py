@@ -38,11 +38,12 @@ import shlex
 
 import numpy as np
 
+from ..bearing.centreline import CLEARANCE_FACTOR_RANGE
 from ..bearing.coefficient_kinds import QUASI_STATIC
 from ..bearing.operating_table import operating_table_path
 from ..machine import Machine
 from ..oil import Oil
-from ..validation import InputError, require_positive
+from ..validation import InputError, require_in_range, require_positive
 from .augmented import GridAugmentedModel
 from .factory import machine_arguments
 from .flowrate_grid import FlowrateGrid
@@ -383,13 +384,24 @@ def build_operating_model(
     recentring: Recentring | None = None,
     progress=None,
     grid: FlowrateGrid | None = None,
+    clearance_factors: tuple[float, ...] | None = None,
 ) -> OperatingAugmentedModel:
     """The operating model of ``system`` (reduced or full, from ``machine``) on the machine's dimensionless
     table (``oilwatch bearing-map``); ``reference_table`` in :data:`REFERENCE_TABLES`. InputError naming
     the command when the table is missing. ``grid``: the reference (q1, q2) grid built earlier for the same
-    system and table (its :attr:`reference` ``.grid``; nodes checked), instead of building it."""
+    system and table (its :attr:`reference` ``.grid``; nodes checked), instead of building it.
+    ``clearance_factors``: each bearing's radial clearance over the machine file's (measured from a
+    coast-down: :mod:`oilwatch.models.bearing.centreline`; None: the file's), with the dimensionless
+    reference table."""
     if reference_table not in REFERENCE_TABLES:
         raise InputError(f"reference_table must be one of {REFERENCE_TABLES}, got {reference_table!r}")
+    factors = (1.0,) * len(system.static_loads_n) if clearance_factors is None else tuple(clearance_factors)
+    if len(factors) != len(system.static_loads_n):
+        raise InputError(f"clearance_factors: need one per bearing, got {factors}")
+    for factor in factors:
+        require_in_range("clearance factor", factor, *CLEARANCE_FACTOR_RANGE)
+    if reference_table != "dimensionless" and any(f != 1.0 for f in factors):
+        raise InputError("a measured clearance needs the dimensionless reference table")
     synchronous_kind = machine.dynamic_coefficients != QUASI_STATIC
     for kind in (QUASI_STATIC, machine.dynamic_coefficients) if synchronous_kind else (QUASI_STATIC,):
         path = operating_table_path(machine.source_path, kind)
@@ -401,25 +413,32 @@ def build_operating_model(
                 f"following speed and oil temperature needs the dimensionless bearing table {path}: compute "
                 f"it with `{command}`"
             )
-    table = operating_table_of(machine, QUASI_STATIC)
-    synchronous = operating_table_of(machine) if synchronous_kind else None
+    clearance = machine.bearing.clearance_m
+
+    def per_bearing(table):
+        return tuple(table.with_clearance(clearance * f) if f != 1.0 else table for f in factors)
+
+    tables = per_bearing(operating_table_of(machine, QUASI_STATIC))
+    synchronous = per_bearing(operating_table_of(machine)) if synchronous_kind else None
     mu0 = system.tables[0].metadata["bearing"]["viscosity_pa_s"]
     if reference_table == "dimensionless":
         speed, loads = system.speed_hz, system.static_loads_n
         system = RotorBearingSystem(
             system.rotor,
-            [ConditionedTable(table, w, speed, mu0) for w in loads],
+            [ConditionedTable(t, w, speed, mu0) for t, w in zip(tables, loads, strict=True)],
             speed,
             system.basis,
             system.unbalance_moment_kg_m,
             system.unbalance_phase_rad,
             system.nominal_flowrate_m3_s,
-            None if synchronous is None else [ConditionedTable(synchronous, w, speed, mu0) for w in loads],
+            None
+            if synchronous is None
+            else [ConditionedTable(t, w, speed, mu0) for t, w in zip(synchronous, loads, strict=True)],
         )
     # the dimensionless table is C1 Catmull-Rom between its nodes: 3 grid intervals per table interval
     subdivisions = 3 if reference_table == "dimensionless" else 5
     reference = GridAugmentedModel(system, dt_s, subdivisions=subdivisions, progress=progress, grid=grid)
-    maps = OperatingMaps(system, table, dt_s, synchronous)
+    maps = OperatingMaps(system, tables, dt_s, synchronous)
     return OperatingAugmentedModel(reference, maps, machine.oil, mu0, recentring)
 
 

@@ -16,7 +16,7 @@ from oilwatch.models.validation import InputError
 # Subcommand modules under oilwatch.cli, in the order --help lists them: first what a user runs on a machine
 # (monitoring its records, the demo, the co-simulation, the FMUs), then the studies, then the modelling
 # commands.
-USER_COMMANDS: tuple[str, ...] = ("estimate", "baseline", "demo", "run", "build_fmus")
+USER_COMMANDS: tuple[str, ...] = ("estimate", "baseline", "demo", "run", "coast_down", "build_fmus")
 STUDY_COMMANDS: tuple[str, ...] = ("robustness", "study", "report", "orbits")
 MODELLING_COMMANDS: tuple[str, ...] = (
     "rotor",
@@ -27,6 +27,7 @@ MODELLING_COMMANDS: tuple[str, ...] = (
     "bearing",
     "bearing_table",
     "bearing_map",
+    "bearing_locus",
     "validate",
 )
 SUBCOMMANDS: tuple[str, ...] = USER_COMMANDS + STUDY_COMMANDS + MODELLING_COMMANDS
@@ -52,6 +53,8 @@ OUTPUTS: dict[str, dict[str, str]] = {
     "build-fmus": {"out": "folder"},
     "robustness": {"out": "folder"},
     "baseline": {"out": "file"},
+    "bearing-locus": {"out": "file"},
+    "coast-down": {"out": "file"},
 }
 """Each command's output options (argparse dest -> ``folder`` or ``file``), checked by :func:`main` before
 the command runs (:mod:`oilwatch.cli.outputs`). A new command with an output option adds its line here."""
@@ -83,7 +86,8 @@ def build_parser() -> argparse.ArgumentParser:
         prog="oilwatch",
         description=(
             "Detect and quantify oil starvation in fluid-film bearings from rotor vibration. "
-            "A machine's records: baseline, then estimate. The FMUs: demo, run, build-fmus. "
+            "A machine's records: baseline, then estimate. Simulated records and the FMUs: demo, run, "
+            "coast-down, build-fmus. "
             "The studies and the modelling commands follow."
         ),
     )

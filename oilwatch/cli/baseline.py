@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import math
 from pathlib import Path
 
 PROBE_COLUMNS = ("x1_um", "y1_um", "x2_um", "y2_um")
@@ -18,7 +19,8 @@ def register(subparsers) -> None:
 
     parser = subparsers.add_parser(
         "baseline",
-        help="estimate the probe zero offsets from a record at known flowrates (commissioning)",
+        help="commissioning: the probe offsets from a record at known flowrates, the clearances from a "
+        "coast-down",
         description=(
             "Read a record taken at known, healthy flowrates (default: the machine's nominal), as 'oilwatch "
             "estimate' reads it (CSV, Parquet or NI TDMS at any sample rate at or above 1 kHz, anti-alias "
@@ -29,7 +31,10 @@ def register(subparsers) -> None:
             "is read against), and write them as JSON: the estimator's prior for later runs. With "
             "--slow-roll-record, also fit each probe's 1x and 2x slow-roll (runout) vectors to a record "
             "taken at slow roll, store them with their stds and subtract them from the commissioning "
-            "record (and, in later runs, from every sample: API 670 slow-roll compensation)."
+            "record (and, in later runs, from every sample: API 670 slow-roll compensation). With "
+            "--coast-down-record, also measure each bearing's radial clearance from its shaft centreline "
+            "between slow roll and speed (the flooded locus of the machine file's bearing, the probe "
+            "offsets and the film's viscosity free), which the estimator's model then takes."
         ),
     )
     parser.add_argument(
@@ -44,6 +49,15 @@ def register(subparsers) -> None:
         metavar="FILE",
         help="a record at slow roll (CSV: time_s, the probe columns in um and rotor_angle_deg from the "
         "keyphasor, or speed_hz with time_s = 0 at a keyphasor pulse): the probes' runout vectors",
+    )
+    parser.add_argument(
+        "--coast-down-record",
+        default=None,
+        metavar="FILE",
+        help="a coast-down or run-up record at nominal supply pressure, from slow roll (a few %% of the "
+        "running speed) to speed, with speed_hz (any record 'oilwatch estimate' reads, or a shaft-centreline "
+        "export: one row per speed): each bearing's radial clearance, measured from its centreline, which "
+        "the estimator's model then takes",
     )
     add_machine_option(parser)
     parser.add_argument("--q1-ml-min", type=float, default=None, help="known flowrate of bearing 1 [ml/min]")
@@ -124,7 +138,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _run_locked(args: argparse.Namespace) -> int:
-    from oilwatch.estimator.baseline import FORMAT, FORMAT_VERSION, estimate_baseline
+    from oilwatch.estimator.baseline import FORMAT, FORMAT_VERSION, clearance_factors_of, estimate_baseline
     from oilwatch.estimator.ekf_config import ML_MIN, EKFConfig
     from oilwatch.estimator.runout import fit_slow_roll
     from oilwatch.models.machine import load_machine
@@ -139,8 +153,10 @@ def _run_locked(args: argparse.Namespace) -> int:
     if args.noise_um is not None:
         require_in_range("--noise-um", args.noise_um, 0.01, 100.0, "um")
     check_preset_options(args)
-    if args.record is None and args.slow_roll_record is None:
-        raise InputError("oilwatch baseline needs --record FILE, --slow-roll-record FILE or both")
+    if args.record is None and args.slow_roll_record is None and args.coast_down_record is None:
+        raise InputError(
+            "oilwatch baseline needs --record FILE, --slow-roll-record FILE, --coast-down-record FILE or more"
+        )
     runout = None
     if args.slow_roll_record is not None:
         runout = fit_slow_roll(*read_slow_roll_record(args.slow_roll_record))
@@ -157,14 +173,21 @@ def _run_locked(args: argparse.Namespace) -> int:
             )
         )
         print(f"baseline: slow-roll vectors {described}")
-    if args.record is None:
-        document = {"format": FORMAT, "format_version": FORMAT_VERSION, "runout": runout.to_document()}
-        document.update(slow_roll_record=str(args.slow_roll_record), machine_file=args.machine)
-        write_json_atomic(args.out, document)
-        print(f"baseline: runout only; written to {args.out}")
-        return 0
     machine = load_machine(args.machine)
     probes = read_probes(machine)
+    clearance, measured = {}, []
+    if args.coast_down_record is not None:
+        clearance, measured = coast_down_clearances(args, machine, probes)
+    factors = clearance_factors_of(clearance)
+    if args.record is None:
+        document = {"format": FORMAT, "format_version": FORMAT_VERSION, "machine_file": args.machine}
+        if runout is not None:
+            document.update(runout=runout.to_document(), slow_roll_record=str(args.slow_roll_record))
+        document.update(clearance)
+        write_json_atomic(args.out, document)
+        parts = " and ".join(p for p, given in (("runout", runout), ("clearances", factors)) if given)
+        print("\n".join([*measured, f"baseline: {parts} only; written to {args.out}"]))
+        return 0
     prior_um = probes.offset_prior_std_m * 1e6 if args.offset_prior_um is None else args.offset_prior_um
     require_in_range("--offset-prior-um", prior_um, 0.01, 1000.0, "um")
     nominal = machine.lubrication.nominal_flowrate_m3_s
@@ -176,7 +199,7 @@ def _run_locked(args: argparse.Namespace) -> int:
             raise InputError("--viscosity-prior > 0 needs the machine's oil ([oil] in the machine file)")
         viscosity = 0.0  # the preset's factors need the model that follows the operating point
     # the estimator's own model, as 'oilwatch estimate' builds it
-    model = estimator_model(args.machine, follow=follow)
+    model = estimator_model(args.machine, follow=follow, clearance_factors=factors)
     low, high = model.flowrate_bounds_m3_s
     for name, value in zip(("--q1-ml-min", "--q2-ml-min"), flows, strict=True):
         require_in_range(name, value / ML_MIN, low / ML_MIN, high / ML_MIN, "ml/min")
@@ -209,6 +232,7 @@ def _run_locked(args: argparse.Namespace) -> int:
         document[BASELINE_START_KEY] = start.isoformat()
     if runout is not None:
         document.update(runout=runout.to_document(), slow_roll_record=str(args.slow_roll_record))
+    document.update(clearance)
     write_json_atomic(args.out, document)
     offsets = ", ".join(
         f"{c} {o:+.2f} +- {s:.2f}"
@@ -230,5 +254,47 @@ def _run_locked(args: argparse.Namespace) -> int:
             f"; its model explained the record only {100 * document['consistent_fraction']:.0f} % of the "
             "time (model_consistent): the nuisances above may carry the model's error"
         )
-    print(f"baseline: offsets [um] {offsets}{others}; written to {args.out}")
+    print("\n".join([*measured, f"baseline: offsets [um] {offsets}{others}; written to {args.out}"]))
     return 0 if trusted else UNTRUSTED_EXIT_CODE
+
+
+def coast_down_clearances(args: argparse.Namespace, machine, probes) -> tuple[dict, list[str]]:
+    """The baseline's clearance part (:func:`oilwatch.estimator.baseline.clearance_document`) from
+    ``--coast-down-record``, read as 'oilwatch estimate' reads a record, and a line per bearing to print
+    (after the file is written)."""
+    from oilwatch.estimator.baseline import clearance_document
+    from oilwatch.estimator.measurement import probe_rotation
+    from oilwatch.models.system.clearance import measure_clearances, record_revolutions
+    from oilwatch.models.validation import InputError
+    from oilwatch.monitoring.estimate import read_record_samples
+    from oilwatch.monitoring.estimator_setup import ESTIMATOR_DT_S
+
+    source = args.coast_down_record
+    record = read_record_samples(source, machine, tuple(args.probe))
+    if record["speed_hz"] is None:
+        raise InputError(f"--coast-down-record {source}: needs the speed (a speed_hz column or a keyphasor)")
+    # the samples along the probes' axes, turned into the model's (x, y)
+    rotation = probe_rotation(math.radians(record["probe_angle_deg"]))
+    positions = record["measurement_m"] @ rotation
+    noise_um = record["stream"].setup.noise_um if args.noise_um is None else args.noise_um
+    fits = measure_clearances(
+        machine,
+        record["speed_hz"],
+        positions,
+        noise_um * 1e-6,
+        record["oil_temperature_c"],
+        revolutions=record_revolutions(record["speed_hz"], ESTIMATOR_DT_S),  # on the estimator's grid
+        probe_scale_factor_std=probes.scale_factor_std,
+    )
+    c_um = machine.bearing.clearance_m * 1e6
+    lines = [
+        (
+            f"baseline: bearing {b} clearance {fit.clearance_factor * c_um:.1f} +- "
+            f"{2 * fit.clearance_factor_std * c_um:.1f} um (2 std; the machine file's {c_um:.1f} um, factor "
+            f"{fit.clearance_factor:.4f}), film {fit.viscosity_factor:.3f} x the oil law's, centreline "
+            f"residual {fit.residual_rms_m * 1e6:.3f} um rms over {fit.points} speed bins "
+            f"({fit.speed_span:.1f}:1)"
+        )
+        for b, fit in enumerate(fits, start=1)
+    ]
+    return clearance_document(fits, str(source)), lines

@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-from .machine_option import add_machine_option
+from .machine_option import add_machine_option, add_mesh_option, mesh_option
 
 
 def register(subparsers) -> None:
@@ -78,18 +78,11 @@ def add_common_arguments(parser: argparse.ArgumentParser) -> None:
     add_machine_option(parser)
     parser.add_argument("--speed-hz", type=float, help="shaft speed [Hz]; default: nominal")
     parser.add_argument("--load-n", type=float, help="static bearing load [N]; default: from the rotor model")
-    parser.add_argument(
-        "--mesh",
-        type=int,
-        nargs=2,
-        metavar=("N_CIRC", "N_AXIAL"),
-        help="finite volumes around x along the bearing; default: the production mesh",
-    )
+    add_mesh_option(parser)
 
 
 def machine_setup(args) -> dict:
     """Bearing, load [N], speed [Hz], mesh and nominal supply from the arguments and machine file."""
-    from oilwatch.models.bearing.grid import PRODUCTION_MESH, Mesh
     from oilwatch.models.machine import load_machine
     from oilwatch.models.rotor.assembly import Rotor
     from oilwatch.models.validation import require_positive
@@ -102,7 +95,7 @@ def machine_setup(args) -> dict:
         load = require_positive("--load-n", args.load_n, "N")
     speed = machine.nominal_speed_hz if args.speed_hz is None else args.speed_hz
     require_positive("--speed-hz", speed, "Hz")
-    mesh = PRODUCTION_MESH if args.mesh is None else Mesh(*args.mesh)
+    mesh = mesh_option(args)
     return {
         "machine": machine,
         "bearing": machine.bearing,

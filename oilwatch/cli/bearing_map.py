@@ -20,8 +20,10 @@ from .machine_option import (
     add_coefficients_option,
     add_fraction_range_option,
     add_machine_option,
+    add_mesh_option,
     check_fraction_range,
     load_machine_option,
+    mesh_option,
 )
 
 DEFAULT_SPEED_RANGE = (0.6, 1.4)
@@ -53,13 +55,7 @@ def register(subparsers) -> None:
         default=DEFAULT_FRACTIONS,
         help="flowrate nodes over the machine's table fractions of q_t, one on q_t (13)",
     )
-    parser.add_argument(
-        "--mesh",
-        type=int,
-        nargs=2,
-        metavar=("N_CIRC", "N_AXIAL"),
-        help="finite volumes around x along the bearing; default: the production mesh",
-    )
+    add_mesh_option(parser)
     parser.add_argument(
         "--out", help="output JSON; default <machine dir>/tables/<stem>_bearing_dimensionless.json"
     )
@@ -97,7 +93,6 @@ def run(args) -> int:
     """Compute and write the table."""
     from tqdm import tqdm
 
-    from oilwatch.models.bearing.grid import PRODUCTION_MESH, Mesh
     from oilwatch.models.bearing.operating_table import OperatingTable, operating_table_path
     from oilwatch.models.bearing.operating_table_solve import compute_operating_table
     from oilwatch.models.bearing.sommerfeld import sommerfeld_grid, sommerfeld_number
@@ -117,7 +112,7 @@ def run(args) -> int:
     f_nodes = fraction_nodes(
         lub.table_min_fraction_of_threshold, lub.table_max_fraction_of_threshold, args.fractions
     )
-    mesh = PRODUCTION_MESH if args.mesh is None else Mesh(*args.mesh)
+    mesh = mesh_option(args)
     kind = args.coefficients or machine.dynamic_coefficients
     out = Path(args.out) if args.out else operating_table_path(machine.source_path, kind)
     checkpoint = out.with_name(out.stem + ".partial.json")

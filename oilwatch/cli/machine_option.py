@@ -34,6 +34,24 @@ def _machine_file(value: str) -> str:
     return str(machine_file_path(value))
 
 
+def add_mesh_option(parser: argparse.ArgumentParser) -> None:
+    """Add ``--mesh N_CIRC N_AXIAL``, the film's finite volumes (:func:`mesh_option` reads it)."""
+    parser.add_argument(
+        "--mesh",
+        type=int,
+        nargs=2,
+        metavar=("N_CIRC", "N_AXIAL"),
+        help="finite volumes around x along the bearing; default: the production mesh",
+    )
+
+
+def mesh_option(args: argparse.Namespace):
+    """The :class:`oilwatch.models.bearing.grid.Mesh` of ``--mesh`` (the production mesh without it)."""
+    from oilwatch.models.bearing.grid import PRODUCTION_MESH, Mesh
+
+    return PRODUCTION_MESH if args.mesh is None else Mesh(*args.mesh)
+
+
 def add_coefficients_option(parser: argparse.ArgumentParser, default_file: str) -> None:
     """Add ``--coefficients KIND``, the kinds of :mod:`oilwatch.models.bearing.coefficient_kinds` (default:
     the machine file's ``bearings.dynamic_coefficients``); ``default_file`` says which file that writes."""

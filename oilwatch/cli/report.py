@@ -120,7 +120,7 @@ def markdown_tables(result: dict) -> str:
         out.append("| step [%] | " + " | ".join(label for _, label in COLUMNS) + " |")
         out.append("|---" * (len(COLUMNS) + 1) + "|")
         for ours, paper in zip(result[name], result["paper"][name], strict=True):
-            cells = " | ".join(f"{ours[key]:.2f} ({paper[key]:.2f})" for key, _ in COLUMNS)
+            cells = " | ".join(f"{_two(ours[key])} ({paper[key]:.2f})" for key, _ in COLUMNS)
             out.append(f"| {ours['interval_pct']} | {cells} |")
         out.append("")
     return "\n".join(out).rstrip()
@@ -128,6 +128,12 @@ def markdown_tables(result: dict) -> str:
 
 def _number(value) -> str:
     return "n/a" if value is None else f"{value:10.2f}"
+
+
+def _two(value: float) -> str:
+    """Two decimals, a value that rounds to zero without a sign: a step that moves nothing in theory moves
+    1e-15 um either way by round-off, whose sign depends on the machine's floating-point paths."""
+    return f"{round(value, 2) + 0.0:.2f}"
 
 
 def _row(label: str, ours, paper) -> str:
@@ -180,7 +186,7 @@ def _table_lines(title: str, rows: list[dict], paper_rows: list[dict]) -> list[s
     lines = ["", f"{title}; variation per step [um], oilwatch (paper)"]
     lines.append(f"{'interval':10s}" + "".join(f"{label:>17s}" for _, label in COLUMNS))
     for ours, paper in zip(rows, paper_rows, strict=True):
-        cells = "".join(f"{ours[key]:>9.2f} ({paper[key]:5.2f})" for key, _ in COLUMNS)
+        cells = "".join(f"{_two(ours[key]):>9s} ({paper[key]:5.2f})" for key, _ in COLUMNS)
         lines.append(f"{ours['interval_pct']:10s}{cells}")
     return lines
 

@@ -224,9 +224,9 @@ class EstimateRun:
             prior_um = 0.0 if prior_um is None else prior_um
         if prior_um is not None:
             self.probes = dataclasses.replace(self.probes, offset_prior_std_m=prior_um * 1e-6)
-        self.baseline, self.baseline_age_days = None, None
+        self.baseline, self.baseline_age_days, self.clearance_factors = None, None, None
         if options.baseline_file is not None:
-            from oilwatch.estimator.baseline import load_baseline
+            from oilwatch.estimator.baseline import load_baseline, load_clearance_factors
 
             from .baseline_age import baseline_age_days
 
@@ -234,6 +234,7 @@ class EstimateRun:
             age_s = 0.0 if self.baseline_age_days is None else 86400.0 * self.baseline_age_days
             drift = self.probes.offset_drift_m_per_day
             self.baseline = load_baseline(options.baseline_file, age_s, drift)
+            self.clearance_factors = load_clearance_factors(options.baseline_file)
         chunk_rows = 1 if source == STDIN and options.live else options.chunk_rows
         self.stream = open_record_stream(source, self.machine, options.probe_overrides, chunk_rows, progress)
         if total_callback is not None:
@@ -248,7 +249,12 @@ class EstimateRun:
                 f"the model is {self.operating_reason}"
             )
         # after the record's checks: errors come first
-        self.model = estimator_model(options.machine_file, follow=self.follow, machine=self.machine)
+        self.model = estimator_model(
+            options.machine_file,
+            follow=self.follow,
+            machine=self.machine,
+            clearance_factors=self.clearance_factors,
+        )
         self.live_stream = live_stream
         low, high = self.model.flowrate_bounds_m3_s
         self.trust = TrustShares((low / ML_MIN, high / ML_MIN))

@@ -14,6 +14,7 @@ from oilwatch.estimator.offset_baseline import OffsetBaseline
 from oilwatch.estimator.runout import SlowRollVectors
 from oilwatch.models.machine import Machine, load_machine
 from oilwatch.models.probes import Probes
+from oilwatch.models.validation import InputError
 
 ESTIMATOR_DT_S = 1e-3
 """The estimator's sampling period (its discrete model's step, as the FMU's default)."""
@@ -26,14 +27,22 @@ def estimator_model(
     dt_s: float = ESTIMATOR_DT_S,
     follow: bool = False,
     machine: Machine | None = None,
+    clearance_factors: tuple[float, ...] | None = None,
 ):
     """The estimator's model of a machine file: the reduced system at the nominal point (the estimator FMU's
     ``bearing_table = 0``) or, with ``follow``, its operating model on the dimensionless tables
-    (``bearing_table = 1``); each built once per process (a Dask worker keeps it), from ``machine`` when the
-    caller has already loaded the file. A filter built on the operating model resets it to its just-built
-    state (``OilFlowEKF.reset``: no correction centre survives), so a record's estimates do not depend on
-    what ran on it before (tests/test_estimate_model_cache.py)."""
-    key = (machine_file, dt_s, follow)
+    (``bearing_table = 1``), with the bearings' ``clearance_factors`` a coast-down measured (a baseline's:
+    :func:`oilwatch.estimator.baseline.load_clearance_factors`; None: the machine file's clearance); each
+    built once per process (a Dask worker keeps it), from ``machine`` when the caller has already loaded the
+    file. A filter built on the operating model resets it to its just-built state (``OilFlowEKF.reset``: no
+    correction centre survives), so a record's estimates do not depend on what ran on it before
+    (tests/test_estimate_model_cache.py)."""
+    if clearance_factors is not None and not follow:
+        raise InputError(
+            "a baseline with measured clearances needs the model that follows the operating point (the "
+            "machine preset's, or --operating-point follow)"
+        )
+    key = (machine_file, dt_s, follow, clearance_factors)
     if key not in _MODELS:
         machine = machine if machine is not None else load_machine(machine_file)
         system = _REDUCED.get(machine_file)
@@ -44,7 +53,7 @@ def estimator_model(
         if follow:
             from oilwatch.models.system.operating_model import build_operating_model
 
-            model = build_operating_model(system, machine, dt_s)
+            model = build_operating_model(system, machine, dt_s, clearance_factors=clearance_factors)
         else:
             from oilwatch.models.system.augmented import GridAugmentedModel
 

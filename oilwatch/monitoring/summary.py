@@ -64,6 +64,8 @@ def summarize(run, wall_s: float, csv_path: Path) -> dict:
             "probe_angle_deg": run.probe_angle_deg,
             "baseline_file": run.options.baseline_file,
             "baseline_age_days": run.baseline_age_days,  # None: unknown, the prior not widened by drift
+            # each bearing's clearance over the file's, from the baseline's coast-down (None: the file's)
+            "clearance_factors": None if run.clearance_factors is None else list(run.clearance_factors),
             "runout": run.runout_source,
             "start_bank": start_bank_summary(run.filter),
         },

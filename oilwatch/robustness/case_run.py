@@ -43,6 +43,7 @@ from oilwatch.models.validation import InputError
 
 from .bounds import CaseBounds, configuration_label
 from .cases import BASELINE_AGE_DAYS, Case, probe_errors
+from .coast_down import measured_clearances
 from .slow_roll import slow_roll_vectors
 
 DT_S = 1e-3
@@ -85,6 +86,7 @@ class RobustnessRun:
         self._motions: dict = {}  # true_motion's, per plant variant, point and seed
         self._other_models: dict = {}  # the estimator's models on another kind of film coefficients
         self._bounds: dict = {}  # CaseBounds per record length
+        self._clearances: dict = {}  # the clearance factors each coast-down case measured
         # the estimator side: a step that takes the measured operating point, viscosity-factor states
         self.follows_operating_point = _accepts(OilFlowEKF.step, "speed_hz") and (
             "viscosity_factor_prior_std" in {f.name for f in dataclasses.fields(EKFConfig)}
@@ -269,7 +271,7 @@ class RobustnessRun:
             q = (self.nominal_m3_s, self.nominal_m3_s)
             # the estimator's own model: with viscosity states, the baseline separates them from the offsets
             model = (
-                self.operating_model(case.estimator_coefficients)
+                self.case_operating_model(case)
                 if case.operating_point and self.follows_operating_point
                 else self.grid_model(case.estimator_coefficients)
             )
@@ -298,7 +300,7 @@ class RobustnessRun:
             return make_estimator(self.grid_model(case.estimator_coefficients), config).run_batch(
                 signals
             ), False
-        model = self.operating_model(case.estimator_coefficients)
+        model = self.case_operating_model(case)
         estimator = OilFlowEKF(model, config) if single else make_estimator(model, config)
         return estimator.run_batch(signals, speed_hz=speed, oil_temperature_c=temperature), True
 
@@ -311,6 +313,38 @@ class RobustnessRun:
             machine = dataclasses.replace(self.machine, dynamic_coefficients=coefficients)
             self._other_models[coefficients] = GridAugmentedModel(build_system(machine, reduced=True), DT_S)
         return self._other_models[coefficients]
+
+    def clearance_factors(self, case: Case) -> tuple[float, ...] | None:
+        """The clearance factors the case's commissioning coast-down measured (None without one)."""
+        if not case.coast_down:
+            return None
+        if case.name not in self._clearances:
+            fits = measured_clearances(
+                self.machine,
+                case.structure,
+                self.chain(case, after_baseline=False),
+                self.seed,
+                self.probes.scale_factor_std,
+            )
+            self._clearances[case.name] = tuple(round(f.clearance_factor, 6) for f in fits)
+        return self._clearances[case.name]
+
+    def case_operating_model(self, case: Case):
+        """The estimator's model that follows speed and temperature for the case: on its kind of film
+        coefficients, with the clearances its coast-down measured."""
+        factors = self.clearance_factors(case)
+        if factors is None:
+            return self.operating_model(case.estimator_coefficients)
+        from oilwatch.models.system.operating_model import build_operating_model
+
+        key = ("clearance", case.estimator_coefficients, factors)
+        if key not in self._other_models:
+            machine = self.machine
+            if case.estimator_coefficients is not None:
+                machine = dataclasses.replace(machine, dynamic_coefficients=case.estimator_coefficients)
+            reduced = build_system(machine, reduced=True)
+            self._other_models[key] = build_operating_model(reduced, machine, DT_S, clearance_factors=factors)
+        return self._other_models[key]
 
     def operating_model(self, coefficients: str | None = None):
         """The estimator's model that follows speed and temperature, built once (or the one given
@@ -355,6 +389,7 @@ class RobustnessRun:
         flagged = sorted({int(c) for c in np.flatnonzero(trace.probe_faulty.any(axis=0))})
         alarmed = trace.starved.any(axis=1)
         bound = self.bound_pct(case, tuple(point_pct))
+        factors = self.clearance_factors(case)
         return {
             "case": case.name,
             "description": case.description,
@@ -376,4 +411,5 @@ class RobustnessRun:
             "bound_configuration": configuration_label(case, self.settings),
             "error_over_bound": (np.abs(error_pct) / bound).tolist(),
             "estimator_follows_operating_point": follows if case.operating_point else None,
+            "measured_clearance_factors": None if factors is None else list(factors),
         }

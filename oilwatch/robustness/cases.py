@@ -49,7 +49,9 @@ class Case:
         run after the baseline; offset_step : they moved by DRIFT_M between a baseline BASELINE_AGE_DAYS
         old and the run (the estimator widens the baseline's offsets by its age times the machine file's
         ``[probes] offset_drift_um_per_day``); baseline : the estimator is primed with ``oilwatch
-        baseline`` on another record at 100/100 % with the same probes (before the drift); runout :
+        baseline`` on another record at 100/100 % with the same probes (before the drift); coast_down : the
+        baseline also measures each bearing's clearance from a coast-down of the plant
+        (:mod:`.coast_down`), which the estimator's model takes; runout :
         RUNOUT_M on every probe; compensate_runout : the slow-roll vectors are subtracted; sensitivity :
         SENSITIVITY_ERROR on every probe; fault : the y1 probe's fault (dead, stuck, glitch, huge);
         mounting_angle_deg : their angle
@@ -75,6 +77,7 @@ class Case:
     drift: bool = False
     offset_step: bool = False
     baseline: bool = False
+    coast_down: bool = False
     runout: bool = False
     compensate_runout: bool = False
     sensitivity: bool = False
@@ -192,9 +195,10 @@ BOW_M = 10e-6
 RUNOUT_RANGE_M = (1e-6, 3e-6)
 """1x and 2x runout amplitudes of each probe, drawn from 1-3 um, with no slow-roll record."""
 
-_STRUCTURE = dict(offsets=True, baseline=True, operating_point=True, listed=False)
-"""Every model-structure case: unknown probe offsets, a commissioning baseline at nominal flow on the same
-plant, the estimator that follows the operating point with its viscosity factors free."""
+_STRUCTURE = dict(offsets=True, baseline=True, coast_down=True, operating_point=True, listed=False)
+"""Every model-structure case: unknown probe offsets, a commissioning baseline at nominal flow and a
+commissioning coast-down on the same plant, the estimator that follows the operating point with its viscosity
+factors free and the clearances the coast-down measured."""
 
 _ALL_STRUCTURE = PlantStructure(
     film_coefficients="quasi-static",
