@@ -59,10 +59,11 @@ def measure_clearances(
     whole revolution is averaged first, which takes the probes' runout out: :func:`revolution_means`), or
     None. The samples are then averaged in speed bins of :data:`CENTRELINE_BIN_RATIO`; a record of a
     centreline (one row per speed, already averaged) is taken as it is, each row with the noise of one
-    sample. ``probe_scale_factor_std``: the std of each
-    probe's scale-factor error (``[probes] scale_factor_tolerance_pct``): a probe that reads 1 + delta times
-    the motion stretches the centreline along its axis, which reads as clearance; the clearance factor's std
-    includes it (the fit's sensitivity to each axis's stretch, found by refitting, times this std).
+    sample; a sample with a missing value (NaN: a faulty probe's) is left out. ``probe_scale_factor_std``:
+    the std of each probe's scale-factor error (``[probes] scale_factor_tolerance_pct``): a probe that reads
+    1 + delta times the motion stretches the centreline along its axis, which reads as clearance; the
+    clearance factor's std includes it (the fit's sensitivity to each axis's stretch, found by refitting,
+    times this std).
     """
     speed = np.asarray(speed_hz, dtype=float)
     positions = np.asarray(positions_m, dtype=float)
@@ -73,10 +74,19 @@ def measure_clearances(
     else:
         temperature = np.asarray(oil_temperature_c, dtype=float)
     values = np.column_stack([positions, temperature])
+    # samples a probe fault or a gap left out (NaN) are dropped, not averaged in
+    whole = np.isfinite(values).all(axis=1) & np.isfinite(speed)
+    if whole.sum() < MIN_BIN_SAMPLES:
+        raise InputError(
+            f"a coast-down record needs at least {MIN_BIN_SAMPLES} samples with every probe and the speed, "
+            f"got {int(whole.sum())}"
+        )
+    speed, values = speed[whole], values[whole]
     one_per_speed = np.unique(speed).size == speed.size
     weights = None
     if revolutions is not None:
-        speed, values, weights = revolution_means(revolutions, speed, values)
+        turns = np.asarray(revolutions, dtype=float)[whole]
+        speed, values, weights = revolution_means(turns, speed, values)
     speeds, means, counts = centreline_points(
         speed, values, CENTRELINE_BIN_RATIO, 1 if one_per_speed else MIN_BIN_SAMPLES, weights
     )
