@@ -1,7 +1,8 @@
 """The README's quick start (a) on a machine that is not the estimator's model, with its commands as the
-README gives them: a commissioning record at nominal flow -> ``oilwatch baseline`` -> ``oilwatch estimate
---baseline`` on a later record, and the estimator FMU with ``baseline_file`` beside it, all on the defaults
-(the machine preset).
+README gives them: a commissioning record at nominal flow and a coast-down -> ``oilwatch baseline`` ->
+``oilwatch estimate --baseline`` on a later record, and the estimator FMU with ``baseline_file`` beside it,
+all on the defaults (the machine preset). The coast-down is the same plant's (its clearance, its probes'
+runout and keyphasor) from 75 Hz to slow roll (:func:`oilwatch.models.system.coast_down.coast_down_record`).
 
 The plant FMU differs from the estimator's model in structure: its bearings' radial clearance is 10 % larger
 (``clearance_factor``, the estimator keeps the machine file's) and every probe reads 2 um of 1x and 1 um of 2x
@@ -26,6 +27,11 @@ from fixtures.fmu_subprocess import run_json
 from fixtures.plant_records import keyphasor
 
 from oilwatch.cli import main
+from oilwatch.models.machine import load_machine
+from oilwatch.models.system.clearance import record_revolutions
+from oilwatch.models.system.coast_down import coast_down_record
+from oilwatch.models.system.measurement import MeasurementChain, ProbeErrors
+from oilwatch.models.system.structure import PlantStructure
 from oilwatch.records.writers import write_record
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -91,6 +97,30 @@ def _csv(path: Path, cosim: dict[str, np.ndarray]) -> Path:
     return write_record(path, columns)
 
 
+def _coast_down_csv(path: Path) -> Path:
+    """The plant's 60 s coast-down at 1 kHz with the same runout and a keyphasor at the same rotor angle."""
+    probes = tuple(
+        ProbeErrors(
+            runout_1x_m=RUNOUT["1x"][0] * 1e-6,
+            runout_1x_phase_rad=np.radians(RUNOUT["1x"][1]),
+            runout_2x_m=RUNOUT["2x"][0] * 1e-6,
+            runout_2x_phase_rad=np.radians(RUNOUT["2x"][1]),
+        )
+        for _ in PROBES
+    )
+    chain = MeasurementChain(probes, 0.0, 1e-6)
+    structure = PlantStructure(**STRUCTURE)
+    record = coast_down_record(load_machine(None), structure, chain, DURATION_S, 0.03, seed=3)
+    t, speed = record["time_s"], record["speed_hz"]
+    turns = record_revolutions(speed, t[1] - t[0])
+    columns = {"time_s": t, **{f"{n}_um": record["readings_m"][:, k] * 1e6 for k, n in enumerate(PROBES)}}
+    columns["speed_hz"] = speed
+    # the notch's falling edge where the rotor is at KEYPHASOR_DEG, 1.5 ms wide at any speed
+    phase = (turns - KEYPHASOR_DEG / 360.0 + 0.5) % 1.0 - 0.5
+    columns["kp"] = np.where((phase >= 0.0) & (phase * 1.0 / speed < 1.5e-3), -11.0, -4.0)
+    return write_record(path, columns)
+
+
 def _readme_commands() -> tuple[str, str]:
     """The README quick start's ``oilwatch baseline`` and ``oilwatch estimate`` lines."""
     text = (ROOT / "README.md").read_text(encoding="utf-8")
@@ -111,15 +141,25 @@ def test_the_readme_quick_start_on_a_discrepant_machine_with_runout(built_fmus, 
 
     commissioning = _cosimulate(built_fmus, 1, (100.0, 100.0), {})
     base_csv = _csv(tmp_path / "commissioning.csv", commissioning)
+    coast_csv = _coast_down_csv(tmp_path / "coast-down.csv")
     baseline_json = tmp_path / "baseline.json"
     arguments = _replace(
-        baseline_line[1:], {"commissioning/result.csv": str(base_csv), "baseline.json": str(baseline_json)}
+        baseline_line[1:],
+        {
+            "commissioning/result.csv": str(base_csv),
+            "coast-down.csv": str(coast_csv),
+            "baseline.json": str(baseline_json),
+        },
     )
     # the baseline says whether its model explained the commissioning record (exit 3 when it did so less than
     # 90 % of the time, as the estimate's exit below), and writes its file either way
     code = main([*arguments, *probe])
-    consistent = json.loads(baseline_json.read_text())["consistent_fraction"]
+    document = json.loads(baseline_json.read_text())
+    consistent = document["consistent_fraction"]
     assert code == (0 if consistent >= 0.9 else 3), consistent
+    # the coast-down measured the plant's wider bearings (within the probes' scale-factor std)
+    factors, std = np.array(document["clearance_factor"]), np.array(document["clearance_factor_std"])
+    assert (np.abs(factors - STRUCTURE["clearance_factor"]) < 2.0 * std).all(), (factors, std)
 
     later = _cosimulate(built_fmus, 2, TRUTH_PCT, {"baseline_file": str(baseline_json)})
     record = _csv(tmp_path / "today.csv", later)
