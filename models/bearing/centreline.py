@@ -192,12 +192,16 @@ LOCI_FORMAT = "oilwatch flooded loci"
 
 def save_loci(path: str | Path, loci: list[FloodedLocus], provenance: dict) -> None:
     """Write loci (one per distinct bearing load) as one JSON file, whole or not at all."""
-    path = Path(path)
     document = {"format": LOCI_FORMAT, "format_version": 1, "provenance": provenance}
     document["loci"] = [locus.to_dict() for locus in loci]
+    _write_whole(Path(path), json.dumps(document, indent=1) + "\n")
+
+
+def _write_whole(path: Path, text: str) -> None:
+    """Write ``text`` beside ``path`` and rename it there: a reader finds the whole file or none."""
     path.parent.mkdir(parents=True, exist_ok=True)
     temporary = path.with_name(f".{path.name}.tmp")
-    temporary.write_text(json.dumps(document, indent=1) + "\n")
+    temporary.write_text(text)
     temporary.replace(path)
 
 
@@ -236,10 +240,7 @@ def flooded_locus(
     if path.exists():
         return FloodedLocus.from_dict(json.loads(path.read_text()))
     locus = FloodedLocus.compute(bearing, load_n, supply_pressure_pa, mesh, progress)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    temporary = path.with_name(f".{path.name}.tmp")
-    temporary.write_text(json.dumps(locus.to_dict()) + "\n")
-    temporary.replace(path)
+    _write_whole(path, json.dumps(locus.to_dict()) + "\n")
     return locus
 
 
@@ -297,7 +298,7 @@ def fit_clearance(
         )
     require_positive("centreline noise std", noise_std_m, "m")
     c = bearing.clearance_m
-    s0 = np.array([sommerfeld_number(bearing, m, n, load_n) for m, n in zip(mu, speed, strict=True)])
+    s0 = sommerfeld_number(bearing, mu, speed, load_n)
 
     def residual(theta: np.ndarray) -> np.ndarray:
         g, v = np.exp(theta)
@@ -390,13 +391,3 @@ def revolution_means(revolutions, speed_hz, values) -> tuple[np.ndarray, np.ndar
     means = sums / counts[:, None]
     whole = slice(1, -1)
     return means[whole, 0], means[whole, 1:], counts[whole]
-
-
-def model_centreline(
-    locus: FloodedLocus, bearing: JournalBearing, load_n: float, speed_hz, viscosity_pa_s, g: float, v: float
-) -> np.ndarray:
-    """(K, 2) journal positions [m] the locus gives at clearance factor g and viscosity factor v."""
-    speed = np.asarray(speed_hz, dtype=float)
-    mu = np.broadcast_to(np.asarray(viscosity_pa_s, dtype=float), speed.shape)
-    s0 = np.array([sommerfeld_number(bearing, m, n, load_n) for m, n in zip(mu, speed, strict=True)])
-    return g * bearing.clearance_m * locus.position(s0 * v / g**2)

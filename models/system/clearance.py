@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Callable
 
 import numpy as np
 
@@ -25,7 +24,6 @@ from ..bearing.centreline import (
     load_loci,
     revolution_means,
 )
-from ..bearing.grid import Mesh
 from ..machine import Machine
 from ..rotor.assembly import Rotor
 from ..validation import InputError
@@ -48,8 +46,6 @@ def measure_clearances(
     oil_temperature_c=None,
     revolutions=None,
     probe_scale_factor_std: float = 0.0,
-    mesh: Mesh | None = None,
-    progress: Callable[[int, int], None] | None = None,
 ) -> tuple[ClearanceFit, ...]:
     """Each bearing's :class:`ClearanceFit` from a coast-down or run-up record.
 
@@ -96,7 +92,7 @@ def measure_clearances(
         viscosity = np.array([machine.oil.dynamic_viscosity_pa_s(t) for t in means[:, 4]])
     noise = noise_std_m / math.sqrt(float(np.median(counts)))
     loads = Rotor.from_machine(machine).bearing_static_loads_n
-    loci = machine_loci(machine, mesh, progress)
+    loci = machine_loci(machine)
     fits = []
     for b, (load, locus) in enumerate(zip(loads, loci, strict=True)):
         points = means[:, 2 * b : 2 * b + 2]
@@ -116,12 +112,10 @@ def measure_clearances(
     return tuple(fits)
 
 
-def machine_loci(
-    machine: Machine, mesh: Mesh | None = None, progress: Callable[[int, int], None] | None = None
-) -> list[FloodedLocus]:
+def machine_loci(machine: Machine) -> list[FloodedLocus]:
     """Each bearing's flooded locus at its static load and the nominal supply pressure: from the machine's
     locus file (``oilwatch bearing-locus``, :func:`oilwatch.models.system.factory.locus_table_path`) when it
-    holds it (and ``mesh`` is None), else solved on ``mesh`` and kept in the cache
+    holds it, else solved on the production mesh and kept in the cache
     (:func:`oilwatch.models.bearing.centreline.flooded_locus`)."""
     pressure = machine.lubrication.nominal_supply_pressure_pa
     if not math.isfinite(pressure):
@@ -130,11 +124,11 @@ def machine_loci(
             "(the flooded locus is that of the groove's pressure)"
         )
     path = locus_table_path(machine)
-    stored = load_loci(path) if mesh is None and path.exists() else []
+    stored = load_loci(path) if path.exists() else []
     loci = []
     for load in Rotor.from_machine(machine).bearing_static_loads_n:
         found = [locus for locus in stored if locus.matches(machine.bearing, load, pressure)]
-        loci.append(found[0] if found else flooded_locus(machine.bearing, load, pressure, mesh, progress))
+        loci.append(found[0] if found else flooded_locus(machine.bearing, load, pressure))
     return loci
 
 

@@ -37,7 +37,7 @@ AXES = ("q1", "q2", "speed", "ln_mu1", "ln_mu2")
 """The operating axes, in the order of :meth:`OperatingMaps.derivatives`: flowrates [m^3/s], speed [Hz],
 natural logarithms of each bearing's film viscosity."""
 SLICES_KEPT = 256
-"""Table slices (one per speed, viscosity, load and kind) kept, the least recently used dropped: a
+"""Table slices (one per bearing, speed, viscosity and kind) kept, the least recently used dropped: a
 re-centring asks for about 40, and with the viscosity factors estimated every re-centring's are new, so an
 unbounded cache grows with the run (about 2 kB a slice, 100 slices per 10 s at a constant operating
 point)."""
@@ -77,7 +77,7 @@ class OperatingMaps:
         self._reference_omega = system.omega_rad_s
         self._loads = system.static_loads_n
         self._mass_lu = lu_factor(system.mass)
-        self._slices: dict[tuple[int, float, float, float, bool], object] = {}  # least recently used first
+        self._slices: dict[tuple[int, float, float, bool], object] = {}  # least recently used first
         # M^-1 of what the block's rows are linear in, once: the rotor's stiffness, structural damping,
         # gyroscopic matrix and gravity, and each bearing's map P_b^T (a block is then small products)
         mass_lu = self._mass_lu
@@ -90,13 +90,12 @@ class OperatingMaps:
         self._select = system.bearing_maps.reshape(-1, n)
 
     def _slice(self, bearing: int, speed_hz: float, viscosity_pa_s: float, synchronous: bool = False):
-        load_n = self._loads[bearing]
-        key = (bearing, speed_hz, viscosity_pa_s, load_n, synchronous)
+        key = (bearing, speed_hz, viscosity_pa_s, synchronous)
         slices = self._slices
         found = slices.pop(key, None)
         if found is None:
             table = (self.synchronous_tables if synchronous else self.tables)[bearing]
-            found = table.at(speed_hz, viscosity_pa_s, load_n)
+            found = table.at(speed_hz, viscosity_pa_s, self._loads[bearing])
             if len(slices) >= SLICES_KEPT:
                 del slices[next(iter(slices))]
         slices[key] = found  # the most recently used last: a dict keeps insertion order

@@ -13,10 +13,8 @@ import dataclasses
 import math
 import sys
 
+from .baseline import PROBE_COLUMNS
 from .machine_option import add_machine_option, load_machine_option
-
-PROBE_COLUMNS = ("x1_um", "y1_um", "x2_um", "y2_um")
-"""The record's probe columns, as ``oilwatch run`` writes them (um along each probe's axis)."""
 
 
 def _structure_field(name: str):
