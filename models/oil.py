@@ -22,7 +22,7 @@ and H = 0.1684 Y^2 + 11.85 Y - 97. Between 2 and 70 cSt oilwatch uses the standa
 representation of Table 1 (L, H = a Y^2 + b Y + c on 15 intervals; the same coefficients appear in ISO 2909
 calculators and GOST 25371), which reproduces the table to its printed precision (0.3 % at worst;
 tests/test_oil.py checks it against Table 1 entries). Given U and VI, Y is the root of VI(U, Y) = VI, which
-is monotone in Y: found by bracketing and Brent's method.
+is monotone in Y: found by bisection to the last bit.
 
 Dynamic viscosity, the bearing's mu, is rho(T) nu(T), with the density falling linearly from its 15 degC
 value by a volumetric thermal expansion coefficient (ASTM D1250 / API MPMS 11.1 give about 6.4e-4 1/K for a
@@ -32,9 +32,8 @@ mineral oil of 860 kg/m^3).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
-
-from scipy.optimize import brentq
 
 from .validation import InputError, require_finite, require_in_range, require_positive
 
@@ -86,6 +85,30 @@ def viscosity_index(nu40_cst: float, nu100_cst: float) -> float:
     return (10.0**n - 1.0) / 0.00715 + 100.0
 
 
+def monotone_root(function: Callable[[float], float], low: float, high: float) -> float:
+    """The root of a monotone ``function`` that changes sign over [``low``, ``high``], to the last bit.
+
+    Bisection until the bracket's ends are neighbouring floats (at most about 60 halvings here): a few
+    hundred microseconds, and no scipy.optimize, whose import would cost every FMU 0.15 s at its start
+    (the machine file's oil grade is read there).
+    """
+    f_low = function(low)
+    if f_low == 0.0:
+        return low
+    for _ in range(2100):  # enough halvings for any pair of finite floats
+        middle = 0.5 * (low + high)
+        if middle in (low, high):
+            break
+        f_middle = function(middle)
+        if f_middle == 0.0:
+            return middle
+        if (f_middle > 0.0) == (f_low > 0.0):
+            low, f_low = middle, f_middle
+        else:
+            high = middle
+    return low if abs(f_low) <= abs(function(high)) else high
+
+
 def nu100_from_viscosity_index(nu40_cst: float, vi: float) -> float:
     """Kinematic viscosity at 100 degC [cSt] of the oil with ``nu40_cst`` at 40 degC and index ``vi``."""
     u = require_positive("kinematic viscosity at 40 degC", nu40_cst, "cSt")
@@ -96,7 +119,7 @@ def nu100_from_viscosity_index(nu40_cst: float, vi: float) -> float:
             f"viscosity index {vi:g} is not reachable at {u:g} cSt (40 degC) with nu(100 degC) in "
             f"[{lo:g}, {u:g}] cSt (ASTM D2270 range)"
         )
-    return float(brentq(lambda y: viscosity_index(u, y) - vi, lo, hi * (1 - 1e-12), xtol=1e-12, rtol=1e-14))
+    return monotone_root(lambda y: viscosity_index(u, y) - vi, lo, hi * (1 - 1e-12))
 
 
 def _walther(nu_cst: float) -> float:
@@ -200,4 +223,4 @@ class Oil:
                 f"dynamic viscosity {mu:g} Pa s is outside this oil's range [{span[0]:.4g}, {span[1]:.4g}] "
                 f"Pa s over [{low:g}, {high:g}] degC"
             )
-        return float(brentq(lambda t: self.dynamic_viscosity_pa_s(t) - mu, low, high, xtol=1e-12, rtol=1e-15))
+        return monotone_root(lambda t: self.dynamic_viscosity_pa_s(t) - mu, low, high)

@@ -111,3 +111,24 @@ def test_bad_table_file(tmp_path):
     (tmp_path / "x.json").write_text('{"format": "something else"}')
     with pytest.raises(InputError, match="is not an oilwatch bearing coefficient table"):
         CoefficientTable.load(tmp_path / "x.json")
+
+
+def test_pchip_coefficients_are_scipys_to_the_last_bit():
+    """The table computes its interpolant without scipy.interpolate (an FMU's start-up); it must be scipy's
+    PCHIP exactly: interior nodes with slopes of either sign, a zero slope, a sign change at an end, and the
+    two-node case."""
+    from scipy.interpolate import PchipInterpolator
+
+    from oilwatch.models.bearing.table import pchip_coefficients
+
+    rng = np.random.default_rng(7)
+    for n in (2, 3, 5, 7, 13):
+        x = np.sort(rng.uniform(0.0, 3.0, n)) + np.arange(n)
+        y = rng.normal(size=(n, 6))
+        y[:, 0] = np.cumsum(np.abs(y[:, 0]))  # monotone
+        y[:, 1] = y[0, 1]  # flat
+        if n > 2:
+            y[1, 2] = y[0, 2]  # one zero slope
+            y[:, 3] = [(-1.0) ** k for k in range(n)]  # a sign change at every node
+        expected = PchipInterpolator(x, y, axis=0).c
+        assert np.array_equal(pchip_coefficients(x, y), expected), n

@@ -111,9 +111,7 @@ def test_a_spike_is_gated_on_its_own_channel_and_does_not_corrupt_the_estimate(t
     assert not trace.probe_faulty.any()
     deviation = np.abs(trace.q_m3_s[6000:] - reference.q_m3_s[6000:]).max()
     assert deviation < 1e-3 * QN
-    ungated = OilFlowEKF(
-        toy, EKFConfig.recommended(gate_tail_probability=0.0)
-    ).run(data)
+    ungated = OilFlowEKF(toy, EKFConfig.recommended(gate_tail_probability=0.0)).run(data)
     assert np.abs(ungated.q_m3_s[6000:] - reference.q_m3_s[6000:]).max() > 10 * deviation
 
 
@@ -246,3 +244,16 @@ def test_probes_mounted_at_an_angle_are_read_along_their_axes(toy, constant_reco
     assert not mounted.probe_faulty.any()
     ignored = OilFlowEKF(toy, EKFConfig.recommended()).run(data)
     assert np.abs(ignored.q_m3_s[5000:].mean(axis=0) / truth - 1).max() > 0.05
+
+
+@pytest.mark.parametrize("tail", [0.05, 1e-3, 1e-6, 1e-12])
+def test_the_gate_and_change_quantiles_are_the_chi_square_distributions(tail):
+    """Closed forms instead of scipy.special (an FMU's start-up), against scipy.special's inverses."""
+    from scipy.special import chdtri
+
+    from oilwatch.estimator.ekf_setup import chi_square_upper_quantile
+
+    for dof in (1, 2):
+        assert chi_square_upper_quantile(dof, tail) == pytest.approx(chdtri(dof, tail), rel=1e-13)
+    with pytest.raises(ValueError, match="1 or 2 degrees of freedom"):
+        chi_square_upper_quantile(3, tail)

@@ -145,8 +145,11 @@ def test_fmi3_state_get_set_and_serialize_restore_the_run(
     assert result["from_bytes"] == result["first"]
 
 
-FRESH_UNPACK = """
+START_UP_HEAVY = ("scipy.optimize", "scipy.interpolate", "scipy.special")
+"""scipy packages whose import (0.15-0.2 s each, with what they import) an FMU's start does without."""
+FRESH_UNPACK = f"""
 import sys, tempfile
+HEAVY = {START_UP_HEAVY!r}
 from fmpy import extract, read_model_description
 from fmpy.fmi3 import FMU3Slave
 path = sys.argv[1]
@@ -156,6 +159,7 @@ fmu = FMU3Slave(guid=md.guid, unzipDirectory=extract(path, tempfile.mkdtemp(dir=
 fmu.instantiate()
 fmu.enterInitializationMode(startTime=0.0)
 fmu.exitInitializationMode()
+print("@@heavy", sorted(m for m in HEAVY if m in sys.modules))
 for k in range(50):
     fmu.doStep(k * 1e-3, 1e-3)
 fmu.terminate()
@@ -169,13 +173,15 @@ def test_a_fresh_unpack_in_plain_fmpy_loads_the_shipped_kernels_compiles_none_an
     built_fmi3_fmus, name, tmp_path
 ):
     """numba's cache log says what each kernel did: "data loaded" from the shipped files, "data saved" after
-    compiling it here. The host exits normally (no os._exit): the FMU's layer mends pythonfmu3's teardown."""
+    compiling it here. The host exits normally (no os._exit): the FMU's layer mends pythonfmu3's teardown.
+    Initialization imports none of :data:`START_UP_HEAVY`."""
     env = clean_env(NUMBA_DEBUG_CACHE="1", OPENBLAS_NUM_THREADS="1", TMPDIR=str(tmp_path))
     process = subprocess.run(
         [sys.executable, "-c", FRESH_UNPACK, str(built_fmi3_fmus / f"{name}.fmu"), str(tmp_path)],
         cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600,
     )  # fmt: skip
     assert_shipped_kernels_loaded_and_none_compiled(process)
+    assert "@@heavy []" in process.stdout, [line for line in process.stdout.splitlines() if "@@heavy" in line]
 
 
 SCENARIO = """

@@ -111,3 +111,23 @@ def test_machine_file_oil_by_points_and_refuses_two_viscosities():
         machine_from_dict(data)
     del data["oil"]
     assert machine_from_dict(data).oil is None
+
+
+def test_monotone_root_is_brents_to_its_tolerance_and_brackets_to_the_last_bit():
+    """The oil's roots are found without scipy.optimize (an FMU's start-up): against brentq, increasing and
+    decreasing functions, the result is within brentq's own tolerance and one of its neighbouring floats has
+    the other sign (or it is a root)."""
+    from scipy.optimize import brentq
+
+    from oilwatch.models.oil import monotone_root
+
+    for grade in (22, 46, 68, 320):
+        for vi in (0.0, 95.0, 140.0):
+            f = lambda y, u=float(grade), vi=vi: viscosity_index(u, y) - vi  # noqa: E731
+            root = monotone_root(f, 2.0, grade * (1 - 1e-12))
+            assert root == pytest.approx(brentq(f, 2.0, grade * (1 - 1e-12), xtol=1e-12), abs=2e-12)
+            sides = [f(math.nextafter(root, side)) for side in (-math.inf, math.inf)]
+            assert f(root) == 0.0 or any((f(root) < 0.0) != (value < 0.0) for value in sides)
+    oil = Oil.from_grade(46, 100, 860.0)
+    mu = oil.dynamic_viscosity_pa_s(57.3)
+    assert oil.temperature_at_viscosity_c(mu) == pytest.approx(57.3, abs=1e-9)

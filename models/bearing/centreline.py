@@ -34,8 +34,6 @@ from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
-from scipy.interpolate import CubicSpline
-from scipy.optimize import least_squares
 
 from ..cache import user_cache_dir
 from ..validation import InputError, require_in_range, require_positive
@@ -80,6 +78,10 @@ class FloodedLocus:
         if np.any(np.diff(self.sommerfeld_nodes) <= 0.0):
             raise InputError("a flooded locus needs increasing Sommerfeld nodes")
         self.metadata = metadata
+        # scipy.interpolate imported here, not at the top: the estimator FMU imports this module for its
+        # clearance range and would start 0.2 s later
+        from scipy.interpolate import CubicSpline
+
         self._spline = CubicSpline(np.log(self.sommerfeld_nodes), self.positions, axis=0)
 
     @property
@@ -308,6 +310,8 @@ def fit_clearance(
 
     low = np.log([CLEARANCE_FACTOR_RANGE[0], VISCOSITY_FACTOR_RANGE[0]])
     high = np.log([CLEARANCE_FACTOR_RANGE[1], VISCOSITY_FACTOR_RANGE[1]])
+    from scipy.optimize import least_squares  # start-up: see FloodedLocus.__init__
+
     solution = least_squares(residual, np.zeros(2), bounds=(low, high), x_scale=0.1, xtol=1e-12, ftol=1e-14)
     theta = solution.x
     r = residual(theta)

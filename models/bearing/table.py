@@ -26,7 +26,6 @@ from importlib import metadata
 from pathlib import Path
 
 import numpy as np
-from scipy.interpolate import PchipInterpolator
 
 from ..validation import InputError, naming_file, read_text_file, require_fields, require_positive
 from .coefficient_kinds import COEFFICIENT_KINDS, QUASI_STATIC, SYNCHRONOUS, require_kind
@@ -65,6 +64,56 @@ def flooded_threshold(bearing: JournalBearing, load_n: float, speed_hz: float, m
     return eq.supply_flow_m3_s, eq
 
 
+def pchip_coefficients(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """The piecewise-cubic coefficients of the PCHIP interpolant of ``y`` (n, m) over the nodes ``x`` (n,).
+
+    Fritsch & Butland's node derivatives (the weighted harmonic mean of the neighbouring slopes, zero where
+    they differ in sign or one is zero) and Moler's shape-preserving three-point formula at the ends: the
+    interpolant of ``scipy.interpolate.PchipInterpolator``, whose coefficients these are to the last bit
+    (``tests/test_table.py``). Computed here, not by scipy.interpolate, whose import (0.2 s, with
+    scipy.optimize) is most of what an FMU would spend on it at its start.
+
+    Parameters
+    ----------
+    x : (n,) array, increasing, n >= 2.
+    y : (n, m) array.
+
+    Returns
+    -------
+    (4, n - 1, m) array: interval k's cubic in (x - x[k]), highest power first (``PPoly.c``'s layout).
+
+    References
+    ----------
+    F. N. Fritsch and J. Butland, "A method for constructing local monotone piecewise cubic interpolants",
+    SIAM J. Sci. Stat. Comput. 5 (1984) 300-304. C. Moler, *Numerical Computing with MATLAB*, SIAM 2004,
+    sec. 3.6 (``pchiptx``).
+    """
+    h = np.diff(x)[:, None]
+    slope = np.diff(y, axis=0) / h
+    derivative = np.zeros_like(y)
+    if len(x) == 2:
+        derivative[:] = slope
+    else:
+        w1 = 2.0 * h[1:] + h[:-1]
+        w2 = h[1:] + 2.0 * h[:-1]
+        flat = (np.sign(slope[1:]) != np.sign(slope[:-1])) | (slope[1:] == 0.0) | (slope[:-1] == 0.0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            mean = (w1 / slope[:-1] + w2 / slope[1:]) / (w1 + w2)
+        derivative[1:-1] = np.where(flat, 0.0, 1.0 / np.where(flat, 1.0, mean))
+        derivative[0] = _pchip_end(h[0], h[1], slope[0], slope[1])
+        derivative[-1] = _pchip_end(h[-1], h[-2], slope[-1], slope[-2])
+    t = (derivative[:-1] + derivative[1:] - 2.0 * slope) / h
+    return np.stack([t / h, (slope - derivative[:-1]) / h - t, derivative[:-1], y[:-1]])
+
+
+def _pchip_end(h0, h1, m0, m1) -> np.ndarray:
+    """An end node's derivative: the one-sided three-point estimate, held to the end slope's sign and within
+    three times it where the slopes change sign (Moler's ``pchiptx``)."""
+    d = ((2.0 * h0 + h1) * m0 - h0 * m1) / (h0 + h1)
+    d = np.where(np.sign(d) != np.sign(m0), 0.0, d)
+    return np.where((np.sign(m0) != np.sign(m1)) & (np.abs(d) > 3.0 * np.abs(m0)), 3.0 * m0, d)
+
+
 class CoefficientTable:
     """Tabulated equilibrium and coefficients over supply flowrate, with PCHIP interpolation.
 
@@ -101,7 +150,7 @@ class CoefficientTable:
             ],
             axis=1,
         )
-        cubic = PchipInterpolator(self.flowrates_m3_s, values, axis=0).c  # (4, n-1, 10), high first
+        cubic = pchip_coefficients(self.flowrates_m3_s, values)  # (4, n-1, 10), high first
         self._coef = np.ascontiguousarray(np.transpose(cubic[::-1], (1, 0, 2)))  # (n-1, 4, 10)
         self._nodes = [float(q) for q in self.flowrates_m3_s]
         self._node_array = np.array(self._nodes)
