@@ -4,6 +4,7 @@ models/system/clearance.py), against direct p-theta solves of bearings the locus
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 import pytest
@@ -14,6 +15,7 @@ from oilwatch.models.bearing.grid import PRODUCTION_MESH, Mesh
 from oilwatch.models.bearing.sommerfeld import sommerfeld_number
 from oilwatch.models.bearing.supply import SupplyPressure
 from oilwatch.models.machine import load_machine
+from oilwatch.models.probes import read_probes
 from oilwatch.models.rotor.assembly import Rotor
 from oilwatch.models.system.clearance import measure_clearances, record_revolutions
 from oilwatch.models.system.coast_down import coast_down_centreline, coast_down_record
@@ -217,3 +219,35 @@ def test_a_coast_down_with_a_probe_dropping_out_measures_the_clearance_from_the_
         revolutions=record_revolutions(record["speed_hz"], 1e-3),
     )
     assert all(abs(fit.clearance_factor / 0.95 - 1.0) < 0.005 for fit in fits)
+
+
+@pytest.mark.slow
+def test_the_clearance_std_covers_the_spread_of_the_probes_scale_factor_errors():
+    """Each probe of the machine file's pair (45 deg from the model's axes) reads 1 + delta times its
+    signal, delta uniform within the machine file's tolerance (API 670's 5 %): the rms change of each
+    measured clearance over 12 draws against the std's scale-factor term (the std with the tolerance and
+    without it, in quadrature). 12 draws: the rms is known to about 20 %."""
+    probes = read_probes(MACHINE)
+    chain = MeasurementChain((ProbeErrors(),) * 4, math.radians(probes.angle_deg), 1e-6)
+    record = coast_down_record(MACHINE, PlantStructure(), chain, 20.0, 0.03, seed=6)
+    revolutions = record_revolutions(record["speed_hz"], 1e-3)
+
+    def measured(delta, scale_std=0.0):
+        positions = (record["readings_m"] * (1.0 + delta)) @ chain.projection  # back to the model's axes
+        fits = measure_clearances(
+            MACHINE,
+            record["speed_hz"],
+            positions,
+            1e-6,
+            revolutions=revolutions,
+            probe_scale_factor_std=scale_std,
+        )
+        return np.array([[fit.clearance_factor, fit.clearance_factor_std] for fit in fits])
+
+    exact = measured(np.zeros(4))
+    term = np.sqrt(measured(np.zeros(4), probes.scale_factor_std)[:, 1] ** 2 - exact[:, 1] ** 2)
+    tolerance = probes.scale_factor_std * math.sqrt(3.0)
+    rng = np.random.default_rng(11)
+    shifts = [measured(rng.uniform(-tolerance, tolerance, 4))[:, 0] - exact[:, 0] for _ in range(12)]
+    spread = np.sqrt(np.mean(np.square(shifts), axis=0))
+    assert np.all((0.6 * spread < term) & (term < 1.6 * spread)), (spread, term)

@@ -25,6 +25,7 @@ from ..bearing.centreline import (
     revolution_means,
 )
 from ..machine import Machine
+from ..probes import read_probes
 from ..rotor.assembly import Rotor
 from ..validation import InputError
 from .factory import locus_table_path
@@ -58,8 +59,8 @@ def measure_clearances(
     sample; a sample with a missing value (NaN: a faulty probe's) is left out. ``probe_scale_factor_std``:
     the std of each probe's scale-factor error (``[probes] scale_factor_tolerance_pct``): a probe that reads
     1 + delta times the motion stretches the centreline along its axis, which reads as clearance; the
-    clearance factor's std includes it (the fit's sensitivity to each axis's stretch, found by refitting,
-    times this std).
+    clearance factor's std includes it (the fit's sensitivity to each probe's stretch along its own axis,
+    found by refitting, times this std).
     """
     speed = np.asarray(speed_hz, dtype=float)
     positions = np.asarray(positions_m, dtype=float)
@@ -93,15 +94,17 @@ def measure_clearances(
     noise = noise_std_m / math.sqrt(float(np.median(counts)))
     loads = Rotor.from_machine(machine).bearing_static_loads_n
     loci = machine_loci(machine)
+    angle = math.radians(read_probes(machine).angle_deg)
+    axes = (np.array([math.cos(angle), math.sin(angle)]), np.array([-math.sin(angle), math.cos(angle)]))
     fits = []
     for b, (load, locus) in enumerate(zip(loads, loci, strict=True)):
         points = means[:, 2 * b : 2 * b + 2]
         fit = fit_clearance(locus, machine.bearing, load, speeds, viscosity, points, noise)
         if probe_scale_factor_std > 0.0:
             slopes = []
-            for axis in range(2):
-                stretched = points.copy()
-                stretched[:, axis] *= 1.0 + SCALE_STEP
+            for axis in axes:
+                # the probe reads 1 + delta times its signal: the points stretch along its axis
+                stretched = points + SCALE_STEP * np.outer(points @ axis, axis)
                 moved = fit_clearance(locus, machine.bearing, load, speeds, viscosity, stretched, noise)
                 slopes.append((moved.clearance_factor - fit.clearance_factor) / SCALE_STEP)
             considered = probe_scale_factor_std * math.hypot(*slopes)
