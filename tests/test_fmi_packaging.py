@@ -81,3 +81,58 @@ def test_an_fmu_refuses_an_imported_oilwatch_with_other_sources_naming_both(stag
     assert "\n" not in message
     assert "oilwatch 9.9.9 (sources " in message and "oilwatch 0.0.1 (sources 0123456789abcdef)" in message
     assert str(other) in message
+
+
+KERNEL = "from numba import njit\n\n\n@njit(cache=True)\ndef twice(x):\n    return 2.0 * x\n"
+CALL = (
+    "import importlib.util, sys\n"
+    "spec = importlib.util.spec_from_file_location('seeded_kernel', sys.argv[1])\n"
+    "module = sys.modules['seeded_kernel'] = importlib.util.module_from_spec(spec)\n"
+    "spec.loader.exec_module(module)\n"
+    "print(module.twice(2.0))\n"
+)
+"""Load the kernel's file as one module name in every folder (an FMU's bundled package is always
+``oilwatch``) and call it."""
+
+
+def _call_kernel(root: Path) -> list[str]:
+    """numba's cache log of calling the kernel ``root / "oilwatch" / "kernel.py"`` in a fresh process."""
+    import os
+    import subprocess
+
+    env = {**os.environ, "NUMBA_DEBUG_CACHE": "1"}
+    env.pop("NUMBA_CACHE_DIR", None)
+    process = subprocess.run(
+        [sys.executable, "-c", CALL, str(root / "oilwatch" / "kernel.py")],
+        capture_output=True,
+        text=True,
+        env=env,
+        check=True,
+    )
+    return [line for line in process.stdout.splitlines() if line.startswith("[cache]")]
+
+
+def test_a_seed_fmus_kernels_are_loaded_by_the_warm_up_of_another_unpack_of_the_same_source(tmp_path):
+    """The FMI 3.0 build's warm-up loads what its FMI 2.0 twin compiled (packaging._seed_kernels): numba
+    keys a kernel by its source's content, so its files work in another folder; only numba's files are
+    copied."""
+    import zipfile
+
+    from oilwatch.cosim.packaging import _seed_kernels
+
+    twin = tmp_path / "twin" / "resources"
+    (twin / "oilwatch").mkdir(parents=True)
+    (twin / "oilwatch" / "kernel.py").write_text(KERNEL)
+    assert any("saved" in line for line in _call_kernel(twin))  # the twin's warm-up compiled it
+    seed = tmp_path / "twin.fmu"
+    with zipfile.ZipFile(seed, "w") as archive:
+        for path in (twin / "oilwatch").rglob("*"):
+            archive.write(path, path.relative_to(twin.parent).as_posix())
+    unpacked = tmp_path / "fmi3"
+    (unpacked / "resources" / "oilwatch").mkdir(parents=True)
+    (unpacked / "resources" / "oilwatch" / "kernel.py").write_text(KERNEL)
+    _seed_kernels(unpacked, seed)
+    copied = sorted(p.suffix for p in (unpacked / "resources" / "oilwatch" / "__pycache__").iterdir())
+    assert copied and set(copied) <= {".nbi", ".nbc"}
+    log = _call_kernel(unpacked / "resources")
+    assert any("data loaded" in line for line in log) and not any("saved" in line for line in log), log

@@ -258,9 +258,12 @@ def _stored_files(stored: Path) -> dict[str, bytes] | None:
         return None
 
 
-def ship_compiled(fmu: Path, label: str) -> bool:
+def ship_compiled(fmu: Path, label: str, seed: Path | None = None) -> bool:
     """Add the compiled kernels and bytecode of ``fmu``'s bundled oilwatch to it (module docstring); True
-    when they came from an earlier build's warm-up of the same content, False when this build ran it."""
+    when they came from an earlier build's warm-up of the same content, False when this build ran it.
+    ``seed``: an FMU of the same bundle that already ships its kernels (the FMI 2.0 twin of an FMI 3.0
+    FMU): its numba files are put beside the sources before the warm-up, which then loads what they hold
+    instead of compiling it (numba checks each against the source's content)."""
     fmu = Path(fmu)
     with tempfile.TemporaryDirectory(prefix="oilwatch_warm_up_") as tmp:
         folder = Path(tmp) / "fmu"
@@ -271,12 +274,32 @@ def ship_compiled(fmu: Path, label: str) -> bool:
         shipped = _stored_files(stored) if stored is not None else None
         reused = shipped is not None
         if not reused:
+            if seed is not None:
+                _seed_kernels(folder, Path(seed))
             files = _warm_up(folder, label)
             shipped = {path.relative_to(folder).as_posix(): path.read_bytes() for path in files}
             if stored is not None:
                 _store(files, folder, stored)
         add_members(fmu, shipped)
     return reused
+
+
+NUMBA_FILES = ("*.nbi", "*.nbc")
+"""numba's cache files (index, compiled overloads) in a ``__pycache__`` folder."""
+
+
+def _seed_kernels(folder: Path, seed: Path) -> None:
+    """Copy the numba files of ``seed``'s bundled oilwatch into the FMU unpacked in ``folder``. numba keeps
+    an entry only while its source file's content is the one it was compiled from: a kernel whose source
+    differs between the two is compiled again, as without the seed."""
+    prefix = f"resources/{ROOT_PACKAGE}/"
+    with zipfile.ZipFile(seed) as archive:
+        for name in archive.namelist():
+            if name.startswith(prefix) and "/__pycache__/" in name:
+                if any(fnmatch.fnmatch(name, pattern) for pattern in NUMBA_FILES):
+                    target = folder / name
+                    target.parent.mkdir(parents=True, exist_ok=True)
+                    target.write_bytes(archive.read(name))
 
 
 def share_compiled(fmus: list[Path]) -> None:
