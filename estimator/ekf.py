@@ -531,6 +531,20 @@ class OilFlowEKF:
             floor = self._alarm_std_floor() if applied else 0.0
             self._summary_settings[SUMMARY_STD_FLOOR : SUMMARY_STD_FLOOR + 2] = floor
 
+    def with_model_centre_of(
+        self, state: dict[str, np.ndarray], later: dict[str, np.ndarray]
+    ) -> dict[str, np.ndarray]:
+        """``state`` (:meth:`get_state`) with its operating model's correction centre taken from ``later``, a
+        later state of this filter (``OperatingAugmentedModel.with_centre_of``; a model without one:
+        ``state``)."""
+        merge = getattr(self.model, "with_centre_of", None)
+        if merge is None or "model_centre" not in later:
+            return state
+        model_state = {k.removeprefix("model_"): v for k, v in state.items() if k.startswith("model_")}
+        model_later = {k.removeprefix("model_"): v for k, v in later.items() if k.startswith("model_")}
+        merged = merge(model_state, model_later)
+        return {**state, **{f"model_{key}": value for key, value in merged.items()}}
+
     @property
     def flowrate_m3_s(self) -> np.ndarray:
         """(2,) current flowrate estimates [m^3/s], inside the model's table range."""

@@ -305,6 +305,21 @@ class StartBank:
             state.update({f"start{k}_{key}": value for key, value in self.filters[k].get_state().items()})
         return state
 
+    def with_model_centre_of(
+        self, state: dict[str, np.ndarray], later: dict[str, np.ndarray]
+    ) -> dict[str, np.ndarray]:
+        """``state`` (:meth:`get_state`) with each start's model centre from ``later``, a later state of the
+        bank (:meth:`oilwatch.estimator.ekf.OilFlowEKF.with_model_centre_of`)."""
+        merged = dict(state)
+        for k, ekf in enumerate(self.filters):
+            prefix = f"start{k}_"
+            own = {key.removeprefix(prefix): v for key, v in state.items() if key.startswith(prefix)}
+            if not own:
+                continue
+            after = {key.removeprefix(prefix): v for key, v in later.items() if key.startswith(prefix)}
+            merged.update({prefix + key: v for key, v in ekf.with_model_centre_of(own, after).items()})
+        return merged
+
     def set_state(self, state: dict[str, np.ndarray]) -> None:
         """Restore a state from :meth:`get_state` exactly (same model and configuration)."""
         bank = np.asarray(state.get("bank", ()), dtype=float)

@@ -272,8 +272,9 @@ class OilFlowEKF(OilwatchSlave):
         before them, so that the first doStep runs Python the interpreter has already specialised (the
         filter's warm-up in :meth:`setup` calls the step's functions only a few times, the slave's own step
         never). Everything a step changes goes back: the filter's state, the start sample taken ahead, the
-        input, output and measurement arrays, the keyphasor and the log. A sample's error is left to the
-        first doStep, which reports it."""
+        input, output and measurement arrays, the keyphasor and the log; but each operating model keeps the
+        correction centre the first sample placed, where the first doStep's transition would place it again.
+        A sample's error is left to the first doStep, which reports it."""
         state, taken = self.filter.get_state(), copy.deepcopy(self._start_sample_taken)
         kept = (self._nuisances_published, self._warned_off_grid, len(self.log_queue))
         arrays = [
@@ -281,13 +282,20 @@ class OilFlowEKF(OilwatchSlave):
             for array in (self._inputs, self._outputs, self._measurement, self._keyphasor_cell)
         ]
         first, period = self._first_sample_time_s, self.sample_period_s
+        after_first = None
         try:
             for k in range(WARM_UP_STEPS):
                 self._inputs[STAMP_INPUT] = first + (k + 1) * period
                 self.step(first + k * period, period)
+                after_first = self.filter.get_state() if k == 0 else after_first
         except Exception:  # the same sample fails again at the first doStep, which reports it
             pass
-        self.filter.set_state(state)
+        # the first sample's transition placed each model's correction centre at its point: kept placed, so
+        # that the first doStep, taking the same point, does not re-centre (undone with the start sample
+        # when the first sample comes at another operating point: _settle_start_sample)
+        self.filter.set_state(
+            state if after_first is None else self.filter.with_model_centre_of(state, after_first)
+        )
         self._start_sample_taken = taken
         self._nuisances_published, self._warned_off_grid, logged = kept
         del self.log_queue[logged:]

@@ -151,9 +151,11 @@ def test_the_estimators_start_sample_taken_in_initialization_changes_no_output()
 
 
 def test_the_estimators_step_warm_up_changes_no_output():
-    """The slave's step run on the first samples in initialization and undone (:func:`OilFlowEKF._warm_step`)
-    leaves every output of every later step, the pending start sample and the log as without it: with the
-    first sample one period later or at the start, at another speed, and after a restored state."""
+    """The slave's step run on the first samples in initialization and undone (:func:`OilFlowEKF._warm_step`),
+    each operating model keeping the correction centre the first sample placed, leaves every output of every
+    later step, the pending start sample and the log as without it: with the first sample one period later
+    (the centre taken as placed) or at the start, at another speed, and after a restored state (the centre
+    undone with the start sample)."""
     result = run_json(STEP_WARM_UP, timeout=900)
     steps = result.pop("steps")
     for case in result.values():

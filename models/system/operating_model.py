@@ -198,6 +198,19 @@ class OperatingAugmentedModel:
             "centre": centre,
         }
 
+    @staticmethod
+    def with_centre_of(state: dict[str, np.ndarray], later: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """The operating state ``state`` (:meth:`get_operating_state`) with the correction centre of
+        ``later`` and the step it was placed at: restored, the next transition from ``state`` that takes
+        exactly that centre's point finds it placed instead of re-centring there (the estimator FMU's
+        initialization, which ran its first sample ahead and undid it)."""
+        merged = dict(state)
+        merged["centre"] = np.array(later["centre"], dtype=float)
+        anchor = np.array(state["phase_anchor"], dtype=float)
+        anchor[3] = later["phase_anchor"][3]  # the centre's step (get_operating_state)
+        merged["phase_anchor"] = anchor
+        return merged
+
     def set_operating_state(self, state: dict[str, np.ndarray]) -> None:
         """Restore :meth:`get_operating_state` (the corrections are recomputed at the saved centre)."""
         operating = [float(v) for v in state["operating"]]
