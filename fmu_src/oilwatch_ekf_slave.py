@@ -287,7 +287,8 @@ class OilFlowEKF(OilwatchSlave):
             for k in range(WARM_UP_STEPS):
                 self._inputs[STAMP_INPUT] = first + (k + 1) * period
                 self.step(first + k * period, period)
-                after_first = self.filter.get_state() if k == 0 else after_first
+                if k == 0:
+                    after_first = self.filter.get_state()
         except Exception:  # the same sample fails again at the first doStep, which reports it
             pass
         # the first sample's transition placed each model's correction centre at its point: kept placed, so

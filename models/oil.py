@@ -92,7 +92,7 @@ def monotone_root(function: Callable[[float], float], low: float, high: float) -
     hundred microseconds, and no scipy.optimize, whose import would cost every FMU 0.15 s at its start
     (the machine file's oil grade is read there).
     """
-    f_low = function(low)
+    f_low, f_high = function(low), function(high)
     if f_low == 0.0:
         return low
     for _ in range(2100):  # enough halvings for any pair of finite floats
@@ -105,8 +105,8 @@ def monotone_root(function: Callable[[float], float], low: float, high: float) -
         if (f_middle > 0.0) == (f_low > 0.0):
             low, f_low = middle, f_middle
         else:
-            high = middle
-    return low if abs(f_low) <= abs(function(high)) else high
+            high, f_high = middle, f_middle
+    return low if abs(f_low) <= abs(f_high) else high
 
 
 def nu100_from_viscosity_index(nu40_cst: float, vi: float) -> float:

@@ -70,7 +70,7 @@ def pchip_coefficients(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     Fritsch & Butland's node derivatives (the weighted harmonic mean of the neighbouring slopes, zero where
     they differ in sign or one is zero) and Moler's shape-preserving three-point formula at the ends: the
     interpolant of ``scipy.interpolate.PchipInterpolator``, whose coefficients these are to the last bit
-    (``tests/test_table.py``). Computed here, not by scipy.interpolate, whose import (0.2 s, with
+    (``tests/test_bearing_table.py``). Computed here, not by scipy.interpolate, whose import (0.2 s, with
     scipy.optimize) is most of what an FMU would spend on it at its start.
 
     Parameters

@@ -29,6 +29,7 @@ from ..probes import read_probes
 from ..rotor.assembly import Rotor
 from ..validation import InputError
 from .factory import locus_table_path
+from .measurement import probe_axes
 
 CENTRELINE_BIN_RATIO = 1.03
 """Speed bins of 3 % (uniform in ln N) for the record's centreline points."""
@@ -94,8 +95,7 @@ def measure_clearances(
     noise = noise_std_m / math.sqrt(float(np.median(counts)))
     loads = Rotor.from_machine(machine).bearing_static_loads_n
     loci = machine_loci(machine)
-    angle = math.radians(read_probes(machine).angle_deg)
-    axes = (np.array([math.cos(angle), math.sin(angle)]), np.array([-math.sin(angle), math.cos(angle)]))
+    axes = probe_axes(math.radians(read_probes(machine).angle_deg))
     fits = []
     for b, (load, locus) in enumerate(zip(loads, loci, strict=True)):
         points = means[:, 2 * b : 2 * b + 2]

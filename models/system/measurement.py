@@ -38,6 +38,13 @@ def _meta(unit: str, low: float, high: float, description: str) -> dict:
     return {"unit": unit, "range": (low, high), "description": description}
 
 
+def probe_axes(mounting_angle_rad: float) -> np.ndarray:
+    """(2, 2) the unit vectors in a bearing's (x, y) along which its X probe (row 0) and its Y probe (row 1)
+    read, the pair mounted at ``mounting_angle_rad`` counter-clockwise from +x."""
+    a = mounting_angle_rad
+    return np.array([[math.cos(a), math.sin(a)], [-math.sin(a), math.cos(a)]])
+
+
 @dataclass(frozen=True)
 class ProbeErrors:
     """The imperfections of one probe (SI; the unit, range and description of each field in its metadata)."""
@@ -97,8 +104,7 @@ class MeasurementChain:
     @cached_property
     def projection(self) -> np.ndarray:
         """(4, 4) map from true (x1, y1, x2, y2) to the probe axes' readings."""
-        a = self.mounting_angle_rad
-        block = np.array([[math.cos(a), math.sin(a)], [-math.sin(a), math.cos(a)]])
+        block = probe_axes(self.mounting_angle_rad)
         out = np.zeros((4, 4))
         out[:2, :2] = block
         out[2:, 2:] = block

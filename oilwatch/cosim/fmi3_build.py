@@ -123,17 +123,22 @@ def build_fmi3_fmu(entry: Fmi3Entry, out_dir: Path, machine=None, fmi2_twin: Pat
     return document_and_validate(built, f"{entry.name} (FMI 3.0)")
 
 
+def _model_identifier(fmu: Path) -> str:
+    """The co-simulation model identifier of the FMU file ``fmu``."""
+    from fmpy import read_model_description
+
+    return read_model_description(str(fmu), validate=False).coSimulation.modelIdentifier
+
+
 def fmi3_system(fmi2_ssp: Path, fmus: dict[str, Path], out_dir: Path) -> Path:
     """Write the FMI 3.0 twin of the FMI 2.0 system ``fmi2_ssp`` into ``out_dir`` (same file name): same
     instances, parameter bindings, connections and experiment, each FMU replaced by its FMI 3.0 build
     (``fmus``: model identifier -> FMI 3.0 FMU)."""
-    from fmpy import read_model_description
-
     from .ssp import open_ssp, write_ssp
 
     with open_ssp(fmi2_ssp) as system:
         for spec in system.fmus:
-            identifier = read_model_description(str(spec.path), validate=False).coSimulation.modelIdentifier
+            identifier = _model_identifier(spec.path)
             if identifier not in fmus:
                 raise InputError(f"{fmi2_ssp}: no FMI 3.0 build of {identifier} (instance {spec.name})")
             spec.path = fmus[identifier]
@@ -149,16 +154,13 @@ def build_fmi3_fmus(
     """Build every entry of ``registry`` into ``out_dir`` (FMI 3.0) for ``machine`` (default: the bundled
     turbine), then the FMI 3.0 twin of each FMI 2.0 SSP of ``fmi2_systems``; return the files written. The
     FMI 2.0 FMUs of those systems seed the warm-up of their FMI 3.0 twins (:func:`build_fmi3_fmu`)."""
-    from fmpy import read_model_description
-
     from .ssp import open_ssp
 
     with contextlib.ExitStack() as stack:
         twins: dict[str, Path] = {}
         for ssp in fmi2_systems:
             for spec in stack.enter_context(open_ssp(ssp)).fmus:
-                description = read_model_description(str(spec.path), validate=False)
-                twins.setdefault(description.coSimulation.modelIdentifier, Path(spec.path))
+                twins.setdefault(_model_identifier(spec.path), Path(spec.path))
         fmus = {
             entry.name: build_fmi3_fmu(entry, Path(out_dir), machine, twins.get(entry.name))
             for entry in registry

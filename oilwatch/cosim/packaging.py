@@ -261,9 +261,9 @@ def _stored_files(stored: Path) -> dict[str, bytes] | None:
 def ship_compiled(fmu: Path, label: str, seed: Path | None = None) -> bool:
     """Add the compiled kernels and bytecode of ``fmu``'s bundled oilwatch to it (module docstring); True
     when they came from an earlier build's warm-up of the same content, False when this build ran it.
-    ``seed``: an FMU of the same bundle that already ships its kernels (the FMI 2.0 twin of an FMI 3.0
-    FMU): its numba files are put beside the sources before the warm-up, which then loads what they hold
-    instead of compiling it (numba checks each against the source's content)."""
+    ``seed``: an FMU built from the same sources that already ships its kernels (the FMI 2.0 twin of an
+    FMI 3.0 FMU): its numba files are put beside the sources before the warm-up, which then loads what
+    they hold instead of compiling it (numba checks each against the source's content)."""
     fmu = Path(fmu)
     with tempfile.TemporaryDirectory(prefix="oilwatch_warm_up_") as tmp:
         folder = Path(tmp) / "fmu"
