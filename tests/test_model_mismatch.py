@@ -63,9 +63,23 @@ def test_the_status_turns_after_its_holds_and_the_static_change_reads_the_flowra
     fractions = flow / q0
     np.testing.assert_allclose(fractions, [0.8, 0.9], atol=0.005)
     assert (np.abs(fractions - [0.8, 0.9]) < 2.0 * std / q0).all()
-    # back to consistent only after 5 s of consistent data
-    statuses, _, _ = _run(change, np.vstack([samples, samples[:2000]]), np.ones(6000, dtype=bool))
-    assert (statuses[:4999] == bc.MISMATCH_BASELINE).all() and statuses[-1] == bc.CONSISTENT
+    # back to consistent only after 15 s of consistent data while the static reference applies
+    more = np.vstack([samples] * 4)
+    statuses, _, _ = _run(change, more, np.ones(16000, dtype=bool))
+    hold = round(bc.MISMATCH_BASELINE_HOLD_OFF_S / model.dt_s)
+    assert (statuses[: hold - 1] == bc.MISMATCH_BASELINE).all()
+    assert (statuses[hold - 1 :] == bc.CONSISTENT).all()
+
+
+def test_a_held_mismatch_turns_back_after_the_shorter_hold_off(model):
+    """Without a static reference a mismatch holds the alarm, so it lasts 5 s past its evidence, not the 15 s
+    of a mismatch that has the static estimate to publish."""
+    change = _change(model)
+    consistent = np.r_[np.zeros(1000, dtype=bool), np.ones(6000, dtype=bool)]
+    statuses, _, _ = _run(change, np.zeros((7000, 4)), consistent)
+    hold = round(bc.MISMATCH_HOLD_OFF_S / model.dt_s)
+    assert (statuses[500 : 1000 + hold - 1] == bc.MISMATCH_HELD).all()
+    assert (statuses[1000 + hold - 1 :] == bc.CONSISTENT).all()
 
 
 def test_a_filter_that_disagrees_with_the_static_change_is_a_mismatch_though_its_nis_is_consistent(model):
