@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -69,6 +71,23 @@ def test_the_status_turns_after_its_holds_and_the_static_change_reads_the_flowra
     hold = round(bc.MISMATCH_BASELINE_HOLD_OFF_S / model.dt_s)
     assert (statuses[: hold - 1] == bc.MISMATCH_BASELINE).all()
     assert (statuses[hold - 1 :] == bc.CONSISTENT).all()
+
+
+def test_evidence_adds_up_over_bursts_and_a_rare_failure_does_not_turn_the_status(model):
+    """Bursts of 0.1 s every second (10 % of the samples, none lasting the 0.5 s hold-on) turn the status
+    once their count, less 2 % of the time between them, reaches 0.5 s; 0.4 s bursts every 30 s never do."""
+    change = _change(model)
+    hold_on = round(bc.MISMATCH_HOLD_ON_S / model.dt_s)
+    every_second = (np.arange(20000) % 1000) < 100
+    statuses, _, _ = _run(change, np.zeros((20000, 4)), ~every_second)
+    # each second adds 100 and takes 0.02 x 900 off: the burst that reaches the hold-on is the k-th (from 0)
+    k = math.ceil((hold_on - 100) / (100 - bc.MISMATCH_EVIDENCE_LEAK * 900))
+    turned = int(np.argmax(statuses != bc.CONSISTENT))
+    assert k * 1000 < turned < k * 1000 + 100
+    change = _change(model)
+    rare = (np.arange(120000) % 30000) < 400
+    statuses, _, _ = _run(change, np.zeros((120000, 4)), ~rare)
+    assert (statuses == bc.CONSISTENT).all()
 
 
 def test_a_held_mismatch_turns_back_after_the_shorter_hold_off(model):
