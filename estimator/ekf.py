@@ -132,6 +132,12 @@ _PUBLISHED = (REPORT_FLOWRATE, REPORT_FLOWRATE + 1, REPORT_STD, REPORT_STD + 1, 
 """The report entries a model mismatch publishes in place of the filter's (saved with the state)."""
 
 
+def sub_state(state: dict[str, np.ndarray], prefix: str) -> dict[str, np.ndarray]:
+    """The entries of the state dict ``state`` whose keys start with ``prefix``, the prefix removed: the
+    operating model's part of a filter's state (``model_``), a start's part of a start bank's."""
+    return {key.removeprefix(prefix): value for key, value in state.items() if key.startswith(prefix)}
+
+
 def _checked(state: dict[str, np.ndarray], key: str, shape: tuple[int, ...]) -> np.ndarray:
     if key not in state:
         raise InputError(f"EKF state lacks {key!r}")
@@ -540,9 +546,7 @@ class OilFlowEKF:
         merge = getattr(self.model, "with_centre_of", None)
         if merge is None or "model_centre" not in later:
             return state
-        model_state = {k.removeprefix("model_"): v for k, v in state.items() if k.startswith("model_")}
-        model_later = {k.removeprefix("model_"): v for k, v in later.items() if k.startswith("model_")}
-        merged = merge(model_state, model_later)
+        merged = merge(sub_state(state, "model_"), sub_state(later, "model_"))
         return {**state, **{f"model_{key}": value for key, value in merged.items()}}
 
     @property
@@ -917,6 +921,6 @@ class OilFlowEKF:
             self._operating = (speed if has_speed else None, temperature if has_temperature else None)
         setter = getattr(self.model, "set_operating_state", None)
         if callable(setter):
-            model_state = {k.removeprefix("model_"): v for k, v in state.items() if k.startswith("model_")}
+            model_state = sub_state(state, "model_")
             if model_state:
                 setter(model_state)

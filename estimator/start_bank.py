@@ -44,6 +44,7 @@ import numpy as np
 
 from oilwatch.models.validation import InputError
 
+from .ekf import sub_state
 from .reports import EstimateTrace, StepReport
 
 START_FRACTIONS = (1.1, 1.0, 0.9, 0.8, 0.7)
@@ -313,10 +314,10 @@ class StartBank:
         merged = dict(state)
         for k, ekf in enumerate(self.filters):
             prefix = f"start{k}_"
-            own = {key.removeprefix(prefix): v for key, v in state.items() if key.startswith(prefix)}
+            own = sub_state(state, prefix)
             if not own:
                 continue
-            after = {key.removeprefix(prefix): v for key, v in later.items() if key.startswith(prefix)}
+            after = sub_state(later, prefix)
             merged.update({prefix + key: v for key, v in ekf.with_model_centre_of(own, after).items()})
         return merged
 
@@ -329,9 +330,7 @@ class StartBank:
         members = np.flatnonzero(np.isfinite(bank[2:])) if chosen is None else (chosen,)
         for k in members:
             prefix = f"start{k}_"
-            self.filters[k].set_state(
-                {key.removeprefix(prefix): value for key, value in state.items() if key.startswith(prefix)}
-            )
+            self.filters[k].set_state(sub_state(state, prefix))
         self.chosen, self.leader, self.nis[:] = chosen, int(bank[1]), bank[2:]
 
 
