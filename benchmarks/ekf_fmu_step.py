@@ -111,7 +111,7 @@ class InProcess:
         self.slave.log_queue.clear()  # pythonfmu relays and empties it after each call
         if part in ("fast", "compiled"):  # the rows as the loader leaves them in the input array
             width = len(self.slave.buffered_inputs)
-            self.table = np.tile(self.slave._inputs[:width], (len(self.rows), 1))
+            self.table = np.tile(self.slave.fast_path_buffers()[0][:width], (len(self.rows), 1))
             self.table[:, [self.slave.buffered_inputs.index(n) for n in names]] = self.rows
         self.inputs = [vr[n] for n in names]
         self.reals, self.flags = [vr[n] for n in OUTPUT_REALS], [vr[n] for n in OUTPUT_FLAGS]
@@ -133,7 +133,7 @@ class InProcess:
                 step(samples[j + 1], *operating[j + 1], None)
         elif self.part in ("fast", "compiled"):
             slave, table, k = self.slave, self.table, self.k
-            inputs, width = slave._inputs, len(slave.buffered_inputs)
+            inputs, width = slave.fast_path_buffers()[0], len(slave.buffered_inputs)
             fast_step, plain = slave._fast_step, None
             if self.part == "compiled":
                 plain = slave.plain_step_table().step

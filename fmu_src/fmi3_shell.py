@@ -131,7 +131,7 @@ class Fmi3Shell(Fmi3Slave):
                 step_size=experiment.step_size,
                 tolerance=experiment.tolerance,
             )
-        for variable in self.slave._declared:
+        for variable in self.slave.declared_variables:
             self.register_variable(_fmi3_variable(variable, self.slave))
         # FMI 3.0 wants exactly one independent variable; registered last, so that every value reference is
         # the FMI 2.0 FMU's
@@ -145,7 +145,8 @@ class Fmi3Shell(Fmi3Slave):
                 description="Simulation time",
             )
         )
-        for unit in sorted({"s"} | {v.unit for v in self.slave._declared if getattr(v, "unit", None)}):
+        units = {v.unit for v in self.slave.declared_variables if getattr(v, "unit", None)}
+        for unit in sorted({"s"} | units):
             definition = UNITS[unit]
             # the FMI 2.0 description writes 16 significant digits: the same numbers here
             factor, offset = (float(f"{x:.16g}") for x in (definition.factor, definition.offset))

@@ -66,19 +66,6 @@ def python_type(variable) -> type:
     return next(t for kind, t in types if isinstance(variable, kind))
 
 
-def buffered_property(buffer: str, index: int, convert) -> property:
-    """The attribute of a buffered variable (module docstring: the fast path): element ``index`` of the
-    slave's array ``buffer``."""
-
-    def read(self):
-        return convert(getattr(self, buffer).item(index))
-
-    def write(self, value) -> None:
-        getattr(self, buffer)[index] = value
-
-    return property(read, write)
-
-
 def outlive_the_wrappers_cleanup(facade) -> None:
     """Take one more reference to the object pythonfmu's (or pythonfmu3's) C++ wrapper holds, its class and
     its log queue, before an exception the host will see as fmi2Error / fmi3Error.
@@ -99,19 +86,19 @@ def fast_path_slots(slave) -> np.ndarray:
     slots = np.full(max(slave.vars, default=-1) + 1, -1, dtype=np.intc)
     outputs = ((Boolean, SLOT_BOOLEAN_OUTPUT), (Integer, SLOT_INTEGER_OUTPUT), (Real, SLOT_REAL_OUTPUT))
     for vr, variable in slave.vars.items():
-        buffered = slave._buffer_of(variable.local_name)
+        buffered = slave.buffer_of(variable.local_name)
         if buffered is None:
             continue
         buffer, index = buffered
         output = next(slot for k, slot in outputs if isinstance(variable, k))
-        kind = SLOT_REAL_INPUT if buffer == "_inputs" else output
+        kind = SLOT_REAL_INPUT if buffer == "input" else output
         slots[vr] = (kind << SLOT_SHIFT) | index
     return slots
 
 
 def bind_buffers(slave, step) -> bool:
-    """Hand ``slave``'s arrays ``_inputs`` (its buffered inputs, then two places for the step's time and
-    size) and ``_outputs``, their table and ``step`` (called by the loader's fmi2DoStep, returns
+    """Hand ``slave``'s fast-path arrays (its buffered inputs, then two places for the step's time and
+    size, and its buffered outputs), their table and ``step`` (called by the loader's fmi2DoStep, returns
     :data:`STEP_DONE` or :data:`STEP_REPLAY`) to the FMU's loader; return whether it took them (not with
     ``OILWATCH_FMU_FAST_PATH=0``, nor without an FMI 2.0 loader of this version, nor outside its
     fmi2ExitInitializationMode)."""
@@ -124,7 +111,7 @@ def bind_buffers(slave, step) -> bool:
     pointer, size = ctypes.c_void_p, ctypes.c_size_t
     entry.argtypes = (pointer, size, pointer, size, pointer, size, ctypes.py_object)
     entry.restype = ctypes.c_int
-    inputs, outputs = slave._inputs, slave._outputs
+    inputs, outputs = slave.fast_path_buffers()
     arguments = (inputs.ctypes.data, len(inputs) - 2, outputs.ctypes.data, len(outputs))
     return bool(entry(*arguments, slots.ctypes.data, len(slots), step))
 

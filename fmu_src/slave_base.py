@@ -80,10 +80,22 @@ from .loader_link import (
     STEP_DONE,
     STEP_REPLAY,
     bind_buffers,
-    buffered_property,
     flag_refused_call_to_loader,
     outlive_the_wrappers_cleanup,
 )
+
+
+def buffered_property(buffer: str, index: int, convert) -> property:
+    """The attribute of a buffered variable (module docstring: the fast path): element ``index`` of the
+    slave's array ``buffer``."""
+
+    def read(self):
+        return convert(getattr(self, buffer).item(index))
+
+    def write(self, value) -> None:
+        getattr(self, buffer)[index] = value
+
+    return property(read, write)
 
 
 class SlaveInitializationError(RuntimeError):
@@ -126,9 +138,10 @@ class OilwatchSlave(Fmi2Slave):
         if (low is not None and start < low) or (high is not None and start > high):
             raise ValueError(f"variable {variable.name}: start {start} outside [{low}, {high}]")
         name = variable.local_name
-        buffered = self._buffer_of(name)
+        buffered = self.buffer_of(name)
         if buffered is not None:  # the attribute is the array's element; getter and setter use it directly
-            buffer, index = buffered
+            kind, index = buffered
+            buffer = "_inputs" if kind == "input" else "_outputs"
             convert = next(
                 c for k, c in ((Boolean, bool), (Integer, int), (Real, float)) if isinstance(variable, k)
             )
@@ -146,13 +159,24 @@ class OilwatchSlave(Fmi2Slave):
         self.register_variable(variable)
         self._declared.append(variable)
 
-    def _buffer_of(self, name: str) -> tuple[str, int] | None:
-        """("_inputs" or "_outputs", index) of a buffered variable, None for the others."""
+    def buffer_of(self, name: str) -> tuple[str, int] | None:
+        """("input" or "output", index into that array of :meth:`fast_path_buffers`) of a buffered variable,
+        None for the others."""
         if name in self.buffered_inputs:
-            return "_inputs", self.buffered_inputs.index(name)
+            return "input", self.buffered_inputs.index(name)
         if name in self.buffered_outputs:
-            return "_outputs", self.buffered_outputs.index(name)
+            return "output", self.buffered_outputs.index(name)
         return None
+
+    def fast_path_buffers(self) -> tuple[np.ndarray, np.ndarray]:
+        """The arrays the loader's Get/Set calls read and write in C (module docstring: the fast path): the
+        buffered inputs, then two places for the step's current time and size; the buffered outputs."""
+        return self._inputs, self._outputs
+
+    @property
+    def declared_variables(self) -> tuple:
+        """The variables this instance declared, in declaration order."""
+        return tuple(self._declared)
 
     def register_variable(self, var, nested: bool = True) -> None:
         """pythonfmu's registration, plus the lookup tables of the Get/Set calls (module docstring)."""

@@ -92,7 +92,7 @@ for cls, output in ((RotorBearingPlant, "x1_um"), (OilFlowEKF, "q1_est_ml_min"))
     shell = cls(instance_name="shell")
     shell.to_xml()
     fmi2 = [(v.name, getattr(v, "unit", None), v.minimum if hasattr(v, "minimum") else None,
-             v.maximum if hasattr(v, "maximum") else None) for v in shell.slave._declared]
+             v.maximum if hasattr(v, "maximum") else None) for v in shell.slave.declared_variables]
     fmi3 = [(v.name, getattr(v, "unit", None), getattr(v, "minimum", None), getattr(v, "maximum", None))
             for v in shell.vars.values()]
     shell.setup_experiment(0.0)

@@ -55,3 +55,37 @@ def test_bundled_code_imports_only_numpy_scipy_numba_and_the_layers_below(packag
             elif top not in THIRD_PARTY and top not in sys.stdlib_module_names:
                 wrong.append(f"{path.relative_to(PACKAGE)}: {name}")
     assert wrong == []
+
+
+OTHER_LIBRARIES_PRIVATE_API = {
+    # pythonfmu's own protocol between its slave class and its C++ wrapper, which the FMI 3.0 shell and the
+    # loader call as that wrapper does
+    "_get_fmu_state": "pythonfmu",
+    "_set_fmu_state": "pythonfmu",
+    "_fmu_state_to_bytes": "pythonfmu",
+    "_fmu_state_from_bytes": "pythonfmu",
+    "_get_log_queue": "pythonfmu",
+    "_bind_fast_path": "a subclass extending its base's hook through super()",
+    "_functions": "fmpy's table of an FMU's C functions, the only way to call one fmpy does not wrap",
+    "_fields": "namedtuple's public field list",
+    "_exit": "os._exit",
+}
+
+
+def test_no_module_reads_another_objects_private_attributes():
+    """An object's underscored attributes are read and written by its own methods only (``self.``/``cls.``):
+    other modules use its public methods. The exceptions are other libraries' own conventions."""
+    wrong = []
+    for folder in ("", *BUNDLED):
+        for path in sorted((PACKAGE / folder).rglob("*.py")):
+            for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+                if not isinstance(node, ast.Attribute) or not node.attr.startswith("_"):
+                    continue
+                owner = node.value
+                if node.attr.startswith("__") or (
+                    isinstance(owner, ast.Name) and owner.id in ("self", "cls")
+                ):
+                    continue
+                if node.attr not in OTHER_LIBRARIES_PRIVATE_API:
+                    wrong.append(f"{path.relative_to(PACKAGE)}:{node.lineno}: {ast.unparse(node)}")
+    assert wrong == []

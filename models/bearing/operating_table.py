@@ -40,7 +40,7 @@ from .. import catmull_rom
 from ..validation import InputError, require_finite, require_positive
 from .coefficient_kinds import QUASI_STATIC, file_suffix
 from .geometry import JournalBearing
-from .operating_table_interpolation import TableSlice, interpolate_point
+from .operating_table_interpolation import TableSlice, interpolate_column, interpolate_point
 from .sommerfeld import N_QUANTITIES, ON_THRESHOLD
 from .supply import ML_MIN_PER_M3_S
 from .table import BearingCoefficients
@@ -86,7 +86,8 @@ class OperatingPoint:
 class OperatingTable:
     """Dimensionless equilibrium and coefficients over (ln S, f), interpolated C1.
 
-    ``sommerfeld_nodes`` (n_s,) uniform in ln S, ``fraction_nodes`` (n_f,) uniform, ``values``
+    ``sommerfeld_nodes`` (n_s,) uniform in ln S, ``fraction_nodes`` (n_f,) uniform (``fraction_step``
+    apart), ``values``
     (n_s, n_f, 11) as :data:`N_QUANTITIES`, ``threshold_flow_ratio`` (n_s,) q_t / q_c, ``geometry``
     the bearing it belongs to (:data:`GEOMETRY_KEYS`), ``metadata`` provenance and solver.
     """
@@ -148,7 +149,7 @@ class OperatingTable:
         catmull_rom.extrapolate_ghosts(threshold, axes=1)
         self._log_threshold = threshold
         self._s0, self._hs = self._log_s[0], self._log_s[1] - self._log_s[0]
-        self._hf = self.fraction_nodes[1] - self.fraction_nodes[0]
+        self.fraction_step = float(self.fraction_nodes[1] - self.fraction_nodes[0])
 
     def _one_sided_grids(self) -> tuple[tuple[np.ndarray, float, int], ...]:
         """(padded values, first f, node count) of the starved nodes f <= 1 and of the flooded nodes f >= 1,
@@ -263,7 +264,16 @@ class OperatingTable:
                 or (side == 1 and f >= 1.0 - ON_THRESHOLD)
             ):
                 interpolate_point(
-                    padded, s, f, self._s0, self._hs, self.sommerfeld_nodes.size, f0, self._hf, n, out
+                    padded,
+                    s,
+                    f,
+                    self._s0,
+                    self._hs,
+                    self.sommerfeld_nodes.size,
+                    f0,
+                    self.fraction_step,
+                    n,
+                    out,
                 )
                 results.append(out.copy())
         # on the threshold: the mean of the one-sided limits, as a direct solve gives there
@@ -326,6 +336,23 @@ class OperatingTable:
         """Rows (m, 10) ``[e_x, e_y, K (row-major), C (row-major)]`` (SI) at the flowrates (m,) [m^3/s], at
         one speed, viscosity and load: the layout of ``CoefficientTable.evaluate_many``."""
         return self.at(speed_hz, viscosity_pa_s, load_n).rows(q_m3_s)
+
+    def columns_at(
+        self, sommerfeld: float, one_sided: bool, where: str
+    ) -> tuple[float, list[tuple[np.ndarray, float, int]]]:
+        """ln(q_t / q_c) at ``sommerfeld`` and, for each f grid of :meth:`grids`, the table interpolated in S
+        there: (column (n + 2, 11) with its ghost nodes, first f, node count n), which
+        :func:`~oilwatch.models.bearing.operating_table_interpolation.interpolate_rows` evaluates in f.
+        ``where`` names the operating point in the error of a Sommerfeld number outside the table."""
+        s = self._sommerfeld_coordinate(sommerfeld, where)
+        threshold, columns = math.nan, []
+        for padded, f0, n in self.grids(one_sided, f" at {where}"):
+            column = np.empty((n + 2, N_QUANTITIES))
+            threshold = interpolate_column(
+                padded, self._log_threshold, s, self._s0, self._hs, self.sommerfeld_nodes.size, column
+            )
+            columns.append((column, f0, n))
+        return threshold, columns
 
     def at(
         self, speed_hz: float, viscosity_pa_s: float, load_n: float, one_sided: bool = False

@@ -18,7 +18,7 @@ import numpy as np
 
 from .. import catmull_rom
 from ..validation import InputError
-from .sommerfeld import N_QUANTITIES, ON_THRESHOLD
+from .sommerfeld import ON_THRESHOLD
 from .supply import ML_MIN_PER_M3_S
 
 if TYPE_CHECKING:
@@ -61,14 +61,7 @@ class TableSlice:
         r, c, length = g["radius_m"], g["clearance_m"], g["length_m"]
         self.sommerfeld = viscosity_pa_s * speed_hz * length * 2.0 * r * (r / c) ** 2 / load_n
         where = f"the operating point ({speed_hz:g} Hz, {viscosity_pa_s:.4g} Pa s, {load_n:.5g} N)"
-        s = table._sommerfeld_coordinate(self.sommerfeld, where)
-        columns = []
-        for padded, f0, n in table.grids(one_sided, f" at {where}"):
-            column = np.empty((n + 2, N_QUANTITIES))
-            threshold = interpolate_column(
-                padded, table._log_threshold, s, table._s0, table._hs, table.sommerfeld_nodes.size, column
-            )
-            columns.append((column, f0, n))
+        threshold, columns = table.columns_at(self.sommerfeld, one_sided, where)
         self.flooded_threshold_m3_s = math.exp(threshold) * math.pi * speed_hz * r * c * length
         low, high = table.fraction_range
         self.flowrate_range_m3_s = (low * self.flooded_threshold_m3_s, high * self.flooded_threshold_m3_s)
@@ -98,7 +91,7 @@ class TableSlice:
         for on_side, (column, f0, n) in zip(sides, self._columns, strict=True):
             if on_side.any():
                 part = np.empty((int(on_side.sum()), 10))
-                interpolate_rows(column, fraction[on_side], f0, table._hf, n, part)
+                interpolate_rows(column, fraction[on_side], f0, table.fraction_step, n, part)
                 value[on_side] += part
         if len(sides) == 2:
             value[sides[0] & sides[1]] *= 0.5  # on the threshold: the mean of the one-sided limits
