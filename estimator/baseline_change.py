@@ -17,9 +17,10 @@ Status (:data:`CONSISTENT`, :data:`MISMATCH_BASELINE`, :data:`MISMATCH_HELD`):
   the NIS consistent (a quasi-static plant read by the synchronous model: -7 % at nominal, NIS consistent);
 * the status turns to a mismatch when the NIS test's evidence has added up to :data:`MISMATCH_HOLD_ON_S`
   (each sample without it taking :data:`MISMATCH_EVIDENCE_LEAK` of a sample off: bursts that recur count,
-  a rare one does not), or the disagreement has lasted that long at a stretch, and back when there has
-  been no evidence for :data:`MISMATCH_HOLD_OFF_S`, or :data:`MISMATCH_BASELINE_HOLD_OFF_S` while the
-  baseline's static reference applies (hysteresis: an intermittent test does not chatter);
+  a rare one does not), or the disagreement has lasted that long at a stretch, and back when the NIS
+  test's evidence has leaked away and there has been no evidence for :data:`MISMATCH_HOLD_OFF_S`, or
+  :data:`MISMATCH_BASELINE_HOLD_OFF_S` while the baseline's static reference applies (hysteresis: an
+  intermittent test does not chatter, and bursts that recur more often than the leak keep the status);
 * while it is a mismatch and the baseline's static reference applies (:data:`MISMATCH_BASELINE`), the
   published flowrates and stds are the baseline-relative static estimate's and the starvation alarm
   judges them; when the NIS test is passed (the mismatch is the two estimates' disagreement alone) the
@@ -27,8 +28,14 @@ Status (:data:`CONSISTENT`, :data:`MISMATCH_BASELINE`, :data:`MISMATCH_HELD`):
   wrong (a film model moves the 1x orbit, a bearing clearance off by its tolerance the static curve);
 * while it is a mismatch and no static reference applies (:data:`MISMATCH_HELD`: no baseline, a baseline
   without its static reference, another operating point, too few samples yet) the published flowrates are
-  the filter's with their std widened by the NIS excess (``sqrt(NIS / dof)`` over the consistency window),
-  and the alarm neither sets nor clears: an inconsistent estimate never acts on its own;
+  the filter's, their std what it would be were the flowrate known no better than before the record: the
+  estimate's RMS error with the truth distributed as the prior, ``sqrt(s0^2 + (q - q_nominal)^2)``
+  (``s0`` the flowrates' prior std ``initial_flowrate_std_m3_s``, a quarter of nominal; no less than the
+  filter's std widened by the NIS excess, ``sqrt(NIS / dof)`` over the consistency window), and the alarm
+  neither sets nor clears: an inconsistent estimate never acts on its own. The model that narrowed the
+  filter's std does not explain the data, and the NIS excess does not measure how far a model error moved
+  the estimate (the compressor's probes all 5 % off their scale factor, no baseline: +18 % on bearing 2,
+  the std widened by the NIS excess 0.8 %; the turbine's runout uncompensated, no baseline: -54 %);
 * with the action on, the alarm also neither sets nor clears before the NIS window has filled once (an
   untested model is not a consistent one), nor while the NIS test fails and the status waits for its hold.
 
@@ -66,11 +73,14 @@ with a 0.8 % std). The disagreement between the filter and the static estimate i
 both are smoothed over about a second and the static estimate's std carries a guessed model fraction
 (:data:`STATIC_MODEL_FRACTION`), so its exceedances have no calibrated tail to leak against (added up, a
 bearing 5 % longer than the model's at 80/90 % read +3.07 % instead of +2.94 %, the static curve being the
-wrong part there)."""
+wrong part there). The status returns only once the count has leaked back to zero (after a count at the
+hold-on, 25 s without failures): with the hold-off alone, those compressor probes' bursts, up to several
+seconds apart, turned it back between them, and at the record's end it was consistent, its std 0.8 %."""
 MISMATCH_HOLD_OFF_S = 5.0
-"""...and back after no evidence for this long: a mismatch comes and goes with the machine's state, and an
-estimate that flips between sources every second is no estimate. Without a static reference the status holds
-the alarm, so this stays short: a real starvation's alarm waits for it."""
+"""...and back after no evidence for this long (and the NIS test's count leaked away): a mismatch comes and
+goes with the machine's state, and an estimate that flips between sources every second is no estimate.
+Without a static reference the status holds the alarm, so this stays short: a real starvation's alarm waits
+for it."""
 MISMATCH_BASELINE_HOLD_OFF_S = 15.0
 """...and this long while the baseline's static reference applies. A model-structure mismatch is persistent,
 but the windowed NIS test sees it in bursts: a plant on the quasi-static film read by the synchronous model
@@ -278,7 +288,8 @@ def update_change(
     if consistent and not disagree:
         change[CHANGE_OFF_COUNT] += 1.0
         hold_off = change[CHANGE_BASELINE_HOLD_OFF] if available else change[CHANGE_HOLD_OFF]
-        if change[CHANGE_STATUS] != CONSISTENT and change[CHANGE_OFF_COUNT] >= hold_off:
+        settled = change[CHANGE_OFF_COUNT] >= hold_off and change[CHANGE_ON_COUNT] == 0.0
+        if change[CHANGE_STATUS] != CONSISTENT and settled:
             change[CHANGE_STATUS] = CONSISTENT
     else:
         change[CHANGE_OFF_COUNT] = 0.0

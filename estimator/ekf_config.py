@@ -159,7 +159,8 @@ class EKFConfig:
             filter's flowrate far from the static change relative to the baseline), the filter's estimate
             does not act on its own: the published flowrates and the alarm come from the static change
             relative to the baseline (``offset_baseline`` with its static reference), or the alarm is held
-            and the std widened by the NIS excess; False: the filter's estimate throughout (the paper).
+            and the std the estimate's RMS error under the flowrates' prior; False: the filter's estimate
+            throughout (the paper).
     The probe-health, consistency and convergence thresholds are the module's constants.
     """
 

@@ -46,6 +46,7 @@ from .step_kernel import (
     SUMMARY_CONSISTENCY_Z,
     SUMMARY_CONVERGED_DRIFT,
     SUMMARY_CONVERGED_STD,
+    SUMMARY_HELD_STD,
     SUMMARY_Q_HIGH,
     SUMMARY_Q_LOW,
     SUMMARY_Q_NOMINAL,
@@ -213,6 +214,7 @@ def summary_settings(
     settings[SUMMARY_CONVERGED_DRIFT] = CONVERGED_DRIFT_FRACTION
     settings[SUMMARY_UNBALANCE_WALK] = unbalance_walk
     settings[SUMMARY_UNBALANCE_EXTRA] = UNBALANCE_INCONSISTENT_STD**2
+    settings[SUMMARY_HELD_STD] = cfg.initial_flowrate_std_m3_s
     return settings
 
 

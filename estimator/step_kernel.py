@@ -101,6 +101,7 @@ _SUMMARY, N_SUMMARY_SETTINGS = _layout(
     ("unbalance_walk", 1),
     ("unbalance_extra", 1),
     ("std_floor", 2),  # the alarm's floor on each flowrate std [m^3/s] (0: none)
+    ("held_std", 1),  # the flowrates' prior std, around nominal, for a held mismatch [m^3/s]
 )
 SUMMARY_Q_NOMINAL, SUMMARY_Q_LOW, SUMMARY_Q_HIGH = (
     _SUMMARY["q_nominal"],
@@ -110,6 +111,7 @@ SUMMARY_Q_NOMINAL, SUMMARY_Q_LOW, SUMMARY_Q_HIGH = (
 SUMMARY_CONSISTENCY_Z, SUMMARY_CONVERGED_STD = _SUMMARY["consistency_z"], _SUMMARY["converged_std"]
 SUMMARY_CONVERGED_DRIFT, SUMMARY_UNBALANCE_WALK = _SUMMARY["converged_drift"], _SUMMARY["unbalance_walk"]
 SUMMARY_UNBALANCE_EXTRA, SUMMARY_STD_FLOOR = _SUMMARY["unbalance_extra"], _SUMMARY["std_floor"]
+SUMMARY_HELD_STD = _SUMMARY["held_std"]
 
 
 @njit(cache=True)
@@ -328,10 +330,16 @@ def sample_step(
             a.alarm_settings,
         )
     if act and status != MISMATCH_BASELINE:
-        # the filter's estimate with its std widened by the NIS excess over the consistency window
+        # the filter's estimate, with the flowrate known no better than before the record: the model that
+        # narrowed its std does not explain the data, and the NIS excess alone (its std times sqrt(NIS / dof)
+        # over the window) is no measure of how far a model error has moved it. With the truth distributed
+        # as the prior (nominal, its std), the estimate's RMS error is sqrt(std^2 + (estimate - nominal)^2)
         excess = np.sqrt(max(1.0, a.nis_sums[0] / max(a.nis_sums[1], 1.0)))
+        prior = summary_settings[SUMMARY_HELD_STD]
         for b in range(2):
-            report[REPORT_STD + b] = report[REPORT_FILTER_STD + b] * excess
+            widened = report[REPORT_FILTER_STD + b] * excess
+            moved = report[REPORT_FILTER_FLOWRATE + b] - summary_settings[SUMMARY_Q_NOMINAL]
+            report[REPORT_STD + b] = max(widened, np.sqrt(prior * prior + moved * moved))
     elif not act:
         for b in range(2):
             own = report[REPORT_FILTER_STD + b]

@@ -200,8 +200,8 @@ def declare_inputs_outputs(slave) -> None:
             unit="ml/min",
             minimum=0.0,
             description=f"Standard deviation of the bearing-{b} estimate: from the covariance P while the "
-            "model is consistent, else as model_mismatch says (the static change's, or P's widened by the "
-            "NIS excess)",
+            "model is consistent, else as model_mismatch says (the static change's, or, held, the estimate's "
+            "RMS error under the flowrates' prior)",
         )
     real(
         "nis",
@@ -274,5 +274,6 @@ def declare_inputs_outputs(slave) -> None:
         maximum=len(MISMATCH_NAMES) - 1,
         description=f"Model-mismatch status: {codes}. 1: model_consistent has failed and q*_est, q*_std and "
         "the alarms come from the static change relative to the baseline_file's record; 2: no such reference "
-        "applies, the alarms are held (neither set nor cleared) and q*_std is widened by the NIS excess",
+        "applies, the alarms are held (neither set nor cleared) and q*_std is the estimate's RMS error under "
+        "the flowrates' prior (nominal, a quarter of it)",
     )

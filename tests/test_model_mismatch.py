@@ -65,12 +65,14 @@ def test_the_status_turns_after_its_holds_and_the_static_change_reads_the_flowra
     fractions = flow / q0
     np.testing.assert_allclose(fractions, [0.8, 0.9], atol=0.005)
     assert (np.abs(fractions - [0.8, 0.9]) < 2.0 * std / q0).all()
-    # back to consistent only after 15 s of consistent data while the static reference applies
-    more = np.vstack([samples] * 4)
-    statuses, _, _ = _run(change, more, np.ones(16000, dtype=bool))
-    hold = round(bc.MISMATCH_BASELINE_HOLD_OFF_S / model.dt_s)
-    assert (statuses[: hold - 1] == bc.MISMATCH_BASELINE).all()
-    assert (statuses[hold - 1 :] == bc.CONSISTENT).all()
+    # back to consistent only once the NIS test's evidence, capped at the hold-on, has leaked away (25 s
+    # here), which is longer than the 15 s hold-off that applies while the static reference does
+    more = np.vstack([samples] * 8)
+    statuses, _, _ = _run(change, more, np.ones(32000, dtype=bool))
+    leaked = math.ceil(round(bc.MISMATCH_HOLD_ON_S / model.dt_s) / bc.MISMATCH_EVIDENCE_LEAK)
+    assert leaked > round(bc.MISMATCH_BASELINE_HOLD_OFF_S / model.dt_s)
+    assert (statuses[: leaked - 2] == bc.MISMATCH_BASELINE).all()
+    assert (statuses[leaked + 1 :] == bc.CONSISTENT).all()
 
 
 def test_evidence_adds_up_over_bursts_and_a_rare_failure_does_not_turn_the_status(model):
@@ -90,15 +92,26 @@ def test_evidence_adds_up_over_bursts_and_a_rare_failure_does_not_turn_the_statu
     assert (statuses == bc.CONSISTENT).all()
 
 
-def test_a_held_mismatch_turns_back_after_the_shorter_hold_off(model):
-    """Without a static reference a mismatch holds the alarm, so it lasts 5 s past its evidence, not the 15 s
-    of a mismatch that has the static estimate to publish."""
+def test_a_held_mismatch_turns_back_when_its_evidence_has_leaked_and_after_the_shorter_hold_off(model):
+    """Without a static reference a mismatch holds the alarm. It turns back once the NIS test's count has
+    leaked to zero (1 s of failures caps it at the 0.5 s hold-on, which takes 25 s to leak), and not before
+    5 s past the last failure (not the 15 s of a mismatch that has the static estimate to publish): a lone
+    failure after 24 s adds one sample to a count that leaks in another second, and the status waits 5 s."""
     change = _change(model)
-    consistent = np.r_[np.zeros(1000, dtype=bool), np.ones(6000, dtype=bool)]
-    statuses, _, _ = _run(change, np.zeros((7000, 4)), consistent)
+    hold_on = round(bc.MISMATCH_HOLD_ON_S / model.dt_s)
+    leaked = math.ceil(hold_on / bc.MISMATCH_EVIDENCE_LEAK)
+    consistent = np.r_[np.zeros(1000, dtype=bool), np.ones(leaked + 1000, dtype=bool)]
+    statuses, _, _ = _run(change, np.zeros((consistent.size, 4)), consistent)
+    assert (statuses[hold_on : 1000 + leaked - 1] == bc.MISMATCH_HELD).all()
+    assert (statuses[1000 + leaked + 1 :] == bc.CONSISTENT).all()
+    change = _change(model)
+    lone = 1000 + 24000
+    consistent = np.ones(lone + 8000, dtype=bool)
+    consistent[:1000] = consistent[lone] = False
+    statuses, _, _ = _run(change, np.zeros((consistent.size, 4)), consistent)
     hold = round(bc.MISMATCH_HOLD_OFF_S / model.dt_s)
-    assert (statuses[500 : 1000 + hold - 1] == bc.MISMATCH_HELD).all()
-    assert (statuses[1000 + hold - 1 :] == bc.CONSISTENT).all()
+    assert (statuses[hold_on : lone + hold] == bc.MISMATCH_HELD).all()
+    assert (statuses[lone + hold + 1 :] == bc.CONSISTENT).all()
 
 
 def test_a_filter_that_disagrees_with_the_static_change_is_a_mismatch_though_its_nis_is_consistent(model):
@@ -126,6 +139,34 @@ def test_without_a_static_reference_a_mismatch_is_held(model):
     change = _change(model)
     statuses, flow, _ = _run(change, np.zeros((2000, 4)), np.zeros(2000, dtype=bool))
     assert statuses[-1] == bc.MISMATCH_HELD and np.isnan(flow).all()
+
+
+def test_a_held_estimate_is_published_with_its_prior_std_and_never_alarms(model):
+    """The model's own response at 80/90 % of nominal plus a 3 um 2x line on every probe that the model
+    cannot produce, no baseline: the NIS test fails, the status is held within 1.5 s of the start (the
+    window's second and the 0.5 s hold-on), and while held the published std is the estimate's RMS error
+    were the flowrate known only by its prior (nominal, a quarter of it), although the filter's own is
+    under 1 %; the 80 % bearing is not alarmed on an estimate the filter rejects."""
+    from fixtures.ekf_reference_trace import record
+
+    from oilwatch.estimator.ekf import OilFlowEKF
+
+    steps = 3000
+    signals = record(model, (0.8, 0.9), steps)
+    line = 3e-6 * np.sin(2.0 * np.pi * 2.0 * model.speed_hz * model.dt_s * np.arange(steps))
+    config = EKFConfig.recommended().for_model(model)
+    trace = OilFlowEKF(model, config).run_batch(signals + line[:, None])
+    q0 = model.nominal_flowrate_m3_s
+    held = trace.model_mismatch == bc.MISMATCH_HELD
+    assert held[1500:].all()
+    prior = config.initial_flowrate_std_m3_s
+    assert prior == pytest.approx(0.25 * q0)
+    assert (trace.filter_q_std_m3_s[held] < 0.01 * q0).all()
+    moved = trace.filter_q_m3_s[held] - q0
+    np.testing.assert_allclose(trace.q_std_m3_s[held], np.sqrt(prior**2 + moved**2), rtol=1e-12)
+    assert (trace.q_std_m3_s[held] > prior).all()
+    np.testing.assert_array_equal(trace.q_m3_s[held], trace.filter_q_m3_s[held])
+    assert not trace.starved.any()
 
 
 def test_the_reference_does_not_apply_at_another_operating_point(model):

@@ -37,15 +37,18 @@ def test_the_robustness_and_study_tables_come_from_their_json(tmp_path, capsys):
         "detected": [],
         "flagged_probes": [],
         "consistent_fraction": 1.0,
+        "mismatch_fraction": 0.25,
         "error_over_bound": [0.2, 0.3],
     }
     first, second = tmp_path / "a.json", tmp_path / "b.json"
     first.write_text(json.dumps({"rows": [row]}))
-    second.write_text(json.dumps({"rows": [{**row, "error_pct": [0.5, 0.6]}]}))
+    older = {key: value for key, value in row.items() if key != "mismatch_fraction"}  # a file made before it
+    second.write_text(json.dumps({"rows": [{**older, "error_pct": [0.5, 0.6]}]}))
     readme = tmp_path / "README.md"
     readme.write_text("<!-- generated robustness: x -->\n<!-- /generated robustness -->\n")
     assert main(["robustness", "--from-json", str(first), str(second), "--readme", str(readme)]) == 0
     assert "| none | 100/100 | +0.50 / +0.60 |" in readme.read_text()
+    assert "| 1.00 | - | 0.2 / 0.3 |" in readme.read_text()
     line = "Truth within +-2 std at the end: 1 of 1 rows of the acceptance cases (100 %)"
     assert line in readme.read_text()
     level = {

@@ -8,7 +8,9 @@ case has them) estimates; the identified value is the mean estimate over the sec
 Reported: error and the filter's own std (% of the true flowrate), their ratio, whether the truth lies within
 +-2 std at the end, false alarms (any alarm, after the first tenth, at a bearing at 95 % of nominal or more),
 detections (the alarm set at the end for a bearing below 90 %), the probes flagged faulty, the share of the
-second half with a consistent model, whether every alarm was raised under a consistent model, and the error
+second half with a consistent model and the share with a model-mismatch status (the published estimate then
+the static change's or held: :mod:`oilwatch.estimator.baseline_change`), the filter's own error beside the
+published one, whether every alarm was raised under a consistent model, and the error
 over the nuisance Cramer-Rao bound of the case's own configuration (:mod:`.bounds`: the nuisances its
 estimator estimates, its baseline, its speed and temperature trajectory; the whole record). The estimator is
 the product's, built by :func:`oilwatch.estimator.factory.make_estimator` and run through ``run_batch`` as
@@ -26,6 +28,7 @@ import math
 import numpy as np
 
 from oilwatch.estimator.baseline import baseline_prior, estimate_baseline
+from oilwatch.estimator.baseline_change import CONSISTENT
 from oilwatch.estimator.ekf import OilFlowEKF
 from oilwatch.estimator.ekf_config import EKFConfig
 from oilwatch.estimator.factory import make_estimator
@@ -382,6 +385,7 @@ class RobustnessRun:
         truth = np.array(point_pct) / 100.0 * self.nominal_m3_s
         half = len(signals) // 2
         error_pct = 100.0 * (trace.q_m3_s[half:].mean(axis=0) / truth - 1.0)
+        filter_error_pct = 100.0 * (trace.filter_q_m3_s[half:].mean(axis=0) / truth - 1.0)
         std_pct = 100.0 * trace.q_std_m3_s[-1] / truth
         settled = trace.starved[len(signals) // 10 :]
         low = np.array(point_pct) < ALARM_LEVEL_PCT
@@ -406,6 +410,8 @@ class RobustnessRun:
             "flagged_probes": flagged,
             "fault_flagged": None if case.probe_fault is None else case.probe_fault in flagged,
             "consistent_fraction": float(trace.model_consistent[half:].mean()),
+            "mismatch_fraction": float((trace.model_mismatch[half:] != CONSISTENT).mean()),
+            "filter_error_pct": filter_error_pct.tolist(),
             "alarms_consistent": bool(trace.starved_consistent[alarmed].all()) if alarmed.any() else None,
             "bound_pct": bound.tolist(),
             "bound_configuration": configuration_label(case, self.settings),

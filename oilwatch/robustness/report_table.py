@@ -77,11 +77,13 @@ def coverage_line(rows: Sequence[dict]) -> str:
 
 
 def format_table(rows: Sequence[dict]) -> list[str]:
-    """The rows as a Markdown table (errors and stds in % of the true flowrate, q1 / q2)."""
+    """The rows as a Markdown table (errors and stds in % of the true flowrate, q1 / q2; consistent and
+    mismatch: the shares of the second half with the NIS test passed and with a model-mismatch status, "-"
+    in the rows of a file written before the rows kept the latter)."""
     lines = [
-        "| case | truth % | error % | filter std % | within tol. | within 2 std | false alarm | 80 % alarmed "
-        "| flagged probes | consistent | error / bound (bound %) |",
-        "|---|---|---|---|---|---|---|---|---|---|---|",
+        "| case | truth % | error % | published std % | within tol. | within 2 std | false alarm "
+        "| 80 % alarmed | flagged probes | consistent | mismatch | error / bound (bound %) |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         if "error" in r:
@@ -107,6 +109,7 @@ def format_table(rows: Sequence[dict]) -> list[str]:
             detected,
             flagged,
             f"{r['consistent_fraction']:.2f}",
+            "-" if r.get("mismatch_fraction") is None else f"{r['mismatch_fraction']:.2f}",
             f"{ratio[0]:.1f} / {ratio[1]:.1f}"
             + (f" ({r['bound_pct'][0]:.2f} / {r['bound_pct'][1]:.2f})" if "bound_pct" in r else ""),
         ]
