@@ -25,8 +25,10 @@ folder (as fmpy's ``simulate_fmu``, libcosim and most tools do) and times:
 
 The estimator runs twice: at its default preset (``machine``: a start bank of five filters on the model that
 follows speed and oil temperature through the first 20 s) and at the ``paper`` preset (one filter on the
-flowrate grid at one speed, the compiled plain step), whose steady step is the like-for-like comparison with a
-baseline that predates the presets.
+flowrate grid at one speed, the compiled plain step). A baseline that predates the presets runs each
+preset's configuration through the parameters it had (:func:`preset_parameters`: at ``machine``, the
+unbalance and viscosity-factor priors and ``bearing_table`` 1; at ``paper``, its defaults), so each row
+compares the same work.
 
 Rows: median over ``--repeats`` processes per FMU and build, the builds alternated, and the ratio
 new / baseline.
@@ -51,17 +53,37 @@ import sys
 import tempfile
 from pathlib import Path
 
+from oilwatch.estimator.ekf_config import DEFAULT_PRESET, preset_named
 from oilwatch.estimator.start_bank import SELECT_S
 
 ROOT = Path(__file__).resolve().parent.parent
 PLANT = "RotorBearingPlant"
 ROWS = {
     PLANT: (PLANT, None),
-    "OilFlowEKF": ("OilFlowEKF", None),
-    "OilFlowEKF paper": ("OilFlowEKF", {"preset": "paper"}),
+    "OilFlowEKF": ("OilFlowEKF", DEFAULT_PRESET),
+    "OilFlowEKF paper": ("OilFlowEKF", "paper"),
 }
-"""Each row's label: (FMU, its string parameters); the last is the estimator at the ``paper`` preset (module
+"""Each row's label: (FMU, the estimator's preset); the last is the estimator at the ``paper`` preset (module
 docstring)."""
+
+
+def preset_parameters(name: str | None) -> dict[str, dict[str, object]]:
+    """The FMU parameters that select the preset ``name`` (None: none): ``with_presets``, for a build that
+    has the ``preset`` parameter, and ``before_presets``, the same configuration for a build that predates
+    it: the preset's numeric fields and ``bearing_table`` (1 where the preset follows the operating point),
+    each set where that build declares it (the rest were that build's only behaviour)."""
+    if name is None:
+        return {"with_presets": {}, "before_presets": {}}
+    preset = preset_named(name)
+    before = {
+        field: value
+        for field, value in preset.fields
+        if isinstance(value, int | float) and not isinstance(value, bool)
+    }
+    before["bearing_table"] = int(preset.follow_operating_point)
+    return {"with_presets": {"preset": name}, "before_presets": before}
+
+
 EVICTION_BYTES = 32 * 2**20
 BANK_STEPS = round(SELECT_S / 1e-3)
 """1 ms steps to the start bank's choice: the step figures before and after it."""
@@ -79,18 +101,21 @@ from fmpy.fmi2 import FMU2Slave
 
 fmu_path, record_path, steps = sys.argv[1], sys.argv[2], int(sys.argv[3])
 names = json.loads(sys.argv[4])
-strings, eviction_bytes, bank_steps = json.loads(sys.argv[5]), int(sys.argv[6]), int(sys.argv[7])
+parameters, eviction_bytes, bank_steps = json.loads(sys.argv[5]), int(sys.argv[6]), int(sys.argv[7])
 md = read_model_description(fmu_path)
 vr = {v.name: v.valueReference for v in md.modelVariables}
+kinds = {v.name: v.type for v in md.modelVariables}
 folder = extract(fmu_path, tempfile.mkdtemp(prefix="cold_start_"))
 fmu = FMU2Slave(guid=md.guid, unzipDirectory=folder, modelIdentifier=md.coSimulation.modelIdentifier,
                 instanceName="instance")
 start, cpu = time.perf_counter(), time.process_time()
 fmu.instantiate()
-if strings and "preset" not in vr:  # a baseline that predates the presets: its only configuration
-    strings = {}
-for name, value in strings.items():
-    fmu.setString([vr[name]], [value])
+# a build that predates the presets gets the preset's configuration through the parameters it had
+chosen = parameters["with_presets" if "preset" in vr else "before_presets"]
+setters = {"Real": fmu.setReal, "Integer": fmu.setInteger, "String": fmu.setString}
+for name, value in chosen.items():
+    if name in vr:
+        setters[kinds[name]]([vr[name]], [value])
 fmu.setupExperiment(startTime=0.0)
 fmu.enterInitializationMode()
 fmu.exitInitializationMode()
@@ -174,14 +199,14 @@ def environment(scratch: str | None = None) -> dict[str, str]:
     return env
 
 
-def sample(fmu: Path, record: str, steps: int, strings: dict[str, str] | None = None) -> dict:
+def sample(fmu: Path, record: str, steps: int, preset: str | None = None) -> dict:
     """One fresh process, one fresh unpack of ``fmu`` (see the module docstring). ``record``: the plant
-    record the estimator reads, or the plant writes (empty: the plant writes none); ``strings``: String
-    parameters set before initialization."""
+    record the estimator reads, or the plant writes (empty: the plant writes none); ``preset``: the
+    estimator's, set in initialization (:func:`preset_parameters`)."""
     names = json.dumps({"channels": CHANNELS, "ekf_outputs": EKF_OUTPUTS, "connected": CONNECTED})
     with tempfile.TemporaryDirectory(prefix="cold_start_cwd_") as cwd:
         arguments = [sys.executable, "-c", CHILD, str(fmu), record, str(steps), names,
-                     json.dumps(strings or {}), str(EVICTION_BYTES), str(BANK_STEPS)]  # fmt: skip
+                     json.dumps(preset_parameters(preset)), str(EVICTION_BYTES), str(BANK_STEPS)]  # fmt: skip
         process = subprocess.run(arguments, capture_output=True, text=True, env=environment(cwd), cwd=cwd)
     if process.returncode != 0:
         raise SystemExit(f"{fmu}: the child failed:\n{process.stderr[-3000:]}")
@@ -248,10 +273,10 @@ def measure(args, steps: int, work: Path) -> None:
     rows = tuple(ROWS)
     results = {(name, row): [] for name in builds for row in (*rows, SYSTEM)}
     for _ in range(args.repeats):
-        for row, (fmu, strings) in ROWS.items():
+        for row, (fmu, preset) in ROWS.items():
             for name, folder in builds.items():
                 results[name, row].append(
-                    sample(folder / f"{fmu}.fmu", "" if fmu == PLANT else str(record), steps, strings)
+                    sample(folder / f"{fmu}.fmu", "" if fmu == PLANT else str(record), steps, preset)
                 )
         for name, folder in builds.items():
             results[name, SYSTEM].append(libcosim_sample(folder / "OilStarvation.ssp"))
