@@ -12,6 +12,7 @@ import pytest
 from oilwatch.cli import main
 from oilwatch.cli.docs_tables import main as docs_tables
 from oilwatch.cli.docs_tables import output_blocks, run_outputs, without_machine_load
+from oilwatch.estimator.ekf_config import DEFAULT_PRESET, PRESETS
 from oilwatch.study.readme_tables import main as study_tables
 
 REPO = Path(__file__).resolve().parents[1]
@@ -62,6 +63,15 @@ def test_the_compressor_robustness_table_is_its_result_file(tmp_path):
                  lambda copy: main(["robustness", "--from-json", result, "--readme", copy]))  # fmt: skip
 
 
+def test_the_presets_table_is_the_presets_declaration(tmp_path):
+    _regenerated("docs/model-mismatch.md", ("presets",), tmp_path,
+                 lambda copy: docs_tables(["--page", copy]))  # fmt: skip
+    body = _body((REPO / "docs" / "model-mismatch.md").read_text(), "presets")
+    rows = [line for line in body.splitlines() if line.startswith("| `")]
+    assert [row.split("|")[1].strip() for row in rows] == [f"`{p.name}`" for p in PRESETS]
+    assert rows[0].split("|")[2].strip() == "yes" and PRESETS[0].name == DEFAULT_PRESET
+
+
 def test_an_output_block_is_its_commands_output_without_the_machine_load(tmp_path):
     page = tmp_path / "page.md"
     command = "python -c \"print('a, load 12.5'); print('load average at the start: 3 2 1'); print('b')\""
@@ -82,3 +92,6 @@ def test_a_bad_page_or_block_name_is_one_line_naming_it(tmp_path, capsys):
     assert docs_tables(["--page", str(tmp_path / "missing.md")]) == 2
     message = capsys.readouterr().err.strip()
     assert "\n" not in message and "missing.md" in message
+    assert docs_tables(["--page", str(page)]) == 2  # no generated table to write
+    message = capsys.readouterr().err.strip()
+    assert "\n" not in message and "presets" in message

@@ -5,6 +5,7 @@ page's generated blocks:
     python -m oilwatch.cli.docs_tables --page docs/performance.md --outputs [NAME ...]
 
 ``machine-keys``: every key of a machine file (:data:`oilwatch.models.machine_keys.MACHINE_KEYS`).
+``presets``: the estimator's named configurations (:data:`oilwatch.estimator.ekf_config.PRESETS`).
 ``output-NAME``: with ``--outputs``, the command written in the block's own marker
 (``<!-- generated output-NAME: COMMAND -->``) is run from the repository's top, and its standard output
 replaces the block as a text block (a benchmark's table: the marker says how to rerun it). The other tables of
@@ -20,6 +21,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+from oilwatch.estimator.ekf_config import PRESETS
 from oilwatch.models.machine_keys import markdown_table
 from oilwatch.models.validation import InputError
 
@@ -37,6 +39,37 @@ MACHINE_LOAD = (
 )
 """What a benchmark prints of the machine's load average: left out of a page, which states the machine once
 (the load of the moment is no figure of the code)."""
+
+
+def presets_table() -> str:
+    """The estimator's presets as a markdown table: name, whether it is the default, what it is, its
+    configuration fields over the recommended ones, the probes and the bearing model it assumes."""
+    lines = [
+        "| preset | default | what it is | configuration over the recommended | probes | bearing model |",
+        "|---|---|---|---|---|---|",
+    ]
+    for index, preset in enumerate(PRESETS):
+        fields = ", ".join(f"`{name} = {value}`" for name, value in preset.fields) or "-"
+        probes = (
+            "offsets estimated (the machine file's `[probes]` prior, or the baseline); scale factors "
+            "known to the file's tolerance"
+            if preset.offsets_from_machine
+            else "offsets zero, scale factors exact"
+        )
+        model = (
+            "follows the measured speed and oil temperature (`bearing_table = 1`)"
+            if preset.follow_operating_point
+            else "the flowrate grid at one speed (`bearing_table = 0`)"
+        )
+        default = "yes" if index == 0 else "no"
+        lines.append(
+            f"| `{preset.name}` | {default} | {preset.description} | {fields} | {probes} | {model} |"
+        )
+    return "\n".join(lines)
+
+
+GENERATED_TABLES = {"machine-keys": markdown_table, "presets": presets_table}
+"""The tables a page's blocks take from the code's declarations, by block name."""
 
 
 def without_machine_load(text: str) -> str:
@@ -85,8 +118,9 @@ def main(argv: list[str] | None = None) -> int:
         for page in args.page:
             if args.outputs is not None:
                 run_outputs(page, args.outputs)
-            elif "<!-- /generated machine-keys -->" in Path(page).read_text(encoding="utf-8"):
-                replace_blocks(page, {"machine-keys": markdown_table()}, f"{COMMAND} --page {page}")
+            else:
+                bodies = {name: make() for name, make in GENERATED_TABLES.items()}
+                replace_blocks(page, bodies, f"{COMMAND} --page {page}")
     except (InputError, OSError) as error:
         print(f"{COMMAND}: error: {error}", file=sys.stderr)
         return 2
