@@ -13,6 +13,7 @@ from oilwatch.cli import main
 from oilwatch.cli.docs_tables import main as docs_tables
 from oilwatch.cli.docs_tables import output_blocks, run_outputs, without_machine_load
 from oilwatch.estimator.ekf_config import DEFAULT_PRESET, PRESETS
+from oilwatch.scenarios import SCENARIOS
 from oilwatch.study.readme_tables import main as study_tables
 
 REPO = Path(__file__).resolve().parents[1]
@@ -70,6 +71,15 @@ def test_the_presets_table_is_the_presets_declaration(tmp_path):
     rows = [line for line in body.splitlines() if line.startswith("| `")]
     assert [row.split("|")[1].strip() for row in rows] == [f"`{p.name}`" for p in PRESETS]
     assert rows[0].split("|")[2].strip() == "yes" and PRESETS[0].name == DEFAULT_PRESET
+
+
+def test_the_scenarios_table_is_the_scenarios_declaration(tmp_path):
+    _regenerated("docs/guide/simulation.md", ("scenarios",), tmp_path,
+                 lambda copy: docs_tables(["--page", copy]))  # fmt: skip
+    body = _body((REPO / "docs" / "guide" / "simulation.md").read_text(), "scenarios")
+    assert [line.split("|")[1].strip() for line in body.splitlines() if line.startswith("| `")] == [
+        f"`{name}`" for name in SCENARIOS
+    ]
 
 
 def test_an_output_block_is_its_commands_output_without_the_machine_load(tmp_path):

@@ -6,6 +6,7 @@ page's generated blocks:
 
 ``machine-keys``: every key of a machine file (:data:`oilwatch.models.machine_keys.MACHINE_KEYS`).
 ``presets``: the estimator's named configurations (:data:`oilwatch.estimator.ekf_config.PRESETS`).
+``scenarios``: the runnable scenarios (:data:`oilwatch.scenarios.SCENARIOS`).
 ``output-NAME``: with ``--outputs``, the command written in the block's own marker
 (``<!-- generated output-NAME: COMMAND -->``) is run from the repository's top, and its standard output
 replaces the block as a text block (a benchmark's table: the marker says how to rerun it). The other tables of
@@ -23,7 +24,9 @@ from pathlib import Path
 
 from oilwatch.estimator.ekf_config import PRESETS
 from oilwatch.models.machine_keys import markdown_table
+from oilwatch.models.system.fault import SCENARIO_DURATIONS_S
 from oilwatch.models.validation import InputError
+from oilwatch.scenarios import CONSTANT_FLOW_SCENARIOS, SCENARIOS
 
 from .readme_block import replace_block, replace_blocks
 
@@ -68,7 +71,44 @@ def presets_table() -> str:
     return "\n".join(lines)
 
 
-GENERATED_TABLES = {"machine-keys": markdown_table, "presets": presets_table}
+def scenarios_table() -> str:
+    """The scenarios of ``oilwatch run`` as a markdown table: each bearing's flowrate (initial -> final, % of
+    nominal), the 10 %-90 % transition time and the operating-point profiles."""
+
+    def flow(scenario, bearing: int) -> str:
+        if scenario.name in CONSTANT_FLOW_SCENARIOS:
+            return f"`--q{bearing}-pct` (100)"
+        initial, final = scenario.q1_pct if bearing == 1 else scenario.q2_pct
+        return f"{initial:g} %" if initial == final else f"{initial:g} -> {final:g} %"
+
+    lines = [
+        "| scenario | what happens | bearing 1 | bearing 2 | transition (10-90 %) | speed, oil temperature |",
+        "|---|---|---|---|---|---|",
+    ]
+    for scenario in SCENARIOS.values():
+        changes = scenario.q1_pct[0] != scenario.q1_pct[1] or scenario.q2_pct[0] != scenario.q2_pct[1]
+        transition = f"{SCENARIO_DURATIONS_S[scenario.speed]:g} s ({scenario.speed})" if changes else "-"
+        profiles = [
+            f"{label} `{text}`"
+            for label, text in (
+                ("speed", scenario.speed_profile),
+                ("oil", scenario.oil_temperature_profile),
+            )
+            if text
+        ]
+        operating = ", ".join(profiles) or "nominal"
+        lines.append(
+            f"| `{scenario.name}` | {scenario.title} | {flow(scenario, 1)} | {flow(scenario, 2)} | "
+            f"{transition} | {operating} |"
+        )
+    return "\n".join(lines)
+
+
+GENERATED_TABLES = {
+    "machine-keys": markdown_table,
+    "presets": presets_table,
+    "scenarios": scenarios_table,
+}
 """The tables a page's blocks take from the code's declarations, by block name."""
 
 
