@@ -16,14 +16,21 @@ modules.
 
 from __future__ import annotations
 
+import hashlib
+import json
 import math
-import tomllib
+import sys
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+try:
+    import tomllib
+except ModuleNotFoundError:  # Python 3.10, where an FMU may run: it reads its machine files' parsed twins
+    tomllib = None
 
 from .bearing.coefficient_kinds import DEFAULT_KIND, require_kind
 from .bearing.geometry import JournalBearing
@@ -265,9 +272,57 @@ def load_machine(path: str | Path | None = None) -> Machine:
     """
     source = BUNDLED_MACHINE if path is None else machine_file_path(path)
     text = read_text_file("machine file", source, "a TOML machine file such as models/turbine.toml")
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as error:
-        raise InputError(f"machine file {str(source)!r} is not valid TOML: {error}") from None
+    data = _parsed(source, text)
     with naming_file("machine file", source):
         return machine_from_dict(data, source)
+
+
+PARSED_TWIN_SUFFIX = ".parsed.json"
+"""A machine file's parsed twin (``turbine.toml`` -> ``turbine.toml.parsed.json``): its data as JSON with
+the SHA-256 of the text it was parsed from. An FMU's build writes one beside every machine file it bundles
+(:func:`write_parsed_twin`), so that the FMU runs in a Python 3.10 environment, whose standard library has
+no TOML reader (``tomllib`` is 3.11's)."""
+
+
+def _text_digest(text: str) -> str:
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def _parsed(source: Path, text: str) -> dict:
+    """The data of the machine file ``source`` whose text is ``text``: parsed by ``tomllib``, or without it
+    (Python 3.10) read from its parsed twin when the twin is of this very text."""
+    if tomllib is not None:
+        try:
+            return tomllib.loads(text)
+        except tomllib.TOMLDecodeError as error:
+            raise InputError(f"machine file {str(source)!r} is not valid TOML: {error}") from None
+    twin = Path(source).with_name(Path(source).name + PARSED_TWIN_SUFFIX)
+    try:
+        stored = json.loads(twin.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        stored = None
+    if not isinstance(stored, dict) or stored.get("sha256") != _text_digest(text):
+        version = f"{sys.version_info.major}.{sys.version_info.minor}"
+        raise InputError(
+            f"machine file {str(source)!r}: reading TOML needs Python 3.11 or newer (tomllib), this is "
+            f"Python {version}; run with 3.11 or newer, or build the FMU with this machine file (its build "
+            "stores the file parsed)"
+        )
+    return stored["data"]
+
+
+def write_parsed_twin(path: str | Path) -> Path:
+    """Write the parsed twin of the TOML machine file ``path`` (:data:`PARSED_TWIN_SUFFIX`) and return its
+    path. InputError naming the file when it is not valid TOML or holds a value JSON cannot (a date)."""
+    source = Path(path)
+    text = read_text_file("machine file", source, "a TOML machine file such as models/turbine.toml")
+    data = _parsed(source, text)
+    try:
+        body = json.dumps({"sha256": _text_digest(text), "data": data})
+    except TypeError as error:
+        raise InputError(
+            f"machine file {str(source)!r}: a value is neither a number, text, a list nor a table ({error})"
+        ) from None
+    twin = source.with_name(source.name + PARSED_TWIN_SUFFIX)
+    twin.write_text(body + "\n", encoding="utf-8")
+    return twin

@@ -5,7 +5,9 @@ FMUs (pyenv's or the system's; skipped with the reason when this machine has non
 with numpy, scipy, numba and fmpy pip-installed at this environment's versions (not pythonfmu: the FMUs
 bundle its Python part). One setting, ``OILWATCH_PYTHON_ENV``, must be enough: the C host
 (tests/c_host/fmi2_host.c) runs both FMUs coupled under ``env -i`` (no other variable at all), and fmpy
-runs each FMU in the second environment's Python (a host that has Python: no setting).
+runs each FMU in the second environment's Python (a host that has Python: no setting), and in a third, of
+Python 3.10, the oldest the FMUs claim (its standard library has no TOML reader: the FMUs read their machine
+files' parsed twins, ``oilwatch.models.machine.PARSED_TWIN_SUFFIX``).
 
 Platforms: each FMU (FMI 2.0 and 3.0) holds binaries for one platform only, and the FMI 2.0 one is
 oilwatch's loader (its own entry points), the binary the C host and fmpy tests load and step.
@@ -35,6 +37,8 @@ CANDIDATES = [
 ]
 """Interpreters of other minor versions: pyenv's, and any python3.N on the PATH."""
 PACKAGES = ("numpy", "scipy", "numba", "fmpy")
+OLDEST = (3, 10)
+"""The oldest Python the FMUs run in (docs/fmus.md, runtime requirements)."""
 STOP, STEP = 0.2, 1e-3
 
 
@@ -54,31 +58,52 @@ def _minor(python: Path) -> tuple[int, int] | None:
     return (int(out[0]), int(out[1])) if len(out) == 3 and out[2] == "1" else None
 
 
-@pytest.fixture(scope="module")
-def other_venv(tmp_path_factory) -> Path:
-    """A virtual environment of another Python minor version (3.10 or newer) with the FMUs' packages."""
+def _other_pythons() -> dict[tuple[int, int], Path]:
+    """{(major, minor): interpreter} of the Pythons 3.10 or newer with a shared libpython here, other than
+    this one's minor version."""
     own = sys.version_info[:2]
     found = {}
     for python in CANDIDATES:
         version = _minor(python) if python.is_file() else None
-        if version and version != own and version >= (3, 10):
+        if version and version != own and version >= OLDEST:
             found.setdefault(version, python)
-    if not found:
-        pytest.skip(f"no Python 3.10+ other than {own[0]}.{own[1]} with a shared libpython on this machine")
-    # the nearest newer minor first: the packages' current versions may no longer support older ones
-    version = min(found, key=lambda v: (v < own, abs(v[1] - own[1])))
-    python = found[version]
+    return found
+
+
+def _venv(tmp_path_factory, python: Path, requirements: list[str]) -> Path:
     folder = tmp_path_factory.mktemp("other_python") / "venv"
     subprocess.run([str(python), "-m", "venv", str(folder)], check=True, timeout=120)
     venv_python = folder / "bin" / "python"
     process = subprocess.run(
-        [str(venv_python), "-m", "pip", "install", "-q", *pinned(*PACKAGES)],
+        [str(venv_python), "-m", "pip", "install", "-q", *requirements],
         capture_output=True,
         text=True,
         timeout=900,
     )
     assert process.returncode == 0, process.stderr[-3000:]
     return folder
+
+
+@pytest.fixture(scope="module")
+def other_venv(tmp_path_factory) -> Path:
+    """A virtual environment of another Python minor version (3.10 or newer) with the FMUs' packages."""
+    own = sys.version_info[:2]
+    found = _other_pythons()
+    if not found:
+        pytest.skip(f"no Python 3.10+ other than {own[0]}.{own[1]} with a shared libpython on this machine")
+    # the nearest newer minor first: the packages' current versions may no longer support older ones
+    version = min(found, key=lambda v: (v < own, abs(v[1] - own[1])))
+    return _venv(tmp_path_factory, found[version], pinned(*PACKAGES))
+
+
+@pytest.fixture(scope="module")
+def oldest_venv(tmp_path_factory) -> Path:
+    """A virtual environment of the oldest Python the FMUs claim (3.10), whose standard library has no TOML
+    reader, with the newest packages that support it (pip's choice: today's no longer do)."""
+    python = _other_pythons().get(OLDEST)
+    if python is None:
+        pytest.skip(f"no Python {OLDEST[0]}.{OLDEST[1]} with a shared libpython on this machine")
+    return _venv(tmp_path_factory, python, list(PACKAGES))
 
 
 def test_the_c_host_runs_both_fmus_with_only_oilwatch_python_env_set(built_fmus, other_venv, tmp_path):
@@ -121,12 +146,14 @@ print(json.dumps({{"rows": len(result), "version": list(sys.version_info[:2])}})
 """
 
 
+@pytest.mark.parametrize("environment", ["other_venv", "oldest_venv"])
 @pytest.mark.parametrize("name", ["RotorBearingPlant", "OilFlowEKF"])
-def test_fmpy_runs_each_fmu_in_the_other_pythons_environment(built_fmus, other_venv, tmp_path, name):
+def test_fmpy_runs_each_fmu_in_another_pythons_environment(built_fmus, request, tmp_path, name, environment):
+    venv = request.getfixturevalue(environment)
     env = {"PATH": os.environ.get("PATH", ""), "HOME": str(tmp_path), "OPENBLAS_NUM_THREADS": "1"}
     process = subprocess.run(
         [
-            str(other_venv / "bin" / "python"),
+            str(venv / "bin" / "python"),
             "-c",
             FMPY_RUN.format(stop=STOP, step=STEP),
             str(built_fmus / f"{name}.fmu"),
@@ -140,6 +167,8 @@ def test_fmpy_runs_each_fmu_in_the_other_pythons_environment(built_fmus, other_v
     assert process.returncode == 0, process.stderr[-3000:]
     outcome = json.loads(process.stdout.strip().splitlines()[-1])
     assert outcome["version"] != list(sys.version_info[:2])
+    if environment == "oldest_venv":  # no tomllib: the FMU read its machine file's parsed twin
+        assert outcome["version"] == list(OLDEST)
     assert outcome["rows"] >= round(STOP / STEP)
 
 

@@ -161,3 +161,28 @@ def test_two_bearing_reactions_match_statics():
     expected_2 = rotor.weight_n * (z_cg - z1) / (z2 - z1)
     assert rotor.bearing_static_loads_n[1] == pytest.approx(expected_2, rel=1e-9)
     assert rotor.bearing_static_loads_n.sum() == pytest.approx(rotor.weight_n, rel=1e-9)
+
+
+@pytest.mark.parametrize("name", ["turbine.toml", "compressor.toml"])
+def test_without_tomllib_a_machine_file_is_read_from_its_parsed_twin(tmp_path, monkeypatch, name):
+    """Python 3.10 has no tomllib: an FMU's bundled machine file is read from the twin its build wrote, the
+    same machine; a twin of another text, or none, is a one-line error naming the file and Python 3.11."""
+    import oilwatch.models.machine as machine_module
+
+    source = tmp_path / name
+    source.write_text((BUNDLED_MACHINE.parent / name).read_text())
+    twin = machine_module.write_parsed_twin(source)
+    assert twin.name == name + machine_module.PARSED_TWIN_SUFFIX
+    expected = load_machine(source)
+    monkeypatch.setattr(machine_module, "tomllib", None)
+    read = load_machine(source)
+    assert read.raw == expected.raw and read.name == expected.name
+    assert read.lubrication.nominal_flowrate_m3_s == expected.lubrication.nominal_flowrate_m3_s
+    np.testing.assert_array_equal(read.element_lengths_m, expected.element_lengths_m)
+    source.write_text(source.read_text() + "\n# edited after the build\n")
+    for _ in range(2):
+        with pytest.raises(InputError) as error:
+            load_machine(source)
+        message = str(error.value)
+        assert "\n" not in message and name in message and "Python 3.11" in message
+        twin.unlink(missing_ok=True)

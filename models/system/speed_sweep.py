@@ -144,7 +144,7 @@ def compute_speed_sweep(
     provenance = {
         "command": command,
         "oilwatch_version": __version__,
-        "date_utc": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+        "date_utc": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
         "mesh": {"n_circ": mesh.n_circ, "n_axial": mesh.n_axial},
         "squeeze": squeeze,
         "python": platform.python_version(),

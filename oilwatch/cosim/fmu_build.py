@@ -161,13 +161,16 @@ def write_system(entry: SspEntry, fmus: dict[str, Path], out_dir: Path) -> Path:
 
 
 def bundle_machine(machine, fmu_src_folder: Path) -> None:
-    """Copy the machine file to ``<fmu_src_folder>/machine/`` and its tables to ``machine/tables/``."""
+    """Copy the machine file (and its parsed twin, :data:`oilwatch.models.machine.PARSED_TWIN_SUFFIX`) to
+    ``<fmu_src_folder>/machine/`` and its tables to ``machine/tables/``."""
     from oilwatch.fmu_src.machine_parameters import MACHINE_FOLDER
+    from oilwatch.models.machine import write_parsed_twin
 
     target = fmu_src_folder / MACHINE_FOLDER
     (target / "tables").mkdir(parents=True, exist_ok=True)
     source, *tables = machine_files(machine)
     shutil.copy2(source, target / source.name)
+    write_parsed_twin(target / source.name)
     for table in tables:
         shutil.copy2(table, target / "tables" / table.name)
 

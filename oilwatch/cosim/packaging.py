@@ -47,6 +47,7 @@ from pathlib import Path
 from oilwatch.cosim.extraction import cache_root, persistent_extraction_enabled, prune
 from oilwatch.fmu_src.bundle import BUNDLE_FILE, SUBPACKAGES, source_digest
 from oilwatch.fmu_src.grid_store import GRID_FOLDER
+from oilwatch.models.machine import write_parsed_twin
 from oilwatch.models.validation import InputError
 
 ROOT_PACKAGE = "oilwatch"
@@ -150,7 +151,9 @@ def stage_sources(
     staged_script = staging / script.name
     shutil.copy2(script, staged_script)
     for package, source in package_dirs.items():
-        copy_package(source, root / package, data_globs)
+        for copied in copy_package(source, root / package, data_globs):
+            if copied.suffix == ".toml":  # the bundled machine files, readable on Python 3.10 too
+                write_parsed_twin(copied)
     stamp = {"version": version, "digest": source_digest(root)}
     (root / BUNDLE_FILE).write_text(json.dumps(stamp) + "\n", encoding="utf-8")
     (root / "__init__.py").write_text(BUNDLE_INIT.replace("{}", repr(stamp)), encoding="utf-8")
