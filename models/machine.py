@@ -288,6 +288,10 @@ def _text_digest(text: str) -> str:
     return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
 
+def _twin_path(source: Path) -> Path:
+    return source.with_name(source.name + PARSED_TWIN_SUFFIX)
+
+
 def _parsed(source: Path, text: str) -> dict:
     """The data of the machine file ``source`` whose text is ``text``: parsed by ``tomllib``, or without it
     (Python 3.10) read from its parsed twin when the twin is of this very text."""
@@ -296,9 +300,8 @@ def _parsed(source: Path, text: str) -> dict:
             return tomllib.loads(text)
         except tomllib.TOMLDecodeError as error:
             raise InputError(f"machine file {str(source)!r} is not valid TOML: {error}") from None
-    twin = Path(source).with_name(Path(source).name + PARSED_TWIN_SUFFIX)
     try:
-        stored = json.loads(twin.read_text(encoding="utf-8"))
+        stored = json.loads(_twin_path(Path(source)).read_text(encoding="utf-8"))
     except (OSError, ValueError):
         stored = None
     if not isinstance(stored, dict) or stored.get("sha256") != _text_digest(text):
@@ -323,6 +326,6 @@ def write_parsed_twin(path: str | Path) -> Path:
         raise InputError(
             f"machine file {str(source)!r}: a value is neither a number, text, a list nor a table ({error})"
         ) from None
-    twin = source.with_name(source.name + PARSED_TWIN_SUFFIX)
+    twin = _twin_path(source)
     twin.write_text(body + "\n", encoding="utf-8")
     return twin

@@ -23,6 +23,7 @@ import sys
 from pathlib import Path
 
 from oilwatch.estimator.ekf_config import PRESETS
+from oilwatch.experiment_config import SCENARIO_DEFAULTS
 from oilwatch.models.machine_keys import markdown_table
 from oilwatch.models.system.fault import SCENARIO_DURATIONS_S
 from oilwatch.models.validation import InputError
@@ -77,7 +78,8 @@ def scenarios_table() -> str:
 
     def flow(scenario, bearing: int) -> str:
         if scenario.name in CONSTANT_FLOW_SCENARIOS:
-            return f"`--q{bearing}-pct` (100)"
+            default = SCENARIO_DEFAULTS.q1_pct if bearing == 1 else SCENARIO_DEFAULTS.q2_pct
+            return f"`--q{bearing}-pct` ({default:g})"
         initial, final = scenario.q1_pct if bearing == 1 else scenario.q2_pct
         return f"{initial:g} %" if initial == final else f"{initial:g} -> {final:g} %"
 
