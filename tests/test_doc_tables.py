@@ -12,7 +12,12 @@ import pytest
 from oilwatch.cli import main
 from oilwatch.cli.docs_tables import main as docs_tables
 from oilwatch.cli.docs_tables import output_blocks, run_outputs, without_machine_load
+from oilwatch.cli.validate import MAP_POINTS, near_threshold_table
 from oilwatch.estimator.ekf_config import DEFAULT_PRESET, PRESETS
+from oilwatch.models.bearing.grid import Mesh
+from oilwatch.models.bearing.operating_table import OperatingTable, operating_table_path
+from oilwatch.models.machine import load_machine
+from oilwatch.models.rotor.assembly import Rotor
 from oilwatch.scenarios import SCENARIOS
 from oilwatch.study.readme_tables import main as study_tables
 
@@ -62,6 +67,35 @@ def test_the_compressor_robustness_table_is_its_result_file(tmp_path):
     result = str(REPO / "docs" / "results" / "robustness" / "compressor" / "robustness.json")
     _regenerated("docs/compressor.md", ("robustness",), tmp_path,
                  lambda copy: main(["robustness", "--from-json", result, "--readme", copy]))  # fmt: skip
+
+
+@pytest.mark.slow
+def test_the_published_table_comparison_is_what_oilwatch_validate_prints(tmp_path):
+    _regenerated("docs/validation-bearing.md", ("lund-worst", "ocvirk", "lund-rows"), tmp_path,
+                 lambda copy: main(["validate", "bearing-tables", "--readme", copy]))  # fmt: skip
+
+
+@pytest.mark.slow
+def test_the_near_threshold_table_holds_a_recomputed_point():
+    """The 60 Hz rows of docs/bearings.md's quasi-static table, recomputed (the command in the block's
+    marker recomputes both points of both tables)."""
+    body = _body((REPO / "docs" / "bearings.md").read_text(), "near-threshold-quasi-static")
+    machine = load_machine()
+    table = OperatingTable.load(operating_table_path(machine.source_path, "quasi-static"))
+    load = float(Rotor.from_machine(machine).bearing_static_loads_n[0])
+    mesh = Mesh(**table.metadata["mesh"])
+    rows = near_threshold_table(table, machine.bearing, load, mesh, (MAP_POINTS[0][:2],)).splitlines()
+    assert len(rows) == 4
+    for row in rows:
+        assert row in body.splitlines(), f"docs/bearings.md: {row} is stale; rerun the command in its marker"
+
+
+def test_validate_refuses_readme_where_it_writes_nothing(capsys):
+    for arguments in (["bearing-map", "--readme", "x.md"], ["reduction", "--readme", "x.md"],
+                      ["bearing-map", "--near-threshold", "--one-sided", "--readme", "x.md"]):  # fmt: skip
+        assert main(["validate", *arguments]) == 2
+        message = capsys.readouterr().err.strip()
+        assert "\n" not in message and "--readme" in message
 
 
 def test_the_presets_table_is_the_presets_declaration(tmp_path):

@@ -55,6 +55,21 @@ def table_error(
     """Solve the point directly (q = fraction * q_t; exactly q_t for fraction 1) and compare with the table
     (``one_sided``: interpolated on each side of the flooded threshold separately, see
     :meth:`OperatingTable.interpolate`)."""
+    return table_errors(table, bearing, speed_hz, viscosity_pa_s, load_n, fraction, mesh, (one_sided,))[0]
+
+
+def table_errors(
+    table: OperatingTable,
+    bearing: JournalBearing,
+    speed_hz: float,
+    viscosity_pa_s: float,
+    load_n: float,
+    fraction: float,
+    mesh: Mesh,
+    sides: tuple[bool, ...],
+) -> tuple[TableError, ...]:
+    """:func:`table_error` for each interpolation of ``sides`` (``one_sided`` False, True) against one
+    direct solve."""
     at = dataclasses.replace(bearing, viscosity_pa_s=viscosity_pa_s)
     q_t, _ = flooded_threshold(at, load_n, speed_hz, mesh)
     q = q_t if fraction == 1.0 else fraction * q_t
@@ -64,16 +79,22 @@ def table_error(
         stiffness, damping = synchronous_coefficients(eq.film, eq.eccentricity_m, speed_hz, supply)
     else:
         stiffness, damping = coefficients_at(at, eq, speed_hz, supply, mesh)
-    point = table.evaluate(speed_hz, viscosity_pa_s, load_n, q, one_sided)
-    k, c = point.coefficients.stiffness, point.coefficients.damping
-    return TableError(
-        speed_hz,
-        viscosity_pa_s,
-        load_n,
-        fraction,
-        stiffness=float(np.max(np.abs(k - stiffness)) / np.max(np.abs(stiffness))),
-        damping=float(np.max(np.abs(c - damping)) / np.max(np.abs(damping))),
-        eccentricity_ratio=abs(point.eccentricity_ratio - eq.eccentricity_ratio) / eq.eccentricity_ratio,
-        direct_eccentricity_ratio=eq.eccentricity_ratio,
-        flooded_threshold_m3_s=q_t,
-    )
+    errors = []
+    for one_sided in sides:
+        point = table.evaluate(speed_hz, viscosity_pa_s, load_n, q, one_sided)
+        k, c = point.coefficients.stiffness, point.coefficients.damping
+        errors.append(
+            TableError(
+                speed_hz,
+                viscosity_pa_s,
+                load_n,
+                fraction,
+                stiffness=float(np.max(np.abs(k - stiffness)) / np.max(np.abs(stiffness))),
+                damping=float(np.max(np.abs(c - damping)) / np.max(np.abs(damping))),
+                eccentricity_ratio=abs(point.eccentricity_ratio - eq.eccentricity_ratio)
+                / eq.eccentricity_ratio,
+                direct_eccentricity_ratio=eq.eccentricity_ratio,
+                flooded_threshold_m3_s=q_t,
+            )
+        )
+    return tuple(errors)

@@ -58,6 +58,13 @@ def register(subparsers) -> None:
         help="bearing-tables: a mesh to solve on (repeatable; default 72x24 and 144x48)",
     )
     parser.add_argument("--plot", metavar="FILE", help="bearing-tables: write the comparison's figure (PNG)")
+    parser.add_argument(
+        "--readme",
+        metavar="FILE",
+        help="bearing-tables: also write the tables into FILE's generated blocks (lund-worst, ocvirk, "
+        "lund-rows); bearing-map --near-threshold: the table of both interpolations against the direct "
+        "solves into the block near-threshold-KIND (KIND: the table's coefficients)",
+    )
     parser.add_argument("--quick", action="store_true", help="bearing-map: only the four main points")
     parser.add_argument(
         "--near-threshold",
@@ -86,9 +93,16 @@ def run(args: argparse.Namespace) -> int:
     if args.mesh or args.plot:
         raise InputError("--mesh and --plot are bearing-tables'")
     if args.target == "reduction":
-        if args.quick or args.near_threshold or args.one_sided or args.coefficients:
-            raise InputError("--quick, --near-threshold, --one-sided and --coefficients are bearing-map's")
+        if args.quick or args.near_threshold or args.one_sided or args.coefficients or args.readme:
+            raise InputError(
+                "--quick, --near-threshold, --one-sided and --coefficients are bearing-map's, --readme "
+                "bearing-tables' and bearing-map's"
+            )
         return reduction(args)
+    if args.readme and not args.near_threshold:
+        raise InputError("bearing-map --readme writes the --near-threshold table: add --near-threshold")
+    if args.readme and args.one_sided:
+        raise InputError("bearing-map --readme compares both interpolations: leave --one-sided out")
     return bearing_map(args)
 
 
@@ -125,33 +139,72 @@ def reduction(args: argparse.Namespace) -> int:
 
 
 def bearing_tables(args: argparse.Namespace) -> int:
-    """Print the Lund & Thomsen and Ocvirk comparisons (markdown tables); plot them with ``--plot``."""
+    """Print the Lund & Thomsen and Ocvirk comparisons (markdown tables); plot them with ``--plot``; write
+    them into a page's generated blocks with ``--readme``."""
     from oilwatch.models.bearing import published_tables as pt
     from oilwatch.models.bearing.grid import Mesh
 
     meshes = tuple(Mesh.from_text(text) for text in args.mesh) if args.mesh else pt.MESHES
     lund = pt.lund_rows(meshes)
+    ocvirk = pt.ocvirk_rows()
+    names = [f"{m.n_circ} x {m.n_axial}" for m in meshes]
+    blocks = {
+        "lund-worst": lund_worst_table(lund, meshes),
+        "ocvirk": ocvirk_table(ocvirk),
+        "lund-rows": lund_rows_table(lund, meshes),
+    }
+    print(f"## Lund & Thomsen (1978), oilwatch on {names[0]}\n")
+    print(blocks["lund-rows"])
+    print("\n## Worst per table (K, B errors in % of the matrix's largest published entry)\n")
+    print(blocks["lund-worst"])
+    print("\n## Ocvirk limit (line feed at the thickest film, 120 x 12)\n")
+    print(blocks["ocvirk"])
+    if args.plot:
+        plot_bearing_tables(lund, ocvirk, meshes, args.plot)
+        print(f"\nplot: {args.plot}")
+    if args.readme:
+        from .readme_block import replace_blocks
+
+        options = [f"--mesh {m.n_circ}x{m.n_axial}" for m in meshes] if args.mesh else []
+        if args.plot:
+            options.append(f"--plot {args.plot}")
+        command = " ".join(["oilwatch validate bearing-tables", *options, f"--readme {args.readme}"])
+        replace_blocks(args.readme, blocks, command)
+    return 0
+
+
+def lund_rows_table(lund, meshes) -> str:
+    """Every Lund & Thomsen row: the published value, oilwatch's on the first mesh, the error on each mesh
+    (eccentricity and attitude absolute, K and B in % of the matrix's largest published entry)."""
+    from oilwatch.models.bearing import published_tables as pt
+
     first = meshes[0]
     names = [f"{m.n_circ} x {m.n_axial}" for m in meshes]
-    print(f"## Lund & Thomsen (1978), oilwatch on {names[0]}\n")
     header = ["L/D", "S", "quantity", "Lund", "oilwatch", "error", *(f"error {n}" for n in names[1:])]
-    print("| " + " | ".join(header) + " |")
-    print("|---|---|---|---|---|" + "---|" * len(meshes))
+    lines = ["| " + " | ".join(header) + " |", "|---|---|---|---|---|" + "---|" * len(meshes)]
     for ld, rows in lund.items():
         for s, ref, values, _, _ in rows:
             errors = [pt.relative_errors(ref, values[m]) for m in meshes]
             for n in pt.COLUMNS:
                 unit, scale = ("", 1.0) if n in ("eps", "phi") else (" %", 100.0)
                 cells = " | ".join(f"{e[n] * scale:+.3f}{unit}" for e in errors)
-                print(f"| {ld} | {s} | {n} | {ref[n]:.3f} | {values[first][n]:.3f} | {cells} |")
-    print("\n## Worst per table (K, B errors in % of the matrix's largest published entry)\n")
-    print(
+                lines.append(f"| {ld} | {s} | {n} | {ref[n]:.3f} | {values[first][n]:.3f} | {cells} |")
+    return "\n".join(lines)
+
+
+def lund_worst_table(lund, meshes) -> str:
+    """The worst quantity of each Lund & Thomsen table (L/D) on each mesh, what the squeeze term in the
+    cavitated cells moves, and oilwatch's flooded flow at each row."""
+    from oilwatch.models.bearing import published_tables as pt
+
+    first = meshes[0]
+    lines = [
         "| L/D | mesh | eps | phi [deg] | K | B | worst entry | squeeze everywhere moves "
-        "| flow q/(R c L omega) |"
-    )
-    print("|---|---|---|---|---|---|---|---|---|")
+        "| flow q/(R c L omega) |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
     for ld, rows in lund.items():
-        for mesh, name in zip(meshes, names, strict=True):
+        for mesh in meshes:
             worst = {n: 0.0 for n in pt.COLUMNS}
             where = {}
             for s, ref, values, _, _ in rows:
@@ -166,25 +219,27 @@ def bearing_tables(args: argparse.Namespace) -> int:
                 max(abs(v[mesh][n] - e[n]) for _, _, v, _, e in rows for n in pt.COLUMNS) if on_first else 0
             )
             flows = ", ".join(f"{f:.4f}" for _, _, _, f, _ in rows) if on_first else ""
-            print(
-                f"| {ld} | {name} | {abs(worst['eps']):.4f} | {abs(worst['phi']):.2f} | "
-                f"{abs(worst[k_name]) * 100:.2f} % ({k_name}, S {where[k_name]}) | "
+            lines.append(
+                f"| {ld} | {mesh.n_circ} x {mesh.n_axial} | {abs(worst['eps']):.4f} | "
+                f"{abs(worst['phi']):.2f} | {abs(worst[k_name]) * 100:.2f} % ({k_name}, S {where[k_name]}) | "
                 f"{abs(worst[b_name]) * 100:.2f} % ({b_name}, S {where[b_name]}) | {entry} | "
                 f"{squeeze:.1e} | {flows} |"
             )
-    print("\n## Ocvirk limit (line feed at the thickest film, 120 x 12)\n")
-    print("| L/D | eps Ocvirk | eps oilwatch | attitude error [deg] | flow / (eps R c L omega) - 1 | K | B |")
-    print("|---|---|---|---|---|---|---|")
-    ocvirk = pt.ocvirk_rows()
+    return "\n".join(lines)
+
+
+def ocvirk_table(ocvirk) -> str:
+    """oilwatch against the Ocvirk closed forms at each (L/D, eccentricity ratio)."""
+    lines = [
+        "| L/D | eps Ocvirk | eps oilwatch | attitude error [deg] | flow / (eps R c L omega) - 1 | K | B |",
+        "|---|---|---|---|---|---|---|",
+    ]
     for ld, eps, e, dphi, dflow, ek, eb in ocvirk:
-        print(
+        lines.append(
             f"| {ld} | {eps} | {e:.4f} | {dphi:+.2f} | {dflow * 100:+.2f} % | {ek * 100:.2f} % | "
             f"{eb * 100:.2f} % |"
         )
-    if args.plot:
-        plot_bearing_tables(lund, ocvirk, meshes, args.plot)
-        print(f"\nplot: {args.plot}")
-    return 0
+    return "\n".join(lines)
 
 
 def plot_bearing_tables(lund, ocvirk, meshes, path) -> None:
@@ -276,7 +331,19 @@ def bearing_map(args: argparse.Namespace) -> int:
     load = float(Rotor.from_machine(machine).bearing_static_loads_n[0])
     points = MAP_POINTS + (() if args.quick else MAP_SPREAD)
     if args.near_threshold:
-        corners = dict.fromkeys((speed, mu) for speed, mu, _ in MAP_POINTS)
+        corners = tuple(dict.fromkeys((speed, mu) for speed, mu, _ in MAP_POINTS))
+        if args.readme:
+            from .readme_block import replace_block
+
+            body = near_threshold_table(table, bearing, load, mesh, corners)
+            print(body)
+            machine_flag = [] if args.machine is None else [f"--machine {args.machine}"]
+            command = " ".join(
+                ["oilwatch validate bearing-map --near-threshold", *machine_flag, f"--coefficients {kind}",
+                 f"--readme {args.readme}"]
+            )  # fmt: skip
+            replace_block(args.readme, f"near-threshold-{kind}", body, command)
+            return 0
         points = tuple((v, m, f) for v, m in corners for f in NEAR_THRESHOLD_FRACTIONS)
     print("speed_Hz  mu_Pa_s  q/q_t   S      e_direct  err_e %  err_K %max  err_C %max")
     worst = np.zeros(3)
@@ -315,3 +382,22 @@ def bearing_map(args: argparse.Namespace) -> int:
         f"{worst[0]:.3f} %, K {worst[1]:.3f} %, C {worst[2]:.3f} % of the largest entry"
     )
     return 0
+
+
+def near_threshold_table(table, bearing, load_n, mesh, corners) -> str:
+    """The dimensionless table against direct solves at :data:`NEAR_THRESHOLD_FRACTIONS` of each corner's
+    (speed, viscosity) flooded threshold, interpolated across the threshold and one-sided: the worst K
+    entry in % of the largest K, the worst C entry's in brackets."""
+    from oilwatch.models.bearing.operating_accuracy import table_errors
+
+    head = " | ".join(f"{'f = ' if i == 0 else ''}{f:g}" for i, f in enumerate(NEAR_THRESHOLD_FRACTIONS))
+    lines = [f"| point | {head} |", "|---|" + "---|" * len(NEAR_THRESHOLD_FRACTIONS)]
+    for speed, mu in corners:
+        rows = ([], [])
+        for fraction in NEAR_THRESHOLD_FRACTIONS:
+            errors = table_errors(table, bearing, speed, mu, load_n, fraction, mesh, (False, True))
+            for cells, error in zip(rows, errors, strict=True):
+                cells.append(f"{error.stiffness * 100:.2f} ({error.damping * 100:.2f})")
+        for label, cells in zip(("interpolated across the threshold", "one-sided"), rows, strict=True):
+            lines.append(f"| {speed:g} Hz, {mu:g} Pa s, {label} | {' | '.join(cells)} |")
+    return "\n".join(lines)
