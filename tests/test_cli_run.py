@@ -15,9 +15,11 @@ import time
 
 import numpy as np
 import pytest
+from fixtures.comparison_table import comparison_column
 from fixtures.fmu_subprocess import REPO_ROOT, edited_archive
 from fixtures.xdist_units import session_root
 
+from oilwatch.cli.machine_comparison import DEMO_LABELS, MACHINE_LABELS, demo_cells
 from oilwatch.scenarios.runner import COLUMNS, OPERATING_INPUTS
 
 pytestmark = pytest.mark.slow  # each test runs the oilwatch command on the FMUs in a fresh process
@@ -62,6 +64,8 @@ def test_demo_sudden_drop_meets_the_issue_criteria(environment, tmp_path):
         assert summary[f"false_alarm_s_b{b}"] is None
     table = [line for line in process.stdout.splitlines() if line[:1] in ("1", "2")]
     assert len(table) == 2 and all(line.endswith("pass") for line in table)
+    labels = MACHINE_LABELS + DEMO_LABELS
+    assert comparison_column("turbine")[len(MACHINE_LABELS) : len(labels)] == demo_cells(summary)
     assert str((out / "estimates.png").resolve()) in process.stdout
     assert (out / "estimates.png").stat().st_size > 10_000
     rows = csv_rows(out / "result.csv")

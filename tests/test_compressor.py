@@ -12,9 +12,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from fixtures.comparison_table import comparison_column
 from fixtures.fmu_subprocess import REPO_ROOT
 from fixtures.xdist_units import session_root
 
+from oilwatch.cli.machine_comparison import DEMO_LABELS, MACHINE_LABELS, demo_cells
 from oilwatch.cli.machine_option import MACHINE_HELP
 from oilwatch.models.bearing.coefficient_kinds import SYNCHRONOUS
 from oilwatch.models.bearing.equilibrium import coefficients_at, static_equilibrium
@@ -116,3 +118,5 @@ def test_the_sudden_drop_on_the_compressor_meets_the_demos_criteria(tmp_path_fac
         assert summary[f"q{b}_err_pct_after"] < 2.0
         assert 0.0 <= summary[f"alarm_delay_s_b{b}"] <= 2.0
         assert summary[f"false_alarm_s_b{b}"] is None
+    labels = MACHINE_LABELS + DEMO_LABELS
+    assert comparison_column("compressor")[len(MACHINE_LABELS) : len(labels)] == demo_cells(summary)

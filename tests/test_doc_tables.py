@@ -8,15 +8,16 @@ import shutil
 from pathlib import Path
 
 import pytest
+from fixtures.comparison_table import comparison_column
 
-from oilwatch.cli import main
+from oilwatch.cli import machine_comparison, main
 from oilwatch.cli.docs_tables import main as docs_tables
 from oilwatch.cli.docs_tables import output_blocks, run_outputs, without_machine_load
 from oilwatch.cli.validate import MAP_POINTS, near_threshold_table
 from oilwatch.estimator.ekf_config import DEFAULT_PRESET, PRESETS
 from oilwatch.models.bearing.grid import Mesh
 from oilwatch.models.bearing.operating_table import OperatingTable, operating_table_path
-from oilwatch.models.machine import load_machine
+from oilwatch.models.machine import BUNDLED_MACHINES, load_machine
 from oilwatch.models.rotor.assembly import Rotor
 from oilwatch.scenarios import SCENARIOS
 from oilwatch.study.readme_tables import main as study_tables
@@ -96,6 +97,23 @@ def test_validate_refuses_readme_where_it_writes_nothing(capsys):
         assert main(["validate", *arguments]) == 2
         message = capsys.readouterr().err.strip()
         assert "\n" not in message and "--readme" in message
+
+
+@pytest.mark.parametrize("name", list(BUNDLED_MACHINES))
+def test_the_machine_comparison_holds_each_machines_file_and_robustness_counts(name):
+    """The rows docs/compressor.md's comparison takes from the machine file and the committed robustness
+    results, recomputed (the demo's rows: the demo tests; the quick start's: its command)."""
+    column = comparison_column(name)
+    facts = machine_comparison.machine_rows(load_machine(BUNDLED_MACHINES[name]))
+    labels = machine_comparison.MACHINE_LABELS
+    assert column[: len(labels)] == facts
+    assert column[-1] == machine_comparison.robustness_counts(turbine=name == "turbine")
+
+
+def test_the_machine_comparison_runs_the_readmes_quick_start():
+    commands = machine_comparison.quick_start_commands()
+    assert [words[0] for words in commands] == ["run", "coast-down", "baseline", "run", "estimate"]
+    assert all("#" not in word for words in commands for word in words)
 
 
 def test_the_presets_table_is_the_presets_declaration(tmp_path):
