@@ -46,8 +46,9 @@ def paper_comparison(machine_file: str | Path | None = None) -> dict:
     rotor = system.rotor
     load = float(rotor.bearing_static_loads_n[0])
     mesh = Mesh(**system.tables[0].metadata["mesh"])
+    # the paper's threshold and nominal flowrates are of one bearing: bearing 1 (its geometry and load)
     flows = {
-        key: static_equilibrium(machine.bearing, load, system.speed_hz, SupplyPressure(pressure), mesh)
+        key: static_equilibrium(machine.bearings[0], load, system.speed_hz, SupplyPressure(pressure), mesh)
         for key, pressure in (("flooded_threshold_ml_min", 0.0), ("nominal_flow_ml_min", 50e3))
     }
     sweeps = load_speed_sweeps(machine, rotor)
