@@ -1,0 +1,259 @@
+"""Bearings of one machine may differ: ``[[bearings.override]]`` in the machine file, one geometry per bearing
+in :class:`oilwatch.models.machine.Machine`, tables per distinct geometry, and a system whose bearings each
+have their own film coefficients (checked against a direct solve of each bearing)."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from oilwatch.models.bearing.coefficient_kinds import QUASI_STATIC
+from oilwatch.models.bearing.equilibrium import coefficients_at, static_equilibrium
+from oilwatch.models.bearing.grid import Mesh
+from oilwatch.models.bearing.operating_table import operating_table_path
+from oilwatch.models.bearing.supply import SupplyFlow
+from oilwatch.models.bearing.table import compute_table, flooded_threshold
+from oilwatch.models.machine import BUNDLED_MACHINES, load_machine
+from oilwatch.models.rotor.assembly import Rotor
+from oilwatch.models.system.factory import (
+    build_system,
+    flowrate_table_name,
+    flowrate_table_path,
+    load_tables,
+    locus_table_name,
+    speed_sweep_name,
+    table_command,
+)
+from oilwatch.models.system.plant import RotorBearingPlant
+from oilwatch.models.validation import InputError
+
+TURBINE = Path(__file__).resolve().parents[1] / "models" / "turbine.toml"
+NON_DRIVE_END = """
+[[bearings.override]]
+node = 20
+length_mm = 60.0
+radial_clearance_um = 140.0
+groove_angle_deg = 0.0
+groove_circumferential_mm = 14.0
+groove_axial_mm = 30.0
+"""
+"""Bearing 2 of the test machine: shorter, of a larger clearance and a smaller groove (its flooded threshold
+stays near bearing 1's, so that one nominal flowrate lies within both tables)."""
+MESH = Mesh(40, 10)
+"""A coarse film mesh: the tables of the system test in seconds."""
+
+
+def machine_file(folder: Path, overrides: str = NON_DRIVE_END, stem: str = "two", **keys: str) -> Path:
+    """The bundled turbine with ``overrides`` after its [bearings] table (and ``keys`` of [bearings] set to
+    the TOML values given), written to ``folder/<stem>.toml``."""
+    text = TURBINE.read_text(encoding="utf-8")
+    for key, value in keys.items():
+        text = re.sub(rf"(?m)^{key} = .*$", f"{key} = {value}", text)
+    text = text.replace("\n[oil]\n", f"\n{overrides}\n[oil]\n", 1)
+    path = folder / f"{stem}.toml"
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def test_an_override_gives_one_bearing_its_own_geometry(tmp_path):
+    turbine = load_machine(None)
+    machine = load_machine(machine_file(tmp_path))
+    drive_end, non_drive_end = machine.bearings
+    assert drive_end == turbine.bearing  # bearing 1 keeps the [bearings] geometry
+    assert non_drive_end.length_m == pytest.approx(0.060)
+    assert non_drive_end.clearance_m == pytest.approx(140e-6)
+    assert (non_drive_end.groove_circumferential_m, non_drive_end.groove_axial_m) == pytest.approx(
+        (0.014, 0.030)
+    )
+    assert (
+        non_drive_end.radius_m == drive_end.radius_m
+        and non_drive_end.viscosity_pa_s == drive_end.viscosity_pa_s
+    )
+    assert machine.bearings_differ and machine.distinct_geometries == (0, 1)
+    assert [machine.geometry_bearing(i) for i in (0, 1)] == [1, 2]
+    with pytest.raises(InputError, match=r"bearings of .* differ .*takes one bearing geometry") as error:
+        machine.bearing  # noqa: B018 (the property refuses)
+    assert "\n" not in str(error.value)
+
+
+def test_an_override_may_give_several_grooves_and_a_circumferential_groove(tmp_path):
+    overrides = """
+[[bearings.override]]
+node = 6
+circumferential_groove_axial_mm = 10.0
+
+[[bearings.override.grooves]]
+angle_deg = 90.0
+circumferential_mm = 14.0
+axial_mm = 28.0
+
+[[bearings.override.grooves]]
+angle_deg = 270.0
+circumferential_mm = 14.0
+axial_mm = 28.0
+"""
+    machine = load_machine(machine_file(tmp_path, overrides))
+    drive_end, non_drive_end = machine.bearings
+    assert non_drive_end == load_machine(None).bearing
+    assert np.degrees(drive_end.groove_angle_rad) == pytest.approx(90.0)
+    assert [np.degrees(g.angle_rad) for g in drive_end.more_grooves] == pytest.approx([270.0])
+    assert drive_end.circumferential_groove_m == pytest.approx(0.010)
+    assert drive_end.length_m == non_drive_end.length_m  # not overridden: the [bearings] length
+
+
+def test_an_override_of_the_shared_values_leaves_the_bearings_alike_and_the_table_names_as_they_are(tmp_path):
+    same = "\n[[bearings.override]]\nnode = 20\nlength_mm = 70.0\nradial_clearance_um = 120.0\n"
+    machine = load_machine(machine_file(tmp_path, same))
+    assert not machine.bearings_differ and machine.bearing == load_machine(None).bearing
+    assert flowrate_table_name(machine, 75.0, bearing_index=1) == "two_bearing_75hz_synchronous.json"
+
+
+@pytest.mark.parametrize("name", sorted(BUNDLED_MACHINES))
+def test_every_bundled_machine_has_alike_bearings_and_its_table_names(name):
+    machine = load_machine(name)
+    assert len(machine.bearings) == len(machine.bearing_nodes) and not machine.bearings_differ
+    assert all(b is machine.bearing for b in machine.bearings)  # one geometry object, as [bearings] gives it
+    assert machine.distinct_geometries == (0,)
+    speed = machine.nominal_speed_hz
+    for index in range(len(machine.bearings)):
+        assert flowrate_table_name(machine, speed, QUASI_STATIC, index) == f"{name}_bearing_{speed:g}hz.json"
+        assert locus_table_name(machine, index) == f"{name}_bearing_locus.json"
+        assert speed_sweep_name(machine, "full-film", index) == f"{name}_speed_sweep.json"
+        assert "--bearing" not in table_command(machine, speed, QUASI_STATIC, index)
+        assert flowrate_table_path(machine, speed, QUASI_STATIC, index).is_file()  # the committed tables
+    assert operating_table_path(machine.source_path).name == f"{name}_bearing_dimensionless.json"
+
+
+def test_differing_bearings_have_tables_named_after_their_geometrys_first_bearing(tmp_path):
+    machine = load_machine(machine_file(tmp_path))
+    assert flowrate_table_name(machine, 75.0, bearing_index=0) == "two_bearing1_75hz_synchronous.json"
+    assert flowrate_table_name(machine, 75.0, QUASI_STATIC, 1) == "two_bearing2_75hz.json"
+    assert locus_table_name(machine, 1) == "two_bearing2_locus.json"
+    assert speed_sweep_name(machine, "everywhere", 1) == "two_bearing2_speed_sweep_squeeze_everywhere.json"
+    assert (
+        operating_table_path(machine.source_path, QUASI_STATIC, 2).name == "two_bearing2_dimensionless.json"
+    )
+    command = f"oilwatch bearing-table --machine {machine.source_path} --speed-hz 75 --bearing 2"
+    assert table_command(machine, 75.0, bearing_index=1) == command
+    with pytest.raises(InputError, match=re.escape(f"`{command.replace(' --bearing 2', ' --bearing 1')}`")):
+        load_tables(machine, Rotor.from_machine(machine), 75.0)
+
+
+BAD_OVERRIDES = [
+    ("node = 7", r"^bearings\.override\[0\]\.node must be one of bearings\.nodes \[6, 20\], got 7$"),
+    (
+        "node = 20\nviscosity_pa_s = 0.05",
+        r"^bearings\.override\[0\]\.viscosity_pa_s cannot differ between bearings",
+    ),
+    ("node = 20\nlength_mm = 0.0", r"^bearings\.override\[0\]\.length_mm must be > 0 mm, got 0$"),
+    (
+        "node = 20\nradius_mm = 40.0",
+        r"^bearings\.override\[0\]\.radius_mm = 40 does not match the shaft at bearings",
+    ),
+    (
+        "node = 20\nradial_clearance_um = 45000.0",
+        r"^bearings\.override\[0\]\.radial_clearance_um must be smaller",
+    ),
+    (
+        "node = 20\nlength_mm = 30.0",
+        r"^bearings\.groove_axial_mm must be <= bearings\.override\[0\]\.length_mm",
+    ),
+    ("node = 20\ngroove_axial_mm = 30.0", r"^missing bearings\.override\[0\]\.groove_circumferential_mm$"),
+    ("node = 20\ncircumferential_groove_axial_mm = 80.0", r"circumferential_groove_axial_mm must be < 70 mm"),
+]
+
+
+@pytest.mark.parametrize(
+    ("entry", "message"), BAD_OVERRIDES, ids=[e.split("\n")[-1] for e, _ in BAD_OVERRIDES]
+)
+def test_a_bad_override_is_refused_in_one_line_naming_its_key(tmp_path, entry, message):
+    with pytest.raises(InputError) as error:
+        load_machine(machine_file(tmp_path, f"[[bearings.override]]\n{entry}\n"))
+    text = str(error.value)
+    assert "\n" not in text
+    assert re.search(message, text.split(": ", 1)[1] if text.startswith("machine file") else text), text
+
+
+def test_two_overrides_of_one_bearing_are_refused(tmp_path):
+    twice = "[[bearings.override]]\nnode = 20\n\n[[bearings.override]]\nnode = 20\n"
+    with pytest.raises(InputError, match=r"bearings\.override\[1\]\.node = 20: that bearing has an override"):
+        load_machine(machine_file(tmp_path, twice))
+
+
+@pytest.fixture(scope="module")
+def differing(tmp_path_factory):
+    """The two-bearing machine (quasi-static coefficients) with a small table per bearing at 75 Hz, each of
+    its geometry at its load on :data:`MESH`: (machine, the tables' flowrates per bearing)."""
+    folder = tmp_path_factory.mktemp("per_bearing")
+    machine = load_machine(machine_file(folder, dynamic_coefficients='"quasi-static"'))
+    loads = Rotor.from_machine(machine).bearing_static_loads_n
+    (folder / "tables").mkdir()
+    flows = []
+    for index, (bearing, load) in enumerate(zip(machine.bearings, loads, strict=True)):
+        q_t, _ = flooded_threshold(bearing, load, 75.0, MESH)
+        q = q_t * np.array([0.5, 0.8, 1.2, 1.5])
+        compute_table(bearing, load, 75.0, q, MESH).save(
+            flowrate_table_path(machine, 75.0, bearing_index=index)
+        )
+        flows.append(q)
+    return machine, flows
+
+
+def test_a_system_of_differing_bearings_has_each_bearings_own_coefficients(differing):
+    """Each bearing's table at its nodes against a direct p-theta solve of that bearing (same mesh), and the
+    two bearings' coefficients apart by far more than that."""
+    machine, flows = differing
+    system = build_system(machine, reduced=False)
+    assert [t.metadata["bearing"]["clearance_m"] for t in system.tables] == [
+        b.clearance_m for b in machine.bearings
+    ]
+    for index, (bearing, load) in enumerate(zip(machine.bearings, system.static_loads_n, strict=True)):
+        for q in flows[index][1:3]:
+            eq = static_equilibrium(bearing, load, 75.0, SupplyFlow(q), MESH)
+            stiffness, damping = coefficients_at(bearing, eq, 75.0, SupplyFlow(q), MESH)
+            row = system.tables[index].evaluate(q)
+            assert np.allclose(row.stiffness, stiffness, rtol=1e-6, atol=1e-6 * np.abs(stiffness).max())
+            assert np.allclose(row.damping, damping, rtol=1e-6, atol=1e-6 * np.abs(damping).max())
+            assert np.allclose(row.eccentricity_m, eq.eccentricity_m, rtol=1e-6, atol=1e-12)
+    q = machine.lubrication.nominal_flowrate_m3_s
+    one, two = (system.tables[b].evaluate(q) for b in (0, 1))
+    assert np.abs(one.stiffness - two.stiffness).max() > 0.1 * np.abs(one.stiffness).max()
+
+
+def test_a_system_of_differing_bearings_sits_and_runs_on_each_bearings_film(differing):
+    """Statics: each journal at its own bearing's equilibrium under its load (the larger clearance of bearing
+    2 lower); a plant on the system steps with finite outputs."""
+    machine, _ = differing
+    system = build_system(machine, reduced=False)
+    q = machine.lubrication.nominal_flowrate_m3_s
+    positions = system.bearing_positions(system.static_coordinates((q, q)))
+    for index in (0, 1):
+        expected = system.tables[index].evaluate(q).eccentricity_m
+        assert np.allclose(positions[index], expected, rtol=1e-3, atol=1e-3 * np.linalg.norm(expected))
+    assert positions[1][1] < positions[0][1]
+    plant = RotorBearingPlant(system, 1e-3, None, 0.0, 1, initial_flowrates_m3_s=(q, q))
+    samples = [plant.step((q, 0.9 * q)) for _ in range(20)]
+    assert all(np.isfinite(s.measured_position_m).all() for s in samples)
+    journals = samples[-1].true_position_m.reshape(2, 2)
+    clearances = [b.clearance_m for b in machine.bearings]  # each bearing's own e / c
+    assert samples[-1].eccentricity_ratio == pytest.approx(np.linalg.norm(journals, axis=1) / clearances)
+
+
+def test_a_table_of_another_geometry_is_refused_naming_the_command_that_makes_the_right_one(
+    differing, tmp_path
+):
+    machine, _ = differing
+    rotor = Rotor.from_machine(machine)
+    wrong = load_tables(machine, rotor, 75.0)[0]
+    other = load_machine(machine_file(tmp_path, dynamic_coefficients='"quasi-static"'))
+    (tmp_path / "tables").mkdir()
+    for index in (0, 1):
+        wrong.save(flowrate_table_path(other, 75.0, bearing_index=index))
+    command = f"oilwatch bearing-table --machine {other.source_path} --speed-hz 75 --bearing 2"
+    with pytest.raises(InputError) as error:
+        load_tables(other, rotor, 75.0)
+    assert "computed for length_m = 0.07, the bearing has 0.06 (bearing 2 (node 20))" in str(error.value)
+    assert str(error.value).endswith(f"recompute it with `{command}`")
