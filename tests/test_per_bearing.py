@@ -4,17 +4,19 @@ have their own film coefficients (checked against a direct solve of each bearing
 
 from __future__ import annotations
 
+import json
 import re
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from oilwatch.cli import main
 from oilwatch.models.bearing.coefficient_kinds import QUASI_STATIC
 from oilwatch.models.bearing.equilibrium import coefficients_at, static_equilibrium
 from oilwatch.models.bearing.grid import Mesh
 from oilwatch.models.bearing.operating_table import operating_table_path
-from oilwatch.models.bearing.supply import SupplyFlow
+from oilwatch.models.bearing.supply import ML_MIN_PER_M3_S, SupplyFlow
 from oilwatch.models.bearing.table import compute_table, flooded_threshold
 from oilwatch.models.machine import BUNDLED_MACHINES, load_machine
 from oilwatch.models.rotor.assembly import Rotor
@@ -257,3 +259,40 @@ def test_a_table_of_another_geometry_is_refused_naming_the_command_that_makes_th
         load_tables(other, rotor, 75.0)
     assert "computed for length_m = 0.07, the bearing has 0.06 (bearing 2 (node 20))" in str(error.value)
     assert str(error.value).endswith(f"recompute it with `{command}`")
+
+
+def test_bearing_table_makes_one_table_per_distinct_geometry_and_bearing_n_only_its_own(tmp_path, capsys):
+    path = machine_file(tmp_path, dynamic_coefficients='"quasi-static"')
+    coarse = ("--mesh", "40", "10", "--points", "3", "--quiet")
+    assert main(["bearing-table", "--machine", str(path), *coarse]) == 0
+    made = sorted(p.name for p in (tmp_path / "tables").iterdir())
+    assert made == ["two_bearing1_75hz.json", "two_bearing2_75hz.json"]
+    machine = load_machine(path)
+    tables = load_tables(machine, Rotor.from_machine(machine), 75.0)
+    assert [t.metadata["bearing"]["length_m"] for t in tables] == [b.length_m for b in machine.bearings]
+    assert tables[1].metadata["provenance"]["command_line"].endswith("--bearing 2")
+    (tmp_path / "tables" / "two_bearing2_75hz.json").unlink()
+    assert main(["bearing-table", "--machine", str(path), *coarse, "--bearing", "2"]) == 0
+    assert sorted(p.name for p in (tmp_path / "tables").iterdir()) == made
+    capsys.readouterr()
+    assert main(["bearing-table", "--machine", str(path), *coarse, "--out", str(tmp_path / "one.json")]) == 2
+    assert "--out takes one table, and the bearings of" in capsys.readouterr().err
+    assert main(["bearing-table", "--machine", str(path), *coarse, "--bearing", "3"]) == 2
+    assert (
+        "--bearing must be a bearing number 1..2 (bearings.nodes [6, 20]), got 3" in capsys.readouterr().err
+    )
+
+
+def test_oilwatch_bearing_solves_bearing_n(tmp_path, capsys):
+    path = str(machine_file(tmp_path))
+    args = ("bearing", "--machine", path, "--q-ml-min", "596.3", "--json", "--mesh", "40", "10")
+    results = []
+    for number in ("1", "2"):
+        assert main([*args, "--bearing", number]) == 0
+        results.append(json.loads(capsys.readouterr().out))
+    machine = load_machine(path)
+    load = float(Rotor.from_machine(machine).bearing_static_loads_n[1])
+    supply = SupplyFlow(596.3 / ML_MIN_PER_M3_S)
+    eq = static_equilibrium(machine.bearings[1], load, 75.0, supply, MESH)
+    assert results[1]["eccentricity_ratio"] == pytest.approx(eq.eccentricity_ratio, rel=1e-9)
+    assert abs(results[0]["eccentricity_ratio"] - results[1]["eccentricity_ratio"]) > 0.05

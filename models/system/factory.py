@@ -105,6 +105,13 @@ def flowrate_table_path(
     return _table_path(machine, flowrate_table_name(machine, speed_hz, coefficients, bearing_index))
 
 
+def flowrate_tables_exist(machine: Machine, speed_hz: float, coefficients: str | None = None) -> bool:
+    """Whether the machine's flowrate tables at ``speed_hz`` of ``coefficients`` exist for every bearing."""
+    return all(
+        flowrate_table_path(machine, speed_hz, coefficients, i).exists() for i in machine.distinct_geometries
+    )
+
+
 def locus_table_name(machine: Machine, bearing_index: int = 0) -> str:
     """File name of the machine's flooded loci (``oilwatch bearing-locus``) of bearing ``bearing_index``."""
     return f"{machine.source_path.stem}_bearing{_bearing_infix(machine, bearing_index)}_locus.json"
@@ -146,13 +153,13 @@ def bearing_arguments(machine: Machine, bearing_index: int = 0) -> list[str]:
 
 
 def table_command(
-    machine: Machine, speed_hz: float, coefficients: str | None = None, bearing_index: int = 0
+    machine: Machine, speed_hz: float, coefficients: str | None = None, bearing_index: int | None = 0
 ) -> str:
     """The command that computes the machine's flowrate table at ``speed_hz`` (of ``coefficients``) for
-    bearing ``bearing_index``."""
+    bearing ``bearing_index`` (None: the tables of every bearing)."""
     speed = ["--speed-hz", f"{speed_hz:g}"]
     kind = [] if coefficients in (None, machine.dynamic_coefficients) else ["--coefficients", coefficients]
-    bearing = bearing_arguments(machine, bearing_index)
+    bearing = [] if bearing_index is None else bearing_arguments(machine, bearing_index)
     return shlex.join(["oilwatch", "bearing-table", *machine_arguments(machine), *speed, *kind, *bearing])
 
 
