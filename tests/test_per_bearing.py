@@ -29,7 +29,9 @@ from oilwatch.models.system.factory import (
     speed_sweep_name,
     table_command,
 )
+from oilwatch.models.system.operating_point import operating_system
 from oilwatch.models.system.plant import RotorBearingPlant
+from oilwatch.models.system.structure import PlantStructure, structural_system
 from oilwatch.models.validation import InputError
 
 TURBINE = Path(__file__).resolve().parents[1] / "models" / "turbine.toml"
@@ -296,3 +298,49 @@ def test_oilwatch_bearing_solves_bearing_n(tmp_path, capsys):
     eq = static_equilibrium(machine.bearings[1], load, 75.0, supply, MESH)
     assert results[1]["eccentricity_ratio"] == pytest.approx(eq.eccentricity_ratio, rel=1e-9)
     assert abs(results[0]["eccentricity_ratio"] - results[1]["eccentricity_ratio"]) > 0.05
+
+
+@pytest.fixture(scope="module")
+def mapped(tmp_path_factory):
+    """The two-bearing machine (quasi-static coefficients) with a small dimensionless table per bearing
+    geometry from ``oilwatch bearing-map`` (3 x 3 nodes on :data:`MESH`, about the nominal point)."""
+    folder = tmp_path_factory.mktemp("per_bearing_map")
+    path = machine_file(folder, dynamic_coefficients='"quasi-static"')
+    ranges = ("--speed-range", "0.9", "1.1", "--viscosity-range", "0.9", "1.1", "--sommerfeld-ratio", "1.6")
+    argv = [
+        "bearing-map",
+        "--machine",
+        str(path),
+        "--mesh",
+        "40",
+        "10",
+        "--fractions",
+        "3",
+        *ranges,
+        "--quiet",
+    ]
+    assert main(argv) == 0
+    return load_machine(path)
+
+
+def test_bearing_map_makes_a_table_per_geometry_and_the_operating_plant_uses_each(mapped):
+    """The plant on the dimensionless tables (:func:`operating_system`) and the structural plant: each
+    bearing's coefficients at a table node (nominal speed, viscosity and load; 1.5 q_t) against a direct solve
+    of that bearing on the same mesh."""
+    names = sorted(p.name for p in (mapped.source_path.parent / "tables").iterdir())
+    assert names == ["two_bearing1_dimensionless.json", "two_bearing2_dimensionless.json"]
+    viscosity = mapped.bearings[0].viscosity_pa_s
+    for system in (
+        operating_system(mapped, 75.0, viscosity),
+        structural_system(mapped, PlantStructure(film_coefficients=QUASI_STATIC)),
+    ):
+        for index, (bearing, load) in enumerate(zip(mapped.bearings, system.static_loads_n, strict=True)):
+            q_t, _ = flooded_threshold(bearing, load, 75.0, MESH)
+            supply = SupplyFlow(1.5 * q_t)
+            eq = static_equilibrium(bearing, load, 75.0, supply, MESH)
+            stiffness, _ = coefficients_at(bearing, eq, 75.0, supply, MESH)
+            row = system.tables[index].evaluate(1.5 * q_t)
+            assert np.allclose(row.stiffness, stiffness, rtol=1e-4, atol=1e-4 * np.abs(stiffness).max())
+            assert np.allclose(
+                row.eccentricity_m, eq.eccentricity_m, rtol=1e-4, atol=1e-4 * bearing.clearance_m
+            )
