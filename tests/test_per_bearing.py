@@ -351,7 +351,8 @@ def test_bearing_map_makes_a_table_per_geometry_and_the_operating_plant_uses_eac
 
 def test_the_estimator_finds_each_bearings_flowrate_on_differing_bearings(differing):
     """The EKF (recommended tuning) on the reduced grid model against the full-model plant, 1 um noise, with
-    0.9 and 1.1 x the nominal flowrate: measured when written, +0.12 % and -0.07 % after 3 s, std 0.26 and 0.24 %."""
+    0.9 and 1.1 x the nominal flowrate: measured when written, +0.12 % and -0.07 % after 3 s, std 0.26 and
+    0.24 %."""
     machine, _ = differing
     q = machine.lubrication.nominal_flowrate_m3_s
     truth = np.array([0.9 * q, 1.1 * q])
