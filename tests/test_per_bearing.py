@@ -32,13 +32,16 @@ from oilwatch.models.system.factory import (
     build_system,
     flowrate_table_name,
     flowrate_table_path,
+    load_speed_sweeps,
     load_tables,
     locus_table_name,
     speed_sweep_name,
+    speed_sweep_path,
     table_command,
 )
 from oilwatch.models.system.operating_point import operating_system
 from oilwatch.models.system.plant import RotorBearingPlant
+from oilwatch.models.system.speed_sweep import compute_speed_sweep
 from oilwatch.models.system.structure import PlantStructure, structural_system
 from oilwatch.models.validation import InputError
 from oilwatch.records.writers import write_record
@@ -438,3 +441,17 @@ def test_the_sudden_drop_on_a_two_bearing_machine_meets_the_demos_criteria(tmp_p
         assert summary[f"q{b}_err_pct_after"] < 2.0
         assert 0.0 <= summary[f"alarm_delay_s_b{b}"] <= 2.0
         assert summary[f"false_alarm_s_b{b}"] is None
+
+
+def test_a_speed_sweep_of_another_geometry_is_refused_naming_the_command_that_makes_the_right_one(differing):
+    machine, _ = differing
+    rotor = Rotor.from_machine(machine)
+    load = float(rotor.bearing_static_loads_n[0])
+    q = machine.lubrication.nominal_flowrate_m3_s
+    sweep = compute_speed_sweep(machine.bearings[0], load, [70.0, 75.0], q, MESH)
+    for index in (0, 1):
+        sweep.save(speed_sweep_path(machine, bearing_index=index))
+    with pytest.raises(InputError) as error:
+        load_speed_sweeps(machine, rotor)
+    assert "computed for length_m = 0.07, the bearing has 0.06 (bearing 2 (node 20))" in str(error.value)
+    assert str(error.value).endswith(f"`oilwatch speed-sweep --machine {machine.source_path} --bearing 2`")

@@ -232,7 +232,8 @@ def load_speed_sweeps(
     machine: Machine, rotor: Rotor, path: str | Path | None = None, squeeze: str = "full-film"
 ) -> list[SpeedSweep]:
     """One speed sweep per bearing (its geometry's, :func:`speed_sweep_name`; an explicit ``path`` is every
-    bearing's), checked against each bearing's static load."""
+    bearing's), checked against each bearing's static load and against its geometry where the sweep stores
+    one."""
     loaded: dict[Path, SpeedSweep] = {}
     sweeps = []
     for index, load in enumerate(rotor.bearing_static_loads_n):
@@ -245,10 +246,17 @@ def load_speed_sweeps(
                 )
             loaded[sweep_path] = SpeedSweep.load(sweep_path)
         sweep = loaded[sweep_path]
+        who = _bearing_name(machine, index)
         if not np.isclose(sweep.load_n, load, rtol=LOAD_RTOL):
             raise InputError(
-                f"speed sweep {sweep_path} was computed for {sweep.load_n:.1f} N, not {load:.1f} N "
-                f"({_bearing_name(machine, index)})"
+                f"speed sweep {sweep_path} was computed for {sweep.load_n:.1f} N, not {load:.1f} N ({who})"
+            )
+        stored = sweep.provenance.get("bearing")  # the committed turbine sweeps do not hold it
+        mismatch = None if stored is None else geometry_mismatch(stored, machine.bearings[index])
+        if mismatch is not None:
+            raise InputError(
+                f"speed sweep {sweep_path} was computed for {mismatch} ({who}): recompute it with "
+                f"`{sweep_command(machine, squeeze, index)}`"
             )
         sweeps.append(sweep)
     return sweeps
