@@ -19,6 +19,7 @@ from fixtures.xdist_units import session_root
 from oilwatch.cli import main
 from oilwatch.estimator.ekf import OilFlowEKF
 from oilwatch.estimator.ekf_config import EKFConfig
+from oilwatch.models.bearing.centreline import load_loci
 from oilwatch.models.bearing.coefficient_kinds import QUASI_STATIC
 from oilwatch.models.bearing.equilibrium import coefficients_at, static_equilibrium
 from oilwatch.models.bearing.grid import Mesh
@@ -28,6 +29,7 @@ from oilwatch.models.bearing.table import compute_table, flooded_threshold
 from oilwatch.models.machine import BUNDLED_MACHINES, load_machine
 from oilwatch.models.rotor.assembly import Rotor
 from oilwatch.models.system.augmented import GridAugmentedModel
+from oilwatch.models.system.clearance import machine_loci
 from oilwatch.models.system.factory import (
     build_system,
     flowrate_table_name,
@@ -35,6 +37,7 @@ from oilwatch.models.system.factory import (
     load_speed_sweeps,
     load_tables,
     locus_table_name,
+    locus_table_path,
     speed_sweep_name,
     speed_sweep_path,
     table_command,
@@ -455,3 +458,18 @@ def test_a_speed_sweep_of_another_geometry_is_refused_naming_the_command_that_ma
         load_speed_sweeps(machine, rotor)
     assert "computed for length_m = 0.07, the bearing has 0.06 (bearing 2 (node 20))" in str(error.value)
     assert str(error.value).endswith(f"`oilwatch speed-sweep --machine {machine.source_path} --bearing 2`")
+
+
+def test_bearing_locus_makes_a_locus_per_geometry_and_the_clearance_fit_takes_each_bearings(tmp_path):
+    path = machine_file(tmp_path)
+    assert main(["bearing-locus", "--machine", str(path), "--mesh", "40", "10"]) == 0
+    machine = load_machine(path)
+    files = [locus_table_path(machine, index) for index in (0, 1)]
+    assert [f.name for f in files] == ["two_bearing1_locus.json", "two_bearing2_locus.json"]
+    loci = machine_loci(machine)  # from the files: nothing solved on the production mesh
+    for index, (locus, file) in enumerate(zip(loci, files, strict=True)):
+        assert locus.to_dict() == load_loci(file)[0].to_dict()
+        pressure = machine.lubrication.nominal_supply_pressure_pa
+        load = float(Rotor.from_machine(machine).bearing_static_loads_n[index])
+        assert locus.matches(machine.bearings[index], load, pressure)
+        assert not locus.matches(machine.bearings[1 - index], load, pressure)
