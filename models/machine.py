@@ -99,7 +99,9 @@ class Machine:
     discs : rigid discs.
     unbalance : residual unbalance (grade, node, phase).
     bearing_nodes : nodes carrying a bearing, in the file's order.
-    bearing : geometry and lubricant shared by every bearing.
+    bearings : each bearing's geometry and lubricant, in the order of ``bearing_nodes``: the ``[bearings]``
+        geometry with its ``[[bearings.override]]`` for that node (:func:`read_bearings`). :attr:`bearing`
+        is the one geometry of a machine whose bearings are all alike.
     load_split : how the weight is shared among bearings: "equal" (the paper: W / n_bearings each)
         or "reactions" (the support reactions of the rotor on rigid supports).
     lubrication : nominal supply.
@@ -126,7 +128,7 @@ class Machine:
     discs: tuple[Disc, ...]
     unbalance: Unbalance
     bearing_nodes: tuple[int, ...]
-    bearing: JournalBearing
+    bearings: tuple[JournalBearing, ...]
     load_split: str
     lubrication: Lubrication
     structural_damping_s: float
@@ -158,6 +160,37 @@ class Machine:
         """Nominal spin speed Omega [rad/s]."""
         return 2.0 * math.pi * self.nominal_speed_hz
 
+    @property
+    def bearings_differ(self) -> bool:
+        """Whether the bearings' geometries are not all the same (``[[bearings.override]]``)."""
+        return any(b != self.bearings[0] for b in self.bearings[1:])
+
+    @property
+    def bearing(self) -> JournalBearing:
+        """The one bearing geometry of a machine whose bearings are all alike; InputError when they differ,
+        for what handles one geometry only (:meth:`shared_bearing`)."""
+        return self.shared_bearing("this computation")
+
+    def shared_bearing(self, feature: str) -> JournalBearing:
+        """The one bearing geometry of the machine; InputError naming ``feature`` (a command or a part of
+        oilwatch) when its bearings differ, since ``feature`` takes one bearing geometry."""
+        if self.bearings_differ:
+            raise InputError(
+                f"bearings of {self.name} differ ({self.source_path.name} has [[bearings.override]]): "
+                f"{feature} takes one bearing geometry; give the bearings one geometry to run it"
+            )
+        return self.bearings[0]
+
+    def geometry_bearing(self, index: int) -> int:
+        """The number (from 1, in ``bearing_nodes`` order) of the first bearing whose geometry is that of
+        bearing ``index`` (from 0): the bearing a table of that geometry is named after."""
+        return 1 + next(i for i, b in enumerate(self.bearings) if b == self.bearings[index])
+
+    @property
+    def distinct_geometries(self) -> tuple[int, ...]:
+        """The indices (from 0) of the first bearing of each distinct geometry, in ``bearing_nodes`` order."""
+        return tuple(sorted({self.geometry_bearing(i) - 1 for i in range(len(self.bearings))}))
+
 
 _COMPUTED_FLOWRATES: dict[tuple[str, str], float] = {}
 """Nominal flowrates computed from the supply pressure in this process, by (file, file text)."""
@@ -167,8 +200,9 @@ def nominal_flowrate_from_pressure(machine: Machine) -> float:
     """The steady supply flowrate [m^3/s] at the machine's nominal groove pressure, nominal speed and the
     first bearing's static load (the paper defines its nominal flowrate so, from a 0.5 bar groove pressure).
 
-    One steady p-theta solve on the production mesh (about a second); every bearing of a machine file
-    shares the geometry, and with ``load_split = "equal"`` the load too.
+    One steady p-theta solve on the production mesh (about a second). Bearing 1 is the reference: the
+    nominal flowrate is one figure that every percentage of flow refers to, for every bearing, so it is
+    bearing 1's (its geometry and load) also when the bearings differ.
     """
     from .bearing.equilibrium import static_equilibrium
     from .bearing.grid import PRODUCTION_MESH
@@ -177,7 +211,9 @@ def nominal_flowrate_from_pressure(machine: Machine) -> float:
 
     load = float(Rotor.from_machine(machine).bearing_static_loads_n[0])
     supply = SupplyPressure(machine.lubrication.nominal_supply_pressure_pa)
-    equilibrium = static_equilibrium(machine.bearing, load, machine.nominal_speed_hz, supply, PRODUCTION_MESH)
+    equilibrium = static_equilibrium(
+        machine.bearings[0], load, machine.nominal_speed_hz, supply, PRODUCTION_MESH
+    )
     return float(equilibrium.supply_flow_m3_s)
 
 
@@ -222,7 +258,7 @@ def machine_from_dict(data: Mapping[str, Any], source_path: Path | str = "<dict>
         iso_grade_m_s=read_real(unb, "unbalance", "iso_grade_mm_s", "mm/s", strict=False) / 1e3,
         phase_rad=math.radians(read_real(unb, "unbalance", "phase_deg", "deg", low=None)),
     )
-    bearing_nodes, bearing, load_split = read_bearings(data, diameters, n_nodes)
+    bearing_nodes, bearings, load_split = read_bearings(data, diameters, n_nodes)
     oil, oil_temperature = read_oil(data)
     damping = data.get("rotor_damping", {})
     if not isinstance(damping, Mapping):
@@ -247,7 +283,7 @@ def machine_from_dict(data: Mapping[str, Any], source_path: Path | str = "<dict>
         discs=read_discs(data, diameters, n_nodes),
         unbalance=unbalance,
         bearing_nodes=bearing_nodes,
-        bearing=bearing,
+        bearings=bearings,
         load_split=load_split,
         lubrication=read_lubrication(data),
         structural_damping_s=beta,

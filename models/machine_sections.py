@@ -114,8 +114,13 @@ def read_discs(data: Mapping[str, Any], diameters: np.ndarray, n_nodes: int) -> 
 
 def read_bearings(
     data: Mapping[str, Any], diameters: np.ndarray, n_nodes: int
-) -> tuple[tuple[int, ...], JournalBearing, str]:
-    """The ``[bearings]`` table: (bearing nodes, the shared geometry and viscosity, load split)."""
+) -> tuple[tuple[int, ...], tuple[JournalBearing, ...], str]:
+    """The ``[bearings]`` table: (bearing nodes, each bearing's geometry and viscosity in the nodes' order,
+    load split).
+
+    The table's geometry is every bearing's unless a ``[[bearings.override]]`` entry for its node gives
+    other values of some :data:`OVERRIDE_KEYS` (:func:`read_overrides`).
+    """
     table = read_table(data, "bearings")
     nodes = read_key(table, "bearings", "nodes")
     if not isinstance(nodes, list) or not nodes:
@@ -126,35 +131,120 @@ def read_bearings(
     load_split = read_key(table, "bearings", "load_split")
     if load_split not in LOAD_SPLITS:
         raise InputError(f"bearings.load_split must be one of {LOAD_SPLITS}, got {load_split!r}")
-    radius = read_real(table, "bearings", "radius_mm", "mm") / 1e3
-    clearance = read_real(table, "bearings", "radial_clearance_um", "um") / 1e6
-    if clearance >= radius:
-        raise InputError("bearings.radial_clearance_um must be smaller than bearings.radius_mm")
+    viscosity = _bearing_viscosity(data, table)
+    shared = _read_geometry(table, {}, "", viscosity)
+    overrides = read_overrides(table, bearing_nodes)
+    bearings = []
     for i, node in enumerate(bearing_nodes):
-        journal = shaft_diameter_at_node(diameters, node)
-        adjacent = [diameters[k - 1] for k in (node - 1, node) if 1 <= k <= diameters.size]
-        if min(abs(d - 2.0 * radius) for d in adjacent) > 0.01 * 2.0 * radius:
+        section, override = overrides.get(node, ("", {}))
+        bearing = _read_geometry(table, override, section, viscosity) if override else shared
+        _check_journal(bearing, diameters, node, i, section if "radius_mm" in override else "bearings")
+        bearings.append(bearing)
+    return bearing_nodes, tuple(bearings), load_split
+
+
+OVERRIDE_KEYS = (
+    "radius_mm",
+    "length_mm",
+    "radial_clearance_um",
+    "groove_angle_deg",
+    "groove_circumferential_mm",
+    "groove_axial_mm",
+    "grooves",
+    "circumferential_groove_axial_mm",
+)
+"""The geometry keys of ``[bearings]`` that a ``[[bearings.override]]`` entry may give for its bearing."""
+
+
+def read_overrides(
+    table: Mapping[str, Any], bearing_nodes: tuple[int, ...]
+) -> dict[int, tuple[str, Mapping]]:
+    """The ``[[bearings.override]]`` entries by bearing node: (the entry's section name, the entry without
+    its ``node``). Each names one node of ``bearings.nodes``, at most once, and gives only
+    :data:`OVERRIDE_KEYS`."""
+    if "override" not in table:
+        return {}
+    entries = table["override"]
+    if not isinstance(entries, list) or not entries:
+        raise InputError("[[bearings.override]] must be a non-empty array of tables")
+    overrides: dict[int, tuple[str, Mapping]] = {}
+    for i, entry in enumerate(entries):
+        section = f"bearings.override[{i}]"
+        if not isinstance(entry, Mapping):
+            raise InputError(f"{section} must be a table")
+        node = read_key(entry, section, "node")
+        if isinstance(node, bool) or not isinstance(node, int) or node not in bearing_nodes:
             raise InputError(
-                f"bearings.radius_mm = {radius * 1e3:g} does not match the shaft at "
-                f"bearings.nodes[{i}] = {node} (diameter {journal * 1e3:g} mm)"
+                f"{section}.node must be one of bearings.nodes {list(bearing_nodes)}, got {node!r}"
             )
-    length = read_real(table, "bearings", "length_mm", "mm") / 1e3
-    grooves = read_grooves(table, radius, length)
+        if node in overrides:
+            raise InputError(
+                f"{section}.node = {node}: that bearing has an override already ({overrides[node][0]})"
+            )
+        unknown = sorted(set(entry) - {"node", *OVERRIDE_KEYS})
+        if unknown:
+            raise InputError(
+                f"{section}.{unknown[0]} cannot differ between bearings: an override gives only node and "
+                f"{', '.join(OVERRIDE_KEYS)}"
+            )
+        overrides[node] = section, {key: value for key, value in entry.items() if key != "node"}
+    return overrides
+
+
+def _read_geometry(
+    table: Mapping[str, Any], override: Mapping[str, Any], section: str, viscosity: float
+) -> JournalBearing:
+    """The geometry of ``[bearings]`` (section "bearings") with the keys of ``override`` (section ``section``)
+    in place of the table's; an override that gives grooves replaces the table's grooves whole."""
+
+    def source(key: str) -> tuple[Mapping[str, Any], str]:
+        return (override, section) if key in override else (table, "bearings")
+
+    def real(key: str, unit: str, **bounds) -> float:
+        where, name = source(key)
+        return read_real(where, name, key, unit, **bounds)
+
+    radius = real("radius_mm", "mm") / 1e3
+    clearance = real("radial_clearance_um", "um") / 1e6
+    if clearance >= radius:
+        raise InputError(
+            f"{source('radial_clearance_um')[1]}.radial_clearance_um must be smaller than "
+            f"{source('radius_mm')[1]}.radius_mm ({radius * 1e3:g} mm), got {clearance * 1e6:g} um"
+        )
+    length = real("length_mm", "mm") / 1e3
+    length_name = f"{source('length_mm')[1]}.length_mm"
+    gives_grooves = any(key in override for key in (*GROOVE_KEYS, "grooves"))
+    grooves = read_grooves(*((override, section) if gives_grooves else (table, "bearings")), radius, length,
+                           length_name)  # fmt: skip
     band = 0.0
-    if "circumferential_groove_axial_mm" in table:
-        band = read_real(table, "bearings", "circumferential_groove_axial_mm", "mm", high=length * 1e3) / 1e3
-    bearing = JournalBearing(
+    if "circumferential_groove_axial_mm" in override or "circumferential_groove_axial_mm" in table:
+        band_mm = real("circumferential_groove_axial_mm", "mm", high=length * 1e3)
+        band = band_mm / 1e3
+    return JournalBearing(
         radius_m=radius,
         length_m=length,
         clearance_m=clearance,
-        viscosity_pa_s=_bearing_viscosity(data, table),
+        viscosity_pa_s=viscosity,
         groove_angle_rad=grooves[0].angle_rad,
         groove_circumferential_m=grooves[0].circumferential_m,
         groove_axial_m=grooves[0].axial_m,
         more_grooves=grooves[1:],
         circumferential_groove_m=band,
     )
-    return bearing_nodes, bearing, load_split
+
+
+def _check_journal(
+    bearing: JournalBearing, diameters: np.ndarray, node: int, index: int, section: str
+) -> None:
+    """InputError unless the bearing's radius is the shaft's at its node (within 1 %)."""
+    radius = bearing.radius_m
+    adjacent = [diameters[k - 1] for k in (node - 1, node) if 1 <= k <= diameters.size]
+    if min(abs(d - 2.0 * radius) for d in adjacent) > 0.01 * 2.0 * radius:
+        journal = shaft_diameter_at_node(diameters, node)
+        raise InputError(
+            f"{section}.radius_mm = {radius * 1e3:g} does not match the shaft at "
+            f"bearings.nodes[{index}] = {node} (diameter {journal * 1e3:g} mm)"
+        )
 
 
 GROOVE_KEYS = ("groove_angle_deg", "groove_circumferential_mm", "groove_axial_mm")
@@ -162,41 +252,43 @@ GROOVE_KEYS = ("groove_angle_deg", "groove_circumferential_mm", "groove_axial_mm
 lists any number of axial grooves instead."""
 
 
-def read_grooves(table: Mapping[str, Any], radius: float, length: float) -> tuple[AxialGroove, ...]:
-    """The axial grooves of ``[bearings]``: the one-groove keys or the ``[[bearings.grooves]]`` array."""
+def read_grooves(
+    table: Mapping[str, Any], section: str, radius: float, length: float, length_name: str
+) -> tuple[AxialGroove, ...]:
+    """The axial grooves of ``table`` (``[bearings]`` or an override, named ``section``): the one-groove keys
+    or the ``[[<section>.grooves]]`` array; ``length_name`` names the key the bearing length came from."""
     one = [key for key in GROOVE_KEYS if key in table]
     if "grooves" in table and one:
         raise InputError(
-            f"give the grooves once: [[bearings.grooves]] or bearings.{', '.join(one)}, not both"
+            f"give the grooves once: [[{section}.grooves]] or {section}.{', '.join(one)}, not both"
         )
     if "grooves" not in table:
         entries, keys = [table], GROOVE_KEYS
-        sections = ["bearings"]
+        sections = [section]
     else:
         entries, keys = table["grooves"], ("angle_deg", "circumferential_mm", "axial_mm")
         if not isinstance(entries, list) or not entries:
-            raise InputError("[[bearings.grooves]] must be a non-empty array of tables")
-        sections = [f"bearings.grooves[{i}]" for i in range(len(entries))]
+            raise InputError(f"[[{section}.grooves]] must be a non-empty array of tables")
+        sections = [f"{section}.grooves[{i}]" for i in range(len(entries))]
     grooves = []
-    for section, entry in zip(sections, entries, strict=True):
+    for where, entry in zip(sections, entries, strict=True):
         if not isinstance(entry, Mapping):
-            raise InputError(f"{section} must be a table")
+            raise InputError(f"{where} must be a table")
         angle, circumferential, axial = keys
-        groove_axial = read_real(entry, section, axial, "mm") / 1e3
+        groove_axial = read_real(entry, where, axial, "mm") / 1e3
         if groove_axial > length:
             raise InputError(
-                f"{section}.{axial} must be <= bearings.length_mm ({length * 1e3:g}), "
-                f"got {groove_axial * 1e3:g}"
+                f"{where}.{axial} must be <= {length_name} ({length * 1e3:g}), got {groove_axial * 1e3:g}"
             )
-        groove_circ = read_real(entry, section, circumferential, "mm") / 1e3
+        groove_circ = read_real(entry, where, circumferential, "mm") / 1e3
         if groove_circ > math.pi * radius:
             raise InputError(
-                f"{section}.{circumferential} must be <= pi R ({math.pi * radius * 1e3:g}), "
+                f"{where}.{circumferential} must be <= pi R ({math.pi * radius * 1e3:g}), "
                 f"got {groove_circ * 1e3:g}"
             )
         grooves.append(
             AxialGroove(
-                math.radians(read_real(entry, section, angle, "deg", low=None)), groove_circ, groove_axial
+                math.radians(read_real(entry, where, angle, "deg", low=None)), groove_circ, groove_axial
             )
         )
     return tuple(grooves)

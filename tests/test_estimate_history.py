@@ -63,7 +63,7 @@ def test_a_trailing_bin_of_one_sample_is_averaged_into_the_whole_bin_before_it()
 def test_the_trend_of_a_long_record_stays_within_its_cap():
     columns = ["time_s", "q1", "q2", "s1", "s2", "starved1", "starved2", "nis", "n", "converged", "ok"]
     columns += ["x1_um", "y1_um", "x2_um", "y2_um", "speed_hz", "oil_temperature_c"]
-    history = History(1e-3, 75.0, 1e-4)
+    history = History(1e-3, 75.0, (1e-4, 1e-4))
     block_rows = 8192
     total = 600 * 1000  # 10 min at 1 kHz: 60 000 trend bins of 10 ms before the cap
     for start in range(0, total, block_rows):

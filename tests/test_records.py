@@ -25,10 +25,12 @@ def test_api670_gap_voltages_give_the_shaft_position_and_cold_rest_is_the_bottom
     ]
     setup = probe_setup({}, items)
     assert [p.angle_deg for p in setup.probes] == [45.0, 135.0, 45.0, 135.0]
-    converter = PositionConverter(setup, CLEARANCE_M)
-    # at cold rest every probe reads its rest gap: the journal at (0, -c)
+    converter = PositionConverter(setup, (CLEARANCE_M, CLEARANCE_M))
+    # at cold rest every probe reads its rest gap: the journal at (0, -c), each bearing's own c
     at_rest = converter.positions_m(np.full((1, 4), -10.0))
     np.testing.assert_allclose(at_rest[0], [0.0, -CLEARANCE_M, 0.0, -CLEARANCE_M], atol=1e-12)
+    wider = PositionConverter(setup, (CLEARANCE_M, 1.5 * CLEARANCE_M)).positions_m(np.full((1, 4), -10.0))
+    np.testing.assert_allclose(wider[0], [0.0, -CLEARANCE_M, 0.0, -1.5 * CLEARANCE_M], atol=1e-12)
     # the shaft 20 um up and 10 um right of the bearing centre: each probe sees its projection; moving
     # towards a probe shrinks its gap, so its (negative) voltage rises by 7.87 V/mm
     x, y = 10e-6, 20e-6
@@ -44,9 +46,11 @@ def test_api670_gap_voltages_give_the_shaft_position_and_cold_rest_is_the_bottom
 
 def test_a_missing_reading_blanks_only_the_coordinates_it_enters():
     readings = np.array([[1.0, 2.0, 3.0, np.nan]])
-    along_axes = PositionConverter(probe_setup(), CLEARANCE_M).positions_m(readings)
+    along_axes = PositionConverter(probe_setup(), (CLEARANCE_M, CLEARANCE_M)).positions_m(readings)
     np.testing.assert_array_equal(np.isnan(along_axes[0]), [False, False, False, True])
-    inclined = PositionConverter(probe_setup({"layout": "api670"}), CLEARANCE_M).positions_m(readings)
+    inclined = PositionConverter(probe_setup({"layout": "api670"}), (CLEARANCE_M, CLEARANCE_M)).positions_m(
+        readings
+    )
     np.testing.assert_array_equal(np.isnan(inclined[0]), [False, False, True, True])
 
 
@@ -57,13 +61,13 @@ def test_square_probe_pairs_at_one_angle_feed_the_estimator_along_their_axes_as_
     samples); any other mounting gives (x, y) positions."""
     from oilwatch.estimator.measurement import probe_rotation
 
-    api670 = PositionConverter(probe_setup({"layout": "api670"}), CLEARANCE_M)
+    api670 = PositionConverter(probe_setup({"layout": "api670"}), (CLEARANCE_M, CLEARANCE_M))
     assert api670.pair_angle_deg == 45.0
-    assert PositionConverter(probe_setup(), CLEARANCE_M).pair_angle_deg == 0.0
+    assert PositionConverter(probe_setup(), (CLEARANCE_M, CLEARANCE_M)).pair_angle_deg == 0.0
     odd = probe_setup({}, ["x1.angle_deg=30", "y1.angle_deg=120", "x2.angle_deg=45", "y2.angle_deg=135"])
-    assert PositionConverter(odd, CLEARANCE_M).pair_angle_deg is None
+    assert PositionConverter(odd, (CLEARANCE_M, CLEARANCE_M)).pair_angle_deg is None
     not_square = probe_setup({}, ["y1.angle_deg=100"])
-    assert PositionConverter(not_square, CLEARANCE_M).pair_angle_deg is None
+    assert PositionConverter(not_square, (CLEARANCE_M, CLEARANCE_M)).pair_angle_deg is None
     positions = np.array([[10e-6, 20e-6, -5e-6, 7e-6]])
     along = api670.along_axis_m(api670.readings(positions))
     np.testing.assert_allclose(along, positions @ probe_rotation(math.radians(45.0)).T, atol=1e-15)
@@ -241,7 +245,7 @@ def test_a_missing_record_file_or_an_output_that_is_a_file_is_one_line(tmp_path,
 def test_a_gap_is_bridged_with_missing_samples_and_reported(tmp_path):
     rows = _good_rows(300)
     path = _csv(tmp_path, rows[:100] + rows[140:])
-    stream = RecordStream(str(path), probe_setup(), CLEARANCE_M, 1e-3, 75.0, chunk_rows=64)
+    stream = RecordStream(str(path), probe_setup(), (CLEARANCE_M, CLEARANCE_M), 1e-3, 75.0, chunk_rows=64)
     blocks = list(stream.blocks())
     k = np.concatenate([b.k for b in blocks])
     position = np.vstack([b.position_m for b in blocks])
@@ -266,16 +270,18 @@ def test_parquet_and_tdms_readers_give_the_csv_reader_s_samples(tmp_path):
         path = write_record(
             tmp_path / f"r.{suffix}", columns, units={n: "um" for n in columns if n != "time_s"}
         )
-        stream = RecordStream(str(path), probe_setup(), CLEARANCE_M, 1e-3, 75.0, chunk_rows=1000)
+        stream = RecordStream(
+            str(path), probe_setup(), (CLEARANCE_M, CLEARANCE_M), 1e-3, 75.0, chunk_rows=1000
+        )
         results[suffix] = np.vstack([b.position_m for b in stream.blocks()])
         assert stream.rows == 3000
     np.testing.assert_array_equal(results["tdms"], results["parquet"])  # both binary doubles
     np.testing.assert_allclose(results["csv"], results["parquet"], rtol=1e-8, atol=0)  # 9 digits of text
     wrong = write_record(tmp_path / "v.tdms", columns, units={"x1_um": "V"})
     with pytest.raises(InputError, match=re.escape("column 'x1_um' is in 'V' but probes.x1.unit is 'um'")):
-        RecordStream(str(wrong), probe_setup(), CLEARANCE_M, 1e-3, 75.0)
+        RecordStream(str(wrong), probe_setup(), (CLEARANCE_M, CLEARANCE_M), 1e-3, 75.0)
     with pytest.raises(InputError, match=re.escape("unknown record format '.xlsx'")):
-        RecordStream(str(tmp_path / "r.xlsx"), probe_setup(), CLEARANCE_M, 1e-3, 75.0)
+        RecordStream(str(tmp_path / "r.xlsx"), probe_setup(), (CLEARANCE_M, CLEARANCE_M), 1e-3, 75.0)
 
 
 def test_further_fields_of_the_estimator_s_step_report_become_estimate_columns_in_field_units():

@@ -15,6 +15,7 @@ from oilwatch.models.system.measurement import MeasurementChain, ProbeErrors
 from oilwatch.models.validation import InputError
 from oilwatch.robustness.slow_roll import slow_roll_record
 
+CLEARANCES_M = (120e-6, 120e-6)
 ONCE_UM = (2.0, 1.5, 0.7, 2.4)
 ONCE_PHASE_RAD = (0.3, -2.0, 1.1, 2.9)
 TWICE_UM = (1.0, 0.4, 1.2, 0.8)
@@ -45,7 +46,7 @@ def _truth(sensitivity: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
 
 def test_the_slow_roll_fit_recovers_the_chains_runout_within_its_std():
     sensitivity = 0.04  # the probe reads its runout mis-scaled too: the vectors are what it reads
-    times, signals, theta = slow_roll_record(_chain(1.0, sensitivity), 120e-6, 75.0, 20.0, 1e-3, seed=3)
+    times, signals, theta = slow_roll_record(_chain(1.0, sensitivity), CLEARANCES_M, 75.0, 20.0, 1e-3, seed=3)
     vectors = fit_slow_roll(times, signals, theta)
     once, twice = _truth(sensitivity)
     # the std of each component of a least-squares sinusoid fit: sigma sqrt(2 / N) (N samples)
@@ -79,7 +80,7 @@ def test_compensation_removes_the_runout_at_each_samples_rotor_angle():
 
 
 def test_oilwatch_baseline_stores_the_slow_roll_vectors_and_names_a_bad_record(tmp_path, capsys):
-    times, signals, theta = slow_roll_record(_chain(1.0), 120e-6, 75.0, 10.0, 1e-3, seed=5)
+    times, signals, theta = slow_roll_record(_chain(1.0), CLEARANCES_M, 75.0, 10.0, 1e-3, seed=5)
     path = tmp_path / "slow_roll.csv"
     table = np.column_stack([times, signals * 1e6, np.degrees(theta) % 360.0])
     np.savetxt(

@@ -31,8 +31,10 @@ import copy
 import dataclasses
 import json
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -201,23 +203,9 @@ class OperatingTable:
 
     def check_geometry(self, bearing: JournalBearing) -> None:
         """Raise :class:`InputError` unless ``bearing`` has the table's geometry (viscosity may differ)."""
-        for key in GEOMETRY_KEYS:
-            have, want = float(getattr(bearing, key)), self.geometry[key]
-            if not math.isclose(have, want, rel_tol=1e-9, abs_tol=1e-15):
-                raise InputError(
-                    f"the dimensionless bearing table was computed for {key} = {want:g}, "
-                    f"the bearing has {have:g}"
-                )
-        want = groove_layout(self.geometry)
-        have = groove_layout(dataclasses.asdict(bearing))
-        same = want.keys() == have.keys() and all(
-            np.allclose(want[k], have[k], rtol=1e-9, atol=1e-15) for k in want
-        )
-        if not same:
-            raise InputError(
-                "the dimensionless bearing table was computed for the grooves "
-                f"{want or 'of a one-groove bearing'}, the bearing has {have or 'one groove'}"
-            )
+        mismatch = geometry_mismatch(self.geometry, bearing)
+        if mismatch is not None:
+            raise InputError(f"the dimensionless bearing table was computed for {mismatch}")
 
     def _sommerfeld_coordinate(self, sommerfeld: float, where: str) -> float:
         low, high = self.sommerfeld_range
@@ -414,6 +402,24 @@ class OperatingTable:
         )
 
 
+def geometry_mismatch(stored: Mapping[str, Any], bearing: JournalBearing) -> str | None:
+    """How the geometry ``stored`` with a table (a :class:`JournalBearing` as a dict) differs from
+    ``bearing``'s, as "<what the table has>, the bearing has <what>" (None: the same geometry; the viscosity
+    is not geometry)."""
+    for key in GEOMETRY_KEYS:
+        have, want = float(getattr(bearing, key)), float(stored[key])
+        if not math.isclose(have, want, rel_tol=1e-9, abs_tol=1e-15):
+            return f"{key} = {want:g}, the bearing has {have:g}"
+    want = groove_layout(stored)
+    have = groove_layout(dataclasses.asdict(bearing))
+    same = want.keys() == have.keys() and all(
+        np.allclose(want[k], have[k], rtol=1e-9, atol=1e-15) for k in want
+    )
+    if not same:
+        return f"the grooves {want or 'of a one-groove bearing'}, the bearing has {have or 'one groove'}"
+    return None
+
+
 def groove_layout(geometry: dict) -> dict:
     """The grooves beyond the first of a bearing's geometry (a :class:`JournalBearing` as a dict), as stored
     in a table's geometry: empty for the one-groove bearing, so that its tables keep their form."""
@@ -441,11 +447,20 @@ def _attitude_deg(e: np.ndarray) -> float:
     return (angle + 180.0) % 360.0 - 180.0
 
 
-def operating_table_name(machine_file: str | Path, coefficients: str = QUASI_STATIC) -> str:
-    """``<stem>_bearing_dimensionless[_synchronous].json``: the file name follows the coefficient kind."""
-    return f"{Path(machine_file).stem}_bearing_dimensionless{file_suffix(coefficients)}.json"
+def operating_table_name(
+    machine_file: str | Path, coefficients: str = QUASI_STATIC, bearing: int | None = None
+) -> str:
+    """``<stem>_bearing_dimensionless[_synchronous].json``: the file name follows the coefficient kind; a
+    machine whose bearings differ has one table per geometry, ``<stem>_bearing<N>_dimensionless...``, named
+    after ``bearing`` N, the first bearing (from 1) of that geometry
+    (:func:`oilwatch.models.system.factory.geometry_number`)."""
+    number = "" if bearing is None else str(bearing)
+    return f"{Path(machine_file).stem}_bearing{number}_dimensionless{file_suffix(coefficients)}.json"
 
 
-def operating_table_path(machine_file: str | Path, coefficients: str = QUASI_STATIC) -> Path:
-    """Where a machine's dimensionless table of that coefficient kind lives: ``tables/`` beside the file."""
-    return Path(machine_file).parent / "tables" / operating_table_name(machine_file, coefficients)
+def operating_table_path(
+    machine_file: str | Path, coefficients: str = QUASI_STATIC, bearing: int | None = None
+) -> Path:
+    """Where a machine's dimensionless table of that coefficient kind (and of bearing N's geometry,
+    :func:`operating_table_name`) lives: ``tables/`` beside the file."""
+    return Path(machine_file).parent / "tables" / operating_table_name(machine_file, coefficients, bearing)

@@ -1,9 +1,10 @@
 """Each bearing's radial clearance measured from a coast-down or run-up record of the machine.
 
 The machine-level side of :mod:`oilwatch.models.bearing.centreline`: the record's samples are averaged into
-centreline points (speed bins), each bearing's points are fitted with the flooded locus of the machine file's
-bearing at that bearing's static load and the nominal supply pressure, and the film viscosity at each point
-is the oil law's at the record's oil temperature (the machine's nominal supply temperature when it has none).
+centreline points (speed bins), each bearing's points are fitted with the flooded locus of its geometry in
+the machine file at that bearing's static load and the nominal supply pressure, and the film viscosity at
+each point is the oil law's at the record's oil temperature (the machine's nominal supply temperature when
+it has none).
 The clearance factors feed the estimator's operating model
 (:func:`oilwatch.models.system.operating_model.build_operating_model`).
 """
@@ -89,7 +90,7 @@ def measure_clearances(
         speed, values, CENTRELINE_BIN_RATIO, 1 if one_per_speed else MIN_BIN_SAMPLES, weights
     )
     if machine.oil is None:
-        viscosity = np.full(speeds.size, machine.bearing.viscosity_pa_s)
+        viscosity = np.full(speeds.size, machine.bearings[0].viscosity_pa_s)  # one oil for every bearing
     else:
         viscosity = np.array([machine.oil.dynamic_viscosity_pa_s(t) for t in means[:, 4]])
     noise = noise_std_m / math.sqrt(float(np.median(counts)))
@@ -99,13 +100,14 @@ def measure_clearances(
     fits = []
     for b, (load, locus) in enumerate(zip(loads, loci, strict=True)):
         points = means[:, 2 * b : 2 * b + 2]
-        fit = fit_clearance(locus, machine.bearing, load, speeds, viscosity, points, noise)
+        bearing = machine.bearings[b]
+        fit = fit_clearance(locus, bearing, load, speeds, viscosity, points, noise)
         if probe_scale_factor_std > 0.0:
             slopes = []
             for axis in axes:
                 # the probe reads 1 + delta times its signal: the points stretch along its axis
                 stretched = points + SCALE_STEP * np.outer(points @ axis, axis)
-                moved = fit_clearance(locus, machine.bearing, load, speeds, viscosity, stretched, noise)
+                moved = fit_clearance(locus, bearing, load, speeds, viscosity, stretched, noise)
                 slopes.append((moved.clearance_factor - fit.clearance_factor) / SCALE_STEP)
             considered = probe_scale_factor_std * math.hypot(*slopes)
             fit = dataclasses.replace(
@@ -126,12 +128,15 @@ def machine_loci(machine: Machine) -> list[FloodedLocus]:
             "measuring the clearance needs the machine file's [lubrication] nominal_supply_pressure_bar "
             "(the flooded locus is that of the groove's pressure)"
         )
-    path = locus_table_path(machine)
-    stored = load_loci(path) if path.exists() else []
+    loads = Rotor.from_machine(machine).bearing_static_loads_n
+    stored: dict = {}  # the locus file of each bearing geometry (one file when the bearings are alike)
     loci = []
-    for load in Rotor.from_machine(machine).bearing_static_loads_n:
-        found = [locus for locus in stored if locus.matches(machine.bearing, load, pressure)]
-        loci.append(found[0] if found else flooded_locus(machine.bearing, load, pressure))
+    for index, (bearing, load) in enumerate(zip(machine.bearings, loads, strict=True)):
+        path = locus_table_path(machine, index)
+        if path not in stored:
+            stored[path] = load_loci(path) if path.exists() else []
+        found = [locus for locus in stored[path] if locus.matches(bearing, load, pressure)]
+        loci.append(found[0] if found else flooded_locus(bearing, load, pressure))
     return loci
 
 

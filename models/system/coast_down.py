@@ -25,7 +25,7 @@ from ..bearing.supply import SupplyPressure
 from ..machine import Machine
 from ..validation import InputError, require_in_range
 from .measurement import MeasurementChain
-from .structure import PlantStructure, structural_rotor
+from .structure import PlantStructure, structural_bearing, structural_rotor
 
 NODES = 24
 """Speeds at which the plant's centreline is solved, uniform in ln N (a step of about 16 % from 3 %)."""
@@ -48,23 +48,20 @@ def coast_down_centreline(
     if not math.isfinite(pressure):
         raise InputError("a coast-down needs the machine file's nominal_supply_pressure_bar")
     viscosity = (
-        machine.bearing.viscosity_pa_s
+        machine.bearings[0].viscosity_pa_s  # one oil: every bearing's nominal viscosity
         if machine.oil is None
         else machine.oil.dynamic_viscosity_pa_s(oil_temperature_c)
-    )
-    bearing = dataclasses.replace(
-        machine.bearing,
-        clearance_m=machine.bearing.clearance_m * structure.clearance_factor,
-        length_m=machine.bearing.length_m * structure.length_factor,
-        viscosity_pa_s=viscosity,
     )
     speeds = np.asarray(speeds_hz, dtype=float)
     loads = structural_rotor(machine, structure).bearing_static_loads_n
     positions = np.empty((speeds.size, 2 * len(loads)))
     order = np.argsort(speeds)[::-1]  # from speed down: each solve starts from the last one's position
-    solved: dict[float, np.ndarray] = {}  # equal loads (the file's equal split) share their solves
+    solved: dict[tuple, np.ndarray] = {}  # bearings of one geometry and load (the equal split) share solves
     for b, load in enumerate(loads):
-        key = round(float(load), 6)
+        bearing = dataclasses.replace(
+            structural_bearing(machine.bearings[b], structure), viscosity_pa_s=viscosity
+        )
+        key = (bearing, round(float(load), 6))
         if key not in solved:
             column, guess = np.empty((speeds.size, 2)), None
             for k in order:

@@ -9,6 +9,13 @@ dynamic_coefficients``: K, C at whirl frequency = spin speed by default, no suff
 (``turbine_bearing_75hz.json``, read-only package data); new tables for them are written to the user cache,
 ``$OILWATCH_CACHE/tables/`` (default ``~/.cache/oilwatch/tables/``), never into the installed package, and
 read from there too. A missing table's error names the one command that makes it (with ``--machine``).
+
+A machine whose bearings differ (``[[bearings.override]]``) has one table of each kind per distinct
+bearing geometry, named after the first bearing N (from 1, in ``bearings.nodes`` order) of that geometry
+(:func:`geometry_number`): ``<stem>_bearing<N>_<speed>hz[_synchronous].json``,
+``<stem>_bearing<N>_locus.json``, ``<stem>_bearing<N>_speed_sweep.json`` and
+``<stem>_bearing<N>_dimensionless[_synchronous].json``; the commands that make them take ``--bearing N``.
+A machine whose bearings are alike keeps the names above, one table for every bearing.
 """
 
 from __future__ import annotations
@@ -19,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from ..bearing.coefficient_kinds import QUASI_STATIC, file_suffix, table_kind
+from ..bearing.operating_table import geometry_mismatch
 from ..bearing.table import CoefficientTable
 from ..cache import user_cache_dir
 from ..machine import Machine, bundled_name, is_default_machine, load_machine
@@ -65,39 +73,68 @@ def new_table_path(machine: Machine, name: str) -> Path:
     return table_folders(machine)[-1] / name
 
 
-def flowrate_table_name(machine: Machine, speed_hz: float, coefficients: str | None = None) -> str:
+def geometry_number(machine: Machine, bearing_index: int = 0) -> int | None:
+    """The number N in the names of the tables of bearing ``bearing_index`` (from 0): the first bearing
+    (from 1) of its geometry when the machine's bearings differ, None (names without a number) when they are
+    alike (module docstring)."""
+    return machine.geometry_bearing(bearing_index) if machine.bearings_differ else None
+
+
+def _bearing_infix(machine: Machine, bearing_index: int) -> str:
+    number = geometry_number(machine, bearing_index)
+    return "" if number is None else str(number)
+
+
+def flowrate_table_name(
+    machine: Machine, speed_hz: float, coefficients: str | None = None, bearing_index: int = 0
+) -> str:
     """File name of the machine's flowrate table at ``speed_hz`` holding ``coefficients`` (a kind of
-    :mod:`oilwatch.models.bearing.coefficient_kinds`; None: the machine file's ``dynamic_coefficients``)."""
+    :mod:`oilwatch.models.bearing.coefficient_kinds`; None: the machine file's ``dynamic_coefficients``) for
+    bearing ``bearing_index`` (from 0; its geometry's table when the bearings differ)."""
     kind = machine.dynamic_coefficients if coefficients is None else coefficients
-    return f"{machine.source_path.stem}_bearing_{speed_hz:g}hz{file_suffix(kind)}.json"
+    infix = _bearing_infix(machine, bearing_index)
+    return f"{machine.source_path.stem}_bearing{infix}_{speed_hz:g}hz{file_suffix(kind)}.json"
 
 
-def flowrate_table_path(machine: Machine, speed_hz: float, coefficients: str | None = None) -> Path:
+def flowrate_table_path(
+    machine: Machine, speed_hz: float, coefficients: str | None = None, bearing_index: int = 0
+) -> Path:
     """Path of the machine's flowrate coefficient table at ``speed_hz`` (of ``coefficients``, None: the
-    machine's kind): the existing one, else where ``oilwatch bearing-table`` writes it (module docstring)."""
-    return _table_path(machine, flowrate_table_name(machine, speed_hz, coefficients))
+    machine's kind) for bearing ``bearing_index``: the existing one, else where ``oilwatch bearing-table``
+    writes it (module docstring)."""
+    return _table_path(machine, flowrate_table_name(machine, speed_hz, coefficients, bearing_index))
 
 
-def locus_table_name(machine: Machine) -> str:
-    """File name of the machine's flooded loci (``oilwatch bearing-locus``)."""
-    return f"{machine.source_path.stem}_bearing_locus.json"
+def flowrate_tables_exist(machine: Machine, speed_hz: float, coefficients: str | None = None) -> bool:
+    """Whether the machine's flowrate tables at ``speed_hz`` of ``coefficients`` exist for every bearing."""
+    return all(
+        flowrate_table_path(machine, speed_hz, coefficients, i).exists() for i in machine.distinct_geometries
+    )
 
 
-def locus_table_path(machine: Machine) -> Path:
-    """Path of the machine's flooded loci: the existing one, else where a computed one is kept."""
-    return _table_path(machine, locus_table_name(machine))
+def locus_table_name(machine: Machine, bearing_index: int = 0) -> str:
+    """File name of the machine's flooded loci (``oilwatch bearing-locus``) of bearing ``bearing_index``."""
+    return f"{machine.source_path.stem}_bearing{_bearing_infix(machine, bearing_index)}_locus.json"
 
 
-def speed_sweep_path(machine: Machine, squeeze: str = "full-film") -> Path:
-    """Path of the machine's speed sweep (a suffix names a non-default squeeze model): the existing one, else
-    where ``oilwatch speed-sweep`` writes it."""
-    return _table_path(machine, speed_sweep_name(machine, squeeze))
+def locus_table_path(machine: Machine, bearing_index: int = 0) -> Path:
+    """Path of the machine's flooded loci of bearing ``bearing_index``: the existing one, else where a
+    computed one is kept."""
+    return _table_path(machine, locus_table_name(machine, bearing_index))
 
 
-def speed_sweep_name(machine: Machine, squeeze: str = "full-film") -> str:
-    """File name of the machine's speed sweep."""
+def speed_sweep_path(machine: Machine, squeeze: str = "full-film", bearing_index: int = 0) -> Path:
+    """Path of the machine's speed sweep (a suffix names a non-default squeeze model) of bearing
+    ``bearing_index``: the existing one, else where ``oilwatch speed-sweep`` writes it."""
+    return _table_path(machine, speed_sweep_name(machine, squeeze, bearing_index))
+
+
+def speed_sweep_name(machine: Machine, squeeze: str = "full-film", bearing_index: int = 0) -> str:
+    """File name of the machine's speed sweep of bearing ``bearing_index``."""
     suffix = "" if squeeze == "full-film" else f"_squeeze_{squeeze}"
-    return f"{machine.source_path.stem}_speed_sweep{suffix}.json"
+    number = geometry_number(machine, bearing_index)
+    bearing = "" if number is None else f"_bearing{number}"
+    return f"{machine.source_path.stem}{bearing}_speed_sweep{suffix}.json"
 
 
 def machine_arguments(machine: Machine) -> list[str]:
@@ -108,17 +145,33 @@ def machine_arguments(machine: Machine) -> list[str]:
     return ["--machine", bundled_name(machine.source_path) or str(machine.source_path)]
 
 
-def table_command(machine: Machine, speed_hz: float, coefficients: str | None = None) -> str:
-    """The command that computes the machine's flowrate table at ``speed_hz`` (of ``coefficients``)."""
+def bearing_arguments(machine: Machine, bearing_index: int = 0) -> list[str]:
+    """The ``--bearing N`` option of a command that makes one table of bearing ``bearing_index``: N its
+    geometry's number (:func:`geometry_number`), nothing when the machine's bearings are alike."""
+    number = geometry_number(machine, bearing_index)
+    return [] if number is None else ["--bearing", str(number)]
+
+
+def table_command(
+    machine: Machine, speed_hz: float, coefficients: str | None = None, bearing_index: int | None = 0
+) -> str:
+    """The command that computes the machine's flowrate table at ``speed_hz`` (of ``coefficients``) for
+    bearing ``bearing_index`` (None: the tables of every bearing)."""
     speed = ["--speed-hz", f"{speed_hz:g}"]
     kind = [] if coefficients in (None, machine.dynamic_coefficients) else ["--coefficients", coefficients]
-    return shlex.join(["oilwatch", "bearing-table", *machine_arguments(machine), *speed, *kind])
+    bearing = [] if bearing_index is None else bearing_arguments(machine, bearing_index)
+    return shlex.join(["oilwatch", "bearing-table", *machine_arguments(machine), *speed, *kind, *bearing])
 
 
-def sweep_command(machine: Machine, squeeze: str = "full-film") -> str:
-    """The command that computes the machine's speed sweep."""
+def sweep_command(machine: Machine, squeeze: str = "full-film", bearing_index: int = 0) -> str:
+    """The command that computes the machine's speed sweep of bearing ``bearing_index``."""
     squeezing = [] if squeeze == "full-film" else ["--squeeze", squeeze]
-    return shlex.join(["oilwatch", "speed-sweep", *machine_arguments(machine), *squeezing])
+    bearing = bearing_arguments(machine, bearing_index)
+    return shlex.join(["oilwatch", "speed-sweep", *machine_arguments(machine), *squeezing, *bearing])
+
+
+def _bearing_name(machine: Machine, bearing_index: int) -> str:
+    return f"bearing {bearing_index + 1} (node {machine.bearing_nodes[bearing_index]})"
 
 
 def load_tables(
@@ -127,52 +180,86 @@ def load_tables(
     speed_hz: float,
     path: str | Path | None = None,
     coefficients: str | None = None,
-):
-    """One coefficient table per bearing at ``speed_hz``, checked against each bearing's static load.
+) -> list[CoefficientTable]:
+    """One coefficient table per bearing at ``speed_hz`` (its geometry's, :func:`flowrate_table_name`),
+    checked against each bearing's static load and against its geometry where the table stores one.
 
     ``coefficients``: the kind of K, C (None: the machine file's ``dynamic_coefficients``); a table found
-    at the default path must hold that kind (an explicit ``path`` is taken as it is).
+    at the default path must hold that kind (an explicit ``path``, one table for every bearing, is taken
+    as it is).
     """
     kind = machine.dynamic_coefficients if coefficients is None else coefficients
-    table_path = Path(path) if path is not None else flowrate_table_path(machine, speed_hz, kind)
-    if not table_path.exists():
-        raise InputError(
-            f"speed_hz = {speed_hz:g} Hz: no coefficient table at {table_path}; compute it with "
-            f"`{table_command(machine, speed_hz, kind)}`"
-        )
-    table = CoefficientTable.load(table_path)
-    if path is None and table_kind(table.metadata) != kind:
-        raise InputError(
-            f"coefficient table {table_path} holds {table_kind(table.metadata)} coefficients, the machine "
-            f"file asks for {kind} (bearings.dynamic_coefficients): recompute it with "
-            f"`{table_command(machine, speed_hz, kind)}`"
-        )
-    for node, load in zip(rotor.bearing_nodes, rotor.bearing_static_loads_n, strict=True):
+    loaded: dict[Path, CoefficientTable] = {}
+    tables = []
+    for index, load in enumerate(rotor.bearing_static_loads_n):
+        table_path = Path(path) if path is not None else flowrate_table_path(machine, speed_hz, kind, index)
+        command = table_command(machine, speed_hz, kind, index)
+        if table_path not in loaded:
+            loaded[table_path] = _load_table(table_path, speed_hz, kind, command, check_kind=path is None)
+        table = loaded[table_path]
+        who = _bearing_name(machine, index)
         if not np.isclose(table.load_n, load, rtol=LOAD_RTOL):
             raise InputError(
-                f"coefficient table {table_path} was computed for a load of {table.load_n:.1f} N, but the "
-                f"bearing at node {node} carries {load:.1f} N: compute a table for that load"
+                f"coefficient table {table_path} was computed for a load of {table.load_n:.1f} N, but "
+                f"{who} carries {load:.1f} N: compute a table for that load"
             )
-    return [table] * len(rotor.bearing_nodes)
+        stored = table.metadata.get("bearing")  # a table made by hand may not say
+        mismatch = None if stored is None else geometry_mismatch(stored, machine.bearings[index])
+        if mismatch is not None:
+            raise InputError(
+                f"coefficient table {table_path} was computed for {mismatch} ({who}): recompute it with "
+                f"`{command}`"
+            )
+        tables.append(table)
+    return tables
+
+
+def _load_table(table_path: Path, speed_hz: float, kind: str, command: str, check_kind: bool):
+    if not table_path.exists():
+        raise InputError(
+            f"speed_hz = {speed_hz:g} Hz: no coefficient table at {table_path}; compute it with `{command}`"
+        )
+    table = CoefficientTable.load(table_path)
+    if check_kind and table_kind(table.metadata) != kind:
+        raise InputError(
+            f"coefficient table {table_path} holds {table_kind(table.metadata)} coefficients, the machine "
+            f"file asks for {kind} (bearings.dynamic_coefficients): recompute it with `{command}`"
+        )
+    return table
 
 
 def load_speed_sweeps(
     machine: Machine, rotor: Rotor, path: str | Path | None = None, squeeze: str = "full-film"
 ) -> list[SpeedSweep]:
-    """One speed sweep per bearing (all bearings of a machine file share the geometry and the load)."""
-    sweep_path = Path(path) if path is not None else speed_sweep_path(machine, squeeze)
-    if not sweep_path.exists():
-        raise InputError(
-            f"no speed sweep at {sweep_path}; compute it with `{sweep_command(machine, squeeze)}` "
-            "(a few minutes)"
-        )
-    sweep = SpeedSweep.load(sweep_path)
-    for load in rotor.bearing_static_loads_n:
+    """One speed sweep per bearing (its geometry's, :func:`speed_sweep_name`; an explicit ``path`` is every
+    bearing's), checked against each bearing's static load and against its geometry where the sweep stores
+    one."""
+    loaded: dict[Path, SpeedSweep] = {}
+    sweeps = []
+    for index, load in enumerate(rotor.bearing_static_loads_n):
+        sweep_path = Path(path) if path is not None else speed_sweep_path(machine, squeeze, index)
+        if sweep_path not in loaded:
+            if not sweep_path.exists():
+                raise InputError(
+                    f"no speed sweep at {sweep_path}; compute it with "
+                    f"`{sweep_command(machine, squeeze, index)}` (a few minutes)"
+                )
+            loaded[sweep_path] = SpeedSweep.load(sweep_path)
+        sweep = loaded[sweep_path]
+        who = _bearing_name(machine, index)
         if not np.isclose(sweep.load_n, load, rtol=LOAD_RTOL):
             raise InputError(
-                f"speed sweep {sweep_path} was computed for {sweep.load_n:.1f} N, not {load:.1f} N"
+                f"speed sweep {sweep_path} was computed for {sweep.load_n:.1f} N, not {load:.1f} N ({who})"
             )
-    return [sweep] * len(rotor.bearing_nodes)
+        stored = sweep.provenance.get("bearing")  # the committed turbine sweeps do not hold it
+        mismatch = None if stored is None else geometry_mismatch(stored, machine.bearings[index])
+        if mismatch is not None:
+            raise InputError(
+                f"speed sweep {sweep_path} was computed for {mismatch} ({who}): recompute it with "
+                f"`{sweep_command(machine, squeeze, index)}`"
+            )
+        sweeps.append(sweep)
+    return sweeps
 
 
 def build_system(

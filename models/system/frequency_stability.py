@@ -48,15 +48,15 @@ class WhirlMode:
 def film_impedances(machine: Machine, rotor: Rotor, speed_hz: float, flowrate_m3_s: float, mesh: Mesh):
     """(impedances, quasi-static (K, C) per bearing) at each bearing's static equilibrium at ``speed_hz``."""
     supply = SupplyFlow(flowrate_m3_s)
-    cache: dict[float, tuple] = {}
+    cache: dict[tuple, tuple] = {}  # bearings of one geometry and load share their solve
     impedances, quasi_static = [], []
-    for load in rotor.bearing_static_loads_n:
-        key = round(float(load), 6)
+    for bearing, load in zip(machine.bearings, rotor.bearing_static_loads_n, strict=True):
+        key = (bearing, round(float(load), 6))
         if key not in cache:
-            eq = static_equilibrium(machine.bearing, load, speed_hz, supply, mesh)
+            eq = static_equilibrium(bearing, load, speed_hz, supply, mesh)
             cache[key] = (
                 FilmImpedance(eq.film, eq.eccentricity_m, speed_hz),
-                coefficients_at(machine.bearing, eq, speed_hz, supply, mesh),
+                coefficients_at(bearing, eq, speed_hz, supply, mesh),
             )
         impedances.append(cache[key][0])
         quasi_static.append(cache[key][1])

@@ -137,9 +137,9 @@ class NonlinearRotorBearing:
         self.mesh = mesh
         self.h = require_positive("dt_s", dt_s, "s")
         self.unbalance = bool(unbalance)
+        self.bearings = machine.bearings
         self.films = [
-            TransientFilm(machine.bearing, self.speed_hz, mesh, **(film_options or {}))
-            for _ in self.rotor.bearing_maps
+            TransientFilm(bearing, self.speed_hz, mesh, **(film_options or {})) for bearing in self.bearings
         ]
         self.tolerance = position_tolerance_m
         self.max_corrections = max_corrections
@@ -151,10 +151,10 @@ class NonlinearRotorBearing:
         )
         self.equilibria = []
         tangent = []
-        for load in self.rotor.static_loads_n:
+        for bearing, load in zip(self.bearings, self.rotor.static_loads_n, strict=True):
             supply = SupplyFlow(q_ref)
-            eq = static_equilibrium(machine.bearing, load, self.speed_hz, supply, mesh)
-            k, c = coefficients_at(machine.bearing, eq, self.speed_hz, supply, mesh)
+            eq = static_equilibrium(bearing, load, self.speed_hz, supply, mesh)
+            k, c = coefficients_at(bearing, eq, self.speed_hz, supply, mesh)
             self.equilibria.append(eq)
             tangent.append((k, c))
         self.film_coefficients = tangent
@@ -192,14 +192,16 @@ class NonlinearRotorBearing:
             positions = (self.selector @ coords).reshape(-1, 2)
             films = [
                 solve_film(
-                    self.machine.bearing,
+                    bearing,
                     self.speed_hz,
                     tuple(e),
                     SupplyFlow(q),
                     mesh=self.mesh,
                     warm_start=f if f is not None else eq.film,
                 )
-                for e, q, f, eq in zip(positions, flowrates_m3_s, films, self.equilibria, strict=True)
+                for bearing, e, q, f, eq in zip(
+                    self.bearings, positions, flowrates_m3_s, films, self.equilibria, strict=True
+                )
             ]
             force = np.concatenate([f.force_n for f in films])
             residual = r.gravity + self.selector.T @ force - r.stiffness @ coords
@@ -228,11 +230,9 @@ class NonlinearRotorBearing:
         positions = (p @ r).reshape(-1, 2)
         films = [
             tf.from_steady(
-                solve_film(self.machine.bearing, self.speed_hz, tuple(e), SupplyFlow(q), mesh=self.mesh),
-                e,
-                static.time_s,
+                solve_film(bearing, self.speed_hz, tuple(e), SupplyFlow(q), mesh=self.mesh), e, static.time_s
             )
-            for tf, e, q in zip(self.films, positions, flowrates_m3_s, strict=True)
+            for bearing, tf, e, q in zip(self.bearings, self.films, positions, flowrates_m3_s, strict=True)
         ]
         return NonlinearState(static.time_s, r, (1j * w * x).real, (-w * w * x).real, films)
 

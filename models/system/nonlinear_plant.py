@@ -77,7 +77,7 @@ class TransientFilmPlant:
             position_tolerance_m=PLANT_POSITION_TOLERANCE_M,
             film_options=PLANT_FILM_OPTIONS,
         )
-        self._clearance_m = np.full(2, machine.bearing.clearance_m)  # two identical bearings
+        self._clearance_m = np.array([bearing.clearance_m for bearing in machine.bearings])
         start.time_s = start_time_s
         self.state = start
         self.rng = np.random.default_rng(seed)

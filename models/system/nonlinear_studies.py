@@ -53,12 +53,12 @@ def linear_orbit(sim: NonlinearRotorBearing, coefficients) -> np.ndarray:
     return p @ np.linalg.solve(dynamic, rot.unbalance)
 
 
-def _film_models(machine: Machine, sim: NonlinearRotorBearing, positions, flowrate_m3_s: float) -> dict:
+def _film_models(sim: NonlinearRotorBearing, positions, flowrate_m3_s: float) -> dict:
     """(K, C) per bearing for each coefficient model, about the journals' nonlinear static positions."""
     supply = SupplyFlow(flowrate_m3_s)
     out = {name: [] for name in COEFFICIENT_MODELS}
-    for eq, e in zip(sim.equilibria, positions, strict=True):
-        film = solve_film(machine.bearing, sim.speed_hz, tuple(e), supply, mesh=sim.mesh, warm_start=eq.film)
+    for bearing, eq, e in zip(sim.bearings, sim.equilibria, positions, strict=True):
+        film = solve_film(bearing, sim.speed_hz, tuple(e), supply, mesh=sim.mesh, warm_start=eq.film)
         at = type(eq)(
             e,
             eq.eccentricity_ratio,
@@ -70,9 +70,9 @@ def _film_models(machine: Machine, sim: NonlinearRotorBearing, positions, flowra
             0,
             film,
         )
-        out["full-film"].append(coefficients_at(machine.bearing, at, sim.speed_hz, supply, sim.mesh))
+        out["full-film"].append(coefficients_at(bearing, at, sim.speed_hz, supply, sim.mesh))
         out["everywhere"].append(
-            coefficients_at(machine.bearing, at, sim.speed_hz, supply, sim.mesh, squeeze="everywhere")
+            coefficients_at(bearing, at, sim.speed_hz, supply, sim.mesh, squeeze="everywhere")
         )
         out["frequency-dependent"].append(FilmImpedance(film, e, sim.speed_hz).coefficients(sim.omega))
     return out
@@ -94,7 +94,7 @@ def orbit_setup(
     sim = NonlinearRotorBearing(machine, speed, mesh, h, reference_flowrate_m3_s=flowrate_m3_s, **options)
     flows = (flowrate_m3_s, flowrate_m3_s)
     static = sim.static_state(flows)
-    models = _film_models(machine, sim, (sim.selector @ static.r).reshape(-1, 2), flowrate_m3_s)
+    models = _film_models(sim, (sim.selector @ static.r).reshape(-1, 2), flowrate_m3_s)
     return sim, static, sim.orbit_start(static, models["frequency-dependent"], flows), models
 
 
@@ -271,7 +271,7 @@ def starvation_transient(
     flows = lambda t: (from_m3_s, from_m3_s) if t <= before_s + 1e-12 else (to_m3_s, to_m3_s)  # noqa: E731
     start = sim.orbit_start(
         state,
-        _film_models(machine, sim, (sim.selector @ state.r).reshape(-1, 2), from_m3_s)["frequency-dependent"],
+        _film_models(sim, (sim.selector @ state.r).reshape(-1, 2), from_m3_s)["frequency-dependent"],
         (from_m3_s, from_m3_s),
     )
     n = round((before_s + after_s) / sim.h)

@@ -45,7 +45,7 @@ from ..machine import Machine
 from ..oil import Oil
 from ..validation import InputError, require_in_range, require_positive
 from .augmented import GridAugmentedModel
-from .factory import machine_arguments
+from .factory import bearing_arguments, geometry_number, machine_arguments
 from .flowrate_grid import FlowrateGrid
 from .operating_correction import SECOND_ORDER_PAIRS, Recentring, fill_correction
 from .operating_kernels import (
@@ -66,7 +66,7 @@ from .operating_kernels import (
     operating_transition,
 )
 from .operating_maps import OperatingMaps
-from .operating_point import ConditionedTable, operating_table_of
+from .operating_point import ConditionedTable, operating_tables_of
 from .rotor_bearing import RotorBearingSystem
 
 NEVER = -(10**12)
@@ -417,22 +417,26 @@ def build_operating_model(
         raise InputError("a measured clearance needs the dimensionless reference table")
     synchronous_kind = machine.dynamic_coefficients != QUASI_STATIC
     for kind in (QUASI_STATIC, machine.dynamic_coefficients) if synchronous_kind else (QUASI_STATIC,):
-        path = operating_table_path(machine.source_path, kind)
-        if not path.exists():
-            command = shlex.join(
-                ["oilwatch", "bearing-map", *machine_arguments(machine), "--coefficients", kind]
-            )
-            raise InputError(
-                f"following speed and oil temperature needs the dimensionless bearing table {path}: compute "
-                f"it with `{command}`"
-            )
-    clearance = machine.bearing.clearance_m
+        for index in machine.distinct_geometries:
+            path = operating_table_path(machine.source_path, kind, geometry_number(machine, index))
+            if not path.exists():
+                bearing = bearing_arguments(machine, index)
+                command = shlex.join(
+                    ["oilwatch", "bearing-map", *machine_arguments(machine), "--coefficients", kind, *bearing]
+                )
+                raise InputError(
+                    f"following speed and oil temperature needs the dimensionless bearing table {path}: "
+                    f"compute it with `{command}`"
+                )
 
-    def per_bearing(table):
-        return tuple(table.with_clearance(clearance * f) if f != 1.0 else table for f in factors)
+    def per_bearing(tables):
+        return tuple(
+            table.with_clearance(bearing.clearance_m * f) if f != 1.0 else table
+            for table, bearing, f in zip(tables, machine.bearings, factors, strict=True)
+        )
 
-    tables = per_bearing(operating_table_of(machine, QUASI_STATIC))
-    synchronous = per_bearing(operating_table_of(machine)) if synchronous_kind else None
+    tables = per_bearing(operating_tables_of(machine, QUASI_STATIC))
+    synchronous = per_bearing(operating_tables_of(machine)) if synchronous_kind else None
     mu0 = system.tables[0].metadata["bearing"]["viscosity_pa_s"]
     if reference_table == "dimensionless":
         speed, loads = system.speed_hz, system.static_loads_n

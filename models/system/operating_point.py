@@ -11,6 +11,7 @@ gyroscopic and unbalance terms to the instantaneous speed).
 from __future__ import annotations
 
 import math
+import shlex
 
 import numpy as np
 
@@ -20,6 +21,7 @@ from ..bearing.table import BearingCoefficients
 from ..machine import Machine
 from ..rotor.assembly import Rotor
 from ..validation import InputError, require_positive
+from .factory import bearing_arguments, geometry_number, machine_arguments
 from .rotor_bearing import RotorBearingSystem
 
 
@@ -87,20 +89,33 @@ class ConditionedTable:
         return BearingCoefficients(row[0:2], row[2:6].reshape(2, 2), row[6:10].reshape(2, 2))
 
 
-def operating_table_of(machine: Machine, coefficients: str | None = None) -> OperatingTable:
+def operating_table_of(
+    machine: Machine, coefficients: str | None = None, bearing_index: int = 0
+) -> OperatingTable:
     """The machine's dimensionless table holding ``coefficients`` (None: the machine file's
-    ``bearings.dynamic_coefficients``, "synchronous" for the turbine), checked against its geometry and
+    ``bearings.dynamic_coefficients``, "synchronous" for the turbine) of bearing ``bearing_index``'s geometry
+    (from 0; :func:`oilwatch.models.system.factory.geometry_number`), checked against its geometry and
     kind."""
     kind = machine.dynamic_coefficients if coefficients is None else coefficients
-    path = operating_table_path(machine.source_path, kind)
+    path = operating_table_path(machine.source_path, kind, geometry_number(machine, bearing_index))
     table = OperatingTable.load(path)
     if table_kind(table.metadata) != kind:
+        bearing = bearing_arguments(machine, bearing_index)
+        command = shlex.join(
+            ["oilwatch", "bearing-map", *machine_arguments(machine), "--coefficients", kind, *bearing]
+        )
         raise InputError(
             f"dimensionless bearing table {path} holds {table_kind(table.metadata)} coefficients, not "
-            f"{kind}: recompute it with `oilwatch bearing-map --coefficients {kind}`"
+            f"{kind}: recompute it with `{command}`"
         )
-    table.check_geometry(machine.bearing)
+    table.check_geometry(machine.bearings[bearing_index])
     return table
+
+
+def operating_tables_of(machine: Machine, coefficients: str | None = None) -> list[OperatingTable]:
+    """One dimensionless table per bearing (:func:`operating_table_of`; bearings of one geometry share it)."""
+    by_geometry = {i: operating_table_of(machine, coefficients, i) for i in machine.distinct_geometries}
+    return [by_geometry[machine.geometry_bearing(i) - 1] for i in range(len(machine.bearings))]
 
 
 def operating_system(
@@ -115,30 +130,35 @@ def operating_system(
 ) -> RotorBearingSystem:
     """The full-order rotor-bearing system on the dimensionless table, at an initial speed and viscosity.
 
-    ``table`` None: the machine's quasi-static table for the dynamics and, for a machine of synchronous
-    ``dynamic_coefficients``, the synchronous table for the 1x response (as
-    :func:`oilwatch.models.system.factory.build_system`); a given ``table`` serves both. ``coefficients``
+    ``table`` None: each bearing's quasi-static table for the dynamics and, for a machine of synchronous
+    ``dynamic_coefficients``, its synchronous table for the 1x response (as
+    :func:`oilwatch.models.system.factory.build_system`); a given ``table`` serves both and every bearing
+    (each of the geometry it was made for). ``coefficients``
     overrides the machine file's kind."""
     synchronous = None
     if table is None:
-        table = operating_table_of(machine, QUASI_STATIC)
+        tables = operating_tables_of(machine, QUASI_STATIC)
         kind = machine.dynamic_coefficients if coefficients is None else coefficients
         if kind != QUASI_STATIC:
-            synchronous = operating_table_of(machine, kind)
-    table.check_geometry(machine.bearing)
+            synchronous = operating_tables_of(machine, kind)
+    else:
+        for bearing in machine.bearings:
+            table.check_geometry(bearing)
+        tables = [table] * len(machine.bearings)
     rotor = Rotor.from_machine(machine)
     loads = rotor.bearing_static_loads_n
     conditions = (speed_hz, viscosity_pa_s)
-    tables = [ConditionedTable(table, w, *conditions) for w in loads]
     return RotorBearingSystem(
         rotor,
-        tables,
+        [ConditionedTable(t, w, *conditions) for t, w in zip(tables, loads, strict=True)],
         speed_hz,
         None,
         unbalance_moment_kg_m,
         unbalance_phase_rad,
         machine.lubrication.nominal_flowrate_m3_s,
-        None if synchronous is None else [ConditionedTable(synchronous, w, *conditions) for w in loads],
+        None
+        if synchronous is None
+        else [ConditionedTable(t, w, *conditions) for t, w in zip(synchronous, loads, strict=True)],
     )
 
 

@@ -19,7 +19,7 @@ from ..bearing.equilibrium import static_equilibrium
 from ..bearing.grid import Mesh
 from ..bearing.supply import ML_MIN_PER_M3_S, SupplyPressure
 from ..machine import load_machine
-from .factory import build_system, flowrate_table_path, load_speed_sweeps
+from .factory import build_system, flowrate_tables_exist, load_speed_sweeps
 from .sensitivity import DEFINITIONS, PAPER_TABLE4, PAPER_TABLE5, orbit_variation_table, paper_rows
 from .stability import stability_map
 from .transient_comparison import transient_figures
@@ -46,8 +46,9 @@ def paper_comparison(machine_file: str | Path | None = None) -> dict:
     rotor = system.rotor
     load = float(rotor.bearing_static_loads_n[0])
     mesh = Mesh(**system.tables[0].metadata["mesh"])
+    # the paper's threshold and nominal flowrates are of one bearing: bearing 1 (its geometry and load)
     flows = {
-        key: static_equilibrium(machine.bearing, load, system.speed_hz, SupplyPressure(pressure), mesh)
+        key: static_equilibrium(machine.bearings[0], load, system.speed_hz, SupplyPressure(pressure), mesh)
         for key, pressure in (("flooded_threshold_ml_min", 0.0), ("nominal_flow_ml_min", 50e3))
     }
     sweeps = load_speed_sweeps(machine, rotor)
@@ -69,7 +70,7 @@ def paper_comparison(machine_file: str | Path | None = None) -> dict:
         else _frequency_dependent_threshold(transient, mesh),
     }
     quasi_static_tables = {}
-    if kind != QUASI_STATIC and flowrate_table_path(machine, system.speed_hz, QUASI_STATIC).exists():
+    if kind != QUASI_STATIC and flowrate_tables_exist(machine, system.speed_hz, QUASI_STATIC):
         other = build_system(machine, reduced=False, coefficients=QUASI_STATIC)
         quasi_static_tables = {
             "table4_quasi_static": orbit_variation_table(other, nominal, both_bearings=True),

@@ -8,6 +8,7 @@ that ``oilwatch speed-sweep`` writes and ``oilwatch report`` reads.
 
 from __future__ import annotations
 
+import dataclasses
 import datetime
 import json
 import platform
@@ -36,7 +37,7 @@ class SpeedSweep:
     load_n : the bearing load [N].
     eccentricity_m : (n, 2) equilibrium positions [m].
     stiffness : (n, 2, 2) [N/m]; damping : (n, 2, 2) [N s/m] (Lund's convention).
-    provenance : how the sweep was computed (mesh, squeeze model, version, date, command).
+    provenance : how the sweep was computed (bearing geometry, mesh, squeeze model, version, date, command).
     """
 
     speeds_hz: np.ndarray
@@ -143,6 +144,7 @@ def compute_speed_sweep(
         damping.append(c)
     provenance = {
         "command": command,
+        "bearing": dataclasses.asdict(bearing),
         "oilwatch_version": __version__,
         "date_utc": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
         "mesh": {"n_circ": mesh.n_circ, "n_axial": mesh.n_axial},

@@ -46,13 +46,14 @@ from dataclasses import dataclass, field, fields
 import numpy as np
 
 from ..bearing.coefficient_kinds import COEFFICIENT_KINDS, QUASI_STATIC
+from ..bearing.geometry import JournalBearing
 from ..bearing.table import CoefficientTable, compute_table, flooded_threshold
 from ..cache import user_cache_dir
 from ..machine import Machine
 from ..rotor.assembly import Rotor
 from ..rotor.pedestals import Pedestals
 from ..validation import InputError, require_in_range
-from .operating_point import ConditionedTable, operating_table_of
+from .operating_point import ConditionedTable, operating_tables_of
 from .rotor_bearing import RotorBearingSystem
 
 LENGTH_TABLE_POINTS = 7
@@ -176,6 +177,15 @@ class ClearanceTable(ConditionedTable):
         return rows
 
 
+def structural_bearing(bearing: JournalBearing, structure: PlantStructure) -> JournalBearing:
+    """``bearing`` with the structure's clearance and length factors."""
+    return dataclasses.replace(
+        bearing,
+        clearance_m=bearing.clearance_m * structure.clearance_factor,
+        length_m=bearing.length_m * structure.length_factor,
+    )
+
+
 def structural_rotor(machine: Machine, structure: PlantStructure) -> Rotor:
     """The machine's rotor with the structure's load split."""
     if structure.load_split is None or structure.load_split == machine.load_split:
@@ -228,26 +238,20 @@ def structural_system(
     speed = machine.nominal_speed_hz
     kind = structure.film_coefficients or machine.dynamic_coefficients
     kinds = (QUASI_STATIC,) if kind == QUASI_STATIC else (QUASI_STATIC, kind)
+    loads = rotor.bearing_static_loads_n
     if structure.length_factor == 1.0:
-        viscosity = machine.bearing.viscosity_pa_s
+        viscosity = machine.bearings[0].viscosity_pa_s  # one oil: every bearing's nominal viscosity
         groups = [
             [
                 ClearanceTable(
-                    operating_table_of(machine, k),
-                    w,
-                    speed,
-                    viscosity,
-                    structure.clearance_factor,
-                    structure.threshold_one_sided,
+                    table, w, speed, viscosity, structure.clearance_factor, structure.threshold_one_sided
                 )
-                for w in rotor.bearing_static_loads_n
+                for table, w in zip(operating_tables_of(machine, k), loads, strict=True)
             ]
             for k in kinds
         ]
     else:
-        groups = [
-            [solved_table(machine, structure, w, k) for w in rotor.bearing_static_loads_n] for k in kinds
-        ]
+        groups = [[solved_table(machine, structure, w, k, i) for i, w in enumerate(loads)] for k in kinds]
     moment = rotor.unbalance_moment_kg_m if unbalance_moment_kg_m is None else unbalance_moment_kg_m
     phase = rotor.unbalance_phase_rad if unbalance_phase_rad is None else unbalance_phase_rad
     omega = 2.0 * math.pi * speed
@@ -265,14 +269,13 @@ def structural_system(
     )
 
 
-def solved_table(machine: Machine, structure: PlantStructure, load_n: float, kind: str) -> CoefficientTable:
-    """The flowrate table of the machine's bearing with the structure's clearance and length at ``load_n``,
-    solved at the nominal speed on the production mesh (cached in ``<cache>/tables/structure/``)."""
-    bearing = dataclasses.replace(
-        machine.bearing,
-        clearance_m=machine.bearing.clearance_m * structure.clearance_factor,
-        length_m=machine.bearing.length_m * structure.length_factor,
-    )
+def solved_table(
+    machine: Machine, structure: PlantStructure, load_n: float, kind: str, bearing_index: int = 0
+) -> CoefficientTable:
+    """The flowrate table of the machine's bearing ``bearing_index`` (from 0) with the structure's clearance
+    and length at ``load_n``, solved at the nominal speed on the production mesh (cached in
+    ``<cache>/tables/structure/``, by geometry, load, speed and kind)."""
+    bearing = structural_bearing(machine.bearings[bearing_index], structure)
     speed = machine.nominal_speed_hz
     key = json.dumps([dataclasses.asdict(bearing), round(load_n, 6), speed, kind, LENGTH_TABLE_POINTS])
     path = user_cache_dir() / "tables" / "structure" / f"{hashlib.sha256(key.encode()).hexdigest()[:16]}.json"

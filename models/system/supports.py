@@ -14,7 +14,7 @@ from ..machine import Machine
 from ..rotor.assembly import Rotor
 from ..rotor.supports import LinearBearing
 from ..validation import InputError
-from .factory import flowrate_table_path, load_speed_sweeps, load_tables
+from .factory import flowrate_tables_exist, load_speed_sweeps, load_tables, table_command
 from .speed_sweep import SpeedSweep
 
 NOMINAL_RTOL = 1e-9
@@ -30,7 +30,7 @@ def fluid_film_bearings(
         )
     # The modes' own coefficients: quasi-static (constant synchronous ones are right for the 1x orbit only,
     # and destabilize the free modes: oilwatch.models.system.rotor_bearing).
-    if flowrate_table_path(machine, speed_hz, QUASI_STATIC).exists():
+    if flowrate_tables_exist(machine, speed_hz, QUASI_STATIC):
         tables = load_tables(machine, rotor, speed_hz, coefficients=QUASI_STATIC)
         coefficients = [table.evaluate(q) for table, q in zip(tables, flowrates_m3_s, strict=True)]
         return [
@@ -43,7 +43,7 @@ def fluid_film_bearings(
             raise InputError(
                 f"speed_hz = {speed_hz:g} Hz has no flowrate table, and the speed sweep holds only "
                 f"{sweep.flowrate_m3_s * 6e7:g} ml/min: compute one with "
-                f"`oilwatch bearing-table --speed-hz {speed_hz:g}`"
+                f"`{table_command(machine, speed_hz, QUASI_STATIC, None)}`"
             )
     return swept_bearings(rotor, sweeps)(speed_hz)
 

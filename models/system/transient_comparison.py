@@ -24,10 +24,10 @@ def results_path(machine: Machine) -> Path:
     return machine.source_path.parent / "tables" / f"{machine.source_path.stem}_transient_results.json"
 
 
-def synchronous_table_path(machine: Machine, speed_hz: float) -> Path:
-    """The flowrate table at whirl frequency = spin speed (``oilwatch bearing-table --coefficients
-    synchronous`` or ``oilwatch transient --study synchronous-table``)."""
-    return flowrate_table_path(machine, speed_hz, SYNCHRONOUS)
+def synchronous_table_path(machine: Machine, speed_hz: float, bearing_index: int = 0) -> Path:
+    """The flowrate table at whirl frequency = spin speed of bearing ``bearing_index``'s geometry (``oilwatch
+    bearing-table --coefficients synchronous`` or ``oilwatch transient --study synchronous-table``)."""
+    return flowrate_table_path(machine, speed_hz, SYNCHRONOUS, bearing_index)
 
 
 def orbit_check(orbits: dict) -> dict:

@@ -286,7 +286,7 @@ def coast_down_clearances(args: argparse.Namespace, machine, probes) -> tuple[di
         revolutions=record_revolutions(record["speed_hz"], ESTIMATOR_DT_S),  # on the estimator's grid
         probe_scale_factor_std=probes.scale_factor_std,
     )
-    c_um = machine.bearing.clearance_m * 1e6
+    clearances_um = [bearing.clearance_m * 1e6 for bearing in machine.bearings]
     lines = [
         (
             f"baseline: bearing {b} clearance {fit.clearance_factor * c_um:.1f} +- "
@@ -295,6 +295,6 @@ def coast_down_clearances(args: argparse.Namespace, machine, probes) -> tuple[di
             f"residual {fit.residual_rms_m * 1e6:.3f} um rms over {fit.points} speed bins "
             f"({fit.speed_span:.1f}:1)"
         )
-        for b, fit in enumerate(fits, start=1)
+        for b, (fit, c_um) in enumerate(zip(fits, clearances_um, strict=True), start=1)
     ]
     return clearance_document(fits, str(source)), lines

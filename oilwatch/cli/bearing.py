@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-from .machine_option import add_machine_option, add_mesh_option, mesh_option
+from .machine_option import add_bearing_option, add_machine_option, add_mesh_option, mesh_option
 
 
 def register(subparsers) -> None:
@@ -56,6 +56,7 @@ def register(subparsers) -> None:
         help="interpolate the dimensionless table (default: the machine's, from `oilwatch bearing-map`) "
         "instead of solving; needs --q-ml-min",
     )
+    add_bearing_option(parser, "solve its geometry at its load", "bearing 1")
     parser.add_argument("--json", action="store_true", help="print JSON on stdout")
     parser.set_defaults(func=run)
 
@@ -70,27 +71,34 @@ def operating_viscosity(args, machine) -> float:
         if machine.oil is None:
             raise InputError(f"--oil-temperature-c needs an [oil] section in {machine.source_path}")
         return machine.oil.dynamic_viscosity_pa_s(args.oil_temperature_c)
-    return machine.bearing.viscosity_pa_s
+    return machine.bearings[0].viscosity_pa_s  # one oil: every bearing has the nominal viscosity
 
 
 def add_common_arguments(parser: argparse.ArgumentParser) -> None:
     """Options shared with ``bearing-table``: machine file, speed, load, mesh."""
     add_machine_option(parser)
     parser.add_argument("--speed-hz", type=float, help="shaft speed [Hz]; default: nominal")
-    parser.add_argument("--load-n", type=float, help="static bearing load [N]; default: from the rotor model")
+    parser.add_argument(
+        "--load-n", type=float, help="static bearing load [N]; default: the bearing's, from the rotor model"
+    )
     add_mesh_option(parser)
 
 
-def machine_setup(args) -> dict:
-    """Bearing, load [N], speed [Hz], mesh and nominal supply from the arguments and machine file."""
+def machine_setup(args, bearing_index: int | None = None) -> dict:
+    """Bearing, load [N], speed [Hz], mesh and nominal supply from the arguments and machine file, for
+    bearing ``bearing_index`` (from 0; None: ``--bearing N``, else bearing 1)."""
     from oilwatch.models.machine import load_machine
     from oilwatch.models.rotor.assembly import Rotor
     from oilwatch.models.validation import require_positive
 
+    from .machine_option import bearing_index as index_of
+
     machine = load_machine(args.machine)
+    if bearing_index is None:
+        bearing_index = 0 if args.bearing is None else index_of(machine, args.bearing)
     if args.load_n is None:
         loads = Rotor.from_machine(machine).bearing_static_loads_n
-        load = float(loads[0])
+        load = float(loads[bearing_index])
     else:
         load = require_positive("--load-n", args.load_n, "N")
     speed = machine.nominal_speed_hz if args.speed_hz is None else args.speed_hz
@@ -98,7 +106,8 @@ def machine_setup(args) -> dict:
     mesh = mesh_option(args)
     return {
         "machine": machine,
-        "bearing": machine.bearing,
+        "bearing_index": bearing_index,
+        "bearing": machine.bearings[bearing_index],
         "load_n": load,
         "speed_hz": float(speed),
         "mesh": mesh,
@@ -173,6 +182,7 @@ def from_table(args, setup) -> dict:
 
     from oilwatch.models.bearing.operating_table import OperatingTable, operating_table_path
     from oilwatch.models.bearing.supply import ML_MIN_PER_M3_S
+    from oilwatch.models.system.factory import geometry_number
     from oilwatch.models.validation import InputError, require_positive
 
     if args.q_ml_min is None:
@@ -181,7 +191,13 @@ def from_table(args, setup) -> dict:
         raise InputError("--from-table holds the default squeeze model only (--squeeze full-film)")
     if args.mesh is not None:
         raise InputError("--from-table uses the table's own mesh: drop --mesh")
-    path = Path(args.from_table) if args.from_table else operating_table_path(setup["machine"].source_path)
+    machine = setup["machine"]
+    number = geometry_number(machine, setup["bearing_index"])
+    path = (
+        Path(args.from_table)
+        if args.from_table
+        else operating_table_path(machine.source_path, bearing=number)
+    )
     table = OperatingTable.load(path)
     table.check_geometry(setup["bearing"])
     q = require_positive("--q-ml-min", args.q_ml_min, "ml/min") / ML_MIN_PER_M3_S

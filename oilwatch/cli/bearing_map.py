@@ -5,7 +5,10 @@ equilibrium eccentricity and attitude, K c / W and C c Omega / W, solved on a gr
 S_nominal * ratio^k covering the speeds and viscosities asked for, at every bearing's load) and in the
 supply flowrate as a fraction of the flooded threshold (the machine file's table fractions, a node on
 f = 1). Written with provenance, by default next to the machine file as
-``tables/<machine stem>_bearing_dimensionless.json``. Cost: about 3 s of one core per point on the
+``tables/<machine stem>_bearing_dimensionless.json`` (a machine whose bearings differ: one table per
+distinct bearing geometry over the loads of its bearings,
+``tables/<machine stem>_bearing<N>_dimensionless.json`` for the first bearing N of that geometry;
+``--bearing N``: that one only). Cost: about 3 s of one core per point on the
 production mesh (bundled turbine, 12 x 13 points: about 10 minutes); run it under ``nice``.
 """
 
@@ -17,10 +20,13 @@ import sys
 from pathlib import Path
 
 from .machine_option import (
+    TABLE_BEARING_HELP,
+    add_bearing_option,
     add_coefficients_option,
     add_fraction_range_option,
     add_machine_option,
     add_mesh_option,
+    bearing_indices,
     check_fraction_range,
     load_machine_option,
     mesh_option,
@@ -67,6 +73,7 @@ def register(subparsers) -> None:
         "only what it lacks is solved (the one-sided limits on the flooded threshold of an older table)",
     )
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_bearing_option(parser, *TABLE_BEARING_HELP)
     parser.set_defaults(func=run)
 
 
@@ -90,19 +97,32 @@ def fraction_nodes(low: float, high: float, count: int):
 
 
 def run(args) -> int:
-    """Compute and write the table."""
-    from tqdm import tqdm
-
-    from oilwatch.models.bearing.operating_table import OperatingTable, operating_table_path
-    from oilwatch.models.bearing.operating_table_solve import compute_operating_table
-    from oilwatch.models.bearing.sommerfeld import sommerfeld_grid, sommerfeld_number
+    """Compute and write the table (one per distinct bearing geometry)."""
     from oilwatch.models.rotor.assembly import Rotor
 
     check_fraction_range("--speed-range", args.speed_range)
     check_fraction_range("--viscosity-range", args.viscosity_range)
     machine = load_machine_option(args)
-    loads = [float(w) for w in Rotor.from_machine(machine).bearing_static_loads_n]
-    bearing, speed = machine.bearing, machine.nominal_speed_hz
+    all_loads = [float(w) for w in Rotor.from_machine(machine).bearing_static_loads_n]
+    single = next((option for option, value in (("--out", args.out), ("--reuse", args.reuse)) if value), None)
+    for index in bearing_indices(machine, args.bearing, single):
+        bearing = machine.bearings[index]
+        loads = [w for b, w in zip(machine.bearings, all_loads, strict=True) if b == bearing]
+        write_map(args, machine, index, loads)
+    return 0
+
+
+def write_map(args, machine, bearing_index: int, loads: list[float]) -> None:
+    """Compute and write the table of bearing ``bearing_index``'s geometry over the Sommerfeld numbers of
+    ``loads`` [N] (its load first) and the asked speeds and viscosities."""
+    from tqdm import tqdm
+
+    from oilwatch.models.bearing.operating_table import OperatingTable, operating_table_path
+    from oilwatch.models.bearing.operating_table_solve import compute_operating_table
+    from oilwatch.models.bearing.sommerfeld import sommerfeld_grid, sommerfeld_number
+    from oilwatch.models.system.factory import bearing_arguments, geometry_number
+
+    bearing, speed = machine.bearings[bearing_index], machine.nominal_speed_hz
     nominal = sommerfeld_number(bearing, bearing.viscosity_pa_s, speed, loads[0])
     spread = args.speed_range[0] * args.viscosity_range[0], args.speed_range[1] * args.viscosity_range[1]
     low = min(sommerfeld_number(bearing, bearing.viscosity_pa_s, speed, w) for w in loads) * spread[0]
@@ -114,7 +134,8 @@ def run(args) -> int:
     )
     mesh = mesh_option(args)
     kind = args.coefficients or machine.dynamic_coefficients
-    out = Path(args.out) if args.out else operating_table_path(machine.source_path, kind)
+    number = geometry_number(machine, bearing_index)
+    out = Path(args.out) if args.out else operating_table_path(machine.source_path, kind, number)
     checkpoint = out.with_name(out.stem + ".partial.json")
     total = s_nodes.size * f_nodes.size
     print(
@@ -136,7 +157,7 @@ def run(args) -> int:
             checkpoint=checkpoint,
             reuse=None if args.reuse is None else OperatingTable.load(args.reuse),
             provenance={
-                "command_line": command_line(args),
+                "command_line": command_line(args, bearing_arguments(machine, bearing_index)),
                 "machine_file": machine.source_path.name,  # its name: no folder of the machine that made it
                 "nominal_sommerfeld": nominal,
             },
@@ -148,11 +169,10 @@ def run(args) -> int:
         f"{total} points in {table.metadata['provenance']['compute_s']:.0f} s written to {out}",
         file=sys.stderr,
     )
-    return 0
 
 
-def command_line(args) -> str:
-    """The command that reproduces this table (from the parsed options)."""
+def command_line(args, bearing: list[str]) -> str:
+    """The command that reproduces this table (from the parsed options; ``bearing``: its ``--bearing N``)."""
     parts = ["oilwatch", "bearing-map"]
     if args.machine:
         parts += ["--machine", args.machine]
@@ -174,4 +194,4 @@ def command_line(args) -> str:
         parts += ["--out", args.out]
     if args.reuse:
         parts += ["--reuse", args.reuse]
-    return shlex.join(parts)
+    return shlex.join(parts + bearing)

@@ -7,9 +7,12 @@ JSON, by default next to the machine file as
 ``tables/<machine stem>_bearing_<speed>hz[_synchronous].json``, where
 ``oilwatch.models.system`` looks for it (the bundled turbine: into the user cache, $OILWATCH_CACHE/tables,
 never into the installed package; its committed models/tables/turbine_bearing_75hz*.json were made with
-``--out``). ``--coefficients`` (default: the machine file's ``bearings.dynamic_coefficients``, "synchronous"
-for the turbine) chooses K, C at whirl frequency = spin speed (the transient film's small-signal response,
-``oilwatch.models.bearing.dynamic``; file suffix ``_synchronous``) or the quasi-static ones (no suffix).
+``--out``). A machine whose bearings differ gets one table per distinct bearing geometry,
+``tables/<machine stem>_bearing<N>_<speed>hz[_synchronous].json`` for the first bearing N of that
+geometry at its static load (``--bearing N``: that one only). ``--coefficients`` (default: the machine
+file's ``bearings.dynamic_coefficients``, "synchronous" for the turbine) chooses K, C at whirl frequency
+= spin speed (the transient film's small-signal response, ``oilwatch.models.bearing.dynamic``; file
+suffix ``_synchronous``) or the quasi-static ones (no suffix).
 Commands that need a missing table (``run``, ``demo``, ``orbits``, ...) compute it the same way.
 """
 
@@ -21,7 +24,13 @@ import sys
 from pathlib import Path
 
 from .bearing import add_common_arguments, machine_setup
-from .machine_option import add_coefficients_option, compute_flowrate_table
+from .machine_option import (
+    TABLE_BEARING_HELP,
+    add_bearing_option,
+    add_coefficients_option,
+    bearing_indices,
+    compute_flowrate_table,
+)
 from .outputs import output_file
 
 
@@ -40,41 +49,47 @@ def register(subparsers) -> None:
     )
     add_coefficients_option(parser, "the file name follows: ..._<f>hz_synchronous.json")
     parser.add_argument("--plot", metavar="FILE", help="also draw the table against flowrate")
+    add_bearing_option(parser, *TABLE_BEARING_HELP)
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     parser.set_defaults(func=run)
 
 
 def run(args) -> int:
-    """Compute, write and optionally plot the table."""
+    """Compute, write and optionally plot the table (one per distinct bearing geometry)."""
     from oilwatch.models.bearing.supply import ML_MIN_PER_M3_S
+    from oilwatch.models.machine import load_machine
     from oilwatch.models.validation import InputError
 
     if args.points < 2:
         raise InputError(f"--points must be >= 2, got {args.points}")
-    setup = machine_setup(args)
-    speed = setup["speed_hz"]
-    out, table, q_t = compute_flowrate_table(
-        setup["machine"],
-        speed,
-        points=args.points,
-        load_n=setup["load_n"],
-        mesh=setup["mesh"],
-        out=Path(args.out) if args.out else None,
-        progress=not args.quiet,
-        command=command_line(args),
-        coefficients=args.coefficients,
-    )
-    print(
-        f"q_t = {q_t * ML_MIN_PER_M3_S:.2f} ml/min at {speed:g} Hz; {args.points} points written to {out}",
-        file=sys.stderr,
-    )
-    if args.plot:
-        plot_table(table, q_t, args.plot)
+    single = next((f"--{k.replace('_', '-')}" for k in ("out", "plot", "load_n") if getattr(args, k)), None)
+    for index in bearing_indices(load_machine(args.machine), args.bearing, single):
+        setup = machine_setup(args, index)
+        speed = setup["speed_hz"]
+        out, table, q_t = compute_flowrate_table(
+            setup["machine"],
+            speed,
+            points=args.points,
+            load_n=setup["load_n"],
+            mesh=setup["mesh"],
+            out=Path(args.out) if args.out else None,
+            progress=not args.quiet,
+            command=command_line(args, setup["machine"], index),
+            coefficients=args.coefficients,
+            bearing_index=index,
+        )
+        written = f"{args.points} points written to {out}"
+        print(f"q_t = {q_t * ML_MIN_PER_M3_S:.2f} ml/min at {speed:g} Hz; {written}", file=sys.stderr)
+        if args.plot:
+            plot_table(table, q_t, args.plot)
     return 0
 
 
-def command_line(args) -> str:
-    """The command that reproduces this table (from the parsed options, not sys.argv)."""
+def command_line(args, machine, bearing_index: int) -> str:
+    """The command that reproduces the table of bearing ``bearing_index`` (from the parsed options, not
+    sys.argv)."""
+    from oilwatch.models.system.factory import bearing_arguments
+
     parts = ["oilwatch", "bearing-table"]
     for key in ("machine", "speed_hz", "load_n", "points", "coefficients", "out", "plot"):
         value = getattr(args, key)
@@ -82,7 +97,7 @@ def command_line(args) -> str:
             parts += [f"--{key.replace('_', '-')}", str(value)]
     if args.mesh is not None:
         parts += ["--mesh", *map(str, args.mesh)]
-    return shlex.join(parts)
+    return shlex.join(parts + bearing_arguments(machine, bearing_index))
 
 
 def plot_table(table, q_t: float, path: str) -> None:

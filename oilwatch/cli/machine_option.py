@@ -91,6 +91,54 @@ def check_fraction_range(option: str, value: tuple[float, float]) -> tuple[float
     return low, high
 
 
+def add_bearing_option(parser: argparse.ArgumentParser, what: str, default: str) -> None:
+    """Add ``--bearing N`` (:func:`bearing_index`, :func:`bearing_indices` read it): ``what`` of bearing N,
+    ``default`` without it."""
+    parser.add_argument(
+        "--bearing",
+        type=int,
+        metavar="N",
+        help=f"bearing N (from 1, in the machine file's bearings.nodes order): {what}; default: {default}",
+    )
+
+
+def bearing_index(machine, number: int) -> int:
+    """The index (from 0) of bearing ``number`` (``--bearing N``, from 1), or InputError."""
+    from oilwatch.models.validation import InputError
+
+    count = len(machine.bearings)
+    if not 1 <= number <= count:
+        raise InputError(
+            f"--bearing must be a bearing number 1..{count} (bearings.nodes {list(machine.bearing_nodes)}), "
+            f"got {number}"
+        )
+    return number - 1
+
+
+def bearing_indices(machine, number: int | None, single: str | None = None) -> list[int]:
+    """The bearings (from 0) whose geometry a table command makes a table for: the first bearing of bearing
+    ``number``'s geometry (``--bearing N``, from 1), else the first bearing of each distinct geometry.
+    ``single`` names an option given that takes one table: with it, a machine whose bearings differ needs
+    ``--bearing``."""
+    from oilwatch.models.validation import InputError
+
+    if number is not None:
+        return [machine.geometry_bearing(bearing_index(machine, number)) - 1]
+    indices = list(machine.distinct_geometries)
+    if single is not None and len(indices) > 1:
+        raise InputError(
+            f"{single} takes one table, and the bearings of {machine.name} differ: add --bearing N"
+        )
+    return indices
+
+
+TABLE_BEARING_HELP = (
+    "the table of its geometry (named after the first bearing of that geometry)",
+    "one table for each distinct bearing geometry (one for every bearing when they are alike)",
+)
+"""``what`` and ``default`` of :func:`add_bearing_option` for a command that makes tables."""
+
+
 def load_machine_option(args: argparse.Namespace):
     """The machine of ``--machine`` (an InputError names a bad file)."""
     from oilwatch.models.machine import load_machine
@@ -109,11 +157,13 @@ def compute_flowrate_table(
     progress: bool = True,
     command: str | None = None,
     coefficients: str | None = None,
+    bearing_index: int = 0,
 ):
-    """Compute the machine's flowrate coefficient table at ``speed_hz`` and write it (default: where the
-    machine's tables go); return ``(path, table, q_t [m^3/s])``. ``command`` is recorded as provenance
-    (default: the ``oilwatch bearing-table`` command that makes the same table). ``coefficients``: the kind
-    of K, C (None: the machine file's ``bearings.dynamic_coefficients``)."""
+    """Compute the machine's flowrate coefficient table at ``speed_hz`` for bearing ``bearing_index`` (from 0;
+    its geometry and static load) and write it (default: where the machine's tables go); return
+    ``(path, table, q_t [m^3/s])``. ``command`` is recorded as provenance (default: the ``oilwatch
+    bearing-table`` command that makes the same table). ``coefficients``: the kind of K, C (None: the machine
+    file's ``bearings.dynamic_coefficients``)."""
     import numpy as np
 
     from oilwatch.models.bearing.table import compute_table, flooded_threshold
@@ -123,16 +173,17 @@ def compute_flowrate_table(
     from .progress import progress_bar
 
     kind = machine.dynamic_coefficients if coefficients is None else coefficients
+    bearing = machine.bearings[bearing_index]
     if load_n is None:
-        load_n = float(Rotor.from_machine(machine).bearing_static_loads_n[0])
-    q_t, _ = flooded_threshold(machine.bearing, load_n, speed_hz, mesh)
+        load_n = float(Rotor.from_machine(machine).bearing_static_loads_n[bearing_index])
+    q_t, _ = flooded_threshold(bearing, load_n, speed_hz, mesh)
     lubrication = machine.lubrication
     flows = q_t * np.linspace(
         lubrication.table_min_fraction_of_threshold, lubrication.table_max_fraction_of_threshold, points
     )
     with progress_bar(f"bearing table {speed_hz:g} Hz", "flowrate", progress) as callback:
         table = compute_table(
-            machine.bearing,
+            bearing,
             load_n,
             speed_hz,
             flows,
@@ -141,32 +192,37 @@ def compute_flowrate_table(
             flooded_threshold_m3_s=q_t,
             coefficients=kind,
             provenance={
-                "command_line": command or table_command(machine, speed_hz, kind),
+                "command_line": command or table_command(machine, speed_hz, kind, bearing_index),
                 "machine_file": machine.source_path.name,  # its name: no folder of the machine that made it
             },
         )
-    path = out if out is not None else new_table_path(machine, flowrate_table_name(machine, speed_hz, kind))
+    name = flowrate_table_name(machine, speed_hz, kind, bearing_index)
+    path = out if out is not None else new_table_path(machine, name)
     path.parent.mkdir(parents=True, exist_ok=True)
     table.save(path)
     return path, table, q_t
 
 
 def ensure_flowrate_tables(machine, speeds_hz, command: str, progress: bool = True) -> list[Path]:
-    """The machine's flowrate tables at ``speeds_hz`` (every kind its models need: ``table_kinds``), each
-    computed first (said on stderr) when missing."""
+    """The machine's flowrate tables at ``speeds_hz`` (every kind its models need: ``table_kinds``; one per
+    distinct bearing geometry), each computed first (said on stderr) when missing."""
     from oilwatch.models.system.factory import flowrate_table_path, table_command, table_kinds
 
     paths = []
     for speed in sorted({float(s) for s in speeds_hz}):
         for kind in table_kinds(machine):
-            path = flowrate_table_path(machine, speed, kind)
-            if not path.exists():
-                print(
-                    f"oilwatch {command}: no {kind} coefficient table for {machine.name} at {speed:g} Hz; "
-                    f"computing it (the same as `{table_command(machine, speed, kind)}`)",
-                    file=sys.stderr,
-                )
-                path, _, _ = compute_flowrate_table(machine, speed, progress=progress, coefficients=kind)
-                print(f"oilwatch {command}: wrote {path}", file=sys.stderr)
-            paths.append(path)
+            for index in machine.distinct_geometries:
+                path = flowrate_table_path(machine, speed, kind, index)
+                if not path.exists():
+                    same = table_command(machine, speed, kind, index)
+                    print(
+                        f"oilwatch {command}: no {kind} coefficient table for {machine.name} at "
+                        f"{speed:g} Hz; computing it (the same as `{same}`)",
+                        file=sys.stderr,
+                    )
+                    path, _, _ = compute_flowrate_table(
+                        machine, speed, progress=progress, coefficients=kind, bearing_index=index
+                    )
+                    print(f"oilwatch {command}: wrote {path}", file=sys.stderr)
+                paths.append(path)
     return paths

@@ -153,12 +153,12 @@ def run(args: argparse.Namespace) -> int:
     speed_hz = require_non_negative("--speed-hz", speed_hz, "Hz")
     n_modes = require_count("--n-modes", args.n_modes, 1)
     if uses_fluid_film(args) and speed_hz > 0.0:
-        from oilwatch.models.system.factory import flowrate_table_path, speed_sweep_path
+        from oilwatch.models.system.factory import flowrate_tables_exist, speed_sweep_path
 
         from .machine_option import ensure_flowrate_tables
 
-        quasi_static = flowrate_table_path(machine, speed_hz, "quasi-static")
-        if not (quasi_static.exists() or speed_sweep_path(machine).exists()):
+        sweeps = all(speed_sweep_path(machine, bearing_index=i).exists() for i in machine.distinct_geometries)
+        if not (flowrate_tables_exist(machine, speed_hz, "quasi-static") or sweeps):
             ensure_flowrate_tables(machine, [speed_hz], "modes")
     bearings_at, description = bearings_for(args, machine, rotor)
     modes = damped_modes(rotor, speed_hz, bearings_at, n_modes)

@@ -9,7 +9,7 @@ from pathlib import Path
 
 from oilwatch.models.validation import InputError, require_positive
 
-from .machine_option import add_machine_option
+from .machine_option import TABLE_BEARING_HELP, add_bearing_option, add_machine_option, bearing_indices
 from .modes import load_rotor
 
 
@@ -22,7 +22,9 @@ def register(subparsers) -> None:
             "Compute each bearing's equilibrium and linearized coefficients at every speed of a sweep, at "
             "one supply flowrate (default: the machine's nominal), and write them with provenance to "
             "tables/<machine>_speed_sweep.json next to the machine file (the bundled turbine: the user "
-            "cache, $OILWATCH_CACHE/tables). `oilwatch report` reads it."
+            "cache, $OILWATCH_CACHE/tables). `oilwatch report` reads it. A machine whose bearings differ "
+            "gets one sweep per distinct bearing geometry, tables/<machine>_bearing<N>_speed_sweep.json for "
+            "the first bearing N of that geometry at its static load."
         ),
     )
     add_machine_option(parser)
@@ -37,6 +39,7 @@ def register(subparsers) -> None:
         help="squeeze-term model of the film (default full-film; see models.bearing.film)",
     )
     parser.add_argument("--out", default=None, help="output file (default: next to the machine file)")
+    add_bearing_option(parser, *TABLE_BEARING_HELP)
     parser.set_defaults(func=run)
 
 
@@ -60,19 +63,20 @@ def run(args: argparse.Namespace) -> int:
     if args.q_ml_min is not None:
         q_ml_min = require_positive("--q-ml-min", args.q_ml_min, "ml/min")
     speeds = np.arange(low, high + 0.5 * step, step)
-    with progress_bar("speed sweep", "speed") as callback:
-        sweep = compute_speed_sweep(
-            machine.bearing,
-            float(rotor.bearing_static_loads_n[0]),
-            speeds,
-            q_ml_min / ML_MIN_PER_M3_S,
-            command="oilwatch " + shlex.join(sys.argv[1:]),
-            progress=callback,
-            squeeze=args.squeeze,
-        )
-    default = new_table_path(machine, speed_sweep_name(machine, args.squeeze))
-    out_path = Path(args.out) if args.out else default
-    out_path.parent.mkdir(parents=True, exist_ok=True)
-    sweep.save(out_path)
-    print(f"wrote {out_path} ({speeds.size} speeds, {q_ml_min:g} ml/min)", file=sys.stderr)
+    for index in bearing_indices(machine, args.bearing, "--out" if args.out else None):
+        with progress_bar("speed sweep", "speed") as callback:
+            sweep = compute_speed_sweep(
+                machine.bearings[index],
+                float(rotor.bearing_static_loads_n[index]),
+                speeds,
+                q_ml_min / ML_MIN_PER_M3_S,
+                command="oilwatch " + shlex.join(sys.argv[1:]),
+                progress=callback,
+                squeeze=args.squeeze,
+            )
+        default = new_table_path(machine, speed_sweep_name(machine, args.squeeze, index))
+        out_path = Path(args.out) if args.out else default
+        out_path.parent.mkdir(parents=True, exist_ok=True)
+        sweep.save(out_path)
+        print(f"wrote {out_path} ({speeds.size} speeds, {q_ml_min:g} ml/min)", file=sys.stderr)
     return 0

@@ -122,12 +122,14 @@ def run(args: argparse.Namespace) -> int:
     for study in args.study:
         if study == "synchronous-table":
             speed = machine.nominal_speed_hz
-            quasi_static = load_tables(machine, rotor, speed, coefficients="quasi-static")[0]
-            with progress_bar("synchronous table", unit="flowrate") as progress:
-                table = synchronous_table(machine.bearing, quasi_static, progress, command=command)
-            path = synchronous_table_path(machine, speed)
-            table.save(path)
-            print(f"wrote {path}", file=sys.stderr)
+            quasi_static = load_tables(machine, rotor, speed, coefficients="quasi-static")
+            for index in machine.distinct_geometries:  # one table per bearing geometry
+                bearing = machine.bearings[index]
+                with progress_bar("synchronous table", unit="flowrate") as progress:
+                    table = synchronous_table(bearing, quasi_static[index], progress, command=command)
+                path = synchronous_table_path(machine, speed, index)
+                table.save(path)
+                print(f"wrote {path}", file=sys.stderr)
         elif study == "linear-threshold":
             bracket = _speeds(args.bracket_hz, "--bracket-hz")
             if len(bracket) != 2 or bracket[0] >= bracket[1]:

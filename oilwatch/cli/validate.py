@@ -18,7 +18,7 @@ import numpy as np
 
 from oilwatch.models.validation import InputError
 
-from .machine_option import add_machine_option, load_machine_option
+from .machine_option import add_bearing_option, add_machine_option, bearing_index, load_machine_option
 
 TARGETS = ("bearing-tables", "bearing-map", "reduction")
 
@@ -81,11 +81,14 @@ def register(subparsers) -> None:
         choices=("synchronous", "quasi-static"),
         help="bearing-map: the table's kind (default: the machine file's bearings.dynamic_coefficients)",
     )
+    add_bearing_option(parser, "bearing-map: the table of its geometry, at its load", "bearing 1")
     add_machine_option(parser)
     parser.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.bearing is not None and args.target != "bearing-map":
+        raise InputError("--bearing is bearing-map's")
     if args.target == "bearing-tables":
         if args.quick or args.near_threshold or args.one_sided or args.coefficients:
             raise InputError("--quick, --near-threshold, --one-sided and --coefficients are bearing-map's")
@@ -317,18 +320,19 @@ def bearing_map(args: argparse.Namespace) -> int:
     from oilwatch.models.bearing.sommerfeld import sommerfeld_number
     from oilwatch.models.bearing.table import CoefficientTable
     from oilwatch.models.rotor.assembly import Rotor
-    from oilwatch.models.system.factory import flowrate_table_path
+    from oilwatch.models.system.factory import flowrate_table_path, geometry_number
 
     machine = load_machine_option(args)
+    index = 0 if args.bearing is None else bearing_index(machine, args.bearing)
     kind = args.coefficients or machine.dynamic_coefficients
-    path = operating_table_path(machine.source_path, kind)
+    path = operating_table_path(machine.source_path, kind, geometry_number(machine, index))
     if not path.is_file():
         raise InputError(f"{kind} dimensionless table: {path} does not exist (oilwatch bearing-map makes it)")
     table = OperatingTable.load(path)
     print(f"{kind} coefficients: {path}")
     mesh = Mesh(**table.metadata["mesh"])
-    bearing = machine.bearing
-    load = float(Rotor.from_machine(machine).bearing_static_loads_n[0])
+    bearing = machine.bearings[index]
+    load = float(Rotor.from_machine(machine).bearing_static_loads_n[index])
     points = MAP_POINTS + (() if args.quick else MAP_SPREAD)
     if args.near_threshold:
         corners = tuple(dict.fromkeys((speed, mu) for speed, mu, _ in MAP_POINTS))
@@ -338,9 +342,10 @@ def bearing_map(args: argparse.Namespace) -> int:
             body = near_threshold_table(table, bearing, load, mesh, corners)
             print(body)
             machine_flag = [] if args.machine is None else [f"--machine {args.machine}"]
+            bearing_flag = [] if args.bearing is None else [f"--bearing {args.bearing}"]
             command = " ".join(
-                ["oilwatch validate bearing-map --near-threshold", *machine_flag, f"--coefficients {kind}",
-                 f"--readme {args.readme}"]
+                ["oilwatch validate bearing-map --near-threshold", *machine_flag, *bearing_flag,
+                 f"--coefficients {kind}", f"--readme {args.readme}"]
             )  # fmt: skip
             replace_block(args.readme, f"near-threshold-{kind}", body, command)
             return 0
@@ -361,7 +366,7 @@ def bearing_map(args: argparse.Namespace) -> int:
         f"worst: eccentricity ratio {worst[0]:.3f} %, K {worst[1]:.3f} %, C {worst[2]:.3f} % "
         "of the largest entry"
     )
-    one_d = CoefficientTable.load(flowrate_table_path(machine, machine.nominal_speed_hz, kind))
+    one_d = CoefficientTable.load(flowrate_table_path(machine, machine.nominal_speed_hz, kind, index))
     q_low, q_high = one_d.flowrate_range_m3_s
     worst = np.zeros(3)
     for q in np.linspace(q_low, q_high, ONE_D_FLOWRATES):

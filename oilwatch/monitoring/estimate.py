@@ -146,7 +146,7 @@ def open_record_stream(
     return RecordStream(
         source,
         setup,
-        machine.bearing.clearance_m,
+        tuple(bearing.clearance_m for bearing in machine.bearings),
         ESTIMATOR_DT_S,
         machine.nominal_speed_hz,
         chunk_rows=chunk_rows,
@@ -263,7 +263,10 @@ class EstimateRun:
         self.probe_angle_deg = self.stream.probe_angle_deg or 0.0
         self.runout, self.runout_source = self._runout()
         self.history = History(
-            ESTIMATOR_DT_S, self.speed_hz, self.machine.bearing.clearance_m, self.probe_angle_deg
+            ESTIMATOR_DT_S,
+            self.speed_hz,
+            tuple(bearing.clearance_m for bearing in self.machine.bearings),
+            self.probe_angle_deg,
         )
         self.latency = LatencyHistogram()  # from standard input: a line's arrival to its estimate written
         self.estimator_s = 0.0  # CPU time in the estimator's steps (the rest: reading, conditioning, writing)

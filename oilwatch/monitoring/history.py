@@ -117,9 +117,9 @@ class History:
     """Accumulates the rows of :class:`oilwatch.monitoring.estimate.EstimateRun` (module docstring)."""
 
     def __init__(
-        self, dt_s: float, speed_hz: float, clearance_m: float, probe_angle_deg: float = 0.0
+        self, dt_s: float, speed_hz: float, clearances_m: tuple[float, ...], probe_angle_deg: float = 0.0
     ) -> None:
-        self.dt, self.speed_hz, self.clearance_m = dt_s, speed_hz, clearance_m
+        self.dt, self.speed_hz, self.clearances_m = dt_s, speed_hz, tuple(clearances_m)
         self.probe_angle_deg = probe_angle_deg
         """The estimator's probe frame: its offsets are along probe axes at this angle (0: x and y)."""
         self.samples = 0

@@ -107,13 +107,13 @@ def _centerline(history: History, summary: dict):
     import matplotlib.pyplot as plt
 
     times, values = history.slow.arrays()
-    clearance_um = history.clearance_m * 1e6
     figure, grid = plt.subplots(2, 2, figsize=(9, 8.4), layout="constrained", height_ratios=(1.0, 0.8))
     axes, zooms = grid[0], grid[1]
     circle = np.linspace(0.0, 2.0 * math.pi, 361)
     offsets = offsets_in_model_frame(history.last_offsets_um, history.probe_angle_deg)
     corrected = bool(np.any(offsets != 0.0))
     for b, ax in enumerate(axes):
+        clearance_um = history.clearances_m[b] * 1e6
         x, y = values[:, 2 * b] - offsets[2 * b], values[:, 2 * b + 1] - offsets[2 * b + 1]
         ax.plot(clearance_um * np.cos(circle), clearance_um * np.sin(circle), color="0.3", lw=1.0)
         ax.plot([0], [0], "+", color="0.3", ms=10)

@@ -28,7 +28,7 @@ Conventions (API 670; Bently Nevada's "Fundamentals of Rotating Machinery Diagno
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
 import numba
@@ -257,9 +257,10 @@ def _combine(along, inverse, out):  # pragma: no cover - compiled; covered throu
 
 class PositionConverter:
     """Probe readings (one column per probe, in its unit) -> the shaft's (x1, y1, x2, y2) [m] in the model
-    frame from each bearing centre, for a machine of radial clearance ``clearance_m``."""
+    frame from each bearing centre, for a machine of the bearings' radial clearances ``clearances_m``
+    (bearing 1 first)."""
 
-    def __init__(self, setup: ProbeSetup, clearance_m: float) -> None:
+    def __init__(self, setup: ProbeSetup, clearances_m: Sequence[float]) -> None:
         self.setup = setup
         scale = np.zeros(4)
         offset = np.zeros(4)
@@ -268,7 +269,7 @@ class PositionConverter:
                 scale[i], offset[i] = 1e-6, -probe.zero_um * 1e-6
             else:
                 per_volt = 1e-3 / probe.sensitivity_v_per_mm  # m per V
-                rest_m = -clearance_m * probe.direction[1]
+                rest_m = -clearances_m[probe.bearing - 1] * probe.direction[1]
                 scale[i], offset[i] = per_volt, rest_m - probe.rest_gap_v * per_volt
         self._scale, self._offset = scale, offset
         # per bearing: [n_a; n_b] (x, y) = (u_a, u_b)  ->  (x, y) = inv [u_a, u_b]

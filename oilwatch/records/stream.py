@@ -66,7 +66,7 @@ class RecordStream:
 
     source: str
     setup: ProbeSetup
-    clearance_m: float
+    clearances_m: tuple[float, ...]
     dt_s: float
     model_speed_hz: float
     chunk_rows: int = 8192
@@ -109,7 +109,7 @@ class RecordStream:
             if setup.keyphasor_column
             else "none"
         )
-        self.converter = PositionConverter(setup, self.clearance_m)
+        self.converter = PositionConverter(setup, self.clearances_m)
         self.probe_angle_deg = self.converter.pair_angle_deg
         self._keyphasor = (
             Keyphasor(setup.keyphasor_edge, setup.keyphasor_threshold_v) if setup.keyphasor_column else None
@@ -207,7 +207,7 @@ class RecordStream:
             where = f"{name}: column {probe.column!r}, rows from {row}"
             if probe.unit == "um":
                 spread = np.abs(finite - probe.zero_um)
-                limit = 20.0 * self.clearance_m * 1e6
+                limit = 20.0 * self.clearances_m[probe.bearing - 1] * 1e6
                 if float(spread.max()) < 1e-3:
                     raise RecordError(f"{where}: every reading is below 1 nm: not a displacement in um")
                 if float(np.median(spread)) > limit:

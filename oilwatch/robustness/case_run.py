@@ -85,7 +85,7 @@ class RobustnessRun:
         self.model = GridAugmentedModel(build_system(self.machine, reduced=True), DT_S)
         rotor = Rotor.from_machine(self.machine)
         self._unbalance = (rotor.unbalance_moment_kg_m, rotor.unbalance_phase_rad)
-        self.clearance_m = self.machine.bearing.clearance_m
+        self.clearances_m = tuple(bearing.clearance_m for bearing in self.machine.bearings)
         self._motions: dict = {}  # true_motion's, per plant variant, point and seed
         self._other_models: dict = {}  # the estimator's models on another kind of film coefficients
         self._bounds: dict = {}  # CaseBounds per record length
@@ -255,7 +255,7 @@ class RobustnessRun:
         if case.compensate_runout:
             runout = slow_roll_vectors(
                 self.chain(case, False),
-                self.clearance_m,
+                self.clearances_m,
                 self.machine.nominal_speed_hz,
                 60.0,
                 DT_S,

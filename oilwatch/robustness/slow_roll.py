@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -33,19 +34,20 @@ REST_ECCENTRICITY = 0.7
 
 def slow_roll_record(
     chain: MeasurementChain,
-    clearance_m: float,
+    clearances_m: Sequence[float],
     nominal_speed_hz: float,
     duration_s: float,
     dt_s: float,
     seed: int,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(times (K,) [s], probe signals (K, 4) [m], rotor angle (K,) [rad]) at slow roll (module docstring).
-    Probe faults are not played: a slow-roll record is taken with healthy probes."""
+    """(times (K,) [s], probe signals (K, 4) [m], rotor angle (K,) [rad]) at slow roll (module docstring), for
+    bearings of radial clearances ``clearances_m`` (bearing 1 first). Probe faults are not played: a slow-roll
+    record is taken with healthy probes."""
     healthy = dataclasses.replace(
         chain, probes=tuple(dataclasses.replace(p, fault="none") for p in chain.probes)
     )
     omega = 2.0 * math.pi * SLOW_ROLL_FRACTION * nominal_speed_hz
-    rest = np.array([0.0, -REST_ECCENTRICITY * clearance_m] * 2)
+    rest = np.array([[0.0, -REST_ECCENTRICITY * c] for c in clearances_m]).ravel()
     rng = np.random.default_rng([seed, 51])
     held = np.zeros(4)
     times = dt_s * np.arange(1, round(duration_s / dt_s) + 1)
@@ -55,11 +57,11 @@ def slow_roll_record(
 
 def slow_roll_vectors(
     chain: MeasurementChain,
-    clearance_m: float,
+    clearances_m: Sequence[float],
     nominal_speed_hz: float,
     duration_s: float,
     dt_s: float,
     seed: int,
 ) -> SlowRollVectors:
     """The runout vectors fitted to :func:`slow_roll_record`."""
-    return fit_slow_roll(*slow_roll_record(chain, clearance_m, nominal_speed_hz, duration_s, dt_s, seed))
+    return fit_slow_roll(*slow_roll_record(chain, clearances_m, nominal_speed_hz, duration_s, dt_s, seed))
