@@ -1,20 +1,16 @@
 """Bearings of one machine may differ: ``[[bearings.override]]`` in the machine file, one geometry per bearing
 in :class:`oilwatch.models.machine.Machine`, tables per distinct geometry, and a system whose bearings each
-have their own film coefficients (checked against a direct solve of each bearing)."""
+have their own film coefficients (checked against a direct solve of each bearing). The whole chain through
+both FMUs on a machine whose bearings differ: tests/test_second_machine.py."""
 
 from __future__ import annotations
 
 import json
-import os
 import re
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
-from fixtures.fmu_subprocess import REPO_ROOT
-from fixtures.xdist_units import session_root
 
 from oilwatch.cli import main
 from oilwatch.estimator.ekf import OilFlowEKF
@@ -418,32 +414,6 @@ def test_oilwatch_estimate_on_the_machine_preset_finds_each_bearings_flowrate(ma
     spread = np.array([summary["q1_std_final_ml_min"], summary["q2_std_final_ml_min"]]) / ML_MIN_PER_M3_S
     assert np.all(np.abs(found - truth) < spread) and np.all(np.abs(found / truth - 1.0) < 0.02)
     assert summary["trust"]["trusted"]
-
-
-@pytest.mark.slow
-def test_the_sudden_drop_on_a_two_bearing_machine_meets_the_demos_criteria(tmp_path_factory, tmp_path):
-    """oilwatch demo on the two-bearing turbine (synchronous coefficients, production mesh): its four tables,
-    both FMUs built with them, 100 -> 75 % at 1 um noise. Measured when written (about 3 min): errors after
-    the drop 0.26 and 0.12 %, both alarms 0.27 s after the centre, no false alarm."""
-    cache = session_root(tmp_path_factory) / "oilwatch_cache"
-    environment = dict(
-        os.environ, OPENBLAS_NUM_THREADS="1", OILWATCH_CACHE=str(cache), PYTHONPATH=str(REPO_ROOT)
-    )
-    path = machine_file(tmp_path)
-    out = tmp_path / "demo"
-    command = ["demo", "--machine", str(path), "--out", str(out), "--no-progress"]
-    process = subprocess.run(
-        [sys.executable, "-m", "oilwatch", *command],
-        cwd=REPO_ROOT, env=environment, capture_output=True, text=True, timeout=1500,
-    )  # fmt: skip
-    assert process.returncode == 0, process.stdout + process.stderr
-    made = sorted(p.name for p in (tmp_path / "tables").iterdir())
-    assert made == [f"two_bearing{n}_75hz{kind}.json" for n in (1, 2) for kind in ("", "_synchronous")]
-    summary = json.loads((out / "summary.json").read_text())
-    for b in (1, 2):
-        assert summary[f"q{b}_err_pct_after"] < 2.0
-        assert 0.0 <= summary[f"alarm_delay_s_b{b}"] <= 2.0
-        assert summary[f"false_alarm_s_b{b}"] is None
 
 
 def test_a_speed_sweep_of_another_geometry_is_refused_naming_the_command_that_makes_the_right_one(differing):

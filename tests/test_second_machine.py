@@ -1,10 +1,12 @@
-"""oilwatch for another machine, from an installed wheel, in an empty folder.
+"""oilwatch for another machine, with bearings that differ, from an installed wheel, in an empty folder.
 
 A fresh virtual environment gets oilwatch from its wheel (not editable); in an empty temporary folder a
-second machine file (the bundled turbine with a 150 um clearance, 0.068 Pa s oil and no nominal flowrate: it
-is computed at the file's 0.5 bar groove pressure) goes through ``oilwatch bearing-table --machine M2.toml``
-and ``oilwatch demo --machine M2.toml`` (the sudden drop, 100 -> 75 % of that machine's nominal flowrate,
-through both FMUs; its summary.json is the one ``oilwatch run sudden-drop`` writes).
+second machine file (the bundled turbine with a 150 um clearance, 0.068 Pa s oil, no nominal flowrate: it
+is computed at the file's 0.5 bar groove pressure, and a non-drive-end bearing of its own, shorter, tighter
+and with a smaller groove) goes through ``oilwatch bearing-table --machine M2.toml`` (a table per bearing
+geometry) and ``oilwatch demo --machine M2.toml`` (the sudden drop, 100 -> 75 % of that machine's nominal
+flowrate, through both FMUs built with those tables; its summary.json is the one ``oilwatch run sudden-drop``
+writes).
 """
 
 from __future__ import annotations
@@ -23,13 +25,27 @@ from oilwatch.models.machine import load_machine
 pytestmark = pytest.mark.slow
 
 
+NON_DRIVE_END = """[[bearings.override]]
+node = 20
+length_mm = 60.0
+radial_clearance_um = 137.5
+groove_angle_deg = 0.0
+groove_circumferential_mm = 14.0
+groove_axial_mm = 30.0
+"""
+
+
 def second_machine(folder) -> str:
-    """M2.toml in ``folder``: the turbine with another clearance and oil, nominal flowrate from pressure."""
+    """M2.toml in ``folder``: the turbine with another clearance and oil, nominal flowrate from pressure, and
+    its bearing 2 of its own geometry."""
     text = (REPO_ROOT / "models" / "turbine.toml").read_text(encoding="utf-8")
     text = re.sub(r"(?m)^name = .*$", 'name = "turbine M2 (150 um, 0.068 Pa s)"', text)
     text = re.sub(r"(?m)^radial_clearance_um = .*$", "radial_clearance_um = 150.0", text)
     text = re.sub(r"(?m)^viscosity_pa_s = .*$", "viscosity_pa_s = 0.068", text)
     text = re.sub(r"(?m)^nominal_flowrate_ml_min = .*\n", "", text)
+    # bearing 2 scaled from tests/test_per_bearing.py's: its flooded threshold close to bearing 1's, so the
+    # estimator's one flowrate range (the span both tables share) holds the scenario's flows
+    text = text.replace("\n[oil]\n", "\n" + NON_DRIVE_END + "\n[oil]\n", 1)
     (folder / "M2.toml").write_text(text, encoding="utf-8")
     return "M2.toml"
 
@@ -52,7 +68,8 @@ def test_a_second_machine_runs_end_to_end_from_a_wheel_in_an_empty_folder(tmp_pa
 
     table, table_s = oilwatch_command("bearing-table", "--machine", machine_file, "--quiet")
     assert table.returncode == 0, table.stderr
-    assert (work / "tables" / "M2_bearing_75hz_synchronous.json").is_file()  # the default kind
+    for n in (1, 2):  # the default kind, one per bearing geometry
+        assert (work / "tables" / f"M2_bearing{n}_75hz_synchronous.json").is_file()
     demo, demo_s = oilwatch_command("demo", "--machine", machine_file, "--out", "d")
     assert demo.returncode == 0, demo.stdout + demo.stderr[-3000:]
     summary = json.loads((work / "d" / "summary.json").read_text(encoding="utf-8"))
