@@ -170,6 +170,26 @@ def sweep_command(machine: Machine, squeeze: str = "full-film", bearing_index: i
     return shlex.join(["oilwatch", "speed-sweep", *machine_arguments(machine), *squeezing, *bearing])
 
 
+def map_command(machine: Machine, kind: str, bearing_index: int = 0) -> str:
+    """The command that computes the machine's dimensionless table of ``kind`` for bearing
+    ``bearing_index``'s geometry."""
+    bearing = bearing_arguments(machine, bearing_index)
+    return shlex.join(
+        ["oilwatch", "bearing-map", *machine_arguments(machine), "--coefficients", kind, *bearing]
+    )
+
+
+def _refuse_other_geometry(noun: str, path: Path, stored, machine: Machine, index: int, command: str) -> None:
+    """InputError when the geometry ``stored`` with the table or sweep at ``path`` (None: it holds none) is
+    not bearing ``index``'s."""
+    mismatch = None if stored is None else geometry_mismatch(stored, machine.bearings[index])
+    if mismatch is not None:
+        raise InputError(
+            f"{noun} {path} was computed for {mismatch} ({_bearing_name(machine, index)}): recompute it with "
+            f"`{command}`"
+        )
+
+
 def _bearing_name(machine: Machine, bearing_index: int) -> str:
     return f"bearing {bearing_index + 1} (node {machine.bearing_nodes[bearing_index]})"
 
@@ -203,13 +223,10 @@ def load_tables(
                 f"coefficient table {table_path} was computed for a load of {table.load_n:.1f} N, but "
                 f"{who} carries {load:.1f} N: compute a table for that load"
             )
-        stored = table.metadata.get("bearing")  # a table made by hand may not say
-        mismatch = None if stored is None else geometry_mismatch(stored, machine.bearings[index])
-        if mismatch is not None:
-            raise InputError(
-                f"coefficient table {table_path} was computed for {mismatch} ({who}): recompute it with "
-                f"`{command}`"
-            )
+        # a table made by hand may not say its geometry
+        _refuse_other_geometry(
+            "coefficient table", table_path, table.metadata.get("bearing"), machine, index, command
+        )
         tables.append(table)
     return tables
 
@@ -251,13 +268,11 @@ def load_speed_sweeps(
             raise InputError(
                 f"speed sweep {sweep_path} was computed for {sweep.load_n:.1f} N, not {load:.1f} N ({who})"
             )
-        stored = sweep.provenance.get("bearing")  # the committed turbine sweeps do not hold it
-        mismatch = None if stored is None else geometry_mismatch(stored, machine.bearings[index])
-        if mismatch is not None:
-            raise InputError(
-                f"speed sweep {sweep_path} was computed for {mismatch} ({who}): recompute it with "
-                f"`{sweep_command(machine, squeeze, index)}`"
-            )
+        # the committed turbine sweeps do not hold their geometry
+        stored = sweep.provenance.get("bearing")
+        _refuse_other_geometry(
+            "speed sweep", sweep_path, stored, machine, index, sweep_command(machine, squeeze, index)
+        )
         sweeps.append(sweep)
     return sweeps
 

@@ -34,7 +34,6 @@ static sensitivity to a 1 % flow change.
 from __future__ import annotations
 
 import math
-import shlex
 
 import numpy as np
 
@@ -45,7 +44,7 @@ from ..machine import Machine
 from ..oil import Oil
 from ..validation import InputError, require_in_range, require_positive
 from .augmented import GridAugmentedModel
-from .factory import bearing_arguments, geometry_number, machine_arguments
+from .factory import geometry_number, map_command
 from .flowrate_grid import FlowrateGrid
 from .operating_correction import SECOND_ORDER_PAIRS, Recentring, fill_correction
 from .operating_kernels import (
@@ -420,13 +419,9 @@ def build_operating_model(
         for index in machine.distinct_geometries:
             path = operating_table_path(machine.source_path, kind, geometry_number(machine, index))
             if not path.exists():
-                bearing = bearing_arguments(machine, index)
-                command = shlex.join(
-                    ["oilwatch", "bearing-map", *machine_arguments(machine), "--coefficients", kind, *bearing]
-                )
                 raise InputError(
                     f"following speed and oil temperature needs the dimensionless bearing table {path}: "
-                    f"compute it with `{command}`"
+                    f"compute it with `{map_command(machine, kind, index)}`"
                 )
 
     def per_bearing(tables):

@@ -11,7 +11,6 @@ gyroscopic and unbalance terms to the instantaneous speed).
 from __future__ import annotations
 
 import math
-import shlex
 
 import numpy as np
 
@@ -21,7 +20,7 @@ from ..bearing.table import BearingCoefficients
 from ..machine import Machine
 from ..rotor.assembly import Rotor
 from ..validation import InputError, require_positive
-from .factory import bearing_arguments, geometry_number, machine_arguments
+from .factory import geometry_number, map_command
 from .rotor_bearing import RotorBearingSystem
 
 
@@ -100,13 +99,9 @@ def operating_table_of(
     path = operating_table_path(machine.source_path, kind, geometry_number(machine, bearing_index))
     table = OperatingTable.load(path)
     if table_kind(table.metadata) != kind:
-        bearing = bearing_arguments(machine, bearing_index)
-        command = shlex.join(
-            ["oilwatch", "bearing-map", *machine_arguments(machine), "--coefficients", kind, *bearing]
-        )
         raise InputError(
             f"dimensionless bearing table {path} holds {table_kind(table.metadata)} coefficients, not "
-            f"{kind}: recompute it with `{command}`"
+            f"{kind}: recompute it with `{map_command(machine, kind, bearing_index)}`"
         )
     table.check_geometry(machine.bearings[bearing_index])
     return table
