@@ -15,7 +15,7 @@ import time
 
 import numpy as np
 import pytest
-from fixtures.comparison_table import comparison_column
+from fixtures.doc_blocks import comparison_column
 from fixtures.fmu_subprocess import REPO_ROOT, edited_archive
 from fixtures.xdist_units import session_root
 

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from fixtures.comparison_table import comparison_column
+from fixtures.doc_blocks import comparison_column
 from fixtures.fmu_subprocess import REPO_ROOT
 from fixtures.xdist_units import session_root
 

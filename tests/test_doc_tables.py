@@ -3,12 +3,11 @@ copy of its page and compared), and the output-block generator (oilwatch.cli.doc
 
 from __future__ import annotations
 
-import re
 import shutil
 from pathlib import Path
 
 import pytest
-from fixtures.comparison_table import comparison_column
+from fixtures.doc_blocks import block_body, comparison_column
 
 from oilwatch.cli import machine_comparison, main
 from oilwatch.cli.docs_tables import main as docs_tables
@@ -25,19 +24,12 @@ from oilwatch.study.readme_tables import main as study_tables
 REPO = Path(__file__).resolve().parents[1]
 
 
-def _body(text: str, name: str) -> str:
-    name = re.escape(name)
-    found = re.search(rf"<!-- generated {name}: [^\n]*-->\n(.*?)<!-- /generated {name} -->", text, re.S)
-    assert found, f"no block {name}"
-    return found.group(1)
-
-
 def _regenerated(page: str, names: tuple[str, ...], tmp_path: Path, run) -> None:
     copy = tmp_path / Path(page).name
     shutil.copyfile(REPO / page, copy)
     run(str(copy))
     for name in names:
-        assert _body(copy.read_text(), name) == _body((REPO / page).read_text(), name), (
+        assert block_body(copy.read_text(), name) == block_body((REPO / page).read_text(), name), (
             f"{page}: block {name} is stale; rerun the command in its marker"
         )
 
@@ -80,7 +72,7 @@ def test_the_published_table_comparison_is_what_oilwatch_validate_prints(tmp_pat
 def test_the_near_threshold_table_holds_a_recomputed_point():
     """The 60 Hz rows of docs/bearings.md's quasi-static table, recomputed (the command in the block's
     marker recomputes both points of both tables)."""
-    body = _body((REPO / "docs" / "bearings.md").read_text(), "near-threshold-quasi-static")
+    body = block_body((REPO / "docs" / "bearings.md").read_text(), "near-threshold-quasi-static")
     machine = load_machine()
     table = OperatingTable.load(operating_table_path(machine.source_path, "quasi-static"))
     load = float(Rotor.from_machine(machine).bearing_static_loads_n[0])
@@ -119,7 +111,7 @@ def test_the_machine_comparison_runs_the_readmes_quick_start():
 def test_the_presets_table_is_the_presets_declaration(tmp_path):
     _regenerated("docs/model-mismatch.md", ("presets",), tmp_path,
                  lambda copy: docs_tables(["--page", copy]))  # fmt: skip
-    body = _body((REPO / "docs" / "model-mismatch.md").read_text(), "presets")
+    body = block_body((REPO / "docs" / "model-mismatch.md").read_text(), "presets")
     rows = [line for line in body.splitlines() if line.startswith("| `")]
     assert [row.split("|")[1].strip() for row in rows] == [f"`{p.name}`" for p in PRESETS]
     assert rows[0].split("|")[2].strip() == "yes" and PRESETS[0].name == DEFAULT_PRESET
@@ -128,7 +120,7 @@ def test_the_presets_table_is_the_presets_declaration(tmp_path):
 def test_the_scenarios_table_is_the_scenarios_declaration(tmp_path):
     _regenerated("docs/guide/simulation.md", ("scenarios",), tmp_path,
                  lambda copy: docs_tables(["--page", copy]))  # fmt: skip
-    body = _body((REPO / "docs" / "guide" / "simulation.md").read_text(), "scenarios")
+    body = block_body((REPO / "docs" / "guide" / "simulation.md").read_text(), "scenarios")
     assert [line.split("|")[1].strip() for line in body.splitlines() if line.startswith("| `")] == [
         f"`{name}`" for name in SCENARIOS
     ]
@@ -140,7 +132,7 @@ def test_an_output_block_is_its_commands_output_without_the_machine_load(tmp_pat
     page.write_text(f"x\n<!-- generated output-demo: {command} -->\n<!-- /generated output-demo -->\n")
     assert output_blocks(page) == {"output-demo": command}
     assert run_outputs(page, []) == ["output-demo"]
-    assert _body(page.read_text(), "output-demo") == "```text\na\nb\n```\n"
+    assert block_body(page.read_text(), "output-demo") == "```text\na\nb\n```\n"
     assert without_machine_load("(medians; 1-min load average 14.9-14.9)") == "(medians)"
     assert without_machine_load("force 5 N (load 3273 N)") == "force 5 N (load 3273 N)"  # a bearing's load
 
