@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import re
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -17,6 +18,7 @@ from fixtures.toy_model import NOMINAL_FLOWRATE_M3_S, TABLE_BOUNDS_M3_S, ToyRoto
 from oilwatch.cli import main
 from oilwatch.estimator.ekf import OilFlowEKF
 from oilwatch.estimator.ekf_config import EKFConfig
+from oilwatch.fmu_src.ekf_configuration import flowrates_ml_min
 from oilwatch.models.bearing.centreline import load_loci
 from oilwatch.models.bearing.coefficient_kinds import QUASI_STATIC
 from oilwatch.models.bearing.equilibrium import coefficients_at, static_equilibrium
@@ -570,3 +572,22 @@ def test_oilwatch_estimate_finds_each_bearings_flowrate_outside_the_other_bearin
         low, high = limits[f"bearing{b + 1}"]
         assert q[0] * ML_MIN_PER_M3_S < low < high < q[-1] * ML_MIN_PER_M3_S  # each own, a small margin in
         assert high - low > 0.99 * (q[-1] - q[0]) * ML_MIN_PER_M3_S
+
+
+def test_the_estimator_fmu_checks_its_initial_flowrate_against_each_bearings_range(far_apart):
+    machine, flows = far_apart
+    system = build_system(machine, reduced=True)
+    one, two = _ranges_ml_min(flows)
+    nominal = machine.lubrication.nominal_flowrate_m3_s * ML_MIN_PER_M3_S
+    assert flowrates_ml_min(SimpleNamespace(q_nominal_ml_min=0.0, q_initial_ml_min=0.0), system) == (
+        nominal,
+        nominal,
+    )
+    for initial, bearing, text in ((900.0, 1, one), (500.0, 2, two)):
+        slave = SimpleNamespace(q_nominal_ml_min=0.0, q_initial_ml_min=initial)
+        with pytest.raises(InputError) as error:
+            flowrates_ml_min(slave, system)
+        assert str(error.value) == (
+            f"q_initial_ml_min must lie in bearing {bearing}'s coefficient table range {text} ml/min, got "
+            f"{initial:g} ml/min"
+        )
