@@ -47,9 +47,10 @@ BLOCK_ROWS = 8192
 def write_long_record(path: Path, hours: float, noise_um: float = 1.0) -> int:
     from fixtures.plant_records import plant_run
 
-    _, true, _, _ = plant_run(PERIOD_S, DT_S, 0.0, drop_at_s=1e9)
-    rows_per_period = true.shape[0]
     total = round(hours * 3600.0 / DT_S)
+    # a record shorter than the period needs only its own length of plant motion
+    _, true, _, _ = plant_run(min(PERIOD_S, total * DT_S), DT_S, 0.0, drop_at_s=1e9)
+    rows_per_period = true.shape[0]
     rng = np.random.default_rng(7)
     with open(path, "w", encoding="utf-8") as file:
         file.write("time_s,x1_um,y1_um,x2_um,y2_um\n")
