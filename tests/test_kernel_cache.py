@@ -3,6 +3,7 @@ another file's kernel inlined is dropped when that file changes, which numba alo
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 import textwrap
@@ -84,3 +85,30 @@ def test_the_cache_files_go_only_when_a_source_that_imports_numba_changes(tmp_pa
 def test_importing_oilwatch_records_the_digest_of_its_kernel_sources():
     root = Path(oilwatch.__file__).parent
     assert (root / STAMP).read_text().strip() == sources_digest(root)
+
+
+def test_the_build_and_the_installed_oilwatch_share_kernels_only_between_the_same_sources(tmp_path):
+    from oilwatch.cosim.packaging import BUNDLE_FILE, copy_kernels, installed_twin
+    from oilwatch.fmu_src.bundle import source_digest
+
+    source, target = tmp_path / "installed", tmp_path / "bundled"
+    cache = source / "models" / "bearing" / "__pycache__"
+    cache.mkdir(parents=True)
+    for name in ("film.solve-10.py311.nbi", "film.solve-10.py311.1.nbc", "film.solve-10.py311.2.nbc",
+                 "film.other-30.py311.nbi", "film.other-30.py311.1.nbc", "film.cpython-311.pyc"):  # fmt: skip
+        (cache / name).write_bytes(name.encode())
+    kept = target / "models" / "bearing" / "__pycache__"
+    kept.mkdir(parents=True)
+    (kept / "film.other-30.py311.nbi").write_bytes(b"its own")  # an index of its own is never replaced
+    assert copy_kernels(source, target) == 1
+    assert sorted(p.name for p in kept.iterdir()) == [
+        "film.other-30.py311.nbi", "film.solve-10.py311.1.nbc", "film.solve-10.py311.2.nbc",
+        "film.solve-10.py311.nbi",
+    ]  # fmt: skip
+    assert (kept / "film.other-30.py311.nbi").read_bytes() == b"its own"
+
+    installed = Path(oilwatch.__file__).parent
+    (target / BUNDLE_FILE).write_text(json.dumps({"digest": source_digest(installed)}))
+    assert installed_twin(target) == installed
+    (target / BUNDLE_FILE).write_text(json.dumps({"digest": "0" * 16}))
+    assert installed_twin(target) is None

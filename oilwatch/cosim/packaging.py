@@ -26,6 +26,12 @@ warm-up itself, the Python, numpy and numba versions and the CPU, so they are ke
 ``<cache>/build/compiled/<key>/`` under a digest of all of these (:func:`compiled_key`) and a later build of
 the same content adds them without running the FMU again (``OILWATCH_FMU_CACHE=0`` turns the store off, as
 it does the unpacked folders; the :data:`KEEP_COMPILED` most recent are kept).
+
+When the building process's own oilwatch has the FMU's sources byte for byte (:func:`installed_twin`: an
+FMU built by ``oilwatch build-fmus`` from the installed package), the warm-up starts from the kernels that
+oilwatch already compiled, and leaves those it compiles beside its sources too (:func:`copy_kernels`):
+oilwatch's master runs the FMUs on that oilwatch (:mod:`oilwatch.fmu_src.bundle`), which would otherwise
+compile them again on the first run.
 """
 
 from __future__ import annotations
@@ -279,7 +285,13 @@ def ship_compiled(fmu: Path, label: str, seed: Path | None = None) -> bool:
         if not reused:
             if seed is not None:
                 _seed_kernels(folder, Path(seed))
+            bundled = folder / "resources" / ROOT_PACKAGE
+            installed = installed_twin(bundled)
+            if installed is not None:
+                copy_kernels(installed, bundled)
             files = _warm_up(folder, label)
+            if installed is not None:  # this oilwatch runs the FMUs it hosts: their kernels, compiled
+                copy_kernels(bundled, installed)
             shipped = {path.relative_to(folder).as_posix(): path.read_bytes() for path in files}
             if stored is not None:
                 _store(files, folder, stored)
@@ -303,6 +315,51 @@ def _seed_kernels(folder: Path, seed: Path) -> None:
                     target = folder / name
                     target.parent.mkdir(parents=True, exist_ok=True)
                     target.write_bytes(archive.read(name))
+
+
+def installed_twin(bundled: Path) -> Path | None:
+    """The oilwatch folder this process imported when its subpackages hold the sources of ``bundled`` (an
+    FMU's oilwatch) byte for byte, else None.
+
+    Such a process runs an FMU it loads on its own oilwatch (:mod:`oilwatch.fmu_src.bundle`), with the
+    kernels numba cached beside its own sources; and numba keys them by the source's content, so the two
+    folders' kernels serve each other."""
+    import oilwatch
+
+    installed = Path(oilwatch.__file__).parent
+    try:
+        recorded = json.loads((bundled / BUNDLE_FILE).read_text(encoding="utf-8"))["digest"]
+    except (OSError, ValueError, KeyError):
+        return None
+    return installed if source_digest(installed) == recorded else None
+
+
+def copy_kernels(source: Path, target: Path) -> int:
+    """Copy numba's cache files of each kernel cached under ``source`` (an oilwatch folder) to the same
+    place under ``target`` (one with the same sources, :func:`installed_twin`) where ``target`` has none
+    for it: its overloads, then its index, so that no reader meets an index without them. A folder that
+    cannot be written is left as it is. Returns the number of kernels copied."""
+    copied = 0
+    for package in SUBPACKAGES:
+        for folder, _, names in os.walk(source / package, followlinks=True):
+            if Path(folder).name != "__pycache__":
+                continue
+            destination = target / Path(folder).relative_to(source)
+            for index in (name for name in names if name.endswith(".nbi")):
+                if (destination / index).exists():
+                    continue
+                stem = index[: -len(".nbi")]
+                data = [name for name in names if name.startswith(stem + ".") and name.endswith(".nbc")]
+                try:
+                    destination.mkdir(parents=True, exist_ok=True)
+                    for name in (*data, index):
+                        partial = destination / f".{name}.{os.getpid()}"
+                        shutil.copyfile(Path(folder, name), partial)
+                        os.replace(partial, destination / name)
+                except OSError:
+                    return copied
+                copied += 1
+    return copied
 
 
 def share_compiled(fmus: list[Path]) -> None:
