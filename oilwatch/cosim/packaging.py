@@ -53,6 +53,7 @@ from pathlib import Path
 from oilwatch.cosim.extraction import cache_root, persistent_extraction_enabled, prune
 from oilwatch.fmu_src.bundle import BUNDLE_FILE, SUBPACKAGES, source_digest
 from oilwatch.fmu_src.grid_store import GRID_FOLDER
+from oilwatch.kernel_cache import NUMBA_SUFFIXES
 from oilwatch.models.machine import write_parsed_twin
 from oilwatch.models.validation import InputError
 
@@ -299,10 +300,6 @@ def ship_compiled(fmu: Path, label: str, seed: Path | None = None) -> bool:
     return reused
 
 
-NUMBA_FILES = ("*.nbi", "*.nbc")
-"""numba's cache files (index, compiled overloads) in a ``__pycache__`` folder."""
-
-
 def _seed_kernels(folder: Path, seed: Path) -> None:
     """Copy the numba files of ``seed``'s bundled oilwatch into the FMU unpacked in ``folder``. numba keeps
     an entry only while its source file's content is the one it was compiled from: a kernel whose source
@@ -311,7 +308,7 @@ def _seed_kernels(folder: Path, seed: Path) -> None:
     with zipfile.ZipFile(seed) as archive:
         for name in archive.namelist():
             if name.startswith(prefix) and "/__pycache__/" in name:
-                if any(fnmatch.fnmatch(name, pattern) for pattern in NUMBA_FILES):
+                if name.endswith(NUMBA_SUFFIXES):
                     target = folder / name
                     target.parent.mkdir(parents=True, exist_ok=True)
                     target.write_bytes(archive.read(name))
