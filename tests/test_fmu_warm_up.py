@@ -119,7 +119,9 @@ for name, (stamp, change, via_state) in CASES.items():
     result[name] = {"same": ahead == plain, "pending": pending, "moved": plain[0] != plain[-1]}
 """
 
-STEP_WARM_UP = START_SAMPLE.split("result = {}")[0] + """
+STEP_WARM_UP = (
+    START_SAMPLE.split("result = {}")[0]
+    + """
 steps = oilwatch_ekf_slave.WARM_UP_STEPS
 stepped = []  # the steps that succeeded
 
@@ -138,6 +140,7 @@ for name, (stamp, change, via_state) in CASES.items():
     result[name] = {"same": warm == cold, "moved": cold[0][0] != cold[0][-1], "warmed": warmed}
     stepped.clear()
 """
+)
 
 
 def test_the_estimators_start_sample_taken_in_initialization_changes_no_output():

@@ -126,7 +126,7 @@ def reference(record, tmp_path_factory):
 
 
 # ------------------------------------------------------------------ signals at random moments, resume
-@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+@pytest.mark.parametrize("seed", [0, 1])  # SIGINT, SIGTERM
 def test_a_signal_at_a_random_moment_leaves_whole_rows_and_the_same_command_resumes_bit_identically(
     seed, record, reference, tmp_path
 ):

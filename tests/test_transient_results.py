@@ -63,7 +63,9 @@ def test_frequency_dependent_root_recomputes():
 
 
 @pytest.mark.slow  # transient runs: seconds of film steps
-@pytest.mark.parametrize("key", ["orbits", "orbits_120x36", "orbits_240x72"])
+# orbits_240x72 takes the 120x36 run's settings on a mesh four times the cells (20 times its time): the two
+# samples below run each code path of the orbit runs
+@pytest.mark.parametrize("key", ["orbits", "orbits_120x36"])
 def test_orbit_run_start_recomputes(key):
     if key not in RESULTS:
         pytest.skip(f"no {key} in the results")
