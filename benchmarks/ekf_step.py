@@ -70,6 +70,7 @@ SPEED_HZ = _TURBINE.nominal_speed_hz
 NOMINAL_FLOWRATE_M3_S = _TURBINE.lubrication.nominal_flowrate_m3_s
 """The synthetic models run at the bundled turbine's speed and nominal flowrate."""
 
+
 class SyntheticRotorModel:
     """A dense linear model with the AugmentedModel interface: ``s+ = A(q) s + G w_k``,
     ``A(q) = A0 + sum_i (q_i / q_nom - 1) A_i``."""
@@ -80,7 +81,7 @@ class SyntheticRotorModel:
         self.dt_s = dt_s
         self.nominal_flowrate_m3_s = NOMINAL_FLOWRATE_M3_S
         self.speed_hz = SPEED_HZ
-        self.flowrate_bounds_m3_s = (0.45 * NOMINAL_FLOWRATE_M3_S, 1.4 * NOMINAL_FLOWRATE_M3_S)
+        self.bearing_flowrate_bounds_m3_s = np.array([(0.45, 1.4), (0.45, 1.4)]) * NOMINAL_FLOWRATE_M3_S
         modes = n_states // 2
         base = np.zeros((n_states, n_states))
         for j, frequency in enumerate(np.linspace(20.0, 480.0, modes)):

@@ -127,7 +127,7 @@ CHANGE_SAMPLES = 26  # 4: samples in each mean
 CHANGE_POINTS = 30  # the curves' number of points G
 CHANGE_CURVES = 31  # per bearing: flowrates (G) [m^3/s], then the probe pair's static change (G each) [m]
 CURVE_POINTS = 41
-"""Points of each bearing's static curve over the coefficient table's flowrate range."""
+"""Points of each bearing's static curve over its coefficient table's flowrate range."""
 CHANGE_SIZE = CHANGE_CURVES + 2 * 3 * CURVE_POINTS
 SPEED_TOLERANCE_FRACTION = 0.005
 TEMPERATURE_TOLERANCE_C = 1.0
@@ -136,7 +136,7 @@ temperature: the static position moves with both (the model's static curve is th
 
 
 def static_curves(model, probe_rotation: np.ndarray, q0_m3_s, points: int = CURVE_POINTS) -> np.ndarray:
-    """(2, 3, points): per bearing b, the flowrates over the table's range and the probe pair's static signal
+    """(2, 3, points): per bearing b, the flowrates over its table's range and the probe pair's static signal
     at each (the other bearing at its ``q0_m3_s``) minus the signal at ``q0_m3_s`` [m], from the model's
     static equilibrium (its film at the oil law's viscosity) and the probes' mounting (``probe_rotation``).
 
@@ -145,13 +145,12 @@ def static_curves(model, probe_rotation: np.ndarray, q0_m3_s, points: int = CURV
     synchronous model gave factors that moved the 80 % reading by -9 %), while a film a few % more viscous
     than the oil law moves the static curve by about a seventh per 5 % (100 -> 80 % of nominal: -5.09 um at
     1, -4.39 um at 1.05): :data:`STATIC_MODEL_FRACTION` covers that."""
-    low, high = model.flowrate_bounds_m3_s
-    grid = np.linspace(low, high, points)
     observe = probe_rotation @ np.asarray(model.output_matrix, dtype=float)
     q0 = np.asarray(q0_m3_s, dtype=float)
     origin = observe @ model.static_state(q0)
     curves = np.zeros((2, 3, points))
-    for b in range(2):
+    for b, (low, high) in enumerate(model.bearing_flowrate_bounds_m3_s):
+        grid = np.linspace(low, high, points)
         curves[b, 0] = grid
         for k, value in enumerate(grid):
             q = q0.copy()

@@ -38,11 +38,11 @@ update uses
   sec. 5.4.2, the time-average NIS test; Wilson-Hilferty approximation of the quantile). A discrepancy that
   the states can absorb (an offset that looks like a flow change) stays invisible to it; one they cannot
   (a wrong 1x orbit) shows. The alarm records whether the model was consistent when it was raised.
-* Flowrate bounds: after each update, a flowrate outside the coefficient table's range is projected onto it in
-  the metric of P^-1 (Simon & Chia, IEEE Trans. AES 38, 2002: the minimum-variance estimate given that the
-  active bound holds exactly), which also moves the correlated dynamic states; P is left unchanged, a
+* Flowrate bounds: after each update, a flowrate outside its bearing's coefficient table range is projected
+  onto it in the metric of P^-1 (Simon & Chia, IEEE Trans. AES 38, 2002: the minimum-variance estimate given
+  that the active bound holds exactly), which also moves the correlated dynamic states; P is left unchanged, a
   conservative choice that keeps the flowrate free to leave the bound (the projected covariance would have
-  zero variance there). The model is therefore never evaluated outside its table.
+  zero variance there). The model is therefore never evaluated outside a bearing's table.
 * ``converged``: both flowrate stds below ``CONVERGED_STD_FRACTION`` of nominal, both estimates changed by
   less than ``CONVERGED_DRIFT_FRACTION`` of nominal over the last ``CONVERGED_WINDOW_S``, and some channel
   updated the filter within that window.
@@ -193,9 +193,8 @@ class OilFlowEKF:
         self._trailing_jacobian = np.zeros((n, self._n_trailing))
         self._follows = callable(getattr(model, "set_operating_point", None))
         self._q_nominal = cfg.q_nominal_m3_s
-        low, high = model.flowrate_bounds_m3_s
-        self._bounds = (float(low), float(high))
-        bounds_scaled = (low / self._q_nominal, high / self._q_nominal)
+        self._bounds = np.array(model.bearing_flowrate_bounds_m3_s, dtype=float)
+        bounds_scaled = self._bounds / self._q_nominal
         self._dt = float(model.dt_s)
         self._first_step = round(cfg.first_sample_time_s / self._dt)
         if abs(self._first_step * self._dt - cfg.first_sample_time_s) > 1e-6 * self._dt:
@@ -551,16 +550,16 @@ class OilFlowEKF:
 
     @property
     def flowrate_m3_s(self) -> np.ndarray:
-        """(2,) current flowrate estimates [m^3/s], inside the model's table range."""
+        """(2,) current flowrate estimates [m^3/s], each inside its bearing's table range."""
         return np.array(self._flowrate_si())
 
     def _flowrate_si(self) -> tuple[float, float]:
         # clipped in SI as well: the round trip through the scaled unit may leave a bound by one ulp
         n, scale = self._n, self._q_nominal
-        low, high = self._bounds
+        (low1, high1), (low2, high2) = self._bounds.tolist()
         return (
-            min(max(float(self._x[n]) * scale, low), high),
-            min(max(float(self._x[n + 1]) * scale, low), high),
+            min(max(float(self._x[n]) * scale, low1), high1),
+            min(max(float(self._x[n + 1]) * scale, low2), high2),
         )
 
     @property

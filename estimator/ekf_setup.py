@@ -47,8 +47,7 @@ from .step_kernel import (
     SUMMARY_CONVERGED_DRIFT,
     SUMMARY_CONVERGED_STD,
     SUMMARY_HELD_STD,
-    SUMMARY_Q_HIGH,
-    SUMMARY_Q_LOW,
+    SUMMARY_Q_BOUNDS,
     SUMMARY_Q_NOMINAL,
     SUMMARY_UNBALANCE_EXTRA,
     SUMMARY_UNBALANCE_WALK,
@@ -126,13 +125,21 @@ def check_model(model: AugmentedModel, config: EKFConfig) -> None:
             raise InputError(f"model.{name} must have shape (4, {n}), got {shape}")
     if not float(model.dt_s) > 0.0:
         raise InputError(f"model.dt_s must be > 0 s, got {model.dt_s!r}")
-    low, high = model.flowrate_bounds_m3_s
-    if not 0.0 < low < high:
-        raise InputError(f"model.flowrate_bounds_m3_s must satisfy 0 < low < high, got {low}, {high}")
-    for value in config.q_initial_pair():
+    bounds = np.asarray(model.bearing_flowrate_bounds_m3_s, dtype=float)
+    if bounds.shape != (2, 2):
+        raise InputError(
+            f"model.bearing_flowrate_bounds_m3_s must have shape (2, 2) (each bearing's low, high), got "
+            f"{bounds.shape}"
+        )
+    for b, ((low, high), value) in enumerate(zip(bounds, config.q_initial_pair(), strict=True), start=1):
+        if not 0.0 < low < high:
+            raise InputError(
+                f"model.bearing_flowrate_bounds_m3_s of bearing {b} must satisfy 0 < low < high, got {low}, "
+                f"{high}"
+            )
         if not low <= value <= high:
             raise InputError(
-                f"EKFConfig.q_initial_m3_s must lie in the model's table range "
+                f"EKFConfig.q_initial_m3_s of bearing {b} must lie in its table range "
                 f"[{low:g}, {high:g}] m^3/s, got {value:g}"
             )
     if config.initial_state == "static" and not has_static_state(model):
@@ -187,13 +194,14 @@ def physical_covariance(
     return 0.5 * (covariance + covariance.T)
 
 
-def step_settings(cfg: EKFConfig, dt: float, bounds_scaled: tuple[float, float], q_var: float) -> np.ndarray:
-    """:func:`oilwatch.estimator.kernels.filter_step`'s settings array (filter units)."""
+def step_settings(cfg: EKFConfig, dt: float, bounds_scaled: np.ndarray, q_var: float) -> np.ndarray:
+    """:func:`oilwatch.estimator.kernels.filter_step`'s settings array (filter units); ``bounds_scaled``
+    (2, 2) each bearing's (low, high)."""
     change_alpha = min(1.0, dt / CHANGE_WINDOW_S)
     return np.array(
         [
             1.0 / dt,
-            *bounds_scaled,
+            *np.ravel(bounds_scaled),
             change_alpha / (2.0 - change_alpha),  # null variance of the fading-memory mean
             chi_square_upper_quantile(2, CHANGE_TAIL_PROBABILITY),
             q_var,
@@ -203,12 +211,13 @@ def step_settings(cfg: EKFConfig, dt: float, bounds_scaled: tuple[float, float],
 
 
 def summary_settings(
-    cfg: EKFConfig, q_nominal: float, bounds: tuple[float, float], unbalance_walk: float
+    cfg: EKFConfig, q_nominal: float, bounds: np.ndarray, unbalance_walk: float
 ) -> np.ndarray:
-    """The ``SUMMARY_*`` settings array of :func:`oilwatch.estimator.step_kernel.step_summary`."""
+    """The ``SUMMARY_*`` settings array of :func:`oilwatch.estimator.step_kernel.step_summary`; ``bounds``
+    (2, 2) each bearing's flowrate range (low, high) [m^3/s]."""
     settings = np.zeros(N_SUMMARY_SETTINGS)
     settings[SUMMARY_Q_NOMINAL] = q_nominal
-    settings[SUMMARY_Q_LOW], settings[SUMMARY_Q_HIGH] = bounds
+    settings[SUMMARY_Q_BOUNDS : SUMMARY_Q_BOUNDS + 4] = np.ravel(bounds)
     settings[SUMMARY_CONSISTENCY_Z] = -NormalDist().inv_cdf(CONSISTENCY_TAIL_PROBABILITY)
     settings[SUMMARY_CONVERGED_STD] = CONVERGED_STD_FRACTION
     settings[SUMMARY_CONVERGED_DRIFT] = CONVERGED_DRIFT_FRACTION

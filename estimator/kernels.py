@@ -253,11 +253,9 @@ def update_with_cross(
 
 
 @njit(cache=True)
-def project_flowrates(
-    state: np.ndarray, covariance: np.ndarray, low: float, high: float, first: int = -1
-) -> None:
-    """Project the two flowrate entries (``first``, ``first + 1``; -1: the last two) onto [low, high] in the
-    P^-1 metric.
+def project_flowrates(state: np.ndarray, covariance: np.ndarray, bounds: np.ndarray, first: int = -1) -> None:
+    """Project the two flowrate entries (``first``, ``first + 1``; -1: the last two) each onto its bearing's
+    range in the P^-1 metric; ``bounds`` (4,) (low1, high1, low2, high2).
 
     For the active set A: ``x <- x - P[:, A] P[A, A]^-1 (x_A - bound_A)`` (Simon & Chia 2002), which moves the
     correlated dynamic states with the flowrates; then the active entries are set exactly to their bounds.
@@ -269,6 +267,7 @@ def project_flowrates(
     active = np.zeros(2, dtype=np.bool_)
     for b in range(2):
         value = state[first + b]
+        low, high = bounds[2 * b], bounds[2 * b + 1]
         if value < low:
             excess[b], active[b] = value - low, True
         elif value > high:
@@ -290,7 +289,7 @@ def project_flowrates(
         for i in range(size):
             state[i] -= covariance[i, first + b] * weight
     for b in range(2):
-        state[first + b] = min(max(state[first + b], low), high)
+        state[first + b] = min(max(state[first + b], bounds[2 * b]), bounds[2 * b + 1])
 
 
 @njit(cache=True)
@@ -308,10 +307,11 @@ def filter_step(
     a : the filter's arrays (:class:`oilwatch.estimator.filter_arrays.FilterArrays`; this step reads and
     advances those up to ``changing``). predict : whether ``next_state`` and the Jacobians are to be applied
     (False on the first sample); the flowrate columns of the Jacobian are per ``flowrate_scale`` [m^3/s].
-    displacement : (4,) sample [m]; non-finite entries drop their channels. ``a.settings`` : [1/dt, flowrate
-    low, flowrate high, change-test null variance, change-test threshold, flowrate process variance, extra
-    variance while changing] (filter units). ``a.accepted`` : (4,) bool out, the displacement channels
-    used. ``a.changing`` : (2,) bool out, the change test of :func:`detect_change`.
+    displacement : (4,) sample [m]; non-finite entries drop their channels. ``a.settings`` : [1/dt, each
+    bearing's flowrate low and high (low1, high1, low2, high2), change-test null variance, change-test
+    threshold, flowrate process variance, extra variance while changing] (filter units). ``a.accepted`` :
+    (4,) bool out, the displacement channels used. ``a.changing`` : (2,) bool out, the change test of
+    :func:`detect_change`.
 
     Every screened channel that passes its own gate is used (:mod:`oilwatch.estimator.channels`); a
     differentiated velocity channel only when its displacement channel was accepted in this and the previous
@@ -380,7 +380,7 @@ def filter_step(
         cross = cross4[index]
     status, nis = update_with_cross(state, covariance, observation, cross, measured, noise, np.inf)
     if status == UPDATE_ACCEPTED:
-        project_flowrates(state, covariance, settings[1], settings[2], n)
+        project_flowrates(state, covariance, settings[1:5], n)
         return status, nis, m, rejected
     return status, nis, 0, rejected
 
@@ -400,13 +400,13 @@ def detect_change(
 
     Each channel's mean is compared with its null spread scaled by the channel's observed innovation power
     (at least 1), so that a measurement noise larger than configured widens the test rather than firing it.
-    A flowrate held on a table bound gets no extra noise: the bias there is the bound's.
+    A flowrate held on its table's bound gets no extra noise: the bias there is the bound's.
     """
     for b in range(2):
         statistic = 0.0
         for i in (2 * b, 2 * b + 1):
             statistic += health_values[i, BIAS] ** 2 / max(1.0, health_values[i, POWER])
         q = state[first + b]
-        fires = statistic / settings[3] > settings[4] and settings[1] < q < settings[2]
+        fires = statistic / settings[5] > settings[6] and settings[1 + 2 * b] < q < settings[2 + 2 * b]
         changing[b] = fires
-        process_noise[first + b, first + b] = settings[5] + (settings[6] if fires else 0.0)
+        process_noise[first + b, first + b] = settings[7] + (settings[8] if fires else 0.0)

@@ -10,8 +10,8 @@ inputs of the model. The flowrates ``q = [q1, q2]`` (m^3/s) are the augmented st
 internally (see :mod:`oilwatch.estimator.ekf`), the model always sees SI units.
 
 Beyond the four members requested at the start (``n_states``, ``dt_s``, ``output_matrix``,
-``flowrate_bounds_m3_s``, ``transition``) the estimator needs two more, because the state may be a set of
-reduced (modal or Craig-Bampton) coordinates whose meaning only the model knows:
+``bearing_flowrate_bounds_m3_s``, ``transition``) the estimator needs two more, because the state may be a
+set of reduced (modal or Craig-Bampton) coordinates whose meaning only the model knows:
 
 * ``velocity_output_matrix`` maps the state to the measured points' velocities, for the paper's differentiated
   velocity channels;
@@ -45,15 +45,16 @@ class AugmentedModel(Protocol):
     dt_s : sampling period [s].
     output_matrix : (4, n) measured displacements [m] ``= H @ s`` in the order (x1, y1, x2, y2).
     velocity_output_matrix : (4, n) velocities [m/s] of the same four measured coordinates ``= H_v @ s``.
-    flowrate_bounds_m3_s : (low, high) range of the bearing coefficient table [m^3/s]; ``transition`` is only
-        called with flowrates inside it.
+    bearing_flowrate_bounds_m3_s : (2, 2) each bearing's flowrate range [m^3/s], row b (low, high) of
+        bearing b + 1's own coefficient tables; ``transition`` is only called with each flowrate inside its
+        bearing's range.
     """
 
     n_states: int
     dt_s: float
     output_matrix: np.ndarray
     velocity_output_matrix: np.ndarray
-    flowrate_bounds_m3_s: tuple[float, float]
+    bearing_flowrate_bounds_m3_s: np.ndarray
 
     def transition(
         self, state: np.ndarray, flowrate_m3_s: np.ndarray, step: int

@@ -320,8 +320,8 @@ class InformationFloor:
         """Start an update at these estimates and the model's operating point now (:meth:`work` does it; the
         first update from the prior is done here, whole: class docstring)."""
         speed, viscosity = self._model.operating_point
-        low, high = self._model.flowrate_bounds_m3_s
-        # an estimate at the table's edge: the update's differences step either way, inside the table
+        low, high = self._model.bearing_flowrate_bounds_m3_s.T
+        # an estimate at its table's edge: the update's differences step either way, inside the table
         q = np.clip(flowrate_m3_s, low * (1.0 + _EDGE), high / (1.0 + _EDGE))
         self._pending[: 1 + _INPUTS] = np.r_[0.0, q, factors, unbalance, speed, viscosity]
         if np.array_equal(self.covariance, self._prior):

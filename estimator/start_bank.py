@@ -12,20 +12,19 @@ starts where one filter cannot travel: multiple-model adaptive estimation (Magil
 Control 10, 1965; Maybeck, "Stochastic Models, Estimation, and Control" vol. 2, 1982, ch. 10) used as a start.
 
 :class:`StartBank` runs one filter per start, the starts spread along the flowrates' prior only (fractions
-:data:`START_FRACTIONS` of the configured initial flowrate, both bearings alike; the other states at their
-prior), through a selection window; at its end it keeps the filter whose accumulated NIS since the settling
-start's restart is smallest (the log-likelihood up to the log-determinant of the innovation covariance,
-the same to first order for filters with the same measurement noise and settled dynamic states) and
-continues it alone. Before the choice the reports are the leading start's: the nominal start's until
-another start's accumulated NIS is lower than the leader's by :data:`LEAD_MARGIN`, then that start's (the
-record so far prefers it at a likelihood ratio of about 90; without the margin the leading start would
-change on the NIS's sample noise while the sums are small). So the bank is causal, costs at most
+:data:`START_FRACTIONS` of the configured initial flowrate, both bearings alike, each within its own table
+range; the other states at their prior), through a selection window; at its end it keeps the filter whose
+accumulated NIS since the settling start's restart is smallest (the log-likelihood up to the log-determinant
+of the innovation covariance, the same to first order for filters with the same measurement noise and settled
+dynamic states) and continues it alone. Before the choice the reports are the leading start's: the nominal
+start's until another start's accumulated NIS is lower than the leader's by :data:`LEAD_MARGIN`, then that
+start's (the record so far prefers it at a likelihood ratio of about 90; without the margin the leading start
+would change on the NIS's sample noise while the sums are small). So the bank is causal, costs at most
 ``len(starts)`` filters for the window only, and does not report, or alarm on, a start the record already
-rejects: on the bundled compressor with three times its unbalance at nominal flow the nominal start drifts
-to -16 % in the window and alarms, while the 1.1 start, which the record prefers from its first second,
-never does. A start that trails the least sum by :data:`PRUNE_MARGIN` stops running. A record shorter than
-the window ends before the choice: its estimates are the leading start's (:attr:`StartBank.chosen`
-stays None).
+rejects: on the bundled compressor with three times its unbalance at nominal flow the nominal start drifts to
+-16 % in the window and alarms, while the 1.1 start, which the record prefers from its first second, never
+does. A start that trails the least sum by :data:`PRUNE_MARGIN` stops running. A record shorter than the
+window ends before the choice: its estimates are the leading start's (:attr:`StartBank.chosen` stays None).
 
 The bank has the filter's public interface (:meth:`step`, :meth:`run`, :meth:`run_batch`, :meth:`reset`,
 the reports, the nuisance estimates, :meth:`get_state` / :meth:`set_state`), so that every caller builds its
@@ -93,12 +92,17 @@ class StartBank:
         if 1.0 not in self.fractions:
             raise ValueError("the start fractions must include 1 (the configured start)")
         self._nominal = self.fractions.index(1.0)
+        # a start past a bearing's table starts at its edge: the filter holds the flowrate within it anyway
+        low, high = np.asarray(model.bearing_flowrate_bounds_m3_s, dtype=float).T
         # each start its own model (an operating model carries the rotor angle and its correction centre);
         # the nominal start is the configured filter itself
         self.filters = [
             OilFlowEKF(model, config)
             if k == self._nominal
-            else OilFlowEKF(copy.deepcopy(model), dataclasses.replace(config, q_initial_m3_s=tuple(f * q0)))
+            else OilFlowEKF(
+                copy.deepcopy(model),
+                dataclasses.replace(config, q_initial_m3_s=tuple(np.clip(f * q0, low, high).tolist())),
+            )
             for k, f in enumerate(self.fractions)
         ]
         self.select_s = float(select_s)

@@ -46,8 +46,8 @@ def _layout(*fields: tuple[str, int]) -> tuple[dict[str, int], int]:
 # the model is consistent, else as estimator.baseline_change says), the viscosity factors and stds (1 and 0
 # if not estimated), offsets [m] and stds, unbalance and stds (0 if not estimated), the sample's scalars and
 # flags as floats (per bearing, or per probe for the status), the model-mismatch status, the filter's own
-# flowrates (clipped to the table) and stds, and the baseline-relative static estimate and std (NaN when
-# no static reference applies)
+# flowrates (each clipped to its bearing's table) and stds, and the baseline-relative static estimate and
+# std (NaN when no static reference applies)
 _REPORT, REPORT_SIZE = _layout(
     ("flowrate", 2),
     ("std", 2),
@@ -93,8 +93,7 @@ COUNT_UNBALANCE, COUNT_OFFSETS = _COUNTERS["unbalance"], _COUNTERS["offsets"]
 # the settings array of :func:`step_summary` and :func:`ekf_step`
 _SUMMARY, N_SUMMARY_SETTINGS = _layout(
     ("q_nominal", 1),
-    ("q_low", 1),
-    ("q_high", 1),
+    ("q_bounds", 4),  # each bearing's flowrate range (low1, high1, low2, high2) [m^3/s]
     ("consistency_z", 1),
     ("converged_std", 1),
     ("converged_drift", 1),
@@ -103,11 +102,7 @@ _SUMMARY, N_SUMMARY_SETTINGS = _layout(
     ("std_floor", 2),  # the alarm's floor on each flowrate std [m^3/s] (0: none)
     ("held_std", 1),  # the flowrates' prior std, around nominal, for a held mismatch [m^3/s]
 )
-SUMMARY_Q_NOMINAL, SUMMARY_Q_LOW, SUMMARY_Q_HIGH = (
-    _SUMMARY["q_nominal"],
-    _SUMMARY["q_low"],
-    _SUMMARY["q_high"],
-)
+SUMMARY_Q_NOMINAL, SUMMARY_Q_BOUNDS = _SUMMARY["q_nominal"], _SUMMARY["q_bounds"]
 SUMMARY_CONSISTENCY_Z, SUMMARY_CONVERGED_STD = _SUMMARY["consistency_z"], _SUMMARY["converged_std"]
 SUMMARY_CONVERGED_DRIFT, SUMMARY_UNBALANCE_WALK = _SUMMARY["converged_drift"], _SUMMARY["unbalance_walk"]
 SUMMARY_UNBALANCE_EXTRA, SUMMARY_STD_FLOOR = _SUMMARY["unbalance_extra"], _SUMMARY["std_floor"]
@@ -145,9 +140,8 @@ def step_summary(
     offset, -1 when not estimated; since_update: samples since the last accepted update, this one
     included). nis, rows : of this sample (0 when it made no update). nis_window (C, 2), nis_sums (2,),
     history (W, 2) : the ring buffers, advanced here. settings : the SUMMARY_* values. report : the
-    REPORT_* estimates written (the filter's flowrates clipped to the table [m^3/s], stds, nuisances: their
-    known values and std 0 when not estimated). Returns
-    ``(model_consistent, converged)``.
+    REPORT_* estimates written (the filter's flowrates, each clipped to its bearing's table [m^3/s], stds,
+    nuisances: their known values and std 0 when not estimated). Returns ``(model_consistent, converged)``.
     """
     step = counters[COUNT_STEP]
     first = counters[COUNT_FIRST]
@@ -163,7 +157,6 @@ def step_summary(
         c = 2.0 / (9.0 * dof)
         consistent = nis_sums[0] <= dof * (1.0 - c + settings[SUMMARY_CONSISTENCY_Z] * np.sqrt(c)) ** 3.0
     scale = settings[SUMMARY_Q_NOMINAL]
-    low, high = settings[SUMMARY_Q_LOW], settings[SUMMARY_Q_HIGH]
     window = history.shape[0]
     slot = step % window
     drift = 0.0
@@ -175,6 +168,7 @@ def step_summary(
         history[slot, b] = scaled
         largest = max(largest, deviation)
         # clipped in SI as well: the round trip through the scaled unit may leave a bound by one ulp
+        low, high = settings[SUMMARY_Q_BOUNDS + 2 * b], settings[SUMMARY_Q_BOUNDS + 2 * b + 1]
         report[REPORT_FILTER_FLOWRATE + b] = min(max(scaled * scale, low), high)
         report[REPORT_FILTER_STD + b] = deviation * scale
     ones = np.ones(2)
@@ -308,8 +302,8 @@ def sample_step(
     if act and status == MISMATCH_BASELINE:
         for b in range(2):
             flow = report[REPORT_BASELINE_FLOWRATE + b]
-            flow = max(flow, summary_settings[SUMMARY_Q_LOW])
-            report[REPORT_FLOWRATE + b] = min(flow, summary_settings[SUMMARY_Q_HIGH])
+            flow = max(flow, summary_settings[SUMMARY_Q_BOUNDS + 2 * b])
+            report[REPORT_FLOWRATE + b] = min(flow, summary_settings[SUMMARY_Q_BOUNDS + 2 * b + 1])
             own = report[REPORT_BASELINE_STD + b]
             report[REPORT_STD + b] = own
             if consistent:

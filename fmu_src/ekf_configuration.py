@@ -69,27 +69,27 @@ def check_parameters(slave) -> None:
 
 def flowrates_ml_min(slave, system) -> tuple[float, float]:
     """(nominal, initial) flowrate [ml/min] of the parameters (0: the machine's nominal); the initial must lie
-    in ``system``'s coefficient table."""
+    in each bearing's own coefficient table range of ``system``."""
     nominal = (
         slave.q_nominal_ml_min if slave.q_nominal_ml_min > 0.0 else system.nominal_flowrate_m3_s / ML_MIN
     )
     initial = slave.q_initial_ml_min if slave.q_initial_ml_min > 0.0 else nominal
-    low, high = (bound / ML_MIN for bound in system.flowrate_bounds_m3_s)
-    if slave.q_nominal_ml_min > 0.0 and not low <= nominal <= high:  # named as the user gave it
-        raise InputError(
-            f"q_nominal_ml_min must lie in the coefficient table's range [{low:.1f}, {high:.1f}] ml/min, "
-            f"got {nominal:g} ml/min"
-        )
-    if not low <= initial <= high:
-        name = (
-            "q_initial_ml_min"
-            if slave.q_initial_ml_min > 0.0
-            else "the nominal flowrate (q_initial_ml_min 0)"
-        )
-        raise InputError(
-            f"{name} must lie in the coefficient table's range [{low:.1f}, {high:.1f}] ml/min, "
-            f"got {initial:g} ml/min"
-        )
+    for b, (low, high) in enumerate(system.bearing_flowrate_bounds_m3_s / ML_MIN, start=1):
+        if slave.q_nominal_ml_min > 0.0 and not low <= nominal <= high:  # named as the user gave it
+            raise InputError(
+                f"q_nominal_ml_min must lie in bearing {b}'s coefficient table range [{low:.1f}, {high:.1f}] "
+                f"ml/min, got {nominal:g} ml/min"
+            )
+        if not low <= initial <= high:
+            name = (
+                "q_initial_ml_min"
+                if slave.q_initial_ml_min > 0.0
+                else "the nominal flowrate (q_initial_ml_min 0)"
+            )
+            raise InputError(
+                f"{name} must lie in bearing {b}'s coefficient table range [{low:.1f}, {high:.1f}] ml/min, "
+                f"got {initial:g} ml/min"
+            )
     return nominal, initial
 
 

@@ -87,7 +87,8 @@ OWN_REALS = (
     ("sample_period_s", SAMPLING_PERIOD_S, "s", 1e-5, 0.01,
      "Sampling period of the filter's discrete model; its samples lie on t = k period"),
     ("q_initial_ml_min", 0.0, "ml/min", 0.0, MAX_FLOWRATE_ML_MIN,
-     "Initial flowrate estimate of both bearings (within the coefficient table's range); 0: the nominal"),
+     "Initial flowrate estimate of both bearings (within each bearing's coefficient table range); 0: the "
+     "nominal"),
     ("q_nominal_ml_min", 0.0, "ml/min", 0.0, MAX_FLOWRATE_ML_MIN,
      "Nominal flowrate, the alarm thresholds' reference; 0: the machine file's nominal flowrate"),
     ("baseline_age_days", 0.0, "d", 0.0, MAX_AGE_DAYS,

@@ -110,7 +110,7 @@ def test_static_start_needs_a_model_with_static_state():
         dt_s = 1e-3
         output_matrix = np.zeros((4, 2))
         velocity_output_matrix = np.zeros((4, 2))
-        flowrate_bounds_m3_s = (1e-6, 1e-4)
+        bearing_flowrate_bounds_m3_s = np.array([(1e-6, 1e-4), (1e-6, 1e-4)])
         nominal_flowrate_m3_s = 5e-5
 
         def transition(self, state, flowrate_m3_s, step):

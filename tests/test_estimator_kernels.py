@@ -99,18 +99,20 @@ def test_indefinite_innovation_covariance_is_reported_not_used():
     assert np.array_equal(covariance, before)
 
 
-@pytest.mark.parametrize("flowrates", [(0.3, 1.0), (1.0, 1.6), (0.2, 1.7)])
-def test_projection_is_the_p_metric_projection_onto_the_bounds(flowrates):
+@pytest.mark.parametrize("flowrates", [(0.3, 1.0), (1.0, 1.6), (0.2, 1.7), (1.0, 0.5), (1.0, 1.3)])
+def test_projection_is_the_p_metric_projection_onto_each_bearings_bounds(flowrates):
+    """Bearing 2's range (0.6, 1.2) lies inside bearing 1's (0.45, 1.4): its 0.5 and 1.3 are past its own."""
     _, covariance, _, _ = _random_problem()
     size = covariance.shape[0]
     state = np.linspace(-1.0, 1.0, size)
     state[-2:] = flowrates
-    low, high = 0.45, 1.4
-    active = [size - 2 + b for b in range(2) if not low <= flowrates[b] <= high]
-    target = np.clip(state[active], low, high)
-    expected = state - covariance[:, active] @ np.linalg.solve(
-        covariance[np.ix_(active, active)], state[active] - target
+    low, high = np.array([0.45, 0.6]), np.array([1.4, 1.2])
+    active = [b for b in range(2) if not low[b] <= flowrates[b] <= high[b]]
+    rows = [size - 2 + b for b in active]
+    target = np.clip(state[rows], low[active], high[active])
+    expected = state - covariance[:, rows] @ np.linalg.solve(
+        covariance[np.ix_(rows, rows)], state[rows] - target
     )
-    project_flowrates(state, covariance, low, high)
+    project_flowrates(state, covariance, np.column_stack([low, high]).ravel())
     np.testing.assert_allclose(state, expected, rtol=1e-12, atol=1e-12)
-    assert low <= state[-2] <= high and low <= state[-1] <= high
+    assert np.all((low <= state[-2:]) & (state[-2:] <= high))

@@ -64,7 +64,7 @@ class LinearToy:
     """Toy orbit model, linear in q: x1 static = a q1, y2 orbit amplitude = b q2 (real), rest zero."""
 
     omega_rad_s = 2.0 * np.pi * 75.0
-    flowrate_bounds_m3_s = (0.0, 1.0)
+    bearing_flowrate_bounds_m3_s = np.array([(0.0, 1.0), (0.0, 1.0)])
 
     def __init__(self, a, b):
         self.a, self.b = a, b

@@ -50,7 +50,7 @@ def test_a_flowrate_past_the_tables_edge_at_a_moved_threshold_is_taken_at_the_ed
     moves, and a bound estimate lies past the table's range there: the film is taken at the edge (before,
     an InputError stopped the estimator FMU's doStep)."""
     speed, mu = 75.0, np.array([0.095, 0.095])
-    low, high = maps.flowrate_range_m3_s(speed, mu)
+    (_, high), (low, _) = maps.bearing_flowrate_bounds_m3_s(speed, mu)
     past = maps.blocks([(np.array([1.002 * high, 0.998 * low]), speed, mu)])[0]
     edge = maps.blocks([(np.array([high, low]), speed, mu)])[0]
     np.testing.assert_array_equal(past, edge)

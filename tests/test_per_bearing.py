@@ -1,20 +1,24 @@
 """Bearings of one machine may differ: ``[[bearings.override]]`` in the machine file, one geometry per bearing
-in :class:`oilwatch.models.machine.Machine`, tables per distinct geometry, and a system whose bearings each
-have their own film coefficients (checked against a direct solve of each bearing). The whole chain through
-both FMUs on a machine whose bearings differ: tests/test_second_machine.py."""
+in :class:`oilwatch.models.machine.Machine`, tables per distinct geometry, a system whose bearings each
+have their own film coefficients (checked against a direct solve of each bearing), and each bearing's own
+flowrate range in the plant and the estimator. The whole chain through both FMUs on a machine whose bearings
+differ: tests/test_second_machine.py."""
 
 from __future__ import annotations
 
 import json
 import re
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from fixtures.toy_model import NOMINAL_FLOWRATE_M3_S, TABLE_BOUNDS_M3_S, ToyRotor, simulate
 
 from oilwatch.cli import main
 from oilwatch.estimator.ekf import OilFlowEKF
 from oilwatch.estimator.ekf_config import EKFConfig
+from oilwatch.fmu_src.ekf_configuration import flowrates_ml_min
 from oilwatch.models.bearing.centreline import load_loci
 from oilwatch.models.bearing.coefficient_kinds import QUASI_STATIC
 from oilwatch.models.bearing.equilibrium import coefficients_at, static_equilibrium
@@ -38,6 +42,7 @@ from oilwatch.models.system.factory import (
     speed_sweep_path,
     table_command,
 )
+from oilwatch.models.system.fault import SigmoidFlowrate
 from oilwatch.models.system.operating_point import operating_system
 from oilwatch.models.system.plant import RotorBearingPlant
 from oilwatch.models.system.speed_sweep import compute_speed_sweep
@@ -55,9 +60,15 @@ groove_angle_deg = 0.0
 groove_circumferential_mm = 14.0
 groove_axial_mm = 30.0
 """
-"""Bearing 2 of the test machine: shorter, of a smaller clearance and a smaller groove. Its flooded threshold
-is bearing 1's within 2 % (534 and 541 ml/min on :data:`MESH`), so that the estimator's one flowrate range,
-the tables' common span, holds both bearings' flowrates."""
+"""Bearing 2 of the test machine: shorter, of a smaller clearance and a smaller groove; its flooded threshold
+is bearing 1's within 2 % (534 and 541 ml/min on :data:`MESH`)."""
+FAR_APART = """
+[[bearings.override]]
+node = 20
+radial_clearance_um = 155.0
+"""
+"""Bearing 2 of a larger clearance: its flooded threshold is twice bearing 1's (1073 and 542 ml/min on
+:data:`MESH`), so that each bearing's tables span flowrates outside the other's."""
 MESH = Mesh(40, 10)
 """A coarse film mesh: the tables of the system test in seconds."""
 
@@ -199,12 +210,11 @@ def test_two_overrides_of_one_bearing_are_refused(tmp_path):
         load_machine(machine_file(tmp_path, twice))
 
 
-@pytest.fixture(scope="module")
-def differing(tmp_path_factory):
-    """The two-bearing machine (quasi-static coefficients) with a small table per bearing at 75 Hz, each of
-    its geometry at its load on :data:`MESH`: (machine, the tables' flowrates per bearing)."""
-    folder = tmp_path_factory.mktemp("per_bearing")
-    machine = load_machine(machine_file(folder, dynamic_coefficients='"quasi-static"'))
+def with_tables(folder: Path, overrides: str) -> tuple:
+    """The machine of ``overrides`` (quasi-static coefficients) in ``folder`` with a small table per bearing
+    at 75 Hz, each of its geometry at its load on :data:`MESH` (0.5, 0.8, 1.2 and 1.5 times its flooded
+    threshold): (machine, the tables' flowrates per bearing)."""
+    machine = load_machine(machine_file(folder, overrides, dynamic_coefficients='"quasi-static"'))
     loads = Rotor.from_machine(machine).bearing_static_loads_n
     (folder / "tables").mkdir()
     flows = []
@@ -216,6 +226,12 @@ def differing(tmp_path_factory):
         )
         flows.append(q)
     return machine, flows
+
+
+@pytest.fixture(scope="module")
+def differing(tmp_path_factory):
+    """The two-bearing machine of :data:`NON_DRIVE_END` with its tables (:func:`with_tables`)."""
+    return with_tables(tmp_path_factory.mktemp("per_bearing"), NON_DRIVE_END)
 
 
 def test_a_system_of_differing_bearings_has_each_bearings_own_coefficients(differing):
@@ -443,3 +459,135 @@ def test_bearing_locus_makes_a_locus_per_geometry_and_the_clearance_fit_takes_ea
         load = float(Rotor.from_machine(machine).bearing_static_loads_n[index])
         assert locus.matches(machine.bearings[index], load, pressure)
         assert not locus.matches(machine.bearings[1 - index], load, pressure)
+
+
+@pytest.fixture(scope="module")
+def far_apart(tmp_path_factory):
+    """The two-bearing machine of :data:`FAR_APART` with its tables (:func:`with_tables`)."""
+    return with_tables(tmp_path_factory.mktemp("far_apart"), FAR_APART)
+
+
+def _thresholds(flows) -> list[float]:
+    """Each bearing's flooded threshold [m^3/s]: twice its table's first flowrate (:func:`with_tables`)."""
+    return [q[0] / 0.5 for q in flows]
+
+
+def _ranges_ml_min(flows) -> list[str]:
+    """Each bearing's table range as the errors print it: ``[low, high]`` [ml/min]."""
+    return [f"[{q[0] * ML_MIN_PER_M3_S:.1f}, {q[-1] * ML_MIN_PER_M3_S:.1f}]" for q in flows]
+
+
+def test_each_bearings_flowrate_range_is_its_own_tables_and_its_grid_axis_spans_it(far_apart):
+    """Flooded thresholds 542 and 1073 ml/min: the tables' common span (537-812 ml/min) was the estimator's
+    one range before; each bearing's is now its own table's, and so is its axis of the flowrate grid."""
+    machine, flows = far_apart
+    system = build_system(machine, reduced=True)
+    own = np.array([[q[0], q[-1]] for q in flows])
+    np.testing.assert_array_equal(system.bearing_flowrate_bounds_m3_s, own)
+    assert own[1, 0] > 1.9 * own[0, 0] and own[1, 1] > 1.9 * own[0, 1]
+    grid = GridAugmentedModel(system, 1e-3).grid
+    for nodes, (low, high) in zip((grid.q1_nodes_m3_s, grid.q2_nodes_m3_s), own, strict=True):
+        assert (nodes[0], nodes[-1]) == (low, high)
+
+
+def test_the_plant_refuses_a_bearings_flowrate_outside_its_own_range_naming_it(far_apart):
+    """Bearing 2's flooded threshold lies in its own table but past bearing 1's, and 0.9 times bearing 1's
+    below bearing 2's: each refused for the bearing it is given to, in one line with that bearing's range."""
+    machine, flows = far_apart
+    system = build_system(machine, reduced=False)
+    inside = (flows[0][1], flows[1][1])
+    q_t = _thresholds(flows)
+    high_for_one, low_for_two = q_t[1], 0.9 * q_t[0]
+    one, two = _ranges_ml_min(flows)
+    q1 = f"{high_for_one * ML_MIN_PER_M3_S:.1f}"
+    with pytest.raises(InputError) as error:
+        RotorBearingPlant(system, 1e-3, None, 0.0, 1, initial_flowrates_m3_s=(high_for_one, inside[1]))
+    assert (
+        str(error.value)
+        == f"q1 input = {q1} ml/min lies outside bearing 1's coefficient table range {one} ml/min"
+    )
+    plant = RotorBearingPlant(system, 1e-3, None, 0.0, 1, initial_flowrates_m3_s=inside)
+    with pytest.raises(
+        InputError,
+        match=rf"^q2 input = .* outside bearing 2's coefficient table range {re.escape(two)} ml/min$",
+    ):
+        plant.step((inside[0], low_for_two))
+    fault = (
+        SigmoidFlowrate(inside[0], inside[0], 1.0, 0.2),
+        SigmoidFlowrate(inside[1], low_for_two, 1.0, 0.2),
+    )
+    with pytest.raises(InputError, match=r"^q2 final = .* outside bearing 2's"):
+        RotorBearingPlant(system, 1e-3, fault, 0.0, 1)
+
+
+def test_the_filter_holds_each_flowrate_within_its_own_bearings_range():
+    """The toy with bearing 1's range cut to 0.9 of nominal, bearing 1 at that bound and bearing 2 at nominal:
+    bearing 1's estimate is projected onto its own bound at times, never past it, while bearing 2's is past
+    it, at nominal (2 %, as the toy's estimate at a table edge); a start outside a bearing's own range is
+    refused naming the bearing."""
+    toy = ToyRotor()
+    cut = 0.9 * NOMINAL_FLOWRATE_M3_S
+    toy.bearing_flowrate_bounds_m3_s = np.array([(TABLE_BOUNDS_M3_S[0], cut), TABLE_BOUNDS_M3_S])
+    with pytest.raises(
+        InputError, match=r"^EKFConfig\.q_initial_m3_s of bearing 1 must lie in its table range"
+    ):
+        OilFlowEKF(toy, EKFConfig.recommended())
+    truth = np.array([cut, NOMINAL_FLOWRATE_M3_S])
+    record = simulate(toy, np.tile(truth, (3000, 1)), 1e-6, seed=21)
+    config = EKFConfig.recommended(q_initial_m3_s=(0.8 * NOMINAL_FLOWRATE_M3_S, NOMINAL_FLOWRATE_M3_S))
+    trace = OilFlowEKF(toy, config).run(record.displacement_m)
+    assert trace.q_m3_s[:, 0].max() == cut and (trace.q_m3_s[:, 0] == cut).any()
+    assert np.abs(trace.q_m3_s[-1000:] / truth - 1.0).max() < 0.02
+
+
+def test_oilwatch_estimate_finds_each_bearings_flowrate_outside_the_other_bearings_range(far_apart, tmp_path):
+    """``oilwatch estimate --preset paper`` (the reduced grid model, nuisances known) on a 3 s record of the
+    full-model plant, 1 um noise, 0.9 times bearing 1's flooded threshold (487 ml/min, below bearing 2's
+    table) and bearing 2's threshold (1073 ml/min, above bearing 1's): before, the plant refused the first
+    and the estimator's one range (537-812 ml/min) held neither. Measured when written: -0.05 and +0.02 %,
+    std 0.30 and 0.18 %, trusted. Tolerance: 3 of the filter's own stds (its model is consistent with the
+    data) and 1 % (the reduced grid model against the full-model plant, as for the alike bearings)."""
+    machine, flows = far_apart
+    q_t = _thresholds(flows)
+    truth = np.array([0.9 * q_t[0], q_t[1]])
+    assert truth[0] < flows[1][0] and truth[1] > flows[0][-1]
+    plant = RotorBearingPlant(
+        build_system(machine, reduced=False), 1e-3, None, 1e-6, 3, initial_flowrates_m3_s=truth
+    )
+    measured = np.array([plant.step(truth).measured_position_m for _ in range(3000)])
+    columns = {"time_s": 1e-3 * np.arange(1, 3001)}
+    columns |= {f"{n}_um": measured[:, i] * 1e6 for i, n in enumerate(("x1", "y1", "x2", "y2"))}
+    record = write_record(tmp_path / "far.csv", columns)
+    out = tmp_path / "out"
+    path = str(machine.source_path)
+    argv = ["estimate", str(record), "--machine", path, "--out", str(out), "--preset", "paper"]
+    assert main([*argv, "--no-progress", "--no-views"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    found = np.array([summary["q1_final_ml_min"], summary["q2_final_ml_min"]]) / ML_MIN_PER_M3_S
+    spread = np.array([summary["q1_std_final_ml_min"], summary["q2_std_final_ml_min"]]) / ML_MIN_PER_M3_S
+    assert np.all(np.abs(found - truth) < 3.0 * spread) and np.all(np.abs(found / truth - 1.0) < 0.01)
+    assert summary["trust"]["trusted"]
+    limits = summary["trust"]["table_limits_ml_min"]
+    for b, q in enumerate(flows):
+        low, high = limits[f"bearing{b + 1}"]
+        assert q[0] * ML_MIN_PER_M3_S < low < high < q[-1] * ML_MIN_PER_M3_S  # each own, a small margin in
+        assert high - low > 0.99 * (q[-1] - q[0]) * ML_MIN_PER_M3_S
+
+
+def test_the_estimator_fmu_checks_its_initial_flowrate_against_each_bearings_range(far_apart):
+    machine, flows = far_apart
+    system = build_system(machine, reduced=True)
+    one, two = _ranges_ml_min(flows)
+    nominal = machine.lubrication.nominal_flowrate_m3_s * ML_MIN_PER_M3_S
+    assert flowrates_ml_min(SimpleNamespace(q_nominal_ml_min=0.0, q_initial_ml_min=0.0), system) == (
+        nominal,
+        nominal,
+    )
+    for initial, bearing, text in ((900.0, 1, one), (500.0, 2, two)):
+        slave = SimpleNamespace(q_nominal_ml_min=0.0, q_initial_ml_min=initial)
+        with pytest.raises(InputError) as error:
+            flowrates_ml_min(slave, system)
+        assert str(error.value) == (
+            f"q_initial_ml_min must lie in bearing {bearing}'s coefficient table range {text} ml/min, got "
+            f"{initial:g} ml/min"
+        )

@@ -123,6 +123,6 @@ def test_the_published_std_covers_the_spread_scale_factor_errors_cause(model, ba
 def test_an_estimate_at_the_tables_edge_is_considered_inside_it(model):
     config = _config(SCALE_STD).for_model(model)
     floor = InformationFloor(model, config, model.n_states, 4, 2, bound=False)
-    low = model.flowrate_bounds_m3_s[0]
-    floor.begin(np.full(2, low), np.ones(2), np.array([1.0, 0.0]))  # the first update is done whole
+    low = model.bearing_flowrate_bounds_m3_s[:, 0]
+    floor.begin(low, np.ones(2), np.array([1.0, 0.0]))  # the first update is done whole
     assert np.all(np.isfinite(floor.std)) and np.all(floor.std > 0.0)

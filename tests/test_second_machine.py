@@ -43,8 +43,7 @@ def second_machine(folder) -> str:
     text = re.sub(r"(?m)^radial_clearance_um = .*$", "radial_clearance_um = 150.0", text)
     text = re.sub(r"(?m)^viscosity_pa_s = .*$", "viscosity_pa_s = 0.068", text)
     text = re.sub(r"(?m)^nominal_flowrate_ml_min = .*\n", "", text)
-    # bearing 2 scaled from tests/test_per_bearing.py's: its flooded threshold close to bearing 1's, so the
-    # estimator's one flowrate range (the span both tables share) holds the scenario's flows
+    # bearing 2 scaled from tests/test_per_bearing.py's (flooded thresholds 990 and 957 ml/min)
     text = text.replace("\n[oil]\n", "\n" + NON_DRIVE_END + "\n[oil]\n", 1)
     (folder / "M2.toml").write_text(text, encoding="utf-8")
     return "M2.toml"

@@ -126,7 +126,7 @@ def test_grid_model_matches_exact_model(reduced):
 
 
 def test_flowrate_outside_table_is_an_error_not_an_extrapolation(reduced):
-    low, high = reduced.flowrate_bounds_m3_s
+    (low, high), _ = reduced.bearing_flowrate_bounds_m3_s
     with pytest.raises(InputError, match="q"):
         reduced.static_coordinates((0.5 * low, NOMINAL))
     with pytest.raises(InputError):

@@ -41,7 +41,7 @@ class _AugmentedModelBase:
         self.velocity_output_matrix = np.hstack(
             [np.zeros((self.output_matrix.shape[0], n)), self.output_matrix[:, :n]]
         )
-        self.flowrate_bounds_m3_s = system.flowrate_bounds_m3_s
+        self.bearing_flowrate_bounds_m3_s = system.bearing_flowrate_bounds_m3_s
         self.speed_hz = system.speed_hz
         self.nominal_flowrate_m3_s = system.nominal_flowrate_m3_s
         self._transform_pinv = pinv(system.transform)
@@ -105,7 +105,7 @@ class ExactAugmentedModel(_AugmentedModelBase):
         """d(A_d, G)/dq_index, by the Frechet derivative of the block exponential."""
         step = 1e-4 * max(abs(q[index]), ML_MIN)
         low, high = q.copy(), q.copy()
-        lo_bound, hi_bound = self.flowrate_bounds_m3_s
+        lo_bound, hi_bound = self.bearing_flowrate_bounds_m3_s[index]
         low[index] = max(q[index] - step, lo_bound)
         high[index] = min(q[index] + step, hi_bound)
         # The continuous block is affine in the bearing coefficients, which are smooth in q: a central
@@ -174,14 +174,17 @@ class GridAugmentedModel(_AugmentedModelBase):
         super().__init__(system, dt_s, hold)
         if isinstance(subdivisions, bool) or not isinstance(subdivisions, int) or not 1 <= subdivisions <= 50:
             raise InputError(f"subdivisions must be an integer in [1, 50], got {subdivisions!r}")
-        low, high = self.flowrate_bounds_m3_s
-        n_table = max(len(table.flowrates_m3_s) for table in system.tables)
-        nodes = np.linspace(low, high, (n_table - 1) * subdivisions + 1)
+        q1_nodes, q2_nodes = (
+            np.linspace(low, high, (len(table.flowrates_m3_s) - 1) * subdivisions + 1)
+            for (low, high), table in zip(self.bearing_flowrate_bounds_m3_s, system.tables, strict=True)
+        )
         if grid is None:
             grid = FlowrateGrid.build(
-                lambda q1, q2: system.discrete_map((q1, q2), self.dt_s, hold), nodes, nodes, progress
+                lambda q1, q2: system.discrete_map((q1, q2), self.dt_s, hold), q1_nodes, q2_nodes, progress
             )
-        elif not (np.array_equal(grid.q1_nodes_m3_s, nodes) and np.array_equal(grid.q2_nodes_m3_s, nodes)):
+        elif not (
+            np.array_equal(grid.q1_nodes_m3_s, q1_nodes) and np.array_equal(grid.q2_nodes_m3_s, q2_nodes)
+        ):
             raise InputError("the given flowrate grid's nodes are not this system's (a stale stored grid)")
         self.grid = grid
         # the exact maps the grid tabulates, for the estimator's consider terms (harmonic hold only)

@@ -56,8 +56,9 @@ class Recentring:
 
 
 def inside(maps: OperatingMaps, q: np.ndarray, speed_hz: float, mu: np.ndarray) -> np.ndarray:
-    """``q`` clipped into the table's flowrate range at the speed and viscosities (a small margin in)."""
-    low, high = maps.flowrate_range_m3_s(speed_hz, mu)
+    """``q`` clipped, each bearing's into its own flowrate range at the speed and viscosities (a small margin
+    in)."""
+    low, high = maps.bearing_flowrate_bounds_m3_s(speed_hz, mu).T
     margin = 1e-3 * (high - low)
     return np.clip(q, low + margin, high - margin)
 

@@ -106,15 +106,24 @@ class OperatingMaps:
         """Table slices held (at most :data:`SLICES_KEPT`)."""
         return len(self._slices)
 
-    def flowrate_range_m3_s(self, speed_hz: float, viscosities_pa_s) -> tuple[float, float]:
-        """Flowrates [m^3/s] every bearing's table slice covers at the speed and viscosities."""
+    def bearing_flowrate_bounds_m3_s(self, speed_hz: float, viscosities_pa_s) -> np.ndarray:
+        """Each bearing's flowrate range (n_bearings, 2), rows (low, high) [m^3/s]: the span its own table
+        slices (quasi-static and synchronous) cover at the speed and at every bearing's viscosity.
+
+        Every bearing's viscosity, not only its own: bearings of one table then keep the one range they had
+        when the bearings shared a range, and with it the corrections (:mod:`operating_correction` places
+        the centre and the side of the second differences by it) while their viscosity factors move apart."""
         kinds = (False,) if self.synchronous_tables is None else (False, True)
-        ranges = [
-            self._slice(b, speed_hz, mu, kind).flowrate_range_m3_s
-            for b, mu in enumerate(viscosities_pa_s)
-            for kind in kinds
-        ]
-        return max(r[0] for r in ranges), min(r[1] for r in ranges)
+        bounds = []
+        for b in range(len(self.tables)):
+            ranges = [
+                self._slice(b, speed_hz, mu, kind).flowrate_range_m3_s
+                for mu in viscosities_pa_s
+                for kind in kinds
+            ]
+            lows, highs = zip(*ranges, strict=True)
+            bounds.append((max(lows), min(highs)))
+        return np.array(bounds)
 
     def block(self, flowrates_m3_s, speed_hz: float, viscosities_pa_s) -> np.ndarray:
         """The continuous block (2n + 3, 2n + 3) of the exact map at the operating point (:meth:`blocks`)."""
@@ -270,7 +279,7 @@ class OperatingMaps:
         """What :meth:`second_derivatives` differences: per distinct first axis i of the axis ``pairs``
         ``(i, j)`` of :data:`AXES`, ``(request, width, [(pair index, j)])``, the request (for
         :meth:`derivatives_many`) at the point one ``step`` along i (relative for flowrates and speed,
-        absolute in ln mu; towards the middle of the table's flowrate range) along that i's axes j."""
+        absolute in ln mu; a flowrate towards the middle of its bearing's range) along that i's axes j."""
         q = np.array(flowrates_m3_s, dtype=float)
         mu = np.array(viscosities_pa_s, dtype=float)
         plan = []
@@ -278,7 +287,7 @@ class OperatingMaps:
             wanted = [(p, j) for p, (k, j) in enumerate(pairs) if k == i]
             sign = 1
             if i < 2:
-                low, high = self.flowrate_range_m3_s(speed_hz, mu)
+                low, high = self.bearing_flowrate_bounds_m3_s(speed_hz, mu)[i]
                 sign = 1 if q[i] < 0.5 * (low + high) else -1
             q_s, speed_s, mu_s, coordinate = self.shifted_point(AXES[i], q, speed_hz, mu, sign, step)
             width = coordinate - self._coordinate(i, q, speed_hz, mu)

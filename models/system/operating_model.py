@@ -106,7 +106,7 @@ class OperatingAugmentedModel:
             "dt_s",
             "output_matrix",
             "velocity_output_matrix",
-            "flowrate_bounds_m3_s",
+            "bearing_flowrate_bounds_m3_s",
             "speed_hz",
             "nominal_flowrate_m3_s",
             "clearance_m",
@@ -116,7 +116,7 @@ class OperatingAugmentedModel:
         self.reference_viscosity_pa_s = mu0
         self._log_mu0 = math.log(mu0)
         r = self.recentring
-        q_scale = self.nominal_flowrate_m3_s or 0.5 * sum(self.flowrate_bounds_m3_s)
+        q_scale = self.nominal_flowrate_m3_s or float(np.mean(self.bearing_flowrate_bounds_m3_s))
         self._grid = reference.grid
         # the compiled transition's one struct (operating_kernels): built once, refilled in place
         self._pairs = tuple(tuple(pair) for pair in second_order)

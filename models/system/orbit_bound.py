@@ -70,7 +70,7 @@ class OrbitModel(Protocol):
     omega_rad_s: float
 
     @property
-    def flowrate_bounds_m3_s(self) -> tuple[float, float]: ...
+    def bearing_flowrate_bounds_m3_s(self) -> np.ndarray: ...
 
     def static_coordinates(self, flowrates_m3_s: Sequence[float]) -> np.ndarray: ...
 
@@ -140,14 +140,13 @@ def orbit_sensitivity(
     """Central-difference derivatives of the steady orbit with respect to each flowrate.
 
     flowrates_m3_s: (q1, q2) [m^3/s]; the perturbed flowrates ``q (1 +- relative_step)`` must lie inside
-    the system's tables.
+    their own bearing's tables.
     """
     q = np.asarray(flowrates_m3_s, dtype=float)
     if q.shape != (2,):
         raise InputError(f"flowrates_m3_s: need (q1, q2), got shape {q.shape}")
     require_in_range("relative_step", relative_step, 1e-8, 0.1)
-    low, high = system.flowrate_bounds_m3_s
-    for index, value in enumerate(q):
+    for index, (value, (low, high)) in enumerate(zip(q, system.bearing_flowrate_bounds_m3_s, strict=True)):
         for sign in (-1.0, 1.0):
             require_in_range(
                 f"q{index + 1} (with the difference step)",

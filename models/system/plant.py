@@ -96,8 +96,8 @@ class RotorBearingPlant:
         self.speed_hz = system.speed_hz
         self.oil_temperature_c = oil_temperature_c
         self._set_conditions(self.speed_hz, oil_temperature_c)
-        for name, q in self._flowrate_extremes():
-            self._check_flowrate(name, q)
+        for bearing, name, q in self._flowrate_extremes():
+            self._check_flowrate(bearing, name, q)
         self.rng = np.random.default_rng(seed)
         self.chain = dataclasses.replace(chain or MeasurementChain(), noise_std_m=self.noise_std_m)
         self.unbalance_change = unbalance_change or UnbalanceChange()
@@ -119,20 +119,27 @@ class RotorBearingPlant:
         )
         self.integrator.restore({**snapshot, "propagator_flowrates": None, "propagator": None})
 
-    def _check_flowrate(self, name: str, q_m3_s: float) -> None:
-        low, high = self.system.flowrate_bounds_m3_s
+    def _check_flowrate(self, bearing: int, name: str, q_m3_s: float) -> None:
+        """InputError unless the flowrate ``name`` of bearing ``bearing`` (from 0) lies in that bearing's own
+        coefficient table range."""
+        low, high = self.system.bearing_flowrate_bounds_m3_s[bearing]
         if not (np.isfinite(q_m3_s) and low <= q_m3_s <= high):
             raise InputError(
-                f"{name} = {q_m3_s * 6e7:.1f} ml/min lies outside the coefficient table's range "
-                f"[{low * 6e7:.1f}, {high * 6e7:.1f}] ml/min"
+                f"{name} = {q_m3_s * 6e7:.1f} ml/min lies outside bearing {bearing + 1}'s coefficient table "
+                f"range [{low * 6e7:.1f}, {high * 6e7:.1f}] ml/min"
             )
 
     def _flowrate_extremes(self):
+        """(bearing from 0, name, flowrate [m^3/s]) of the flowrates checked at the start: the inputs, or each
+        schedule's initial and final flowrates."""
         if self.schedules is None:
-            return [("q1 input", self._inputs[0]), ("q2 input", self._inputs[1])]
+            return [(b, f"q{b + 1} input", q) for b, q in enumerate(self._inputs)]
         out = []
-        for b, schedule in enumerate(self.schedules, start=1):
-            out += [(f"q{b} initial", schedule.initial_m3_s), (f"q{b} final", schedule.final_m3_s)]
+        for b, schedule in enumerate(self.schedules):
+            out += [
+                (b, f"q{b + 1} initial", schedule.initial_m3_s),
+                (b, f"q{b + 1} final", schedule.final_m3_s),
+            ]
         return out
 
     def flowrates(self, time_s: float) -> tuple[float, float]:
@@ -185,8 +192,8 @@ class RotorBearingPlant:
         if self.schedules is None:
             if inputs_m3_s is None:
                 raise InputError("flowrate inputs are required when the flowrates are inputs")
-            for b, q in enumerate(inputs_m3_s, start=1):
-                self._check_flowrate(f"q{b} input", q)
+            for b, q in enumerate(inputs_m3_s):
+                self._check_flowrate(b, f"q{b + 1} input", q)
             self._inputs = (float(inputs_m3_s[0]), float(inputs_m3_s[1]))
         change = self.unbalance_change
         if self.time_s >= change.time_s:

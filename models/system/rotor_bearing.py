@@ -195,11 +195,12 @@ class RotorBearingSystem:
         self.bearing_maps = maps
 
     @property
-    def flowrate_bounds_m3_s(self) -> tuple[float, float]:
-        """The flowrate range common to all bearing tables (synchronous ones included) [m^3/s]."""
-        every = self.tables + (self.synchronous_tables or ())
-        lows, highs = zip(*(table.flowrate_range_m3_s for table in every), strict=True)
-        return max(lows), min(highs)
+    def bearing_flowrate_bounds_m3_s(self) -> np.ndarray:
+        """Each bearing's flowrate range (n_bearings, 2), rows (low, high) [m^3/s]: the span its own tables
+        (its synchronous one included) share."""
+        groups = (self.tables,) if self.synchronous_tables is None else (self.tables, self.synchronous_tables)
+        ranges = np.array([[table.flowrate_range_m3_s for table in group] for group in groups])
+        return np.column_stack([ranges[:, :, 0].max(axis=0), ranges[:, :, 1].min(axis=0)])
 
     def bearing_states(self, flowrates_m3_s: Sequence[float]) -> list[BearingState]:
         """Interpolated equilibrium and coefficients of each bearing at its supply flowrate."""
@@ -356,15 +357,16 @@ class RotorBearingSystem:
 
     def _reference_response(self, whirl_rad_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(h, H, Z_ref) of :meth:`_effective_unit_load` at a whirl speed, at the quasi-static impedances of
-        mid-range flow (cached per whirl speed: a speed ramp asks for a new one every period)."""
+        each bearing's mid-range flow (cached per whirl speed: a speed ramp asks for a new one every
+        period)."""
         found = self._synchronous_references.get(whirl_rad_s)
         if found is not None:
             return found
         if len(self._synchronous_references) > 64:
             self._synchronous_references.clear()
-        low, high = self.flowrate_bounds_m3_s
+        bounds = self.bearing_flowrate_bounds_m3_s
         w = whirl_rad_s
-        z_ref = self._impedance_blocks(self.tables, [0.5 * (low + high)] * len(self.tables), w)
+        z_ref = self._impedance_blocks(self.tables, 0.5 * (bounds[:, 0] + bounds[:, 1]), w)
         select = self.bearing_maps.reshape(-1, self.n_coordinates)
         damping = self.damping + (w - self.omega_rad_s) * self.gyroscopic
         matrix = self.stiffness - w * w * self.mass + 1j * w * damping + select.T @ z_ref @ select

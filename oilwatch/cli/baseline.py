@@ -200,8 +200,9 @@ def _run_locked(args: argparse.Namespace) -> int:
         viscosity = 0.0  # the preset's factors need the model that follows the operating point
     # the estimator's own model, as 'oilwatch estimate' builds it
     model = estimator_model(args.machine, follow=follow, clearance_factors=factors)
-    low, high = model.flowrate_bounds_m3_s
-    for name, value in zip(("--q1-ml-min", "--q2-ml-min"), flows, strict=True):
+    for name, value, (low, high) in zip(
+        ("--q1-ml-min", "--q2-ml-min"), flows, model.bearing_flowrate_bounds_m3_s, strict=True
+    ):
         require_in_range(name, value / ML_MIN, low / ML_MIN, high / ML_MIN, "ml/min")
     record = read_record_samples(args.record, machine, tuple(args.probe))
     noise_um = record["stream"].setup.noise_um if args.noise_um is None else args.noise_um

@@ -256,8 +256,7 @@ class EstimateRun:
             clearance_factors=self.clearance_factors,
         )
         self.live_stream = live_stream
-        low, high = self.model.flowrate_bounds_m3_s
-        self.trust = TrustShares((low / ML_MIN, high / ML_MIN))
+        self.trust = TrustShares(self.model.bearing_flowrate_bounds_m3_s / ML_MIN)
         self.filter = None  # oilwatch.estimator.factory.make_estimator's: a filter, or the start bank
         # the estimator takes the readings along the probes' axes when it can (the FMU's probe_angle_deg)
         self.probe_angle_deg = self.stream.probe_angle_deg or 0.0

@@ -27,7 +27,9 @@ from oilwatch.models.validation import InputError
 from oilwatch.outputs.atomic import write_bytes_atomic
 
 STATE_NAME = "resume_state.pickle"
-FORMAT = 1
+FORMAT = 2
+"""The resume point's layout (2: :class:`oilwatch.monitoring.trust.TrustShares` holds each bearing's table
+limits); a point of another is not resumed."""
 SAVE_EVERY_S = 2.0
 """Wall-clock seconds between two resume points: a SIGKILL loses at most this much work."""
 RESUME_CHOICES = ("auto", "yes", "no")

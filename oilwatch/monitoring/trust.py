@@ -12,7 +12,7 @@ import numpy as np
 NOTICEABLE_SHARE = 0.10
 """A share of the record above which an estimate at a table limit or inconsistent is called out."""
 LIMIT_TOLERANCE = 0.002
-"""An estimate within this fraction of the table's flowrate span from a bound sits at that bound."""
+"""An estimate within this fraction of its bearing's table span from a bound sits at that bound."""
 UNTRUSTED_EXIT_CODE = 3
 """``oilwatch estimate``'s exit status when the run completed but its estimate is not trustworthy (the
 summary's ``trust.trusted`` false). docs/operations.md."""
@@ -26,10 +26,12 @@ def noticeable(share: float) -> bool:
 
 
 class TrustShares:
-    """Counts, over the samples estimated, those at a table limit (per bearing) and those inconsistent."""
+    """Counts, over the samples estimated, those at a limit of their bearing's table (per bearing; the
+    tables' ranges ``bounds_ml_min`` (2, 2), row b bearing b + 1's (low, high) [ml/min]) and those
+    inconsistent."""
 
-    def __init__(self, bounds_ml_min: tuple[float, float]) -> None:
-        low, high = bounds_ml_min
+    def __init__(self, bounds_ml_min: np.ndarray) -> None:
+        low, high = np.asarray(bounds_ml_min, dtype=float).T
         margin = LIMIT_TOLERANCE * (high - low)
         self.low, self.high = low + margin, high - margin
         self.samples = 0
@@ -68,7 +70,9 @@ class TrustShares:
             "at_limit_fraction": at_limit,
             "inconsistent_fraction": inconsistent,
             "noticeable_share": NOTICEABLE_SHARE,
-            "table_limits_ml_min": [self.low, self.high],
+            "table_limits_ml_min": {
+                f"bearing{b + 1}": [float(self.low[b]), float(self.high[b])] for b in range(2)
+            },
         }
 
 
