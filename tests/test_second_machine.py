@@ -1,12 +1,12 @@
 """oilwatch for another machine, with bearings that differ, from an installed wheel, in an empty folder.
 
 A fresh virtual environment gets oilwatch from its wheel (not editable); in an empty temporary folder a
-second machine file (the bundled turbine with a 150 um clearance, 0.068 Pa s oil, no nominal flowrate: it
-is computed at the file's 0.5 bar groove pressure, and a non-drive-end bearing of its own, shorter, tighter
-and with a smaller groove) goes through ``oilwatch bearing-table --machine M2.toml`` (a table per bearing
-geometry) and ``oilwatch demo --machine M2.toml`` (the sudden drop, 100 -> 75 % of that machine's nominal
-flowrate, through both FMUs built with those tables; its summary.json is the one ``oilwatch run sudden-drop``
-writes).
+second machine file (the bundled turbine with a 150 um clearance, its oil supplied at 40 instead of 30.8
+degC, no nominal flowrate: it is computed at the file's 0.5 bar groove pressure, and a non-drive-end bearing
+of its own, shorter, tighter and with a smaller groove) goes through ``oilwatch bearing-table --machine
+M2.toml`` (a table per bearing geometry) and ``oilwatch demo --machine M2.toml`` (the sudden drop, 100 -> 75 %
+of that machine's nominal flowrate, through both FMUs built with those tables; its summary.json is the one
+``oilwatch run sudden-drop`` writes).
 """
 
 from __future__ import annotations
@@ -39,11 +39,14 @@ def second_machine(folder) -> str:
     """M2.toml in ``folder``: the turbine with another clearance and oil, nominal flowrate from pressure, and
     its bearing 2 of its own geometry."""
     text = (REPO_ROOT / "models" / "turbine.toml").read_text(encoding="utf-8")
-    text = re.sub(r"(?m)^name = .*$", 'name = "turbine M2 (150 um, 0.068 Pa s)"', text)
+    text = re.sub(r"(?m)^name = .*$", 'name = "turbine M2 (150 um, oil at 40 degC)"', text)
     text = re.sub(r"(?m)^radial_clearance_um = .*$", "radial_clearance_um = 150.0", text)
-    text = re.sub(r"(?m)^viscosity_pa_s = .*$", "viscosity_pa_s = 0.068", text)
+    text, supplies = re.subn(
+        r"(?m)^nominal_supply_temperature_c = .*$", "nominal_supply_temperature_c = 40.0", text
+    )
+    assert supplies == 1
     text = re.sub(r"(?m)^nominal_flowrate_ml_min = .*\n", "", text)
-    # bearing 2 scaled from tests/test_per_bearing.py's (flooded thresholds 990 and 957 ml/min)
+    # bearing 2 scaled from tests/test_per_bearing.py's (flooded thresholds 1451 and 1365 ml/min)
     text = text.replace("\n[oil]\n", "\n" + NON_DRIVE_END + "\n[oil]\n", 1)
     (folder / "M2.toml").write_text(text, encoding="utf-8")
     return "M2.toml"
