@@ -21,8 +21,9 @@ from pathlib import Path
 
 STAMP = Path("__pycache__") / "numba_sources.sha256"
 """The digest of the sources the cache was compiled from, under the package root."""
-NUMBA_SUFFIXES = (".nbi", ".nbc")
-"""numba's cache files: an index per function, its compiled overloads."""
+INDEX_SUFFIX, OVERLOADS_SUFFIX = ".nbi", ".nbc"
+"""numba's cache files: an index per function, its compiled overloads (``<index stem>.<n>.nbc``)."""
+NUMBA_SUFFIXES = (INDEX_SUFFIX, OVERLOADS_SUFFIX)
 
 
 def sources_digest(root: Path) -> str:

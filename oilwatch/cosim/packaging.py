@@ -53,7 +53,7 @@ from pathlib import Path
 from oilwatch.cosim.extraction import cache_root, persistent_extraction_enabled, prune
 from oilwatch.fmu_src.bundle import BUNDLE_FILE, SUBPACKAGES, source_digest
 from oilwatch.fmu_src.grid_store import GRID_FOLDER
-from oilwatch.kernel_cache import NUMBA_SUFFIXES
+from oilwatch.kernel_cache import INDEX_SUFFIX, NUMBA_SUFFIXES, OVERLOADS_SUFFIX
 from oilwatch.models.machine import write_parsed_twin
 from oilwatch.models.validation import InputError
 
@@ -342,11 +342,11 @@ def copy_kernels(source: Path, target: Path) -> int:
             if Path(folder).name != "__pycache__":
                 continue
             destination = target / Path(folder).relative_to(source)
-            for index in (name for name in names if name.endswith(".nbi")):
+            for index in (name for name in names if name.endswith(INDEX_SUFFIX)):
                 if (destination / index).exists():
                     continue
-                stem = index[: -len(".nbi")]
-                data = [name for name in names if name.startswith(stem + ".") and name.endswith(".nbc")]
+                stem = index[: -len(INDEX_SUFFIX)]
+                data = [n for n in names if n.startswith(stem + ".") and n.endswith(OVERLOADS_SUFFIX)]
                 try:
                     destination.mkdir(parents=True, exist_ok=True)
                     for name in (*data, index):
