@@ -27,7 +27,7 @@ import zipfile
 from pathlib import Path
 
 import pytest
-from fixtures.venvs import pinned
+from fixtures.venvs import make_venv, pinned
 from test_c_host import CONNECTED, HostFmu
 
 pytestmark = pytest.mark.slow
@@ -74,15 +74,7 @@ def _other_pythons() -> dict[tuple[int, int], Path]:
 
 def _venv(tmp_path_factory, python: Path, requirements: list[str]) -> Path:
     folder = tmp_path_factory.mktemp("other_python") / "venv"
-    subprocess.run([str(python), "-m", "venv", str(folder)], check=True, timeout=120)
-    venv_python = folder / "bin" / "python"
-    process = subprocess.run(
-        [str(venv_python), "-m", "pip", "install", "-q", *requirements],
-        capture_output=True,
-        text=True,
-        timeout=900,
-    )
-    assert process.returncode == 0, process.stderr[-3000:]
+    make_venv(folder, requirements, base=python)
     return folder
 
 
