@@ -22,9 +22,14 @@ from oilwatch.models.validation import InputError, require_positive
 
 
 @cache
-def bundled_nominal_ml_min() -> float:
-    """The bundled turbine's nominal supply flowrate [ml/min] (its machine file)."""
-    return load_machine().lubrication.nominal_flowrate_m3_s * ML_MIN_PER_M3_S
+def bundled_nominal_ml_min() -> tuple[float, float]:
+    """The bundled turbine's nominal supply flowrate of each bearing [ml/min] (its machine file)."""
+    return _nominal_ml_min(load_machine())
+
+
+def _nominal_ml_min(machine: Machine) -> tuple[float, float]:
+    first, second = (float(q) * ML_MIN_PER_M3_S for q in machine.lubrication.nominal_flowrates_m3_s[:2])
+    return first, second
 
 
 HIGH_PCT = 100.0
@@ -35,12 +40,12 @@ SAMPLE_DT_S = 1e-3
 
 @dataclass(frozen=True)
 class Case:
-    """One run of the study: true flowrates (in % of nominal), noise, seed and record length.
+    """One run of the study: true flowrates (each in % of its bearing's nominal), noise, seed, record length.
 
     noise_um: std of the white noise on each displacement channel [um]. seed: index of the noise
     realization (0, 1, ...). duration_s: record length [s]; discard_s: initial part left out of the average.
-    machine_file: the machine ("": the bundled turbine); nominal_ml_min: its nominal flowrate [ml/min], which
-    the percentages refer to.
+    machine_file: the machine ("": the bundled turbine); nominal_ml_min: each bearing's nominal flowrate
+    [ml/min], which its percentage refers to.
     """
 
     q1_pct: float
@@ -50,7 +55,7 @@ class Case:
     duration_s: float = STUDY_DEFAULTS.duration_s
     discard_s: float = STUDY_DEFAULTS.discard_s
     machine_file: str = ""
-    nominal_ml_min: float = field(default_factory=bundled_nominal_ml_min)
+    nominal_ml_min: tuple[float, float] = field(default_factory=bundled_nominal_ml_min)
 
     @property
     def case_id(self) -> str:
@@ -68,12 +73,12 @@ class Case:
     @property
     def q1_ml_min(self) -> float:
         """True supply flowrate of bearing 1 [ml/min]."""
-        return self.nominal_ml_min * self.q1_pct / 100.0
+        return self.nominal_ml_min[0] * self.q1_pct / 100.0
 
     @property
     def q2_ml_min(self) -> float:
         """True supply flowrate of bearing 2 [ml/min]."""
-        return self.nominal_ml_min * self.q2_pct / 100.0
+        return self.nominal_ml_min[1] * self.q2_pct / 100.0
 
     @property
     def n_samples(self) -> int:
@@ -123,7 +128,7 @@ def make_cases(
     machine_file, nominal = "", bundled_nominal_ml_min()
     if machine is not None and not is_default_machine(machine):
         machine_file = str(machine.source_path.resolve())
-        nominal = machine.lubrication.nominal_flowrate_m3_s * ML_MIN_PER_M3_S
+        nominal = _nominal_ml_min(machine)
     return [
         Case(float(q1), float(q2), noise, seed, duration, float(discard_s), machine_file, nominal)
         for noise in levels
