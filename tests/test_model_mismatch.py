@@ -156,11 +156,11 @@ def test_a_held_estimate_is_published_with_its_prior_std_and_never_alarms(model)
     line = 3e-6 * np.sin(2.0 * np.pi * 2.0 * model.speed_hz * model.dt_s * np.arange(steps))
     config = EKFConfig.recommended().for_model(model)
     trace = OilFlowEKF(model, config).run_batch(signals + line[:, None])
-    q0 = model.nominal_flowrates_m3_s[0]  # the turbine: one for both bearings
+    q0 = model.nominal_flowrates_m3_s  # each bearing's
     held = trace.model_mismatch == bc.MISMATCH_HELD
     assert held[1500:].all()
-    prior = config.initial_flowrate_std_m3_s
-    assert prior == pytest.approx((0.25 * q0,) * 2)
+    prior = np.array(config.initial_flowrate_std_pair())
+    np.testing.assert_allclose(prior, 0.25 * q0, rtol=1e-12)
     assert (trace.filter_q_std_m3_s[held] < 0.01 * q0).all()
     moved = trace.filter_q_m3_s[held] - q0
     np.testing.assert_allclose(trace.q_std_m3_s[held], np.sqrt(prior**2 + moved**2), rtol=1e-12)

@@ -25,7 +25,7 @@ def add_bearing_options(parser: argparse.ArgumentParser) -> None:
             type=float,
             default=100.0,
             metavar="PCT",
-            help=f"supply flowrate of bearing {b}, %% of nominal (fluid-film bearings; default 100)",
+            help=f"supply flowrate of bearing {b}, %% of its nominal (fluid-film bearings; default 100)",
         )
     parser.add_argument(
         "--bearing-k",

@@ -6,7 +6,7 @@ at the 1 ms sampling step for ``case.duration_s``:
 
 * plant: both flowrates held at the case's values (``q*_initial_ml_min = q*_final_ml_min``), started in
   the steady orbit of those flowrates, white noise of ``case.noise_um`` seeded from ``case.rng_seed``;
-* estimator: the FMU's defaults (the recommended tuning, initial estimate the machine's nominal flowrate, as
+* estimator: the FMU's defaults (the recommended tuning, initial estimates the bearings' nominal flowrates, as
   the paper) with ``noise_um = case.noise_um``;
 * the estimates after every step (t = dt ... T) are reduced by :func:`oilwatch.study.cases.reduce_record`.
 

@@ -1,9 +1,9 @@
 """The case grid of the constant-flowrate study (the paper's Sec. 3.2.1, Figs. 7-8, Table 6).
 
-q1 and q2 each run from 100 % down to 75 % of the machine's nominal flowrate (its machine file's
-``[lubrication]``; the bundled turbine: the paper's 596.3 ml/min) in steps of ``grid_step_pct``
-(1 % gives 26 x 26 = 676 cases per noise level); every (q1, q2) pair is run at each noise level and with
-each noise seed.
+q1 and q2 each run from 100 % down to 75 % of their bearing's own nominal flowrate (its machine file's
+``[lubrication]`` or the bearing's ``[[bearings.override]]``; the bundled turbine: the paper's 596.3 ml/min)
+in steps of ``grid_step_pct`` (1 % gives 26 x 26 = 676 cases per noise level); every (q1, q2) pair is run at
+each noise level and with each noise seed.
 """
 
 from __future__ import annotations
