@@ -282,9 +282,8 @@ class EKFConfig:
                 raise InputError(
                     "EKFConfig.q_nominal_m3_s: give it, or use a model with nominal_flowrates_m3_s"
                 )
-            values["q_nominal_m3_s"] = tuple(
-                float(q) for q in given
-            )  # checked as a pair by the replace below
+            # checked as a pair (its length, each > 0) when the replace below validates the result
+            values["q_nominal_m3_s"] = tuple(float(q) for q in given)
         nominal = values.get("q_nominal_m3_s") or self.q_nominal_pair()
         if self.q_initial_m3_s is None:
             values["q_initial_m3_s"] = nominal

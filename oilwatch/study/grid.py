@@ -66,7 +66,8 @@ class Case:
     def settings_text(self) -> str:
         """The case in the user's terms: noise, grid point and seed index, as the study's flags name them."""
         return (
-            f"--noise-um {self.noise_um:g}, q1 = {self.q1_pct:g} %, q2 = {self.q2_pct:g} % of nominal, "
+            f"--noise-um {self.noise_um:g}, q1 = {self.q1_pct:g} %, q2 = {self.q2_pct:g} % of each bearing's "
+            "nominal, "
             f"--seeds index {self.seed}"
         )
 
