@@ -38,7 +38,7 @@ from .alarm_config import AlarmConfig
 _STATE_KEYS = ("alarm_starved", "alarm_on_count", "alarm_off_count", "alarm_raised_consistent")
 # rows of the alarm's record (4, n_bearings)
 STARVED, ON_COUNT, OFF_COUNT, RAISED_CONSISTENT = range(4)
-# entries of its settings: then bearing i's ON level at LEVELS + 2 i and its OFF level at LEVELS + 2 i + 1
+# entries of its settings, followed by bearing i's ON level at LEVELS + 2 i and OFF level at LEVELS + 2 i + 1
 CONFIDENCE_Z, HOLD_ON_STEPS, HOLD_OFF_STEPS, LEVELS = range(4)
 
 

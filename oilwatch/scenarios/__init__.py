@@ -122,9 +122,8 @@ class ScenarioRun:
     """A scenario with everything a run needs; times in s, flowrates in ml/min (the FMUs' units).
 
     nominal_ml_min (each bearing's) and nominal_speed_hz are the machine's (``machine_file``, empty: the
-    bundled turbine); the
-    plant runs at ``speed_hz`` (the nominal speed unless ``--set plant.speed_hz`` changed it, which the
-    estimator follows unless ``--set ekf.speed_hz`` says otherwise).
+    bundled turbine); the plant runs at ``speed_hz`` (the nominal speed unless ``--set plant.speed_hz``
+    changed it, which the estimator follows unless ``--set ekf.speed_hz`` says otherwise).
     """
 
     scenario: Scenario

@@ -28,6 +28,8 @@ def bundled_nominal_ml_min() -> tuple[float, float]:
 
 
 def _nominal_ml_min(machine: Machine) -> tuple[float, float]:
+    """(bearing 1's, bearing 2's) nominal supply flowrate of ``machine`` [ml/min]: the two the study
+    estimates."""
     first, second = (float(q) * ML_MIN_PER_M3_S for q in machine.lubrication.nominal_flowrates_m3_s[:2])
     return first, second
 
