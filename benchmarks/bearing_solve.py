@@ -45,7 +45,7 @@ def main() -> None:
     bearing = machine.bearing
     mesh = Mesh(*args.mesh)
     load, speed = float(Rotor.from_machine(machine).bearing_static_loads_n[0]), machine.nominal_speed_hz
-    nominal_ml_min = machine.lubrication.nominal_flowrate_m3_s * ML_MIN_PER_M3_S
+    nominal_ml_min = machine.shared_nominal_flowrate_m3_s("benchmarks/bearing_solve.py") * ML_MIN_PER_M3_S
     print(
         f"mesh {mesh.n_circ} x {mesh.n_axial}, one thread, medians of {args.repeats} "
         f"(Newton) and {args.gs_repeats} (Gauss-Seidel) steady solves, cold start"

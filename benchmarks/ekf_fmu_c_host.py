@@ -47,7 +47,11 @@ DT = 1e-3
 
 def plant_parameters() -> dict:
     """The plant at 80 % of the machine file's nominal flowrate from the start (a starved, alarmed state)."""
-    starved_ml_min = STARVED_FRACTION * load_machine().lubrication.nominal_flowrate_m3_s * ML_MIN_PER_M3_S
+    starved_ml_min = (
+        STARVED_FRACTION
+        * load_machine().shared_nominal_flowrate_m3_s("benchmarks/ekf_fmu_c_host.py")
+        * ML_MIN_PER_M3_S
+    )
     return {
         "q1_final_ml_min": starved_ml_min,
         "q2_final_ml_min": starved_ml_min,

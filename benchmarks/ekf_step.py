@@ -67,7 +67,7 @@ from oilwatch.models.system.factory import flowrate_table_path, load_system
 
 _TURBINE = load_machine()
 SPEED_HZ = _TURBINE.nominal_speed_hz
-NOMINAL_FLOWRATE_M3_S = _TURBINE.lubrication.nominal_flowrate_m3_s
+NOMINAL_FLOWRATE_M3_S = _TURBINE.shared_nominal_flowrate_m3_s("benchmarks/ekf_step.py")
 """The synthetic models run at the bundled turbine's speed and nominal flowrate."""
 
 
@@ -79,7 +79,7 @@ class SyntheticRotorModel:
         rng = np.random.default_rng(seed)
         self.n_states = n_states
         self.dt_s = dt_s
-        self.nominal_flowrate_m3_s = NOMINAL_FLOWRATE_M3_S
+        self.nominal_flowrates_m3_s = np.full(2, NOMINAL_FLOWRATE_M3_S)
         self.speed_hz = SPEED_HZ
         self.bearing_flowrate_bounds_m3_s = np.array([(0.45, 1.4), (0.45, 1.4)]) * NOMINAL_FLOWRATE_M3_S
         modes = n_states // 2

@@ -52,7 +52,9 @@ def plant_ramp_record(seconds: float) -> tuple[np.ndarray, np.ndarray, np.ndarra
         stored = np.load(path)
         return stored["displacements"], stored["speed_hz"], stored["oil_temperature_c"]
     speed, temperature = ramp_inputs(steps, nominal_c)
-    q = tuple(f * machine.lubrication.nominal_flowrate_m3_s for f in RAMP_FLOWRATES)
+    q = tuple(
+        f * machine.shared_nominal_flowrate_m3_s("benchmarks/ekf_step_ramps.py") for f in RAMP_FLOWRATES
+    )
     system = operating_system(machine, RAMP_HZ[0], machine.oil.dynamic_viscosity_pa_s(nominal_c))
     plant = RotorBearingPlant(
         system, 1e-3, None, 1e-6, 3, initial_flowrates_m3_s=q, oil=machine.oil, oil_temperature_c=nominal_c
@@ -114,8 +116,8 @@ def operating_rows(args, record: np.ndarray) -> list[tuple[str, tuple[float, flo
     costs = []
     for k in range(max(args.repeats, 10)):
         # a new centre each time (as under a ramp: new table slices at the new speed and viscosities)
-        q = 0.8 * model.nominal_flowrate_m3_s
-        centre = np.array([q, q, 74.0 + 0.05 * k, -2.5 + 0.005 * k, -2.5 - 0.005 * k])
+        q = 0.8 * model.nominal_flowrates_m3_s
+        centre = np.array([*q, 74.0 + 0.05 * k, -2.5 + 0.005 * k, -2.5 - 0.005 * k])
         start = clock()
         model.place_centre(centre)
         costs.append((clock() - start) * 1e6)

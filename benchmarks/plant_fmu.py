@@ -32,7 +32,7 @@ sys.path.insert(0, str(REPO_ROOT))
 
 from oilwatch.models.machine import load_machine  # noqa: E402
 
-NOMINAL_ML_MIN = load_machine().lubrication.nominal_flowrate_m3_s * 6e7
+NOMINAL_ML_MIN = load_machine().shared_nominal_flowrate_m3_s("benchmarks/plant_fmu.py") * 6e7
 """The bundled turbine's nominal flowrate [ml/min] (its machine file)."""
 SCENARIOS = {
     "constant": {},

@@ -30,7 +30,9 @@ from oilwatch.models.system.factory import load_system
 from oilwatch.models.system.operating_point import operating_system
 from oilwatch.models.system.plant import RotorBearingPlant
 
-Q = load_machine().lubrication.nominal_flowrate_m3_s  # the machine file's nominal supply flowrate
+Q = load_machine().shared_nominal_flowrate_m3_s(
+    "benchmarks/plant_ramps.py"
+)  # the machine file's nominal supply flowrate
 
 
 def run(kind: str, steps: int) -> float:

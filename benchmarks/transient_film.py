@@ -54,7 +54,7 @@ def main() -> None:
     args = parser.parse_args()
     machine = load_machine(None)
     mesh = Mesh(*args.mesh)
-    q = machine.lubrication.nominal_flowrate_m3_s
+    q = machine.shared_nominal_flowrate_m3_s("benchmarks/transient_film.py")
     speed = machine.nominal_speed_hz
     supply = SupplyFlow(q)
     load = float(Rotor.from_machine(machine).bearing_static_loads_n[0])

@@ -27,7 +27,7 @@ def main() -> None:
     parser.add_argument("--samples", type=int, default=100, help="measured 1 ms samples (100)")
     args = parser.parse_args()
     machine = load_machine(None)
-    q = machine.lubrication.nominal_flowrate_m3_s
+    q = machine.shared_nominal_flowrate_m3_s("benchmarks/transient_plant_sample.py")
     schedules = tuple(SigmoidFlowrate(q, 0.75 * q, 0.05, 0.01) for _ in range(2))
     start = time.process_time()
     plant = TransientFilmPlant(machine, Mesh(*TRANSIENT_PLANT_MESH), 1e-3, schedules, 1e-6, seed=3)

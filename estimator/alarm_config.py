@@ -22,8 +22,8 @@ def _bounded(default: float, low: float, high: float, unit: str, description: st
 class AlarmConfig:
     """Thresholds of the per-bearing starvation alarm (rule in :mod:`oilwatch.estimator.alarm`).
 
-    on_fraction : the alarm sets when the upper confidence bound ``q + z std`` stays below
-        ``on_fraction * q_nominal`` for ``hold_on_s``.
+    on_fraction : a bearing's alarm sets when the upper confidence bound ``q + z std`` stays below
+        ``on_fraction * q_nominal`` (that bearing's nominal flowrate) for ``hold_on_s``.
     off_fraction : it clears when the lower bound ``q - z std`` stays above ``off_fraction * q_nominal`` for
         ``hold_off_s`` (hysteresis: ``off_fraction > on_fraction``).
     confidence_z : number of standard deviations of the bounds (2.0: one-sided 97.7 %).

@@ -81,7 +81,7 @@ def estimate_baseline(
     known = dataclasses.replace(
         config,
         q_initial_m3_s=q,
-        initial_flowrate_std_m3_s=KNOWN_FLOWRATE_STD_FRACTION * config.q_nominal_m3_s,
+        initial_flowrate_std_m3_s=tuple(KNOWN_FLOWRATE_STD_FRACTION * q for q in config.q_nominal_pair()),
         flowrate_process_std_m3_s=0.0,
         change_flowrate_std_fraction=0.0,
         offset_baseline=None,

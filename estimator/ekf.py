@@ -1,10 +1,10 @@
 """The augmented-state Extended Kalman Filter that estimates the two oil supply flowrates (paper Eqs. 17-24).
 
 Augmented state ``x = [s; q / q_nominal; o; f; u]``: the model's dynamic states ``s`` (SI), the two flowrates
-as fractions of the nominal flowrate and, when their prior std is > 0, the four probe zero offsets ``o`` [m]
-(random walks; each probe reads ``Rot H s + o``, Rot the probes' mounting angle, ``probe_angle_deg``), the two
-bearings' viscosity factors ``f`` (random walks around 1; ``viscosity_factor_prior_std``) and the complex
-unbalance ``u``.
+each as a fraction of its bearing's own nominal flowrate (``q_i / q_nominal_i``) and, when their prior std is
+> 0, the four probe zero offsets ``o`` [m] (random walks; each probe reads ``Rot H s + o``, Rot the probes'
+mounting angle, ``probe_angle_deg``), the two bearings' viscosity factors ``f`` (random walks around 1;
+``viscosity_factor_prior_std``) and the complex unbalance ``u``.
 
 Operating point: :meth:`OilFlowEKF.step` takes the measured speed and oil temperature of the sample (and a
 keyphasor angle when there is one) and hands them to a model that follows them (``set_operating_point``,
@@ -158,7 +158,8 @@ class OilFlowEKF:
         flowrate, comes from the model: :meth:`EKFConfig.for_model`).
 
     ``state_layout`` (:class:`oilwatch.estimator.ekf_setup.StateLayout`) tells where each part sits in the
-    state vector ``x`` of :meth:`get_state` (the flowrates in fractions of ``config.q_nominal_m3_s``).
+    state vector ``x`` of :meth:`get_state` (each flowrate in fractions of its bearing's nominal,
+    ``config.q_nominal_pair()``).
 
     One class: its state is set in :meth:`__init__` (the configuration's fixed arrays, from
     :mod:`oilwatch.estimator.ekf_setup`) and :meth:`reset` (the arrays a run advances, handed to the compiled
@@ -192,9 +193,9 @@ class OilFlowEKF:
         self._n_trailing = layout.n_trailing
         self._trailing_jacobian = np.zeros((n, self._n_trailing))
         self._follows = callable(getattr(model, "set_operating_point", None))
-        self._q_nominal = cfg.q_nominal_m3_s
+        self._q_nominal = np.array(cfg.q_nominal_pair())  # each bearing's flowrate unit
         self._bounds = np.array(model.bearing_flowrate_bounds_m3_s, dtype=float)
-        bounds_scaled = self._bounds / self._q_nominal
+        bounds_scaled = self._bounds / self._q_nominal[:, None]
         self._dt = float(model.dt_s)
         self._first_step = round(cfg.first_sample_time_s / self._dt)
         if abs(self._first_step * self._dt - cfg.first_sample_time_s) > 1e-6 * self._dt:
@@ -294,7 +295,9 @@ class OilFlowEKF:
         self._P[:n, :n] = physical_covariance(
             self.model, n, INITIAL_DISPLACEMENT_STD_M, INITIAL_VELOCITY_STD_M_S
         )
-        self._P[n : n + 2, n : n + 2] = (cfg.initial_flowrate_std_m3_s / self._q_nominal) ** 2 * np.eye(2)
+        self._P[n : n + 2, n : n + 2] = np.diag(
+            (np.array(cfg.initial_flowrate_std_pair()) / self._q_nominal) ** 2
+        )
         baseline = cfg.offset_baseline
         if baseline is not None:
             self._x[self._offsets] = baseline.offsets_m
@@ -327,7 +330,7 @@ class OilFlowEKF:
         self._nis_window = np.zeros((self._consistency_steps, 2))  # NIS and rows of each step
         self._nis_sums = np.zeros(2)
         self._changing = np.zeros(2, dtype=bool)
-        self._process_noise[n : n + 2, n : n + 2] = self._q_var * np.eye(2)
+        self._process_noise[n : n + 2, n : n + 2] = np.diag(self._q_var)
         self._summary_settings[SUMMARY_STD_FLOOR : SUMMARY_STD_FLOOR + 2] = 0.0  # the alarm's std floor
         self.alarm.clear()
         reset_change(self._change)
@@ -555,11 +558,11 @@ class OilFlowEKF:
 
     def _flowrate_si(self) -> tuple[float, float]:
         # clipped in SI as well: the round trip through the scaled unit may leave a bound by one ulp
-        n, scale = self._n, self._q_nominal
+        n, (scale1, scale2) = self._n, self._q_nominal.tolist()
         (low1, high1), (low2, high2) = self._bounds.tolist()
         return (
-            min(max(float(self._x[n]) * scale, low1), high1),
-            min(max(float(self._x[n + 1]) * scale, low2), high2),
+            min(max(float(self._x[n]) * scale1, low1), high1),
+            min(max(float(self._x[n + 1]) * scale2, low2), high2),
         )
 
     @property

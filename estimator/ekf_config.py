@@ -98,17 +98,19 @@ class EKFConfig:
         displacement_process_std_m, velocity_process_std_m_s, flowrate_process_std_m3_s : process-noise stds
             per step (Q); the dynamic part goes through ``model.physical_covariance``.
     Initial estimate
-        q_initial_m3_s : initial flowrate estimate, one value for both bearings or a pair (None: the nominal).
-        q_nominal_m3_s : nominal flowrate; the filter's internal flowrate unit and the alarm's reference
-            (None: the model's ``nominal_flowrate_m3_s``, i.e. its machine file's).
+        q_initial_m3_s : initial flowrate estimate, one value for both bearings or a pair (None: each
+            bearing's nominal).
+        q_nominal_m3_s : each bearing's nominal flowrate, one value for both or a pair (q1, q2); each
+            bearing's internal flowrate unit and its alarm's reference (None: the model's
+            ``nominal_flowrates_m3_s``, i.e. its machine file's).
         initial_state : "zero" (the paper) or "static" (the model's static equilibrium at ``q_initial``).
         first_sample_time_s : time of the first sample fed to the filter [s], a multiple of the model's dt.
             The model's unbalance phase counts from t = 0, so a plant whose first output is its state after
             one step (t = dt) needs ``first_sample_time_s = dt``: one step of misalignment is a 27 deg phase
             error of the unbalance force at 75 Hz and 1 ms.
-        initial_flowrate_std_m3_s : initial std of each flowrate (not given by the paper; None: a quarter of
-            the nominal flowrate). The dynamic states' initial stds are :data:`INITIAL_DISPLACEMENT_STD_M`
-            and :data:`INITIAL_VELOCITY_STD_M_S`.
+        initial_flowrate_std_m3_s : initial std of each flowrate, one value for both or a pair (not given by
+            the paper; None: a quarter of each bearing's nominal flowrate). The dynamic states' initial stds
+            are :data:`INITIAL_DISPLACEMENT_STD_M` and :data:`INITIAL_VELOCITY_STD_M_S`.
     Probes and their zero offsets
         probe_angle_deg : mounting angle of each bearing's probe pair from the model's axes (see
             :func:`oilwatch.estimator.measurement.probe_rotation`; 45: the API 670 pair either side of the
@@ -170,10 +172,10 @@ class EKFConfig:
     velocity_process_std_m_s: float = 10.0e-6
     flowrate_process_std_m3_s: float = 0.1 * ML_MIN
     q_initial_m3_s: float | tuple[float, float] | None = None
-    q_nominal_m3_s: float | None = None
+    q_nominal_m3_s: float | tuple[float, float] | None = None
     initial_state: str = "zero"
     first_sample_time_s: float = 0.0
-    initial_flowrate_std_m3_s: float | None = None
+    initial_flowrate_std_m3_s: float | tuple[float, float] | None = None
     probe_angle_deg: float = 0.0
     offset_prior_std_m: float = 0.0
     offset_random_walk_m_sqrt_s: float = 0.2e-6
@@ -208,15 +210,10 @@ class EKFConfig:
             if not (name == "velocity_process_std_m_s" and self.velocity_process_std_m_s is None):
                 require_non_negative(f"EKFConfig.{name}", getattr(self, name))
         require_non_negative("EKFConfig.first_sample_time_s", self.first_sample_time_s, "s")
-        for name in (
-            "q_nominal_m3_s",
-            "initial_flowrate_std_m3_s",
-        ):
+        for name in ("q_nominal_m3_s", "initial_flowrate_std_m3_s", "q_initial_m3_s"):
             if getattr(self, name) is not None:
-                require_positive(f"EKFConfig.{name}", getattr(self, name))
-        if self.q_initial_m3_s is not None:
-            for value in self.q_initial_pair():
-                require_positive("EKFConfig.q_initial_m3_s", value, "m^3/s")
+                for value in self._pair(name):
+                    require_positive(f"EKFConfig.{name}", value, "m^3/s")
         require_in_range("EKFConfig.gate_tail_probability", self.gate_tail_probability, 0.0, 0.5)
         require_in_range("EKFConfig.probe_angle_deg", self.probe_angle_deg, -360.0, 360.0, "deg")
         for name in (
@@ -274,23 +271,24 @@ class EKFConfig:
     def for_model(self, model) -> EKFConfig:
         """This configuration with the machine facts it left open (None) taken from ``model``.
 
-        ``q_nominal_m3_s`` from ``model.nominal_flowrate_m3_s``, ``q_initial_m3_s`` = the nominal,
-        ``initial_flowrate_std_m3_s`` = a quarter of it, and a None velocity process noise (the recommended
-        one) = 0.1 um x 2 pi ``model.speed_hz``. An InputError names what the model lacks.
+        ``q_nominal_m3_s`` from ``model.nominal_flowrates_m3_s`` (each bearing's), ``q_initial_m3_s`` = the
+        nominals, ``initial_flowrate_std_m3_s`` = a quarter of each, and a None velocity process noise (the
+        recommended one) = 0.1 um x 2 pi ``model.speed_hz``. An InputError names what the model lacks.
         """
         values = {}
-        nominal = self.q_nominal_m3_s
-        if nominal is None:
-            nominal = getattr(model, "nominal_flowrate_m3_s", None)
-            if nominal is None:
+        if self.q_nominal_m3_s is None:
+            given = getattr(model, "nominal_flowrates_m3_s", None)
+            if given is None:
                 raise InputError(
-                    "EKFConfig.q_nominal_m3_s: give it, or use a model with nominal_flowrate_m3_s"
+                    "EKFConfig.q_nominal_m3_s: give it, or use a model with nominal_flowrates_m3_s"
                 )
-            values["q_nominal_m3_s"] = float(nominal)
+            # checked as a pair (its length, each > 0) when the replace below validates the result
+            values["q_nominal_m3_s"] = tuple(float(q) for q in given)
+        nominal = values.get("q_nominal_m3_s") or self.q_nominal_pair()
         if self.q_initial_m3_s is None:
-            values["q_initial_m3_s"] = float(nominal)
+            values["q_initial_m3_s"] = nominal
         if self.initial_flowrate_std_m3_s is None:
-            values["initial_flowrate_std_m3_s"] = INITIAL_FLOWRATE_STD_FRACTION * float(nominal)
+            values["initial_flowrate_std_m3_s"] = tuple(INITIAL_FLOWRATE_STD_FRACTION * q for q in nominal)
         if self.velocity_process_std_m_s is None:
             speed = getattr(model, "speed_hz", None)
             if speed is None:
@@ -301,17 +299,27 @@ class EKFConfig:
 
     def q_initial_pair(self) -> tuple[float, float]:
         """The initial flowrates (q1, q2) [m^3/s]."""
-        value = self.q_initial_m3_s
+        return self._pair("q_initial_m3_s")
+
+    def q_nominal_pair(self) -> tuple[float, float]:
+        """Each bearing's nominal flowrate (q1, q2) [m^3/s]."""
+        return self._pair("q_nominal_m3_s")
+
+    def initial_flowrate_std_pair(self) -> tuple[float, float]:
+        """Each flowrate's initial std (q1, q2) [m^3/s]."""
+        return self._pair("initial_flowrate_std_m3_s")
+
+    def _pair(self, name: str) -> tuple[float, float]:
+        """The per-bearing field ``name`` as (bearing 1's, bearing 2's): one value is both bearings'."""
+        value = getattr(self, name)
         if isinstance(value, tuple | list):
             if len(value) != 2:
-                raise InputError(
-                    f"EKFConfig.q_initial_m3_s must be one value or a pair, got {len(value)} values"
-                )
+                raise InputError(f"EKFConfig.{name} must be one value or a pair, got {len(value)} values")
             return (
-                require_finite("EKFConfig.q_initial_m3_s", value[0]),
-                require_finite("EKFConfig.q_initial_m3_s", value[1]),
+                require_finite(f"EKFConfig.{name}", value[0]),
+                require_finite(f"EKFConfig.{name}", value[1]),
             )
-        number = require_finite("EKFConfig.q_initial_m3_s", value)
+        number = require_finite(f"EKFConfig.{name}", value)
         return (number, number)
 
 

@@ -194,9 +194,9 @@ def physical_covariance(
     return 0.5 * (covariance + covariance.T)
 
 
-def step_settings(cfg: EKFConfig, dt: float, bounds_scaled: np.ndarray, q_var: float) -> np.ndarray:
+def step_settings(cfg: EKFConfig, dt: float, bounds_scaled: np.ndarray, q_var: np.ndarray) -> np.ndarray:
     """:func:`oilwatch.estimator.kernels.filter_step`'s settings array (filter units); ``bounds_scaled``
-    (2, 2) each bearing's (low, high)."""
+    (2, 2) each bearing's (low, high), ``q_var`` (2,) each bearing's flowrate process variance."""
     change_alpha = min(1.0, dt / CHANGE_WINDOW_S)
     return np.array(
         [
@@ -204,26 +204,27 @@ def step_settings(cfg: EKFConfig, dt: float, bounds_scaled: np.ndarray, q_var: f
             *np.ravel(bounds_scaled),
             change_alpha / (2.0 - change_alpha),  # null variance of the fading-memory mean
             chi_square_upper_quantile(2, CHANGE_TAIL_PROBABILITY),
-            q_var,
-            cfg.change_flowrate_std_fraction**2,  # internal unit: fractions of nominal
+            *q_var,
+            cfg.change_flowrate_std_fraction**2,  # internal unit: fractions of each bearing's nominal
         ]
     )
 
 
 def summary_settings(
-    cfg: EKFConfig, q_nominal: float, bounds: np.ndarray, unbalance_walk: float
+    cfg: EKFConfig, q_nominal: np.ndarray, bounds: np.ndarray, unbalance_walk: float
 ) -> np.ndarray:
-    """The ``SUMMARY_*`` settings array of :func:`oilwatch.estimator.step_kernel.step_summary`; ``bounds``
-    (2, 2) each bearing's flowrate range (low, high) [m^3/s]."""
+    """The ``SUMMARY_*`` settings array of :func:`oilwatch.estimator.step_kernel.step_summary`; ``q_nominal``
+    (2,) each bearing's nominal flowrate, ``bounds`` (2, 2) each bearing's flowrate range (low, high)
+    [m^3/s]."""
     settings = np.zeros(N_SUMMARY_SETTINGS)
-    settings[SUMMARY_Q_NOMINAL] = q_nominal
+    settings[SUMMARY_Q_NOMINAL : SUMMARY_Q_NOMINAL + 2] = q_nominal
     settings[SUMMARY_Q_BOUNDS : SUMMARY_Q_BOUNDS + 4] = np.ravel(bounds)
     settings[SUMMARY_CONSISTENCY_Z] = -NormalDist().inv_cdf(CONSISTENCY_TAIL_PROBABILITY)
     settings[SUMMARY_CONVERGED_STD] = CONVERGED_STD_FRACTION
     settings[SUMMARY_CONVERGED_DRIFT] = CONVERGED_DRIFT_FRACTION
     settings[SUMMARY_UNBALANCE_WALK] = unbalance_walk
     settings[SUMMARY_UNBALANCE_EXTRA] = UNBALANCE_INCONSISTENT_STD**2
-    settings[SUMMARY_HELD_STD] = cfg.initial_flowrate_std_m3_s
+    settings[SUMMARY_HELD_STD : SUMMARY_HELD_STD + 2] = cfg.initial_flowrate_std_pair()
     return settings
 
 
@@ -232,7 +233,7 @@ def process_noise(
     cfg: EKFConfig,
     layout: StateLayout,
     dt: float,
-    q_var: float,
+    q_var: np.ndarray,
     unbalance_walk: float,
 ) -> np.ndarray:
     """Q of the augmented state: the model's physical noise, the flowrates' and the nuisances' walks."""
@@ -240,7 +241,7 @@ def process_noise(
     noise = np.zeros((layout.size, layout.size))
     physical = physical_covariance(model, n, cfg.displacement_process_std_m, cfg.velocity_process_std_m_s)
     noise[:n, :n] = physical
-    noise[n : n + 2, n : n + 2] = q_var * np.eye(2)
+    noise[n : n + 2, n : n + 2] = np.diag(q_var)
     if layout.n_offsets:
         walk = cfg.offset_random_walk_m_sqrt_s**2 * dt
         noise[layout.offsets, layout.offsets] = walk * np.eye(layout.n_offsets)

@@ -29,7 +29,7 @@ def predict_covariance(
     covariance: np.ndarray,
     state_jacobian: np.ndarray,
     flowrate_jacobian: np.ndarray,
-    flowrate_scale: float,
+    flowrate_scale: np.ndarray,
     unbalance_jacobian: np.ndarray,
     process_noise: np.ndarray,
     augmented_jacobian: np.ndarray,
@@ -40,7 +40,8 @@ def predict_covariance(
     The state is ``[s (n), q (2), probe offsets (0 or 4), unbalance (0 or 2)]``, the nuisances random walks.
 
     covariance : (N, N) P. state_jacobian : (n, n). flowrate_jacobian : (n, 2) per model flowrate unit;
-    flowrate_scale c converts it to the filter's unit. unbalance_jacobian : (n, 0 or 2), the last columns.
+    flowrate_scale c (2,), each bearing's, converts its column to the filter's unit. unbalance_jacobian :
+    (n, 0 or 2), the last columns.
     process_noise : (N, N) Q. augmented_jacobian, work : (N, N) scratch.
 
     Only the first n rows of J differ from the identity, so with ``T = J[:n] P`` (n, N) the result is
@@ -55,7 +56,7 @@ def predict_covariance(
         for j in range(n):
             top[i, j] = state_jacobian[i, j]
         for j in range(n, n + 2):
-            top[i, j] = flowrate_jacobian[i, j - n] * flowrate_scale
+            top[i, j] = flowrate_jacobian[i, j - n] * flowrate_scale[j - n]
         for j in range(n + 2, size - n_unbalance):
             top[i, j] = 0.0
         for j in range(n_unbalance):
@@ -299,19 +300,20 @@ def filter_step(
     next_state: np.ndarray,
     state_jacobian: np.ndarray,
     flowrate_jacobian: np.ndarray,
-    flowrate_scale: float,
+    flowrate_scale: np.ndarray,
     displacement: np.ndarray,
 ) -> tuple[int, float, int, int]:
     """One complete EKF step after the model's transition, in place: the hot path in one compiled call.
 
     a : the filter's arrays (:class:`oilwatch.estimator.filter_arrays.FilterArrays`; this step reads and
     advances those up to ``changing``). predict : whether ``next_state`` and the Jacobians are to be applied
-    (False on the first sample); the flowrate columns of the Jacobian are per ``flowrate_scale`` [m^3/s].
+    (False on the first sample); the flowrate columns of the Jacobian are per ``flowrate_scale`` (2,), each
+    bearing's nominal flowrate [m^3/s].
     displacement : (4,) sample [m]; non-finite entries drop their channels. ``a.settings`` : [1/dt, each
     bearing's flowrate low and high (low1, high1, low2, high2), change-test null variance, change-test
-    threshold, flowrate process variance, extra variance while changing] (filter units). ``a.accepted`` :
-    (4,) bool out, the displacement channels used. ``a.changing`` : (2,) bool out, the change test of
-    :func:`detect_change`.
+    threshold, each bearing's flowrate process variance (two), extra variance while changing] (filter units).
+    ``a.accepted`` : (4,) bool out, the displacement channels used. ``a.changing`` : (2,) bool out, the change
+    test of :func:`detect_change`.
 
     Every screened channel that passes its own gate is used (:mod:`oilwatch.estimator.channels`); a
     differentiated velocity channel only when its displacement channel was accepted in this and the previous
@@ -409,4 +411,4 @@ def detect_change(
         q = state[first + b]
         fires = statistic / settings[5] > settings[6] and settings[1 + 2 * b] < q < settings[2 + 2 * b]
         changing[b] = fires
-        process_noise[first + b, first + b] = settings[7] + (settings[8] if fires else 0.0)
+        process_noise[first + b, first + b] = settings[7 + b] + (settings[9] if fires else 0.0)

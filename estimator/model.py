@@ -22,7 +22,7 @@ set of reduced (modal or Craig-Bampton) coordinates whose meaning only the model
 An optional third, ``static_state(flowrate)``, gives the static equilibrium for the ``initial_state="static"``
 option of :class:`oilwatch.estimator.ekf_config.EKFConfig`; models without it support only the paper's zero
 initial state. Two optional attributes carry the machine facts a configuration may leave open
-(``EKFConfig.for_model``): ``nominal_flowrate_m3_s`` (the machine file's nominal supply flowrate) and
+(``EKFConfig.for_model``): ``nominal_flowrates_m3_s`` ((2,), each bearing's nominal supply flowrate) and
 ``speed_hz`` (the model's speed). An optional attribute ``clearance_m`` (the bearings' radial clearance [m])
 sets the probes' physical range (it plus ``ekf_config.PROBE_RANGE_MARGIN_M``); without it there is no range
 check.

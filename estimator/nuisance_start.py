@@ -181,10 +181,14 @@ class InformationFloor:
         self._every = max(1, round(update_s / self._dt))
         self._noise = float(config.noise_std_m)
         q0 = np.asarray(config.q_initial_pair(), dtype=float)
-        initial_q = config.initial_flowrate_std_m3_s
-        initial_q = 0.25 * float(config.q_nominal_m3_s or q0.mean()) if initial_q is None else initial_q
+        if config.initial_flowrate_std_m3_s is not None:
+            initial_q = np.array(config.initial_flowrate_std_pair())
+        elif config.q_nominal_m3_s is not None:
+            initial_q = 0.25 * np.array(config.q_nominal_pair())
+        else:
+            initial_q = np.full(2, 0.25 * float(q0.mean()))
         prior = np.r_[
-            np.full(2, initial_q),
+            initial_q,
             np.full(2, config.viscosity_factor_prior_std),
             np.full(2, config.unbalance_prior_std),
             np.full(4, config.offset_prior_std_m * 1e6),

@@ -92,7 +92,7 @@ COUNT_FIRST, COUNT_VISCOSITY = _COUNTERS["first"], _COUNTERS["viscosity"]
 COUNT_UNBALANCE, COUNT_OFFSETS = _COUNTERS["unbalance"], _COUNTERS["offsets"]
 # the settings array of :func:`step_summary` and :func:`ekf_step`
 _SUMMARY, N_SUMMARY_SETTINGS = _layout(
-    ("q_nominal", 1),
+    ("q_nominal", 2),  # each bearing's nominal flowrate, the filter's flowrate unit [m^3/s]
     ("q_bounds", 4),  # each bearing's flowrate range (low1, high1, low2, high2) [m^3/s]
     ("consistency_z", 1),
     ("converged_std", 1),
@@ -100,7 +100,7 @@ _SUMMARY, N_SUMMARY_SETTINGS = _layout(
     ("unbalance_walk", 1),
     ("unbalance_extra", 1),
     ("std_floor", 2),  # the alarm's floor on each flowrate std [m^3/s] (0: none)
-    ("held_std", 1),  # the flowrates' prior std, around nominal, for a held mismatch [m^3/s]
+    ("held_std", 2),  # each flowrate's prior std, around its nominal, for a held mismatch [m^3/s]
 )
 SUMMARY_Q_NOMINAL, SUMMARY_Q_BOUNDS = _SUMMARY["q_nominal"], _SUMMARY["q_bounds"]
 SUMMARY_CONSISTENCY_Z, SUMMARY_CONVERGED_STD = _SUMMARY["consistency_z"], _SUMMARY["converged_std"]
@@ -136,7 +136,7 @@ def step_summary(
     """What the filter reports after the update of sample ``counters[COUNT_STEP]``, in place: the windowed
     NIS test and the convergence rule of :mod:`oilwatch.estimator.ekf`, and the SI estimates.
 
-    counters : COUNT_* (the state's layout: index of q1 / q_nominal, first viscosity factor, unbalance and
+    counters : COUNT_* (the state's layout: index of q1 / its nominal, first viscosity factor, unbalance and
     offset, -1 when not estimated; since_update: samples since the last accepted update, this one
     included). nis, rows : of this sample (0 when it made no update). nis_window (C, 2), nis_sums (2,),
     history (W, 2) : the ring buffers, advanced here. settings : the SUMMARY_* values. report : the
@@ -156,7 +156,6 @@ def step_summary(
         # Wilson-Hilferty: chi2 quantile ~ dof (1 - 2/(9 dof) + z sqrt(2/(9 dof)))^3
         c = 2.0 / (9.0 * dof)
         consistent = nis_sums[0] <= dof * (1.0 - c + settings[SUMMARY_CONSISTENCY_Z] * np.sqrt(c)) ** 3.0
-    scale = settings[SUMMARY_Q_NOMINAL]
     window = history.shape[0]
     slot = step % window
     drift = 0.0
@@ -169,6 +168,7 @@ def step_summary(
         largest = max(largest, deviation)
         # clipped in SI as well: the round trip through the scaled unit may leave a bound by one ulp
         low, high = settings[SUMMARY_Q_BOUNDS + 2 * b], settings[SUMMARY_Q_BOUNDS + 2 * b + 1]
+        scale = settings[SUMMARY_Q_NOMINAL + b]
         report[REPORT_FILTER_FLOWRATE + b] = min(max(scaled * scale, low), high)
         report[REPORT_FILTER_STD + b] = deviation * scale
     ones = np.ones(2)
@@ -238,8 +238,8 @@ def sample_step(
     advances ``a.counters[COUNT_STEP]`` and ``a.counters[COUNT_SINCE_UPDATE]``. The other arguments are the
     sample's: the transition (``next_state`` and its Jacobians, see
     :func:`oilwatch.estimator.kernels.filter_step`, whose flowrate scale is
-    ``a.summary_settings[SUMMARY_Q_NOMINAL]``) and the measured displacements; ``a.report`` (REPORT_SIZE,)
-    out."""
+    ``a.summary_settings[SUMMARY_Q_NOMINAL : SUMMARY_Q_NOMINAL + 2]``, each bearing's nominal) and the
+    measured displacements; ``a.report`` (REPORT_SIZE,) out."""
     summary_settings, counters, report = a.summary_settings, a.counters, a.report
     process_noise, changing, health = a.process_noise, a.changing, a.health
     alarm_record = a.alarm_record
@@ -249,7 +249,7 @@ def sample_step(
         next_state,
         state_jacobian,
         flowrate_jacobian,
-        summary_settings[SUMMARY_Q_NOMINAL],
+        summary_settings[SUMMARY_Q_NOMINAL : SUMMARY_Q_NOMINAL + 2],
         displacement,
     )
     ok = status == UPDATE_ACCEPTED
@@ -329,10 +329,10 @@ def sample_step(
         # over the window) is no measure of how far a model error has moved it. With the truth distributed
         # as the prior (nominal, its std), the estimate's RMS error is sqrt(std^2 + (estimate - nominal)^2)
         excess = np.sqrt(max(1.0, a.nis_sums[0] / max(a.nis_sums[1], 1.0)))
-        prior = summary_settings[SUMMARY_HELD_STD]
         for b in range(2):
+            prior = summary_settings[SUMMARY_HELD_STD + b]
             widened = report[REPORT_FILTER_STD + b] * excess
-            moved = report[REPORT_FILTER_FLOWRATE + b] - summary_settings[SUMMARY_Q_NOMINAL]
+            moved = report[REPORT_FILTER_FLOWRATE + b] - summary_settings[SUMMARY_Q_NOMINAL + b]
             report[REPORT_STD + b] = max(widened, np.sqrt(prior * prior + moved * moved))
     elif not act:
         for b in range(2):

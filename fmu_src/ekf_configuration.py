@@ -67,30 +67,34 @@ def check_parameters(slave) -> None:
         )
 
 
-def flowrates_ml_min(slave, system) -> tuple[float, float]:
-    """(nominal, initial) flowrate [ml/min] of the parameters (0: the machine's nominal); the initial must lie
-    in each bearing's own coefficient table range of ``system``."""
-    nominal = (
-        slave.q_nominal_ml_min if slave.q_nominal_ml_min > 0.0 else system.nominal_flowrate_m3_s / ML_MIN
-    )
-    initial = slave.q_initial_ml_min if slave.q_initial_ml_min > 0.0 else nominal
+def flowrates_ml_min(slave, system) -> tuple[tuple[float, float], tuple[float, float]]:
+    """(nominal, initial) flowrates [ml/min] of the parameters, each (bearing 1's, bearing 2's): a
+    ``q<b>_nominal_ml_min`` of 0 is the machine's nominal of bearing b, a ``q<b>_initial_ml_min`` of 0 its
+    nominal. Each must lie in its bearing's own coefficient table range of ``system``."""
+    nominal, initial = [], []
     for b, (low, high) in enumerate(system.bearing_flowrate_bounds_m3_s / ML_MIN, start=1):
-        if slave.q_nominal_ml_min > 0.0 and not low <= nominal <= high:  # named as the user gave it
+        given_nominal = getattr(slave, f"q{b}_nominal_ml_min")
+        given_initial = getattr(slave, f"q{b}_initial_ml_min")
+        own = given_nominal if given_nominal > 0.0 else system.nominal_flowrates_m3_s[b - 1] / ML_MIN
+        start = given_initial if given_initial > 0.0 else own
+        if given_nominal > 0.0 and not low <= own <= high:  # named as the user gave it
             raise InputError(
-                f"q_nominal_ml_min must lie in bearing {b}'s coefficient table range [{low:.1f}, {high:.1f}] "
-                f"ml/min, got {nominal:g} ml/min"
+                f"q{b}_nominal_ml_min must lie in bearing {b}'s coefficient table range [{low:.1f}, "
+                f"{high:.1f}] ml/min, got {own:g} ml/min"
             )
-        if not low <= initial <= high:
+        if not low <= start <= high:
             name = (
-                "q_initial_ml_min"
-                if slave.q_initial_ml_min > 0.0
-                else "the nominal flowrate (q_initial_ml_min 0)"
+                f"q{b}_initial_ml_min"
+                if given_initial > 0.0
+                else f"the nominal flowrate of bearing {b} (q{b}_initial_ml_min 0)"
             )
             raise InputError(
                 f"{name} must lie in bearing {b}'s coefficient table range [{low:.1f}, {high:.1f}] ml/min, "
-                f"got {initial:g} ml/min"
+                f"got {start:g} ml/min"
             )
-    return nominal, initial
+        nominal.append(float(own))
+        initial.append(float(start))
+    return (nominal[0], nominal[1]), (initial[0], initial[1])
 
 
 def estimator_model(slave, system, machine):
@@ -164,8 +168,8 @@ def _baseline_read(slave, read):
 def estimator_config(
     slave,
     machine,
-    nominal_ml_min: float,
-    initial_ml_min: float,
+    nominal_ml_min: tuple[float, float],
+    initial_ml_min: tuple[float, float],
     speed_hz: float,
     baseline,
     baseline_runout,
@@ -194,10 +198,10 @@ def estimator_config(
         ),
         velocity_noise=VELOCITY_MODES[slave.velocity_channels],
         velocity_process_std_m_s=velocity_std,
-        q_initial_m3_s=initial_ml_min * ML_MIN,
-        q_nominal_m3_s=nominal_ml_min * ML_MIN,
+        q_initial_m3_s=tuple(q * ML_MIN for q in initial_ml_min),
+        q_nominal_m3_s=tuple(q * ML_MIN for q in nominal_ml_min),
         first_sample_time_s=round(slave.start_time / slave.sample_period_s) * slave.sample_period_s,
-        initial_flowrate_std_m3_s=INITIAL_FLOWRATE_STD_FRACTION * nominal_ml_min * ML_MIN,
+        initial_flowrate_std_m3_s=tuple(INITIAL_FLOWRATE_STD_FRACTION * q * ML_MIN for q in nominal_ml_min),
         offset_baseline=baseline,
         runout=runout_of_probes(probes) if baseline_runout is None else baseline_runout,
     )

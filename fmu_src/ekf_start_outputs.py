@@ -50,9 +50,10 @@ START_OUTPUTS = (
     ),
     StartOutput(
         "start_fraction", "Real", "1", 1.0,
-        "The start the estimates come from, as a fraction of the initial flowrate (q_initial_ml_min): the "
-        "start bank's choice, or while it is choosing the leading start (the nominal one, 1, until the "
-        "record prefers another); 1 with one filter (its start is the configured one)",
+        "The start the estimates come from, as a fraction of each bearing's initial flowrate "
+        "(q1_initial_ml_min, q2_initial_ml_min): the start bank's choice, or while it is choosing the "
+        "leading start (the nominal one, 1, until the record prefers another); 1 with one filter (its start "
+        "is the configured one)",
     ),
     StartOutput(
         "start_choice_in_s", "Real", "s", 0.0,

@@ -86,11 +86,12 @@ REPORT_DIVISORS = np.array([divisor for _, _, divisor in REPORT_OUTPUTS])
 OWN_REALS = (
     ("sample_period_s", SAMPLING_PERIOD_S, "s", 1e-5, 0.01,
      "Sampling period of the filter's discrete model; its samples lie on t = k period"),
-    ("q_initial_ml_min", 0.0, "ml/min", 0.0, MAX_FLOWRATE_ML_MIN,
-     "Initial flowrate estimate of both bearings (within each bearing's coefficient table range); 0: the "
-     "nominal"),
-    ("q_nominal_ml_min", 0.0, "ml/min", 0.0, MAX_FLOWRATE_ML_MIN,
-     "Nominal flowrate, the alarm thresholds' reference; 0: the machine file's nominal flowrate"),
+    *((f"q{b}_initial_ml_min", 0.0, "ml/min", 0.0, MAX_FLOWRATE_ML_MIN,
+       f"Initial flowrate estimate of bearing {b} (within its coefficient table range); 0: its nominal "
+       f"(q{b}_nominal_ml_min)") for b in (1, 2)),
+    *((f"q{b}_nominal_ml_min", 0.0, "ml/min", 0.0, MAX_FLOWRATE_ML_MIN,
+       f"Nominal flowrate of bearing {b}: the reference of its alarm levels and of its estimate's start and "
+       f"scaling; 0: the machine file's nominal flowrate of bearing {b}") for b in (1, 2)),
     ("baseline_age_days", 0.0, "d", 0.0, MAX_AGE_DAYS,
      "Time from the baseline_file's record to this run's start: the offsets' prior std grows by the machine "
      "file's [probes] offset_drift_um_per_day per day (in quadrature); 0: just commissioned"),

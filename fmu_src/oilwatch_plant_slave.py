@@ -120,7 +120,7 @@ class RotorBearingPlant(OilwatchSlave):
         limit_blas_threads()
         super().__init__(**kwargs)
         self.plant = None
-        self._nominal_ml_min = None
+        self._nominal_ml_min = None  # each bearing's, from the machine at setup
         real = self.declare_real
         declare_machine_parameters(self)
         self._declare_operating_point()
@@ -143,7 +143,7 @@ class RotorBearingPlant(OilwatchSlave):
                     minimum=0.0,
                     maximum=MAX_FLOWRATE_ML_MIN,
                     description=f"Supply flowrate of bearing {b} {text} the fault (sigmoid schedule); 0: the "
-                    "machine file's nominal flowrate",
+                    f"machine file's nominal flowrate of bearing {b}",
                 )
         real(
             "fault_time_s",
@@ -197,7 +197,7 @@ class RotorBearingPlant(OilwatchSlave):
                 minimum=0.0,
                 maximum=MAX_FLOWRATE_ML_MIN,
                 description=f"Supply flowrate of bearing {b} when flow_source = 1; 0: the machine file's "
-                "nominal flowrate",
+                f"nominal flowrate of bearing {b}",
             )
         for name in OUTPUTS:
             axis, b = name[0], name[1]
@@ -426,19 +426,20 @@ class RotorBearingPlant(OilwatchSlave):
     def validate_parameters(self) -> None:
         check_film_model(self.film_model)
 
-    def _flowrate_m3_s(self, name: str) -> float:
-        """A flowrate variable [ml/min] in m^3/s; 0 stands for the machine's nominal flowrate. NaN or a
-        negative value is refused (InputError naming it), never replaced."""
+    def _flowrate_m3_s(self, bearing: int, name: str) -> float:
+        """A flowrate variable [ml/min] of ``bearing`` (1 or 2) in m^3/s; 0 stands for that bearing's nominal
+        flowrate in the machine file. NaN or a negative value is refused (InputError naming it), never
+        replaced."""
         value = getattr(self, name)
         if not 0.0 <= value <= MAX_FLOWRATE_ML_MIN:
             raise InputError(
                 f"{name} must be a flowrate in [0, {MAX_FLOWRATE_ML_MIN:g}] ml/min (0: the machine's "
                 f"nominal), got {value!r}"
             )
-        return (value if value > 0.0 else self._nominal_ml_min) / ML_MIN_PER_M3_S
+        return (value if value > 0.0 else self._nominal_ml_min[bearing - 1]) / ML_MIN_PER_M3_S
 
     def _inputs_m3_s(self) -> tuple[float, float]:
-        return (self._flowrate_m3_s("q1_in_ml_min"), self._flowrate_m3_s("q2_in_ml_min"))
+        return (self._flowrate_m3_s(1, "q1_in_ml_min"), self._flowrate_m3_s(2, "q2_in_ml_min"))
 
     def setup(self) -> None:
         machine = machine_of(self.machine_file, self.resources)
@@ -446,7 +447,7 @@ class RotorBearingPlant(OilwatchSlave):
         require_oil(self, machine)
         system = self._system(machine)
         self._start_conditions = self._conditions(machine)
-        self._nominal_ml_min = system.nominal_flowrate_m3_s * ML_MIN_PER_M3_S
+        self._nominal_ml_min = system.nominal_flowrates_m3_s * ML_MIN_PER_M3_S
         schedules = None
         if self.flow_source == 0:
             ignored = [f"q{b}_in_ml_min" for b in (1, 2) if getattr(self, f"q{b}_in_ml_min") != 0.0]
@@ -457,8 +458,8 @@ class RotorBearingPlant(OilwatchSlave):
                 )
             schedules = tuple(
                 SigmoidFlowrate(
-                    self._flowrate_m3_s(f"q{b}_initial_ml_min"),
-                    self._flowrate_m3_s(f"q{b}_final_ml_min"),
+                    self._flowrate_m3_s(b, f"q{b}_initial_ml_min"),
+                    self._flowrate_m3_s(b, f"q{b}_final_ml_min"),
                     self.fault_time_s,
                     self.fault_duration_s,
                 )

@@ -34,6 +34,7 @@ except ModuleNotFoundError:  # Python 3.10, where an FMU may run: it reads its m
 
 from .bearing.coefficient_kinds import DEFAULT_KIND, require_kind
 from .bearing.geometry import JournalBearing
+from .bearing.supply import ML_MIN_PER_M3_S
 from .machine_fields import as_node, frozen_array, read_key, read_positive_array, read_real, read_table
 from .machine_sections import (
     Disc,
@@ -104,7 +105,8 @@ class Machine:
         is the one geometry of a machine whose bearings are all alike.
     load_split : how the weight is shared among bearings: "equal" (the paper: W / n_bearings each)
         or "reactions" (the support reactions of the rotor on rigid supports).
-    lubrication : nominal supply.
+    lubrication : nominal supply (each bearing's nominal flowrate: ``lubrication.nominal_flowrates_m3_s``;
+        :meth:`shared_nominal_flowrate_m3_s` the one of a machine whose bearings' nominals are alike).
     structural_damping_s : stiffness-proportional rotor damping coefficient beta [s], C = beta K
         (0 when the file has no ``[rotor_damping]`` table).
     raw : the parsed file, for sections owned by other models.
@@ -181,6 +183,19 @@ class Machine:
             )
         return self.bearings[0]
 
+    def shared_nominal_flowrate_m3_s(self, feature: str) -> float:
+        """The one nominal supply flowrate [m^3/s] of a machine whose bearings' nominals are all alike;
+        InputError naming ``feature`` when they differ, since ``feature`` runs every bearing at one flowrate
+        (each bearing's: ``lubrication.nominal_flowrates_m3_s``)."""
+        nominal = self.lubrication.nominal_flowrates_m3_s
+        if (nominal != nominal[0]).any():
+            given = " / ".join(f"{q * ML_MIN_PER_M3_S:.1f}" for q in nominal)
+            raise InputError(
+                f"the bearings of {self.name} have different nominal flowrates ({given} ml/min): {feature} "
+                "runs every bearing at one flowrate; give them one nominal flowrate to run it"
+            )
+        return float(nominal[0])
+
     def geometry_bearing(self, index: int) -> int:
         """The number (from 1, in ``bearing_nodes`` order) of the first bearing whose geometry is that of
         bearing ``index`` (from 0): the bearing a table of that geometry is named after."""
@@ -192,37 +207,51 @@ class Machine:
         return tuple(sorted({self.geometry_bearing(i) - 1 for i in range(len(self.bearings))}))
 
 
-_COMPUTED_FLOWRATES: dict[tuple[str, str], float] = {}
-"""Nominal flowrates computed from the supply pressure in this process, by (file, file text)."""
+_COMPUTED_FLOWRATES: dict[tuple[JournalBearing, float, float, float], float] = {}
+"""Nominal flowrates computed from the supply pressure in this process, by (bearing geometry, static load [N],
+speed [Hz], groove pressure [Pa]): one steady solve per distinct bearing."""
 
 
-def nominal_flowrate_from_pressure(machine: Machine) -> float:
-    """The steady supply flowrate [m^3/s] at the machine's nominal groove pressure, nominal speed and the
-    first bearing's static load (the paper defines its nominal flowrate so, from a 0.5 bar groove pressure).
+def nominal_flowrate_from_pressure(machine: Machine, index: int, load_n: float) -> float:
+    """The steady supply flowrate [m^3/s] of bearing ``index`` (from 0) at the machine's nominal groove
+    pressure and nominal speed, with that bearing's geometry and its static load ``load_n`` [N] (the paper
+    defines its nominal flowrate so, from a 0.5 bar groove pressure).
 
-    One steady p-theta solve on the production mesh (about a second). Bearing 1 is the reference: the
-    nominal flowrate is one figure that every percentage of flow refers to, for every bearing, so it is
-    bearing 1's (its geometry and load) also when the bearings differ.
+    One steady p-theta solve on the production mesh (about a second), once per distinct geometry, load,
+    speed and pressure in a process.
     """
     from .bearing.equilibrium import static_equilibrium
     from .bearing.grid import PRODUCTION_MESH
     from .bearing.supply import SupplyPressure
+
+    bearing = machine.bearings[index]
+    pressure = machine.lubrication.nominal_supply_pressure_pa
+    key = (bearing, float(load_n), machine.nominal_speed_hz, pressure)
+    if key not in _COMPUTED_FLOWRATES:
+        supply = SupplyPressure(pressure)
+        equilibrium = static_equilibrium(
+            bearing, float(load_n), machine.nominal_speed_hz, supply, PRODUCTION_MESH
+        )
+        _COMPUTED_FLOWRATES[key] = float(equilibrium.supply_flow_m3_s)
+    return _COMPUTED_FLOWRATES[key]
+
+
+def _with_nominal_flowrates(machine: Machine) -> Machine:
+    """``machine`` with the nominal flowrate of each bearing the file gives none for solved at the supply
+    pressure (:func:`nominal_flowrate_from_pressure`)."""
+    computed = machine.lubrication.nominal_flowrates_computed
+    if not any(computed):
+        return machine
     from .rotor.assembly import Rotor
 
-    load = float(Rotor.from_machine(machine).bearing_static_loads_n[0])
-    supply = SupplyPressure(machine.lubrication.nominal_supply_pressure_pa)
-    equilibrium = static_equilibrium(
-        machine.bearings[0], load, machine.nominal_speed_hz, supply, PRODUCTION_MESH
-    )
-    return float(equilibrium.supply_flow_m3_s)
-
-
-def _with_nominal_flowrate(machine: Machine, key: tuple[str, str]) -> Machine:
-    if not machine.lubrication.nominal_flowrate_computed:
-        return machine
-    if key not in _COMPUTED_FLOWRATES:
-        _COMPUTED_FLOWRATES[key] = nominal_flowrate_from_pressure(machine)
-    lubrication = replace(machine.lubrication, nominal_flowrate_m3_s=_COMPUTED_FLOWRATES[key])
+    loads = Rotor.from_machine(machine).bearing_static_loads_n
+    flowrates = [
+        nominal_flowrate_from_pressure(machine, i, loads[i]) if solve else float(given)
+        for i, (solve, given) in enumerate(
+            zip(computed, machine.lubrication.nominal_flowrates_m3_s, strict=True)
+        )
+    ]
+    lubrication = replace(machine.lubrication, nominal_flowrates_m3_s=frozen_array(flowrates))
     return replace(machine, lubrication=lubrication)
 
 
@@ -230,8 +259,9 @@ def machine_from_dict(data: Mapping[str, Any], source_path: Path | str = "<dict>
     """Validate a parsed machine file and return the :class:`Machine` in SI units.
 
     Raises :class:`InputError` naming the offending field for any missing, non-numeric, negative
-    or inconsistent value. A ``[lubrication]`` table without ``nominal_flowrate_ml_min`` gets the flowrate
-    computed at ``nominal_supply_pressure_bar`` (:func:`nominal_flowrate_from_pressure`).
+    or inconsistent value. A bearing whose nominal flowrate neither its ``[[bearings.override]]`` nor
+    ``[lubrication]`` gives (``nominal_flowrate_ml_min``) gets it computed at ``nominal_supply_pressure_bar``
+    with its own geometry and static load (:func:`nominal_flowrate_from_pressure`).
     """
     head = read_table(data, "machine")
     name = head.get("name", Path(str(source_path)).stem)
@@ -285,7 +315,7 @@ def machine_from_dict(data: Mapping[str, Any], source_path: Path | str = "<dict>
         bearing_nodes=bearing_nodes,
         bearings=bearings,
         load_split=load_split,
-        lubrication=read_lubrication(data),
+        lubrication=read_lubrication(data, bearing_nodes),
         structural_damping_s=beta,
         raw=data,
         oil=oil,
@@ -296,7 +326,7 @@ def machine_from_dict(data: Mapping[str, Any], source_path: Path | str = "<dict>
         ),
         reduction_cutoff_hz=cutoff,
     )
-    return _with_nominal_flowrate(machine, (str(source_path), repr(sorted(data.items()))))
+    return _with_nominal_flowrates(machine)
 
 
 def load_machine(path: str | Path | None = None) -> Machine:

@@ -145,8 +145,9 @@ MACHINE_KEYS: tuple[MachineKey, ...] = (
         "bearings",
         "override",
         "an array of tables, at most one per bearing node",
-        "Per-bearing geometry: each [[bearings.override]] gives the keys of bearings.override[] in which one "
-        "bearing differs from [bearings] (a drive-end bearing of another size, clearance or grooves).",
+        "Per-bearing geometry and nominal flowrate: each [[bearings.override]] gives the keys of "
+        "bearings.override[] in which one bearing differs from [bearings] and [lubrication] (a drive-end "
+        "bearing of another size, clearance, grooves or supply).",
         "every bearing has the [bearings] geometry",
     ),
     _key("bearings.override[]", "node", "one of bearings.nodes", "The bearing the override is for.", "-"),
@@ -199,6 +200,14 @@ MACHINE_KEYS: tuple[MachineKey, ...] = (
         "> 0, < its length",
         "Its circumferential groove.",
         "bearings.circumferential_groove_axial_mm",
+    ),
+    _key(
+        "bearings.override[]",
+        "nominal_flowrate_ml_min",
+        "> 0",
+        "Its own nominal supply flowrate: its percentages of flow, the estimator's start and the alarm's "
+        "levels refer to it.",
+        "lubrication.nominal_flowrate_ml_min",
     ),
     _key(
         "bearings",
@@ -256,8 +265,9 @@ MACHINE_KEYS: tuple[MachineKey, ...] = (
         "lubrication",
         "nominal_flowrate_ml_min",
         "> 0",
-        "Nominal supply flowrate of each bearing: every percentage of flow is a percentage of it.",
-        "solved at nominal_supply_pressure_bar",
+        "Nominal supply flowrate of each bearing without its own (bearings.override[]): a bearing's "
+        "percentages of flow are percentages of its nominal.",
+        "solved at nominal_supply_pressure_bar for each bearing",
     ),
     _key(
         "lubrication",

@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from .bearing.geometry import AxialGroove, JournalBearing
-from .machine_fields import as_node, as_number, read_key, read_real, read_table
+from .machine_fields import as_node, as_number, frozen_array, read_key, read_real, read_table
 from .oil import DEFAULT_THERMAL_EXPANSION_PER_K, Oil
 from .validation import InputError
 
@@ -65,22 +65,29 @@ class Unbalance:
     phase_rad: float
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Lubrication:
     """Nominal oil supply of the bearings.
 
-    Attributes: nominal_supply_pressure_pa [Pa] (NaN when the file gives only a flowrate),
-    nominal_flowrate_m3_s [m^3/s] (every flowrate given as a percentage is a percentage of it),
-    table_min/max_fraction_of_threshold: span of the coefficient tables as fractions of the flooded
-    threshold flowrate q_t [-], nominal_flowrate_computed: True when the file gives only the supply
-    pressure and the flowrate was computed from it (:func:`nominal_flowrate_from_pressure`).
+    Attributes
+    ----------
+    nominal_supply_pressure_pa : nominal groove pressure [Pa] (NaN when the file gives only flowrates).
+    nominal_flowrates_m3_s : (n_bearings,) read-only, each bearing's nominal supply flowrate [m^3/s] in the
+        order of ``bearing_nodes``: a bearing's flowrate given as a percentage is a percentage of its own.
+        A bearing's ``[[bearings.override]]`` value, else ``[lubrication]``'s, else the steady flowrate at the
+        nominal groove pressure with that bearing's geometry and static load
+        (:func:`oilwatch.models.machine.nominal_flowrate_from_pressure`).
+    table_min_fraction_of_threshold, table_max_fraction_of_threshold : span of the coefficient tables as
+        fractions of the flooded threshold flowrate q_t [-].
+    nominal_flowrates_computed : (n_bearings,) whether each bearing's nominal flowrate was computed from the
+        supply pressure (the file gives none for it).
     """
 
     nominal_supply_pressure_pa: float
-    nominal_flowrate_m3_s: float
+    nominal_flowrates_m3_s: np.ndarray
     table_min_fraction_of_threshold: float
     table_max_fraction_of_threshold: float
-    nominal_flowrate_computed: bool = False
+    nominal_flowrates_computed: tuple[bool, ...]
 
 
 def shaft_diameter_at_node(diameters_m: np.ndarray, node: int) -> float:
@@ -136,7 +143,8 @@ def read_bearings(
     overrides = read_overrides(table, bearing_nodes)
     bearings = []
     for i, node in enumerate(bearing_nodes):
-        section, override = overrides.get(node, ("", {}))
+        section, entry = overrides.get(node, ("", {}))
+        override = {key: value for key, value in entry.items() if key in OVERRIDE_KEYS}
         bearing = _read_geometry(table, override, section, viscosity) if override else shared
         _check_journal(bearing, diameters, node, i, section if "radius_mm" in override else "bearings")
         bearings.append(bearing)
@@ -154,6 +162,9 @@ OVERRIDE_KEYS = (
     "circumferential_groove_axial_mm",
 )
 """The geometry keys of ``[bearings]`` that a ``[[bearings.override]]`` entry may give for its bearing."""
+OVERRIDE_SUPPLY_KEY = "nominal_flowrate_ml_min"
+"""The key of ``[lubrication]`` that a ``[[bearings.override]]`` entry may give for its bearing: its own
+nominal supply flowrate."""
 
 
 def read_overrides(
@@ -161,7 +172,7 @@ def read_overrides(
 ) -> dict[int, tuple[str, Mapping]]:
     """The ``[[bearings.override]]`` entries by bearing node: (the entry's section name, the entry without
     its ``node``). Each names one node of ``bearings.nodes``, at most once, and gives only
-    :data:`OVERRIDE_KEYS`."""
+    :data:`OVERRIDE_KEYS` and :data:`OVERRIDE_SUPPLY_KEY`."""
     if "override" not in table:
         return {}
     entries = table["override"]
@@ -181,11 +192,11 @@ def read_overrides(
             raise InputError(
                 f"{section}.node = {node}: that bearing has an override already ({overrides[node][0]})"
             )
-        unknown = sorted(set(entry) - {"node", *OVERRIDE_KEYS})
+        unknown = sorted(set(entry) - {"node", *OVERRIDE_KEYS, OVERRIDE_SUPPLY_KEY})
         if unknown:
             raise InputError(
-                f"{section}.{unknown[0]} cannot differ between bearings: an override gives only node and "
-                f"{', '.join(OVERRIDE_KEYS)}"
+                f"{section}.{unknown[0]} cannot differ between bearings: an override gives only node, "
+                f"{', '.join(OVERRIDE_KEYS)} and {OVERRIDE_SUPPLY_KEY}"
             )
         overrides[node] = section, {key: value for key, value in entry.items() if key != "node"}
     return overrides
@@ -345,8 +356,13 @@ def _bearing_viscosity(data: Mapping[str, Any], bearings: Mapping[str, Any]) -> 
     return oil.dynamic_viscosity_pa_s(temperature)
 
 
-def read_lubrication(data: Mapping[str, Any]) -> Lubrication:
-    """The ``[lubrication]`` table: nominal pressure and/or flowrate and the tables' span."""
+def read_lubrication(data: Mapping[str, Any], bearing_nodes: tuple[int, ...]) -> Lubrication:
+    """The ``[lubrication]`` table: nominal pressure and/or flowrate and the tables' span, with each bearing's
+    own nominal flowrate from its ``[[bearings.override]]`` (``bearing_nodes`` from :func:`read_bearings`).
+
+    A bearing whose flowrate neither its override nor ``[lubrication]`` gives gets NaN, for the machine to
+    solve at the nominal groove pressure (:attr:`Lubrication.nominal_flowrates_computed`).
+    """
     table = read_table(data, "lubrication")
     low = read_real(table, "lubrication", "table_min_fraction_of_threshold", "")
     high = read_real(table, "lubrication", "table_max_fraction_of_threshold", "")
@@ -355,21 +371,30 @@ def read_lubrication(data: Mapping[str, Any]) -> Lubrication:
             "lubrication.table_max_fraction_of_threshold must exceed "
             f"table_min_fraction_of_threshold ({low:g}), got {high:g}"
         )
-    if "nominal_flowrate_ml_min" not in table and "nominal_supply_pressure_bar" not in table:
+    pressure = math.nan
+    if "nominal_supply_pressure_bar" in table:
+        pressure = read_real(table, "lubrication", "nominal_supply_pressure_bar", "bar", strict=False) * 1e5
+    shared = math.nan
+    if OVERRIDE_SUPPLY_KEY in table:
+        shared = read_real(table, "lubrication", OVERRIDE_SUPPLY_KEY, "ml/min") / 1e6 / 60.0
+    overrides = read_overrides(read_table(data, "bearings"), bearing_nodes)
+    flowrates = []
+    for node in bearing_nodes:
+        section, entry = overrides.get(node, ("", {}))
+        own = OVERRIDE_SUPPLY_KEY in entry
+        flowrates.append(
+            read_real(entry, section, OVERRIDE_SUPPLY_KEY, "ml/min") / 1e6 / 60.0 if own else shared
+        )
+    computed = tuple(math.isnan(q) for q in flowrates)
+    if any(computed) and math.isnan(pressure):
         raise InputError(
             "[lubrication] needs nominal_flowrate_ml_min or nominal_supply_pressure_bar (the flowrate is "
             "then computed at that groove pressure)"
         )
-    pressure = math.nan
-    if "nominal_supply_pressure_bar" in table:
-        pressure = read_real(table, "lubrication", "nominal_supply_pressure_bar", "bar", strict=False) * 1e5
-    flowrate = math.nan
-    if "nominal_flowrate_ml_min" in table:
-        flowrate = read_real(table, "lubrication", "nominal_flowrate_ml_min", "ml/min") / 1e6 / 60.0
     return Lubrication(
         nominal_supply_pressure_pa=pressure,
-        nominal_flowrate_m3_s=flowrate,
+        nominal_flowrates_m3_s=frozen_array(flowrates),
         table_min_fraction_of_threshold=low,
         table_max_fraction_of_threshold=high,
-        nominal_flowrate_computed=math.isnan(flowrate),
+        nominal_flowrates_computed=computed,
     )

@@ -86,8 +86,8 @@ class ScenarioConfig:
         "of it", 1.0, 3600.0,
     )  # fmt: skip
     seed: int = setting(1, "1", "seed of the measurement noise (an FMI Integer)", 0, MAX_SEED)
-    q1_pct: float = setting(100.0, "%", "constant scenario: bearing 1 flowrate, % of nominal", 1.0, 200.0)
-    q2_pct: float = setting(100.0, "%", "constant scenario: bearing 2 flowrate, % of nominal", 1.0, 200.0)
+    q1_pct: float = setting(100.0, "%", "constant scenario: bearing 1 flowrate, % of its nominal", 1.0, 200.0)
+    q2_pct: float = setting(100.0, "%", "constant scenario: bearing 2 flowrate, % of its nominal", 1.0, 200.0)
 
     def __post_init__(self) -> None:
         check_ranges(self)

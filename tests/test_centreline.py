@@ -162,7 +162,7 @@ def test_the_estimators_model_at_a_measured_clearance_is_the_plant_of_that_clear
     reduced = build_system(MACHINE, reduced=True)
     model = build_operating_model(reduced, MACHINE, clearance_factors=(factor, factor))
     plant = structural_system(MACHINE, PlantStructure(clearance_factor=factor))
-    q = np.full(2, MACHINE.lubrication.nominal_flowrate_m3_s)
+    q = np.array(MACHINE.lubrication.nominal_flowrates_m3_s)
     plant_static = plant.bearing_positions(plant.static_coordinates(q)).ravel()
     model_static = np.array([s.equilibrium_m for s in model.reference.system.bearing_states(q)]).ravel()
     # the plant's full rotor loads its bearings 1e-5 unequally; the reduced model's split is the file's

@@ -69,7 +69,7 @@ def test_the_plant_and_estimator_models_load_the_kind_of_the_machine_file(tmp_pa
 @pytest.mark.parametrize("fraction", [1.0, 0.75])
 def test_synchronous_model_has_the_synchronous_orbit_and_the_quasi_static_modes(fraction):
     machine = load_machine()
-    q = (fraction * machine.lubrication.nominal_flowrate_m3_s,) * 2
+    q = tuple(fraction * machine.lubrication.nominal_flowrates_m3_s)
     hybrid = build_system(machine, reduced=False)
     pure = build_system(machine, reduced=False, table_path=TABLES / "turbine_bearing_75hz_synchronous.json")
     quasi = build_system(machine, reduced=False, coefficients=QUASI_STATIC)

@@ -43,7 +43,7 @@ def test_the_compressor_is_bundled_by_name_and_carries_its_sources_mass():
     table = CoefficientTable.load(flowrate_table_path(MACHINE, MACHINE.nominal_speed_hz))
     q_t = table.metadata["flooded_threshold_m3_s"]
     # the nominal supply (solved at the file's groove pressure) lies a little above the flooded threshold
-    assert 1.05 < MACHINE.lubrication.nominal_flowrate_m3_s / q_t < 1.3
+    assert 1.05 < MACHINE.shared_nominal_flowrate_m3_s("this test") / q_t < 1.3
 
 
 def test_a_bundled_machine_is_named_on_the_command_line_and_in_result_files(tmp_path, monkeypatch):

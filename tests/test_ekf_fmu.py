@@ -215,7 +215,7 @@ ERRORS = """
 CASES = [
     ("noise_um", {"reals": {"noise_um": -1.0}}),
     ("alarm_off_fraction", {"reals": {"alarm_off_fraction": 0.8}}),
-    ("q_initial_ml_min", {"reals": {"q_initial_ml_min": 100.0}}),
+    ("q2_initial_ml_min", {"reals": {"q2_initial_ml_min": 100.0}}),
     # the paper preset's grid model holds one speed (the machine preset follows the measured speed)
     ("speed_hz", {"reals": {"speed_hz": 60.0}, "strings": {"preset": "paper"}}),
     ("q_std_velocity_um_s", {"reals": {"q_std_velocity_um_s": -0.5}}),

@@ -24,21 +24,21 @@ def _feed(alarm, fractions, std_fraction=0.0):
 
 
 def test_sets_only_after_the_hold_time():
-    alarm = StarvationAlarm(AlarmConfig(hold_on_s=0.1), DT, QN)
+    alarm = StarvationAlarm(AlarmConfig(hold_on_s=0.1), DT, (QN, QN))
     flags = _feed(alarm, [0.8] * 99 + [1.0] + [0.8] * 100)
     assert not flags[:199].any()  # the interruption at step 99 restarts the hold
     assert flags[199].all()
 
 
 def test_upper_confidence_bound_not_the_estimate_decides():
-    alarm = StarvationAlarm(AlarmConfig(hold_on_s=0.01, confidence_z=2.0), DT, QN)
+    alarm = StarvationAlarm(AlarmConfig(hold_on_s=0.01, confidence_z=2.0), DT, (QN, QN))
     assert not _feed(alarm, [0.85] * 100, std_fraction=0.03).any()  # 0.85 + 2 x 0.03 > 0.90
     assert _feed(alarm, [0.85] * 100, std_fraction=0.02)[-1].all()  # 0.85 + 2 x 0.02 < 0.90
 
 
 def test_hysteresis_keeps_the_alarm_between_the_levels():
     config = AlarmConfig(on_fraction=0.9, off_fraction=0.95, hold_on_s=0.01, hold_off_s=0.2)
-    alarm = StarvationAlarm(config, DT, QN)
+    alarm = StarvationAlarm(config, DT, (QN, QN))
     assert _feed(alarm, [0.8] * 20)[-1].all()
     assert _feed(alarm, [0.93] * 1000).all()  # above the set level, below the clear level: stays
     flags = _feed(alarm, [0.97] * 250)
@@ -46,9 +46,9 @@ def test_hysteresis_keeps_the_alarm_between_the_levels():
 
 
 def test_alarm_state_round_trips():
-    alarm = StarvationAlarm(AlarmConfig(), DT, QN)
+    alarm = StarvationAlarm(AlarmConfig(), DT, (QN, QN))
     _feed(alarm, [0.8] * 100)
-    other = StarvationAlarm(AlarmConfig(), DT, QN)
+    other = StarvationAlarm(AlarmConfig(), DT, (QN, QN))
     other.set_state(alarm.get_state())
     assert np.array_equal(_feed(other, [0.8] * 300), _feed(alarm, [0.8] * 300))
 

@@ -24,10 +24,13 @@ from oilwatch.models.validation import InputError
         ("velocity_process_std_m_s", float("inf")),
         ("flowrate_process_std_m3_s", -1.0),
         ("q_nominal_m3_s", 0.0),
+        ("q_nominal_m3_s", (1e-5, -1e-5)),
+        ("q_nominal_m3_s", (1e-5, 1e-5, 1e-5)),
         ("q_initial_m3_s", -1.0),
         ("q_initial_m3_s", (1e-5, 1e-5, 1e-5)),
         ("q_initial_m3_s", "lots"),
         ("initial_flowrate_std_m3_s", -1.0),
+        ("initial_flowrate_std_m3_s", (1e-6, 0.0)),
         ("gate_tail_probability", 0.7),
         ("alarm", {"on_fraction": 0.9}),
     ],
@@ -65,7 +68,8 @@ def test_defaults_are_the_papers():
     assert config.q_initial_m3_s is None and config.q_nominal_m3_s is None  # machine facts: from the model
     resolved = config.for_model(ToyRotor())
     assert resolved.q_initial_pair() == pytest.approx((596.3 * ML_MIN, 596.3 * ML_MIN))
-    assert resolved.initial_flowrate_std_m3_s == pytest.approx(0.25 * 596.3 * ML_MIN)
+    assert resolved.q_nominal_pair() == pytest.approx((596.3 * ML_MIN, 596.3 * ML_MIN))
+    assert resolved.initial_flowrate_std_pair() == pytest.approx((0.25 * 596.3 * ML_MIN,) * 2)
     assert config.initial_state == "zero"
 
 
@@ -111,7 +115,7 @@ def test_static_start_needs_a_model_with_static_state():
         output_matrix = np.zeros((4, 2))
         velocity_output_matrix = np.zeros((4, 2))
         bearing_flowrate_bounds_m3_s = np.array([(1e-6, 1e-4), (1e-6, 1e-4)])
-        nominal_flowrate_m3_s = 5e-5
+        nominal_flowrates_m3_s = (5e-5, 5e-5)
 
         def transition(self, state, flowrate_m3_s, step):
             return state, np.eye(2), np.zeros((2, 2))

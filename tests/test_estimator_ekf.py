@@ -206,7 +206,7 @@ class _MixedCoordinates:
         self.toy = toy
         self.n_states, self.dt_s = 8, toy.dt_s
         self.bearing_flowrate_bounds_m3_s = toy.bearing_flowrate_bounds_m3_s
-        self.nominal_flowrate_m3_s, self.speed_hz = toy.nominal_flowrate_m3_s, toy.speed_hz
+        self.nominal_flowrates_m3_s, self.speed_hz = toy.nominal_flowrates_m3_s, toy.speed_hz
         self.output_matrix = toy.output_matrix @ self.t_inv
         self.velocity_output_matrix = toy.velocity_output_matrix @ self.t_inv
 

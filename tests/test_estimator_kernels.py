@@ -37,7 +37,8 @@ def test_predict_matches_j_p_jt_plus_q():
     jacobian[:n, n:] = flow_jac
     expected = jacobian @ covariance @ jacobian.T + process
     scratch = np.zeros_like(covariance), np.zeros_like(covariance)
-    predict_covariance(covariance, state_jac, flow_jac / 3.0, 3.0, np.zeros((n, 0)), process, *scratch)
+    scale = np.array([3.0, 5.0])  # each bearing's flowrate unit
+    predict_covariance(covariance, state_jac, flow_jac / scale, scale, np.zeros((n, 0)), process, *scratch)
     np.testing.assert_allclose(covariance, expected, rtol=1e-12, atol=1e-12 * abs(expected).max())
     assert np.array_equal(covariance, covariance.T)
 

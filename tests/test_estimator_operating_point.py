@@ -20,7 +20,7 @@ from oilwatch.models.system.plant import RotorBearingPlant
 from oilwatch.models.system.profiles import OperatingProfile
 
 MACHINE = load_machine()
-QN = MACHINE.lubrication.nominal_flowrate_m3_s
+QN = MACHINE.shared_nominal_flowrate_m3_s("this test")
 T0 = MACHINE.nominal_oil_temperature_c
 DT = 1e-3
 DURATION_S = 5.0

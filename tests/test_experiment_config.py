@@ -79,6 +79,8 @@ def test_study_case_parameters_are_labelled_with_the_users_flags():
     for role, values in parameters.items():
         assert set(values) <= set(labels[role]), role
     assert labels["plant"]["seed"] == "--seeds" and labels["plant"]["noise_um"] == "--noise-um"
-    assert labels["plant"]["q1_final_ml_min"] == "the study grid's q1 = 75 % of nominal"
+    assert labels["plant"]["q1_final_ml_min"] == "the study grid's q1 = 75 % of its nominal"
     assert labels["ekf"]["machine_file"] == "--machine"
-    assert case.settings_text == "--noise-um 2, q1 = 75 %, q2 = 100 % of nominal, --seeds index 0"
+    assert (
+        case.settings_text == "--noise-um 2, q1 = 75 %, q2 = 100 % of each bearing's nominal, --seeds index 0"
+    )

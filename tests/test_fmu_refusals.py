@@ -1,7 +1,7 @@
 """No input accepted and ignored by the FMUs (slow: the real FMUs): a plant flowrate input that is NaN,
 negative or absurd is refused at the step (fmi2Error naming it), not held at nominal; a flowrate input set
 while the schedule drives the flowrates is refused at initialization; fmi2DoStep before initialization is
-fmi2Error naming the state; a garbage FMU state is refused with a message; q_nominal_ml_min out of the table
+fmi2Error naming the state; a garbage FMU state is refused with a message; q2_nominal_ml_min out of the table
 is named as given; a parameter above its physical maximum (noise_um = 1e30) is refused naming it.
 (``--set plant.q1_in_ml_min=1`` through ``oilwatch run``: test_misuse.)"""
 
@@ -64,7 +64,7 @@ garbage = attempt(lambda: plant.deSerializeFMUstate(b"garbage bytes, not a state
 plant, vr = load(FOLDER + "/RotorBearingPlant.fmu", "ignored")
 ignored = attempt(lambda: init(plant, vr, {"q1_in_ml_min": 1.0}))
 ekf, vr = load(FOLDER + "/OilFlowEKF.fmu", "nominal")
-nominal = attempt(lambda: init(ekf, vr, {"q_nominal_ml_min": 1e4}))
+nominal = attempt(lambda: init(ekf, vr, {"q2_nominal_ml_min": 1e4}))
 plant, vr = load(FOLDER + "/RotorBearingPlant.fmu", "noise")
 noise = attempt(lambda: init(plant, vr, {"noise_um": 1e30}))
 result = {"early": early, "garbage": garbage, "ignored": ignored, "nominal": nominal, "noise": noise}
@@ -77,7 +77,7 @@ result = {"early": early, "garbage": garbage, "ignored": ignored, "nominal": nom
     assert result["ignored"]["status"] == 3
     assert any("q1_in_ml_min = 1.0 is ignored while flow_source = 0" in m for m in _errors(result["ignored"]))
     assert result["nominal"]["status"] == 3
-    named = [m for m in _errors(result["nominal"]) if m.startswith("nominal: q_nominal_ml_min must lie in")]
+    named = [m for m in _errors(result["nominal"]) if m.startswith("nominal: q2_nominal_ml_min must lie in")]
     assert named, result
     assert result["noise"]["status"] == 3
     refused = [m for m in _errors(result["noise"]) if "noise_um must lie in [0, 1000] um, got 1e+30 um" in m]

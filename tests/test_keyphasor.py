@@ -19,7 +19,7 @@ from oilwatch.models.system.operating_point import operating_system
 from oilwatch.models.system.plant import RotorBearingPlant
 
 MACHINE = load_machine()
-QN = MACHINE.lubrication.nominal_flowrate_m3_s
+QN = MACHINE.shared_nominal_flowrate_m3_s("this test")
 T0 = MACHINE.nominal_oil_temperature_c
 TRUTH = np.array([0.8, 1.0]) * QN
 PLANT_HZ, TOLD_HZ = 75.6, 75.0

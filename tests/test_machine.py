@@ -76,7 +76,7 @@ def test_bundled_turbine_in_si_units():
     assert machine.bearing.clearance_m == pytest.approx(120e-6)
     assert machine.unbalance.iso_grade_m_s == pytest.approx(2.5e-3)
     assert machine.nominal_speed_rad_s == pytest.approx(2 * math.pi * 75)
-    assert machine.lubrication.nominal_flowrate_m3_s * 6e7 == pytest.approx(596.3)
+    assert machine.shared_nominal_flowrate_m3_s("this test") * 6e7 == pytest.approx(596.3)
     assert machine.lubrication.nominal_supply_pressure_pa == pytest.approx(5e4)
     assert machine.structural_damping_s == pytest.approx(1e-5)
     with pytest.raises(ValueError):
@@ -177,7 +177,9 @@ def test_without_tomllib_a_machine_file_is_read_from_its_parsed_twin(tmp_path, m
     monkeypatch.setattr(machine_module, "tomllib", None)
     read = load_machine(source)
     assert read.raw == expected.raw and read.name == expected.name
-    assert read.lubrication.nominal_flowrate_m3_s == expected.lubrication.nominal_flowrate_m3_s
+    np.testing.assert_array_equal(
+        read.lubrication.nominal_flowrates_m3_s, expected.lubrication.nominal_flowrates_m3_s
+    )
     np.testing.assert_array_equal(read.element_lengths_m, expected.element_lengths_m)
     source.write_text(source.read_text() + "\n# edited after the build\n")
     for _ in range(2):

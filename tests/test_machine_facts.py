@@ -39,16 +39,16 @@ def _variant(tmp_path: Path, **replacements: str) -> Path:
 
 def test_the_bundled_turbine_keeps_the_papers_nominal_flowrate():
     machine = load_machine()
-    assert machine.lubrication.nominal_flowrate_m3_s * ML_MIN_PER_M3_S == pytest.approx(596.3)
-    assert not machine.lubrication.nominal_flowrate_computed
+    assert list(machine.lubrication.nominal_flowrates_m3_s * ML_MIN_PER_M3_S) == pytest.approx([596.3] * 2)
+    assert machine.lubrication.nominal_flowrates_computed == (False, False)
 
 
 def test_a_file_without_a_flowrate_gets_it_from_the_supply_pressure(tmp_path):
     """The paper's definition: the steady flow at 0.5 bar groove pressure. REFERENCE.md: an independent
     p-theta solver gives 601.9 (140 x 40) to 610.4 ml/min (280 x 80) against the paper's 596.3."""
     machine = load_machine(_variant(tmp_path, nominal_flowrate_ml_min=None))
-    assert machine.lubrication.nominal_flowrate_computed
-    assert 598.0 < machine.lubrication.nominal_flowrate_m3_s * ML_MIN_PER_M3_S < 622.0
+    assert machine.lubrication.nominal_flowrates_computed == (True, True)
+    assert 598.0 < machine.shared_nominal_flowrate_m3_s("this test") * ML_MIN_PER_M3_S < 622.0
 
 
 def test_a_file_with_neither_flowrate_nor_pressure_is_refused(tmp_path):
@@ -62,7 +62,7 @@ def test_scenarios_and_study_cases_use_the_machines_nominal_flowrate_and_speed(t
     run = make_run("clog-b1", machine=machine)
     assert run.q1_ml_min == (800.0, 600.0) and run.q2_ml_min == (800.0, 1000.0)
     assert run.plant_parameters()["speed_hz"] == run.ekf_parameters()["speed_hz"] == 80.0
-    assert run.ekf_parameters()["q_nominal_ml_min"] == 800.0
+    assert run.ekf_parameters()["q1_nominal_ml_min"] == run.ekf_parameters()["q2_nominal_ml_min"] == 800.0
     assert run.plant_parameters()["machine_file"] == str(machine.source_path.resolve())
     assert run.starving(1) and not run.starving(2)
     faster = make_run("sudden-drop", machine=machine, overrides={"plant": {"speed_hz": 85.0}})

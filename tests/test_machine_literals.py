@@ -28,7 +28,7 @@ ALLOWED = {
 def machine_numbers() -> dict[str, float]:
     machine = load_machine()
     rotor = Rotor.from_machine(machine)
-    nominal_ml_min = machine.lubrication.nominal_flowrate_m3_s * ML_MIN_PER_M3_S
+    nominal_ml_min = machine.shared_nominal_flowrate_m3_s("this test") * ML_MIN_PER_M3_S
     bearing = machine.bearing
     return {
         "nominal flowrate [ml/min]": nominal_ml_min,

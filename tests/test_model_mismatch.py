@@ -22,7 +22,7 @@ def model():
 
 
 def _change(model, reference_m=None, **fields):
-    q0 = model.nominal_flowrate_m3_s
+    q0 = model.nominal_flowrates_m3_s[0]  # the turbine: one for both bearings
     baseline = OffsetBaseline(
         (0.0,) * 4,
         (0.1e-6,) * 4,
@@ -51,7 +51,7 @@ def test_the_status_turns_after_its_holds_and_the_static_change_reads_the_flowra
     mismatch the static estimate reads those flowrates (within 0.5 % of nominal, its std covering it);
     while the model is consistent the status stays 0 and nothing is read."""
     observe = np.asarray(model.output_matrix)
-    q0 = model.nominal_flowrate_m3_s
+    q0 = model.nominal_flowrates_m3_s[0]  # the turbine: one for both bearings
     reference = observe @ model.static_state(np.array([q0, q0]))
     starved = observe @ model.static_state(np.array([0.8 * q0, 0.9 * q0]))
     change = _change(model, tuple(reference))
@@ -119,7 +119,7 @@ def test_a_filter_that_disagrees_with_the_static_change_is_a_mismatch_though_its
     the free nuisances absorb): more than 3 combined stds apart, a mismatch read from the baseline change;
     one within them is not."""
     observe = np.asarray(model.output_matrix)
-    q0 = model.nominal_flowrate_m3_s
+    q0 = model.nominal_flowrates_m3_s[0]  # the turbine: one for both bearings
     reference = observe @ model.static_state(np.array([q0, q0]))
     rng = np.random.default_rng(5)
     samples = reference + 1e-6 * rng.standard_normal((3000, 4))
@@ -156,11 +156,11 @@ def test_a_held_estimate_is_published_with_its_prior_std_and_never_alarms(model)
     line = 3e-6 * np.sin(2.0 * np.pi * 2.0 * model.speed_hz * model.dt_s * np.arange(steps))
     config = EKFConfig.recommended().for_model(model)
     trace = OilFlowEKF(model, config).run_batch(signals + line[:, None])
-    q0 = model.nominal_flowrate_m3_s
+    q0 = model.nominal_flowrates_m3_s  # each bearing's
     held = trace.model_mismatch == bc.MISMATCH_HELD
     assert held[1500:].all()
-    prior = config.initial_flowrate_std_m3_s
-    assert prior == pytest.approx(0.25 * q0)
+    prior = np.array(config.initial_flowrate_std_pair())
+    np.testing.assert_allclose(prior, 0.25 * q0, rtol=1e-12)
     assert (trace.filter_q_std_m3_s[held] < 0.01 * q0).all()
     moved = trace.filter_q_m3_s[held] - q0
     np.testing.assert_allclose(trace.q_std_m3_s[held], np.sqrt(prior**2 + moved**2), rtol=1e-12)
@@ -170,7 +170,7 @@ def test_a_held_estimate_is_published_with_its_prior_std_and_never_alarms(model)
 
 
 def test_the_reference_does_not_apply_at_another_operating_point(model):
-    q0 = model.nominal_flowrate_m3_s
+    q0 = model.nominal_flowrates_m3_s[0]  # the turbine: one for both bearings
     baseline = OffsetBaseline(
         (0.0,) * 4, (0.1e-6,) * 4, flowrates_m3_s=(q0, q0), static_reference_m=(0.0,) * 4,
         static_reference_speed_hz=75.0, static_reference_temperature_c=50.0,

@@ -46,7 +46,7 @@ def first_order(model):
 def _record(model, steps: int, fraction: float = 1.0) -> np.ndarray:
     """(steps, 4) the model's own steady motion at ``fraction`` of nominal flow, factors 1, the machine
     file's unbalance."""
-    q = np.full(2, fraction * model.nominal_flowrate_m3_s)
+    q = fraction * model.nominal_flowrates_m3_s
     ones, unbalance = np.ones(2), np.array([1.0, 0.0])
     state = np.zeros(model.n_states)
     for k in range(-3000, 1):  # settle into the periodic motion before the first sample (model step 1)
@@ -73,7 +73,7 @@ def free_config() -> EKFConfig:
 def _error_and_std(model, record, **remedies):
     config = free_config()
     trace = OilFlowEKF(model, dataclasses.replace(config, **remedies)).run(record)
-    nominal = model.nominal_flowrate_m3_s
+    nominal = model.nominal_flowrates_m3_s[0]  # the turbine: one for both bearings
     return trace.q_m3_s[-1] / nominal - 1.0, trace.q_std_m3_s[-1] / nominal
 
 
@@ -99,7 +99,7 @@ def test_the_information_floor_widens_the_reported_std_only(model):
     assert (with_floor.q_std_m3_s >= plain.q_std_m3_s).all()
     assert (with_floor.q_std_m3_s[-1] >= floored._floor.std_m3_s() * (1.0 - 1e-12)).all()
     # the floor is the filter's own configuration's bound: it starts at the prior and falls with the record
-    assert (floored._floor.std_m3_s() < 0.25 * model.nominal_flowrate_m3_s).all()
+    assert (floored._floor.std_m3_s() < 0.25 * model.nominal_flowrates_m3_s).all()
 
 
 def test_the_alarm_judges_the_floored_std(first_order):
@@ -150,7 +150,7 @@ def test_the_floor_s_update_spread_over_steps_is_the_whole_update_of_the_due_ste
         information = every * (jacobian.T * weights) @ jacobian / config.noise_std_m**2
         return np.linalg.inv(np.linalg.inv(covariance + floor._walk) + information)  # the filter's walks
 
-    nominal = model.nominal_flowrate_m3_s
+    nominal = model.nominal_flowrates_m3_s[0]  # the turbine: one for both bearings
     first = (0.9 * nominal * np.ones(2), (1.0, 1.0), (1.0, 0.0))
     floor.begin(first[0], np.array(first[1]), first[2])
     np.testing.assert_array_equal(floor.covariance, recursion(floor._prior, *first))

@@ -18,7 +18,7 @@ def maps():
 
 
 def test_stacked_blocks_are_the_single_point_blocks(maps):
-    q = np.array([0.8, 0.9]) * MACHINE.lubrication.nominal_flowrate_m3_s
+    q = np.array([0.8, 0.9]) * MACHINE.lubrication.nominal_flowrates_m3_s
     points = [(q, 74.0, np.array([0.07, 0.08])), (1.01 * q, 77.5, np.array([0.09, 0.06]))]
     stacked = maps.blocks(points)
     for block, point in zip(stacked, points, strict=True):
@@ -29,7 +29,7 @@ def test_stacked_blocks_are_the_single_point_blocks(maps):
 def test_derivatives_are_the_exact_map_s_along_every_axis(maps):
     """Each axis' Frechet derivative against the central difference of the exact map (expm) itself over the
     same step (the difference's own truncation error grows as the step squared: 1e-7 here, 1e-5 at 10x)."""
-    q = np.array([0.85, 0.95]) * MACHINE.lubrication.nominal_flowrate_m3_s
+    q = np.array([0.85, 0.95]) * MACHINE.lubrication.nominal_flowrates_m3_s
     speed, mu = 76.0, np.array([0.075, 0.08])
     a_d, g, d_ad, d_g = maps.derivatives(q, speed, mu)
     exact = maps.discrete_map(q, speed, mu)
@@ -60,7 +60,7 @@ def test_the_table_slices_held_stay_bounded_as_the_viscosity_wanders(maps):
     """With the viscosity factors estimated every re-centring asks for slices at new viscosities; a long run
     must not keep them all (it grew by about 100 slices, 0.25 MB, per 10 s of a constant operating point),
     and a slice dropped and made again gives the same block."""
-    q = np.array([0.8, 0.9]) * MACHINE.lubrication.nominal_flowrate_m3_s
+    q = np.array([0.8, 0.9]) * MACHINE.lubrication.nominal_flowrates_m3_s
     first = (q, 75.0, np.array([0.08, 0.08]))
     before = maps.blocks([first])[0]
     for mu in np.linspace(0.06, 0.1, 2 * SLICES_KEPT):

@@ -56,7 +56,7 @@ def _far_centre(model, q, factors, multiple):
     +q2, +ln mu1 and -ln mu2 (the speed at the point's)."""
     speed, mu = model.operating_point
     point = np.concatenate([q, [speed], np.log(mu * np.asarray(factors))])
-    qn = model.nominal_flowrate_m3_s
+    qn = model.nominal_flowrates_m3_s[0]  # the turbine: one for both bearings
     shift = multiple * np.array([-FLOW * qn, FLOW * qn, 0.0, LOG_MU, -LOG_MU])
     return point, point + shift
 
@@ -67,7 +67,7 @@ def _state(model, q):
 
 
 def test_at_the_nominal_operating_point_it_is_todays_model_bit_for_bit(today):
-    q = np.array([0.93, 1.02]) * today.nominal_flowrate_m3_s
+    q = np.array([0.93, 1.02]) * today.nominal_flowrates_m3_s
     s = _state(today, q)
     today.reset_operating_state()
     today.set_operating_point(MACHINE.nominal_speed_hz, T0)
@@ -82,13 +82,13 @@ def test_off_reference_map_matches_the_exact_map_within_the_stated_error(model):
     """78 Hz, oil +10 degC (viscosity -40 %), factors 1.03 / 0.97, flowrates 80 / 90 %, with the centre half
     a threshold away in every axis: static position within 0.02 um and 1x orbit within 0.015 um of the
     exact map's (module docstring: 0.012 and 0.009 um), against a 0.14 um per % of flow sensitivity."""
-    q = np.array([0.8, 0.9]) * model.nominal_flowrate_m3_s
+    q = np.array([0.8, 0.9]) * model.nominal_flowrates_m3_s
     factors = (1.03, 0.97)
     model.set_operating_point(78.0, T0 + 10.0)
     speed, mu = model.operating_point
     assert mu == pytest.approx(0.6 * MACHINE.bearing.viscosity_pa_s, rel=0.05)  # far outside first order
     exact = map_response(model, *model.exact_map(q, factors), speed)
-    qn = model.nominal_flowrate_m3_s
+    qn = model.nominal_flowrates_m3_s[0]  # the turbine: one for both bearings
     shift = 0.5 * np.array([FLOW * qn, -FLOW * qn, SPEED * 75.0, -LOG_MU, LOG_MU])
     model.place_centre(np.concatenate([q, [speed], np.log(mu * np.array(factors))]) + shift)
     approx = map_response(model, *model.discrete_map(q, factors), speed)
@@ -99,7 +99,7 @@ def test_off_reference_map_matches_the_exact_map_within_the_stated_error(model):
 
 
 def test_viscosity_factor_jacobian_matches_a_finite_difference(model):
-    q = np.array([0.9, 1.0]) * model.nominal_flowrate_m3_s
+    q = np.array([0.9, 1.0]) * model.nominal_flowrates_m3_s
     s = _state(model, q)
     model.set_operating_point(76.0, T0 + 2.0)
     f = np.array([1.02, 0.98])
@@ -140,7 +140,7 @@ def test_second_order_terms_follow_the_exact_map_at_the_hard_limit_from_the_cent
     the centre follows it; where noise takes it, README "Session 7"): the static position within 0.06 um
     of the exact map's and the orbit within 0.04 um (measured 0.042 / 0.029 um; at first order 0.288 /
     0.056 um), against 0.14 um per % of flow."""
-    q = np.array([0.8, 0.9]) * held.nominal_flowrate_m3_s
+    q = np.array([0.8, 0.9]) * held.nominal_flowrates_m3_s
     factors = (1.0, 1.0)
     errors = {}
     for name, model in (("second", held), ("first", first_order)):
@@ -157,7 +157,7 @@ def test_second_order_terms_follow_the_exact_map_at_the_hard_limit_from_the_cent
 def test_flow_and_viscosity_jacobians_include_the_second_order_terms(held, first_order):
     """Away from the centre the q and ln mu Jacobians (what the EKF linearizes with) match central
     differences of the transition, and differ from the first-order model's by far more than the tolerance."""
-    q = np.array([0.85, 0.95]) * held.nominal_flowrate_m3_s
+    q = np.array([0.85, 0.95]) * held.nominal_flowrates_m3_s
     f = np.array([1.02, 0.97])
     s = _state(held, q)
     jacobians = {}
@@ -187,7 +187,7 @@ def test_flow_and_viscosity_jacobians_include_the_second_order_terms(held, first
 def test_a_recentring_at_a_kept_centre_gives_the_computed_terms_bit_for_bit(model):
     """A model keeps its last re-centrings' terms by centre (operating_model.CENTRES_KEPT): re-centring
     again at one of them (a filter reset and run from the same start) gives what computing them gave."""
-    qn = model.nominal_flowrate_m3_s
+    qn = model.nominal_flowrates_m3_s[0]  # the turbine: one for both bearings
     q = np.array([0.85, 0.95]) * qn
     model.set_operating_point(77.0, T0 + 4.0)
     speed, mu = model.operating_point
@@ -208,7 +208,7 @@ def test_a_recentring_at_a_kept_centre_gives_the_computed_terms_bit_for_bit(mode
 def test_built_on_a_given_reference_grid_it_is_the_model_built_with_its_own_bit_for_bit(model):
     """The estimator FMU stores the reference grid and builds later instances on it (fmu_src.grid_store)."""
     again = build_operating_model(load_system(reduced=True), MACHINE, grid=model.reference.grid)
-    q = np.array([0.9, 1.05]) * model.nominal_flowrate_m3_s
+    q = np.array([0.9, 1.05]) * model.nominal_flowrates_m3_s
     s = _state(model, q)
     for m in (model, again):
         m.reset_operating_state()

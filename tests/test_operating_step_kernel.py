@@ -26,7 +26,7 @@ from oilwatch.models.system.operating_kernels import RECENTRE, operating_transit
 from oilwatch.models.system.operating_model import build_operating_model
 
 MACHINE = load_machine()
-QN = MACHINE.lubrication.nominal_flowrate_m3_s
+QN = MACHINE.shared_nominal_flowrate_m3_s("this test")
 T0 = MACHINE.nominal_oil_temperature_c
 DT = 1e-3
 STEPS = 1200

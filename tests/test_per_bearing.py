@@ -190,6 +190,14 @@ BAD_OVERRIDES = [
     ),
     ("node = 20\ngroove_axial_mm = 30.0", r"^missing bearings\.override\[0\]\.groove_circumferential_mm$"),
     ("node = 20\ncircumferential_groove_axial_mm = 80.0", r"circumferential_groove_axial_mm must be < 70 mm"),
+    (
+        "node = 20\nnominal_flowrate_ml_min = -5.0",
+        r"^bearings\.override\[0\]\.nominal_flowrate_ml_min must be > 0 ml/min, got -5$",
+    ),
+    (
+        'node = 20\nnominal_flowrate_ml_min = "lots"',
+        r"^bearings\.override\[0\]\.nominal_flowrate_ml_min must be a number, got 'lots'$",
+    ),
 ]
 
 
@@ -250,7 +258,7 @@ def test_a_system_of_differing_bearings_has_each_bearings_own_coefficients(diffe
             assert np.allclose(row.stiffness, stiffness, rtol=1e-6, atol=1e-6 * np.abs(stiffness).max())
             assert np.allclose(row.damping, damping, rtol=1e-6, atol=1e-6 * np.abs(damping).max())
             assert np.allclose(row.eccentricity_m, eq.eccentricity_m, rtol=1e-6, atol=1e-12)
-    q = machine.lubrication.nominal_flowrate_m3_s
+    q = machine.shared_nominal_flowrate_m3_s("this test")
     one, two = (system.tables[b].evaluate(q) for b in (0, 1))
     assert np.abs(one.stiffness - two.stiffness).max() > 0.1 * np.abs(one.stiffness).max()
 
@@ -260,7 +268,7 @@ def test_a_system_of_differing_bearings_sits_and_runs_on_each_bearings_film(diff
     system steps with finite outputs and each bearing's own eccentricity ratio."""
     machine, _ = differing
     system = build_system(machine, reduced=False)
-    q = machine.lubrication.nominal_flowrate_m3_s
+    q = machine.shared_nominal_flowrate_m3_s("this test")
     positions = system.bearing_positions(system.static_coordinates((q, q)))
     for index in (0, 1):
         expected = system.tables[index].evaluate(q).eccentricity_m
@@ -379,7 +387,7 @@ def test_the_estimator_finds_each_bearings_flowrate_on_differing_bearings(differ
     0.9 and 1.1 x the nominal flowrate: measured when written, +0.12 % and +0.04 % after 3 s, std 0.26 and
     0.40 %."""
     machine, _ = differing
-    q = machine.lubrication.nominal_flowrate_m3_s
+    q = machine.shared_nominal_flowrate_m3_s("this test")
     truth = np.array([0.9 * q, 1.1 * q])
     plant = RotorBearingPlant(
         build_system(machine, reduced=False), 1e-3, None, 1e-6, 3, initial_flowrates_m3_s=truth
@@ -399,7 +407,7 @@ def test_oilwatch_estimate_on_the_machine_preset_finds_each_bearings_flowrate(ma
     assert (
         main(["bearing-table", "--machine", str(path), "--mesh", "40", "10", "--points", "5", "--quiet"]) == 0
     )
-    q = mapped.lubrication.nominal_flowrate_m3_s
+    q = mapped.shared_nominal_flowrate_m3_s("this test")
     truth = np.array([0.9 * q, 1.1 * q])
     plant = RotorBearingPlant(
         operating_system(mapped, 75.0, mapped.bearings[0].viscosity_pa_s), 1e-3, None, 1e-6, 3,
@@ -436,7 +444,7 @@ def test_a_speed_sweep_of_another_geometry_is_refused_naming_the_command_that_ma
     machine, _ = differing
     rotor = Rotor.from_machine(machine)
     load = float(rotor.bearing_static_loads_n[0])
-    q = machine.lubrication.nominal_flowrate_m3_s
+    q = machine.shared_nominal_flowrate_m3_s("this test")
     sweep = compute_speed_sweep(machine.bearings[0], load, [70.0, 75.0], q, MESH)
     for index in (0, 1):
         sweep.save(speed_sweep_path(machine, bearing_index=index))
@@ -578,16 +586,14 @@ def test_the_estimator_fmu_checks_its_initial_flowrate_against_each_bearings_ran
     machine, flows = far_apart
     system = build_system(machine, reduced=True)
     one, two = _ranges_ml_min(flows)
-    nominal = machine.lubrication.nominal_flowrate_m3_s * ML_MIN_PER_M3_S
-    assert flowrates_ml_min(SimpleNamespace(q_nominal_ml_min=0.0, q_initial_ml_min=0.0), system) == (
-        nominal,
-        nominal,
-    )
+    nominal = machine.shared_nominal_flowrate_m3_s("this test") * ML_MIN_PER_M3_S
+    unset = {f"q{b}_{kind}_ml_min": 0.0 for b in (1, 2) for kind in ("nominal", "initial")}
+    assert flowrates_ml_min(SimpleNamespace(**unset), system) == ((nominal, nominal), (nominal, nominal))
     for initial, bearing, text in ((900.0, 1, one), (500.0, 2, two)):
-        slave = SimpleNamespace(q_nominal_ml_min=0.0, q_initial_ml_min=initial)
+        slave = SimpleNamespace(**{**unset, f"q{bearing}_initial_ml_min": initial})
         with pytest.raises(InputError) as error:
             flowrates_ml_min(slave, system)
         assert str(error.value) == (
-            f"q_initial_ml_min must lie in bearing {bearing}'s coefficient table range {text} ml/min, got "
-            f"{initial:g} ml/min"
+            f"q{bearing}_initial_ml_min must lie in bearing {bearing}'s coefficient table range {text} "
+            f"ml/min, got {initial:g} ml/min"
         )

@@ -325,7 +325,7 @@ t, out = simulate(parameters, 0.2, names)
 machine = load_machine(None)
 system = structural_system(machine, PlantStructure(pedestal_mass_kg=150.0, pedestal_stiffness_n_m=2e8,
     pedestal_damping_n_s_m=6.9e3, bow_m=10e-6, bow_phase_rad=math.radians(45.0)))
-q = (machine.lubrication.nominal_flowrate_m3_s,) * 2
+q = tuple(machine.lubrication.nominal_flowrates_m3_s)
 static = system.bearing_positions(system.static_coordinates(q)).ravel() * 1e6
 orbit = system.bearing_positions(system.unbalance_coordinates(q)).ravel() * 1e6
 expected = [(static[k] + (orbit[k] * np.exp(1j * system.omega_rad_s * t)).real).tolist() for k in range(4)]

@@ -27,7 +27,7 @@ def machine():
 
 @pytest.fixture(scope="module")
 def nominal(machine):
-    q = machine.lubrication.nominal_flowrate_m3_s
+    q = machine.shared_nominal_flowrate_m3_s("this test")
     return (q, q)
 
 

@@ -61,7 +61,7 @@ def model():
 
 def _record(model, fractions, steps: int) -> tuple[np.ndarray, np.ndarray]:
     """(steps, 4) the model's own steady motion at ``fractions`` of nominal flow, and the flowrates."""
-    q = np.asarray(fractions) * model.nominal_flowrate_m3_s
+    q = np.asarray(fractions) * model.nominal_flowrates_m3_s
     state = np.zeros(model.n_states)
     for k in range(-3000, 1):  # settle into the periodic motion before the first sample (model step 1)
         state = model.transition(state, q, k)[0].copy()

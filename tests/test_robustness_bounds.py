@@ -35,7 +35,7 @@ def test_a_ramp_informs_the_factors_and_a_baseline_removes_most_of_their_cost():
     assert np.all(primed < moving) and np.all(moving < constant)
     # the segments are short enough: halving them moves the ramp's bound by under 1 %
     maps, h = bounds.operating_maps()
-    q = np.array(point) / 100.0 * load_machine().lubrication.nominal_flowrate_m3_s
+    q = np.array(point) / 100.0 * load_machine().lubrication.nominal_flowrates_m3_s
     groups = ("offsets", "unbalance", "viscosity")
     coarse, fine = (
         trajectory_bound_pct(trajectory_information(maps, h, 1e-3, q, bounds.segments(ramp, n), 1e-6), groups)

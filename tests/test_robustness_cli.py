@@ -72,7 +72,7 @@ def test_a_chain_applied_to_the_shared_true_motion_is_the_plant_with_that_chain(
     case = dataclasses.replace(case_by_name("stuck"), offsets=True, runout=True, sensitivity=True)
     case = dataclasses.replace(case, unbalance=(1.5, 40.0), mounting_angle_deg=45.0)
     measured, _, _ = run.record(case, (80.0, 90.0), 4)
-    q = tuple(p / 100.0 * run.nominal_m3_s for p in (80.0, 90.0))
+    q = tuple(p / 100.0 * q for p, q in zip((80.0, 90.0), run.nominal_m3_s, strict=True))
     system, chain = run.plant_system(case), run.chain(case, True)
     plant = RotorBearingPlant(system, DT_S, None, run.noise_m, 4, initial_flowrates_m3_s=q, chain=chain)
     direct = np.array([plant.step(q).measured_position_m for _ in range(len(measured))])

@@ -27,7 +27,7 @@ def test_operating_ramps_feed_both_fmus_the_issues_ramps_on_the_dimensionless_ta
     assert (speed(0.0), speed(5.0), speed(15.0)) == pytest.approx((72.0, 75.0, 78.0))
     assert temperature(60.0) - temperature(0.0) == pytest.approx(10.0)
     assert run.plant_parameters()["bearing_table"] == run.ekf_parameters()["bearing_table"] == 1
-    assert run.q1_ml_min[0] == pytest.approx(0.8 * run.nominal_ml_min)
+    assert run.q1_ml_min[0] == pytest.approx(0.8 * run.nominal_ml_min[0])
 
 
 def test_command_line_profiles_replace_the_scenarios():

@@ -3,12 +3,12 @@
 The ``oilwatch`` command of the environment running the tests (CI installs the project from the clone, not
 editable: the package pip built and installed, as a user's ``pip install``) runs with no PYTHONPATH in an
 empty temporary folder: a second machine file there (the bundled turbine with a 150 um clearance, its oil
-supplied at 40 instead of 30.8 degC, no nominal flowrate: it is computed at the file's 0.5 bar groove
-pressure, and a non-drive-end bearing of its own, shorter, tighter and with a smaller groove) goes through
-``oilwatch bearing-table --machine M2.toml`` (a table per bearing geometry) and ``oilwatch demo --machine
-M2.toml`` (the sudden drop, 100 -> 75 % of that machine's nominal flowrate, through both FMUs built with
-those tables; its summary.json is the one ``oilwatch run sudden-drop`` writes). What the wheel holds is
-tests/test_wheel.py's.
+supplied at 40 instead of 30.8 degC, no nominal flowrate: each bearing's is computed at the file's 0.5 bar
+groove pressure with its own geometry and load, and a non-drive-end bearing of its own, shorter, tighter and
+with a smaller groove) goes through ``oilwatch bearing-table --machine M2.toml`` (a table per bearing
+geometry) and ``oilwatch demo --machine M2.toml`` (the sudden drop, 100 -> 75 % of each bearing's nominal
+flowrate, through both FMUs built with those tables; its summary.json is the one ``oilwatch run
+sudden-drop`` writes). What the wheel holds is tests/test_wheel.py's.
 """
 
 from __future__ import annotations
@@ -21,22 +21,13 @@ import time
 from pathlib import Path
 
 import pytest
+from fixtures.second_bearing import NON_DRIVE_END
 from fixtures.venvs import REPO_ROOT, clean_env
 
 from oilwatch.models.bearing.supply import ML_MIN_PER_M3_S
 from oilwatch.models.machine import load_machine
 
 pytestmark = pytest.mark.slow
-
-
-NON_DRIVE_END = """[[bearings.override]]
-node = 20
-length_mm = 60.0
-radial_clearance_um = 137.5
-groove_angle_deg = 0.0
-groove_circumferential_mm = 14.0
-groove_axial_mm = 30.0
-"""
 
 
 def second_machine(folder) -> str:
@@ -77,11 +68,13 @@ def test_a_second_machine_runs_end_to_end_from_the_installed_package_in_an_empty
     demo, demo_s = oilwatch_command("demo", "--machine", machine_file, "--out", "d")
     assert demo.returncode == 0, demo.stdout + demo.stderr[-3000:]
     summary = json.loads((work / "d" / "summary.json").read_text(encoding="utf-8"))
-    nominal = load_machine(work / machine_file).lubrication.nominal_flowrate_m3_s * ML_MIN_PER_M3_S
+    # each bearing's own nominal, bearing 2 of its own geometry
+    nominal = load_machine(work / machine_file).lubrication.nominal_flowrates_m3_s * ML_MIN_PER_M3_S
     plant = summary["parameters"]["plant"]
-    assert plant["q1_initial_ml_min"] == pytest.approx(nominal, rel=1e-6)
-    assert plant["q1_final_ml_min"] == pytest.approx(0.75 * nominal, rel=1e-6)
-    assert summary["parameters"]["ekf"]["q_nominal_ml_min"] == pytest.approx(nominal, rel=1e-6)
+    for b, q in enumerate(nominal, start=1):
+        assert plant[f"q{b}_initial_ml_min"] == pytest.approx(q, rel=1e-6)
+        assert summary["parameters"]["ekf"][f"q{b}_nominal_ml_min"] == pytest.approx(q, rel=1e-6)
+    assert plant["q1_final_ml_min"] == pytest.approx(0.75 * nominal[0], rel=1e-6)
     for b in (1, 2):
         assert summary[f"q{b}_err_pct_after"] < 2.0
         assert summary[f"alarm_delay_s_b{b}"] is not None and summary[f"false_alarm_s_b{b}"] is None
@@ -93,7 +86,8 @@ def test_a_second_machine_runs_end_to_end_from_the_installed_package_in_an_empty
     assert not list((package / "models" / "tables").glob("M2*"))  # nothing written into the package
     with capsys.disabled():
         print(
-            f"\nsecond machine (nominal {nominal:.1f} ml/min): bearing-table {table_s:.0f} s, demo "
-            f"{demo_s:.0f} s (simulation {summary['wall_s']:.1f} s, set-up {summary['setup_s']:.1f} s); "
-            f"errors after {summary['q1_err_pct_after']:.2f} / {summary['q2_err_pct_after']:.2f} %"
+            f"\nsecond machine (nominal {nominal[0]:.1f} / {nominal[1]:.1f} ml/min): bearing-table "
+            f"{table_s:.0f} s, demo {demo_s:.0f} s (simulation {summary['wall_s']:.1f} s, set-up "
+            f"{summary['setup_s']:.1f} s); errors after {summary['q1_err_pct_after']:.2f} / "
+            f"{summary['q2_err_pct_after']:.2f} %"
         )

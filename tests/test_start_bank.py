@@ -82,7 +82,7 @@ def test_a_start_below_nominal_leads_on_a_low_flow_record_and_continues_as_that_
     model.reset_operating_state()
     nominal = OilFlowEKF(model, config).run(record)
     model.reset_operating_state()
-    low = dataclasses.replace(config, q_initial_m3_s=0.8 * model.nominal_flowrate_m3_s)
+    low = dataclasses.replace(config, q_initial_m3_s=tuple(0.8 * model.nominal_flowrates_m3_s))
     alone = OilFlowEKF(model, low).run(record)
     counted = slice(bank.settling_steps + 1, None)
     excess = np.cumsum(nominal.nis[counted]) - np.cumsum(alone.nis[counted])

@@ -19,7 +19,7 @@ from oilwatch.models.system.operating_point import (
 
 MACHINE = load_machine()
 MU = MACHINE.bearing.viscosity_pa_s
-Q = (0.8 * MACHINE.lubrication.nominal_flowrate_m3_s, 0.9 * MACHINE.lubrication.nominal_flowrate_m3_s)
+Q = tuple(np.array([0.8, 0.9]) * MACHINE.lubrication.nominal_flowrates_m3_s)
 
 
 def _dynamic_stiffness(system, tables, speed_hz):

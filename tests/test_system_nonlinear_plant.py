@@ -12,7 +12,7 @@ from oilwatch.models.system.nonlinear_plant import TransientFilmPlant, check_fil
 from oilwatch.models.validation import InputError
 
 MACHINE = load_machine(None)
-Q = MACHINE.lubrication.nominal_flowrate_m3_s
+Q = MACHINE.shared_nominal_flowrate_m3_s("this test")
 
 
 @pytest.mark.slow  # transient runs: seconds of film steps

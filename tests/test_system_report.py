@@ -76,7 +76,7 @@ def test_report_figures_are_physically_consistent(report):
 
 def test_table4_eccentricity_sums_to_the_table_equilibrium_shift():
     system = load_system(reduced=False)
-    nominal = load_machine().lubrication.nominal_flowrate_m3_s
+    nominal = load_machine().shared_nominal_flowrate_m3_s("this test")
     table = system.tables[0]
     e_100 = np.hypot(*table.evaluate(nominal).eccentricity_m)
     e_75 = np.hypot(*table.evaluate(0.75 * nominal).eccentricity_m)

@@ -34,7 +34,7 @@ SIGMA = 1e-6
 def setup():
     machine = load_machine()
     model = build_operating_model(build_system(machine, reduced=True), machine, DT)
-    q = np.array([0.8, 0.9]) * machine.lubrication.nominal_flowrate_m3_s
+    q = np.array([0.8, 0.9]) * machine.lubrication.nominal_flowrates_m3_s
     mu = machine.oil.dynamic_viscosity_pa_s(machine.nominal_oil_temperature_c)
     return machine, model.maps, np.asarray(model.output_matrix), q, mu
 
@@ -76,7 +76,7 @@ def test_unknowns_never_help_a_baseline_does_and_a_ramp_informs(setup):
     some = trajectory_bound_pct(info, ("offsets", "unbalance"))
     free = trajectory_bound_pct(info, everything)
     assert np.all(free > some) and np.all(some > trajectory_bound_pct(info, ()))
-    nominal = np.full(2, machine.lubrication.nominal_flowrate_m3_s)
+    nominal = np.array(machine.lubrication.nominal_flowrates_m3_s)
     baseline = trajectory_information(maps, h, DT, nominal, [OperatingSegment(75.0, mu, 60.0)], SIGMA)
     primed = trajectory_bound_pct(info, everything, nuisance_prior(baseline, everything))
     drifted = trajectory_bound_pct(info, everything, nuisance_prior(baseline, everything, {"offset": 3.0}))

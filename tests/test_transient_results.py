@@ -54,7 +54,7 @@ def test_frequency_dependent_root_recomputes():
         MACHINE,
         rotor,
         speed,
-        MACHINE.lubrication.nominal_flowrate_m3_s,
+        MACHINE.shared_nominal_flowrate_m3_s("this test"),
         _study_mesh("linear_threshold_60x16"),
     )
     mode = least_stable(film_roots(rotor, speed, impedances, quasi))
@@ -82,11 +82,11 @@ def test_orbit_run_start_recomputes(key):
     sim, _, start, _ = orbit_setup(
         MACHINE,
         _study_mesh(key),
-        MACHINE.lubrication.nominal_flowrate_m3_s,
+        MACHINE.shared_nominal_flowrate_m3_s("this test"),
         run["steps_per_revolution"],
         **options,
     )
-    q = MACHINE.lubrication.nominal_flowrate_m3_s
+    q = MACHINE.shared_nominal_flowrate_m3_s("this test")
     _, record = sim.run(start, SAMPLE_STEPS, lambda t: (q, q))
     np.testing.assert_allclose(
         record["bearing_positions_m"][-1].ravel() * 1e6,
@@ -99,7 +99,7 @@ def test_orbit_run_start_recomputes(key):
 @pytest.mark.skipif("orbit_mesh" not in RESULTS, reason="no orbit mesh study in the results")
 def test_linear_orbit_of_the_mesh_study_recomputes():
     run = RESULTS["orbit_mesh"]["by_flowrate_pct"]["100"]["runs"]["60x16"]
-    again = linear_orbits(MACHINE, Mesh(60, 16), MACHINE.lubrication.nominal_flowrate_m3_s)
+    again = linear_orbits(MACHINE, Mesh(60, 16), MACHINE.shared_nominal_flowrate_m3_s("this test"))
     np.testing.assert_allclose(again["static_position_um"], run["static_position_um"], atol=1e-6)
     for name in ("frequency-dependent", "full-film"):
         np.testing.assert_allclose(again[name]["amplitude_um"], run[name]["amplitude_um"], rtol=1e-6)
@@ -108,7 +108,7 @@ def test_linear_orbit_of_the_mesh_study_recomputes():
 
 def test_coupled_integration_holds_the_static_equilibrium():
     """Without unbalance, the rotor on its transient films stays where the steady films carry it."""
-    q = MACHINE.lubrication.nominal_flowrate_m3_s
+    q = MACHINE.shared_nominal_flowrate_m3_s("this test")
     sim = NonlinearRotorBearing(MACHINE, 75.0, Mesh(60, 16), 2e-4, unbalance=False)
     state = sim.static_state((q, q))
     start = sim.selector @ state.r

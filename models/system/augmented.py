@@ -43,7 +43,7 @@ class _AugmentedModelBase:
         )
         self.bearing_flowrate_bounds_m3_s = system.bearing_flowrate_bounds_m3_s
         self.speed_hz = system.speed_hz
-        self.nominal_flowrate_m3_s = system.nominal_flowrate_m3_s
+        self.nominal_flowrates_m3_s = system.nominal_flowrates_m3_s
         self._transform_pinv = pinv(system.transform)
         clearances = [getattr(t, "metadata", {}).get("bearing", {}).get("clearance_m") for t in system.tables]
         # the probes' physical range (estimator.channels): None when a table does not say

@@ -311,7 +311,7 @@ def build_system(
         basis,
         unbalance_moment_kg_m,
         unbalance_phase_rad,
-        machine.lubrication.nominal_flowrate_m3_s,
+        machine.lubrication.nominal_flowrates_m3_s,
         synchronous,
     )
 

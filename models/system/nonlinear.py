@@ -112,7 +112,8 @@ class NonlinearRotorBearing:
 
     Parameters: ``machine``; ``speed_hz`` [Hz]; ``mesh`` of both films; ``dt_s`` the step [s];
     ``unbalance`` False drops the unbalance load (free whirl about the equilibrium);
-    ``reference_flowrate_m3_s`` where the iteration matrix's film coefficients are taken;
+    ``reference_flowrate_m3_s`` where the iteration matrix's film coefficients are taken (both bearings;
+    None: each bearing's nominal flowrate);
     ``position_tolerance_m`` the coupling's acceptance of a step; ``film_options`` keyword arguments of
     both :class:`TransientFilm` (e.g. the sweeps' ``residual_tolerance`` and ``mass_tolerance``).
     """
@@ -145,14 +146,14 @@ class NonlinearRotorBearing:
         self.max_corrections = max_corrections
         self.loose_steps = 0
         q_ref = (
-            machine.lubrication.nominal_flowrate_m3_s
+            machine.lubrication.nominal_flowrates_m3_s
             if reference_flowrate_m3_s is None
-            else reference_flowrate_m3_s
+            else np.full(len(self.bearings), reference_flowrate_m3_s)
         )
         self.equilibria = []
         tangent = []
-        for bearing, load in zip(self.bearings, self.rotor.static_loads_n, strict=True):
-            supply = SupplyFlow(q_ref)
+        for bearing, load, q in zip(self.bearings, self.rotor.static_loads_n, q_ref, strict=True):
+            supply = SupplyFlow(float(q))
             eq = static_equilibrium(bearing, load, self.speed_hz, supply, mesh)
             k, c = coefficients_at(bearing, eq, self.speed_hz, supply, mesh)
             self.equilibria.append(eq)

@@ -131,7 +131,7 @@ def _with_tables(system: RotorBearingSystem, tables, synchronous_tables=None) ->
         system.basis,
         system.unbalance_moment_kg_m,
         system.unbalance_phase_rad,
-        system.nominal_flowrate_m3_s,
+        system.nominal_flowrates_m3_s,
         synchronous_tables,
     )
 

@@ -108,7 +108,7 @@ class OperatingAugmentedModel:
             "velocity_output_matrix",
             "bearing_flowrate_bounds_m3_s",
             "speed_hz",
-            "nominal_flowrate_m3_s",
+            "nominal_flowrates_m3_s",
             "clearance_m",
         ):
             setattr(self, name, getattr(reference, name))
@@ -116,7 +116,11 @@ class OperatingAugmentedModel:
         self.reference_viscosity_pa_s = mu0
         self._log_mu0 = math.log(mu0)
         r = self.recentring
-        q_scale = self.nominal_flowrate_m3_s or float(np.mean(self.bearing_flowrate_bounds_m3_s))
+        # one recentring scale for both bearings: the smaller nominal, which recentres no later for either
+        nominal = self.nominal_flowrates_m3_s
+        q_scale = (
+            float(np.mean(self.bearing_flowrate_bounds_m3_s)) if nominal is None else float(np.min(nominal))
+        )
         self._grid = reference.grid
         # the compiled transition's one struct (operating_kernels): built once, refilled in place
         self._pairs = tuple(tuple(pair) for pair in second_order)
@@ -442,7 +446,7 @@ def build_operating_model(
             system.basis,
             system.unbalance_moment_kg_m,
             system.unbalance_phase_rad,
-            system.nominal_flowrate_m3_s,
+            system.nominal_flowrates_m3_s,
             None
             if synchronous is None
             else [ConditionedTable(t, w, speed, mu0) for t, w in zip(synchronous, loads, strict=True)],

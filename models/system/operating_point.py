@@ -150,7 +150,7 @@ def operating_system(
         None,
         unbalance_moment_kg_m,
         unbalance_phase_rad,
-        machine.lubrication.nominal_flowrate_m3_s,
+        machine.lubrication.nominal_flowrates_m3_s,
         None
         if synchronous is None
         else [ConditionedTable(t, w, *conditions) for t, w in zip(synchronous, loads, strict=True)],

@@ -39,8 +39,8 @@ class ReductionError:
 
     Attributes: flowrates_pct (2,) [% of nominal]; n_coordinates of the reduced model; orbit_error_um (4,)
     |1x reduced - 1x full| per probe; orbit_sensitivity_um (2, 4) |1x change| per probe for a 1 % change
-    of each bearing's flowrate; flow_bias_pct (2,) the flowrate change [% of nominal] that explains the
-    difference with offsets and unbalance free (module docstring).
+    of each bearing's flowrate; flow_bias_pct (2,) the flowrate change [% of its own nominal] that explains
+    the difference with offsets and unbalance free (module docstring).
     """
 
     flowrates_pct: tuple[float, float]
@@ -66,8 +66,8 @@ def reduction_flow_bias(
     machine: Machine, cutoff_hz: float | None = None, points_pct=POINTS_PCT, full=None
 ) -> list[ReductionError]:
     """The reduced model's error (``cutoff_hz``, default the machine file's) against the full model at each
-    pair of flowrates in ``points_pct`` [% of nominal], as flowrate (module docstring). ``full``: the full
-    system built earlier (:func:`build_system` with ``reduced=False``).
+    pair of flowrates in ``points_pct`` [% of each bearing's nominal], as flowrate (module docstring).
+    ``full``: the full system built earlier (:func:`build_system` with ``reduced=False``).
 
     Examples
     --------
@@ -78,7 +78,7 @@ def reduction_flow_bias(
     """
     full = build_system(machine, reduced=False) if full is None else full
     reduced = build_system(machine, reduced=True, cutoff_hz=cutoff_hz)
-    nominal = machine.lubrication.nominal_flowrate_m3_s
+    nominal = machine.lubrication.nominal_flowrates_m3_s
     errors = []
     for point in points_pct:
         q = np.asarray(point, dtype=float) / 100.0 * nominal
@@ -86,7 +86,7 @@ def reduction_flow_bias(
         columns, sensitivity = [], []
         for b in range(2):
             moved = q.copy()
-            moved[b] += STEP_PCT / 100.0 * nominal
+            moved[b] += STEP_PCT / 100.0 * nominal[b]
             change = _probe_response(full, moved) - exact
             columns.append(_real_rows(change) / STEP_PCT)
             sensitivity.append(np.abs(change[4:]) / STEP_PCT * 1e6)

@@ -58,7 +58,7 @@ def paper_comparison(machine_file: str | Path | None = None) -> dict:
     # threshold most (see models.bearing.film), so both are shown.
     alternative = load_speed_sweeps(machine, rotor, squeeze="everywhere")
     stability_alt = stability_map(rotor, alternative, alternative[0].speeds_hz)
-    nominal = machine.lubrication.nominal_flowrate_m3_s
+    nominal = machine.lubrication.nominal_flowrates_m3_s
     transient = transient_figures(machine)
     kind = machine.dynamic_coefficients
     ours = {

@@ -72,7 +72,8 @@ class RotorBearingSystem:
     basis : optional reduction; ``None`` keeps all ``rotor.n_dof`` physical dofs.
     unbalance_moment_kg_m, unbalance_phase_rad : override the rotor's unbalance (Eqs. 5-6) at its
         unbalance node; ``None`` keeps the machine file's.
-    nominal_flowrate_m3_s : the machine's nominal supply flowrate (the estimator's reference), if known.
+    nominal_flowrates_m3_s : (n_bearings,) each bearing's nominal supply flowrate (the estimator's reference),
+        if known.
     synchronous_tables : optional tables of K(Omega), C(Omega) (same flowrates' equilibria) that set the 1x
         unbalance response through :meth:`unit_unbalance_load` (module docstring); ``None``: ``tables``
         give both the dynamics and the 1x response.
@@ -93,13 +94,13 @@ class RotorBearingSystem:
         basis: ReductionBasis | None = None,
         unbalance_moment_kg_m: float | None = None,
         unbalance_phase_rad: float | None = None,
-        nominal_flowrate_m3_s: float | None = None,
+        nominal_flowrates_m3_s: np.ndarray | None = None,
         synchronous_tables: Sequence[CoefficientTable] | None = None,
         unit_unbalance_force: np.ndarray | None = None,
         pedestals: Pedestals | None = None,
     ) -> None:
         speed_hz = require_positive("speed_hz", speed_hz, "Hz")
-        self.nominal_flowrate_m3_s = nominal_flowrate_m3_s
+        self.nominal_flowrates_m3_s = nominal_flowrates_m3_s
         every = list(tables) + list(synchronous_tables or ())
         for name, group in (("tables", tables), ("synchronous_tables", synchronous_tables or tables)):
             if len(group) != len(rotor.bearing_nodes):

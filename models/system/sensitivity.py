@@ -70,19 +70,20 @@ def steady_orbit(system: RotorBearingSystem, flowrates_m3_s: Sequence[float]) ->
 
 def orbit_variation_table(
     system: RotorBearingSystem,
-    nominal_m3_s: float,
+    nominal_m3_s: Sequence[float],
     both_bearings: bool,
     percents: Sequence[float] = TABLE_PERCENTS,
 ) -> list[dict]:
-    """Rows of Table 4 (``both_bearings``: q1 = q2 fall together) or Table 5 (q1 falls, q2 nominal).
+    """Rows of Table 4 (``both_bearings``: q1 and q2 fall together) or Table 5 (q1 falls, q2 nominal), each
+    bearing's flowrate a percentage of its own nominal in ``nominal_m3_s`` (q1, q2).
 
     Each row: ``interval_pct`` ("100-95"), ``ecc_var_um_b1``, ``ecc_var_um_b2``, ``amp_x_var_um_b1``,
     ``amp_x_var_um_b2``, ``amp_y_var_um_b1``, ``amp_y_var_um_b2`` (see ``DEFINITIONS``).
     """
     orbits = []
     for pct in percents:
-        q1 = nominal_m3_s * pct / 100.0
-        q2 = q1 if both_bearings else nominal_m3_s
+        q1 = nominal_m3_s[0] * pct / 100.0
+        q2 = nominal_m3_s[1] * pct / 100.0 if both_bearings else nominal_m3_s[1]
         orbits.append(steady_orbit(system, (q1, q2)))
     rows = []
     for (high, low), (before, after) in zip(

@@ -262,7 +262,7 @@ def structural_system(
         None,
         moment,
         phase,
-        machine.lubrication.nominal_flowrate_m3_s,
+        machine.lubrication.nominal_flowrates_m3_s,
         groups[1] if len(groups) > 1 else None,
         unit_unbalance_force=unit_1x_load(rotor, structure, omega, moment * np.exp(1j * phase)),
         pedestals=structure.pedestals,

@@ -93,7 +93,7 @@ def transient_figures(machine: Machine) -> dict:
     table = synchronous_table_path(machine, machine.nominal_speed_hz)
     if table.exists():
         system = build_system(machine, reduced=False, table_path=table)
-        nominal = machine.lubrication.nominal_flowrate_m3_s
+        nominal = machine.lubrication.nominal_flowrates_m3_s
         figures["table4_frequency_dependent"] = orbit_variation_table(system, nominal, both_bearings=True)
         figures["table5_frequency_dependent"] = orbit_variation_table(system, nominal, both_bearings=False)
     return figures

@@ -190,8 +190,10 @@ def _run_locked(args: argparse.Namespace) -> int:
         return 0
     prior_um = probes.offset_prior_std_m * 1e6 if args.offset_prior_um is None else args.offset_prior_um
     require_in_range("--offset-prior-um", prior_um, 0.01, 1000.0, "um")
-    nominal = machine.lubrication.nominal_flowrate_m3_s
-    flows = [nominal if v is None else v * ML_MIN for v in (args.q1_ml_min, args.q2_ml_min)]
+    nominal = tuple(float(q) for q in machine.lubrication.nominal_flowrates_m3_s)
+    flows = [
+        q if v is None else v * ML_MIN for q, v in zip(nominal, (args.q1_ml_min, args.q2_ml_min), strict=True)
+    ]
     viscosity = preset_prior(args, "viscosity_prior")
     follow = viscosity > 0.0 and machine.oil is not None
     if viscosity > 0.0 and not follow:

@@ -135,7 +135,8 @@ def run(args) -> int:
         bar = args.supply_pressure_bar
         lubrication = setup["lubrication"]
         if bar is None and math.isnan(lubrication.nominal_supply_pressure_pa):
-            supply = SupplyFlow(lubrication.nominal_flowrate_m3_s)  # the file gives a flowrate, no pressure
+            # the file gives the bearing's flowrate, no pressure
+            supply = SupplyFlow(float(lubrication.nominal_flowrates_m3_s[setup["bearing_index"]]))
         else:
             if bar is None:
                 bar = lubrication.nominal_supply_pressure_pa / 1e5

@@ -57,7 +57,7 @@ def machine_rows(machine: Machine) -> list[str]:
     load = " / ".join(f"{w:.1f}" for w in loads)
     load_n = float(rotor.bearing_static_loads_n[0])
     threshold, _ = flooded_threshold(bearing, load_n, machine.nominal_speed_hz, PRODUCTION_MESH)
-    nominal = machine.lubrication.nominal_flowrate_m3_s * ML_MIN_PER_M3_S
+    nominal = machine.shared_nominal_flowrate_m3_s("the machine comparison") * ML_MIN_PER_M3_S
     return [
         f"{len(machine.element_lengths_m)} elements, {rotor.total_mass_kg:.0f} kg; {grooves}",
         f"{machine.nominal_speed_hz:g} Hz, {load} N",
@@ -89,10 +89,9 @@ DEMO_LABELS = (
 def quick_start_cells(summary: dict) -> list[str]:
     """``oilwatch estimate``'s summary at the end of quick start (a): each bearing's flowrate and its share
     of nominal, and the alarms."""
-    nominal = summary["q_nominal_ml_min"]
     cells = []
     for b in (1, 2):
-        q = summary[f"q{b}_final_ml_min"]
+        q, nominal = summary[f"q{b}_final_ml_min"], summary[f"q{b}_nominal_ml_min"]
         cells.append(f"{q:.1f} ml/min ({100.0 * q / nominal:.1f} % of nominal)")
     alarms = [f"bearing {a['bearing']} at {a['time_s']:.3f} s" for a in summary["alarms"]]
     cells.append(", ".join(alarms) or "none")

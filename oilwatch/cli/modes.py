@@ -25,7 +25,7 @@ def add_bearing_options(parser: argparse.ArgumentParser) -> None:
             type=float,
             default=100.0,
             metavar="PCT",
-            help=f"supply flowrate of bearing {b}, %% of nominal (fluid-film bearings; default 100)",
+            help=f"supply flowrate of bearing {b}, %% of its nominal (fluid-film bearings; default 100)",
         )
     parser.add_argument(
         "--bearing-k",
@@ -74,8 +74,8 @@ def bearings_for(args: argparse.Namespace, machine, rotor, over_speed: bool = Fa
 
     if uses_fluid_film(args):
         pct = [require_positive(f"--q{b}-pct", getattr(args, f"q{b}_pct"), "%") for b in (1, 2)]
-        nominal = machine.lubrication.nominal_flowrate_m3_s
-        flowrates = [nominal * p / 100.0 for p in pct]
+        nominal = machine.lubrication.nominal_flowrates_m3_s  # each --q<b>-pct of its own bearing's
+        flowrates = [float(nominal[b]) * p / 100.0 for b, p in enumerate(pct)]
         description = {
             "model": "fluid film (p-theta tables, linearized)",
             "nodes": list(rotor.bearing_nodes),

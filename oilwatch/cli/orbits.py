@@ -49,13 +49,13 @@ def run(args: argparse.Namespace) -> int:
     machine = load_machine_option(args)
     ensure_flowrate_tables(machine, [machine.nominal_speed_hz], "orbits")
     system = build_system(machine, reduced=False)
-    nominal = machine.lubrication.nominal_flowrate_m3_s
+    nominal = machine.lubrication.nominal_flowrates_m3_s  # each bearing's percentage of its own nominal
     figure, axes = plt.subplots(1, 2, figsize=(11, 5.2))
     colours = plt.cm.viridis(np.linspace(0.0, 0.9, len(args.q_pct)))
     figures = []
     for pct, colour in zip(args.q_pct, colours, strict=True):
-        q = nominal * pct / 100.0
-        orbit = steady_orbit(system, (q, q))
+        q1, q2 = (float(q) * pct / 100.0 for q in nominal)
+        orbit = steady_orbit(system, (q1, q2))
         trace = orbit.trace() * 1e6
         for b, axis in enumerate(axes):
             axis.plot(trace[b, :, 0], trace[b, :, 1], color=colour, label=f"{pct:g} %")

@@ -47,7 +47,8 @@ def register(subparsers) -> None:
         description=(
             "Simulate one of the paper's real-time scenarios (section 3.2.2): the RotorBearingPlant FMU "
             "and the OilFlowEKF FMU co-simulated by oilwatch's fmpy master (Gauss-Seidel, 1 ms steps). "
-            "Flowrates are percentages of the machine's nominal flowrate and the scenario runs at its "
+            "Each bearing's flowrate is a percentage of its own nominal flowrate (--q1-pct of bearing 1's, "
+            "--q2-pct of bearing 2's) and the scenario runs at the machine's "
             "nominal speed (--machine; default: the bundled turbine); the sigmoid transition is centred at "
             "half the "
             "duration. Writes DIR/result.csv (flushed every row), DIR/summary.json and "

@@ -28,7 +28,12 @@ def register(subparsers) -> None:
         ),
     )
     add_machine_option(parser)
-    parser.add_argument("--q-ml-min", type=float, default=None, help="supply flowrate [ml/min]")
+    parser.add_argument(
+        "--q-ml-min",
+        type=float,
+        default=None,
+        help="supply flowrate [ml/min]; default: each bearing's nominal",
+    )
     parser.add_argument("--speed-min-hz", type=float, default=30.0, help="lowest speed [Hz] (30)")
     parser.add_argument("--speed-max-hz", type=float, default=200.0, help="highest speed [Hz] (200)")
     parser.add_argument("--step-hz", type=float, default=5.0, help="speed step [Hz] (5)")
@@ -59,11 +64,11 @@ def run(args: argparse.Namespace) -> int:
     step = require_positive("--step-hz", args.step_hz, "Hz")
     if high <= low:
         raise InputError(f"--speed-max-hz ({high:g}) must exceed --speed-min-hz ({low:g})")
-    q_ml_min = machine.lubrication.nominal_flowrate_m3_s * ML_MIN_PER_M3_S
-    if args.q_ml_min is not None:
-        q_ml_min = require_positive("--q-ml-min", args.q_ml_min, "ml/min")
+    given = None if args.q_ml_min is None else require_positive("--q-ml-min", args.q_ml_min, "ml/min")
     speeds = np.arange(low, high + 0.5 * step, step)
     for index in bearing_indices(machine, args.bearing, "--out" if args.out else None):
+        nominal = float(machine.lubrication.nominal_flowrates_m3_s[index]) * ML_MIN_PER_M3_S
+        q_ml_min = nominal if given is None else given
         with progress_bar("speed sweep", "speed") as callback:
             sweep = compute_speed_sweep(
                 machine.bearings[index],

@@ -18,7 +18,7 @@ def register(subparsers) -> None:
         "study",
         help="identification accuracy over the (q1, q2) grid on Dask: Table 6, Figs. 7-8, Cramer-Rao bound",
         description=(
-            "Identify constant supply flowrates q1, q2 from 100 % down to 75 % of the machine's nominal "
+            "Identify constant supply flowrates q1, q2 from 100 % down to 75 % of each bearing's nominal "
             "flowrate (--machine; default: the bundled turbine) on a grid, one Dask task per case, and "
             "compare the errors with the paper's Table 6 and the Cramer-Rao bound. Each finished case is "
             "appended to DIR/cases.csv at once; run the same command again to continue a stopped study. "

@@ -94,7 +94,7 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.out) if args.out else results_path(machine)
     results = json.loads(out.read_text()) if out.exists() else {}
     command = "oilwatch " + shlex.join(sys.argv[1:])
-    q_nominal = machine.lubrication.nominal_flowrate_m3_s
+    q_nominal = machine.shared_nominal_flowrate_m3_s("oilwatch transient")
     rotor = Rotor.from_machine(machine)
 
     def save(key, value, study_mesh):

@@ -124,8 +124,8 @@ class SspEntry:
 def scenario_system(machine=None, scenario: str = "sudden-drop", name: str = "OilStarvation") -> SspEntry:
     """The SSP system of one of the paper's scenarios on ``machine`` (default: the bundled turbine).
 
-    OilStarvation: the sudden drop (``oilwatch run sudden-drop``): both supply flowrates 100 -> 75 % of the
-    machine's nominal, 0.1 s 10-90 % transition centred at 10 s of 20 s, 1 um noise, the machine file's
+    OilStarvation: the sudden drop (``oilwatch run sudden-drop``): both supply flowrates 100 -> 75 % of each
+    bearing's nominal, 0.1 s 10-90 % transition centred at 10 s of 20 s, 1 um noise, the machine file's
     unbalance on both sides, each FMU on the machine it bundles (``machine_file`` empty). Connected by name:
     x1_um..y2_um and t_sample_s (the sample time stamp that keeps the estimator aligned under any master's
     ordering). The bindings are the scenario's own parameters, not retyped.

@@ -45,9 +45,9 @@ def _flagged(seconds: float) -> str:
 def write_report(summary: dict, out_dir: Path) -> Path:
     """Write ``out_dir/report.html`` from the summary and the view PNGs beside it; return its path."""
     record = summary["record"]
-    nominal = summary["q_nominal_ml_min"]
     rows = []
     for b in (1, 2):
+        nominal = summary[f"q{b}_nominal_ml_min"]
         verdict = summary["verdict"][f"bearing{b}"]
         css = "ok" if verdict.startswith("healthy") and "NOT TRUSTWORTHY" not in verdict else "bad"
         q = summary[f"q{b}_final_ml_min"]

@@ -1,6 +1,7 @@
 """summary.json of ``oilwatch estimate``: the final estimates (over the last 10 % of the record, at most
-30 s), the alarms, the verdict per bearing, the record's provenance, the estimator's settings, the speed
-seen, where the time went, and per probe its offset estimate and health at the end."""
+30 s), each bearing's nominal flowrate (the reference of its percentages), the alarms, the verdict per
+bearing, the record's provenance, the estimator's settings, the speed seen, where the time went, and per
+probe its offset estimate and health at the end."""
 
 from __future__ import annotations
 
@@ -40,7 +41,7 @@ def summarize(run, wall_s: float, csv_path: Path) -> dict:
     """summary.json of a finished :class:`oilwatch.monitoring.estimate.EstimateRun` (module docstring)."""
     history = run.history
     history.flush()
-    nominal = run.filter.config.q_nominal_m3_s / ML_MIN
+    nominal = [q / ML_MIN for q in run.filter.config.q_nominal_pair()]
     duration = history.duration_s
     window = final_window(duration)
     final = history.final_means(window)
@@ -69,7 +70,7 @@ def summarize(run, wall_s: float, csv_path: Path) -> dict:
             "runout": run.runout_source,
             "start_bank": start_bank_summary(run.filter),
         },
-        "q_nominal_ml_min": nominal,
+        **{f"q{b}_nominal_ml_min": q for b, q in enumerate(nominal, start=1)},
         "samples": history.samples,
         "duration_s": duration,
         "final_window_s": window,
@@ -100,7 +101,7 @@ def summarize(run, wall_s: float, csv_path: Path) -> dict:
             else "alarm raised during the record, cleared"
             if alarmed
             else "healthy"
-        ) + ("" if q is None else f": {q:.1f} ml/min, {100.0 * q / nominal:.1f} % of nominal")
+        ) + ("" if q is None else f": {q:.1f} ml/min, {100.0 * q / nominal[b - 1]:.1f} % of nominal")
         summary["verdict"][f"bearing{b}"] += MISMATCH_VERDICT.get(history.last_mismatch, "")
     mismatch = summary["speed"].get("max_deviation_fraction")
     if not run.follow and mismatch is not None and mismatch > SPEED_MISMATCH_FRACTION:

@@ -61,9 +61,9 @@ def _trend(history: History, summary: dict):
     import matplotlib.pyplot as plt
 
     times, values = history.trend.arrays()
-    nominal = summary["q_nominal_ml_min"]
     figure, axes = plt.subplots(2, 1, figsize=(9, 6.3), sharex=True, layout="constrained")
     for b, ax in enumerate(axes):
+        nominal = summary[f"q{b + 1}_nominal_ml_min"]
         q, std, starved = values[:, b], values[:, 2 + b], values[:, 4 + b] > 0.5
         ax.fill_between(times, q - 2 * std, q + 2 * std, color="tab:blue", alpha=0.25, label="+-2 std")
         ax.plot(times, q, color="tab:blue", lw=1.2, label="estimate")

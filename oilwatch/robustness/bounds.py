@@ -82,7 +82,7 @@ class CaseBounds:
         key = (case.name, tuple(point_pct))
         if key not in self._cache:
             groups = free_groups(case, self.settings)
-            q = np.asarray(point_pct, dtype=float) / 100.0 * self.machine.lubrication.nominal_flowrate_m3_s
+            q = np.asarray(point_pct, dtype=float) / 100.0 * self.machine.lubrication.nominal_flowrates_m3_s
             if not groups:
                 groups_bound = self._constant(case, q, ())
             elif case.operating_point:
@@ -105,7 +105,7 @@ class CaseBounds:
                 unbalance_moment_kg_m=rotor_system.unbalance_moment_kg_m * unbalance[0],
                 unbalance_phase_rad=rotor_system.unbalance_phase_rad + math.radians(unbalance[1]),
             )
-        nominal = self.machine.lubrication.nominal_flowrate_m3_s
+        nominal = tuple(float(q) for q in self.machine.lubrication.nominal_flowrates_m3_s)
         bound = nuisance_bound(
             self._systems[unbalance],
             q,
@@ -113,7 +113,7 @@ class CaseBounds:
             self.n_samples,
             groups,
             dt_s=self.dt_s,
-            baseline_flowrates_m3_s=(nominal, nominal) if case.baseline else None,
+            baseline_flowrates_m3_s=nominal if case.baseline else None,
             baseline_samples=self.n_samples,
             drift_std=self._drift(case),
         )
@@ -155,7 +155,7 @@ class CaseBounds:
         if case.baseline:
             # the commissioning record: 100/100 %, at the ramp's start conditions, as long as the run
             start = self.point(case, 0.0, self.duration_s)
-            nominal = np.full(2, self.machine.lubrication.nominal_flowrate_m3_s)
+            nominal = np.array(self.machine.lubrication.nominal_flowrates_m3_s)
             baseline = trajectory_information(
                 maps, h, self.dt_s, nominal, [start], self.noise_m, factors, unbalance
             )

@@ -77,7 +77,8 @@ class RobustnessRun:
     def __init__(self, settings: dict) -> None:
         self.settings = settings
         self.machine = load_machine(settings["machine_file"])
-        self.nominal_m3_s = self.machine.lubrication.nominal_flowrate_m3_s
+        # each bearing's: a case's percentages are of its own bearing's nominal
+        self.nominal_m3_s = tuple(float(q) for q in self.machine.lubrication.nominal_flowrates_m3_s)
         self.duration_s = settings["duration_s"]
         self.noise_m = settings["noise_um"] * 1e-6
         self.seed = settings["seed"]
@@ -178,7 +179,7 @@ class RobustnessRun:
         return self._motions[key]
 
     def _simulate(self, case: Case, point_pct, seed: int, change_of_case):
-        q = tuple(p / 100.0 * self.nominal_m3_s for p in point_pct)
+        q = tuple(p / 100.0 * nominal for p, nominal in zip(point_pct, self.nominal_m3_s, strict=True))
         n_samples = round(self.case_duration_s(case) / DT_S)
         if case.transient_film:
             return self._simulate_transient(q, seed, n_samples)
@@ -271,7 +272,7 @@ class RobustnessRun:
             record, speed, temperature = self.record(
                 healthy, (100.0, 100.0), self.seed + 1, after_baseline=False
             )
-            q = (self.nominal_m3_s, self.nominal_m3_s)
+            q = self.nominal_m3_s
             # the estimator's own model: with viscosity states, the baseline separates them from the offsets
             model = (
                 self.case_operating_model(case)
@@ -382,7 +383,7 @@ class RobustnessRun:
             trace, follows = self.estimate(case, config, signals, speed, temperature)
         except InputError as error:
             raise InputError(f"in the estimator's run: {error}") from None
-        truth = np.array(point_pct) / 100.0 * self.nominal_m3_s
+        truth = np.array(point_pct) / 100.0 * np.array(self.nominal_m3_s)
         half = len(signals) // 2
         error_pct = 100.0 * (trace.q_m3_s[half:].mean(axis=0) / truth - 1.0)
         filter_error_pct = 100.0 * (trace.filter_q_m3_s[half:].mean(axis=0) / truth - 1.0)

@@ -1,7 +1,8 @@
 """The paper's real-time oil-starvation scenarios (section 3.2.2, Figs. 10-12) as runnable settings.
 
-Every flowrate is a percentage of the machine's nominal flowrate (``[lubrication]`` of its machine file; the
-bundled turbine: the paper's 0.5 bar groove pressure) and every scenario runs at the machine's nominal speed.
+Every flowrate is a percentage of its bearing's own nominal flowrate (the machine file's ``[lubrication]`` or
+the bearing's ``[[bearings.override]]``; the bundled turbine: the paper's 0.5 bar groove pressure, one figure
+for both bearings) and every scenario runs at the machine's nominal speed.
 Each bearing's
 supply flowrate follows the plant FMU's sigmoid from its initial to its final value, centred at half the
 record (``fault_time_s = duration_s / 2``: 10 s for the paper's 20 s) with the 10 %-90 % transition time
@@ -57,7 +58,7 @@ PROTECTED = {
         "machine_file", "q1_initial_ml_min", "q1_final_ml_min", "q2_initial_ml_min", "q2_final_ml_min",
         "fault_time_s", "fault_duration_s", "noise_um", "seed", "flow_source",
     },
-    "ekf": {"noise_um", "q_nominal_ml_min", "sample_period_s", "machine_file"},
+    "ekf": {"noise_um", "q1_nominal_ml_min", "q2_nominal_ml_min", "sample_period_s", "machine_file"},
 }  # fmt: skip
 """Parameters a scenario sets itself, per FMU role (``make_run``'s overrides may not touch them)."""
 PAPER_TUNING = {"q_std_displacement_um": 10.0, "q_std_velocity_um_s": 10.0, "velocity_channels": 1}
@@ -67,7 +68,7 @@ the differentiated velocities as extra measurements, R = sigma^2 I."""
 
 @dataclass(frozen=True)
 class Scenario:
-    """One scenario: each bearing's (initial, final) supply flowrate [% of nominal] and the transition
+    """One scenario: each bearing's (initial, final) supply flowrate [% of its own nominal] and the transition
     speed (a key of ``SCENARIO_DURATIONS_S``)."""
 
     name: str
@@ -120,9 +121,9 @@ OIL_TEMPERATURE_RANGE_C = (-50.0, 150.0)
 class ScenarioRun:
     """A scenario with everything a run needs; times in s, flowrates in ml/min (the FMUs' units).
 
-    nominal_ml_min and nominal_speed_hz are the machine's (``machine_file``, empty: the bundled turbine); the
-    plant runs at ``speed_hz`` (the nominal speed unless ``--set plant.speed_hz`` changed it, which the
-    estimator follows unless ``--set ekf.speed_hz`` says otherwise).
+    nominal_ml_min (each bearing's) and nominal_speed_hz are the machine's (``machine_file``, empty: the
+    bundled turbine); the plant runs at ``speed_hz`` (the nominal speed unless ``--set plant.speed_hz``
+    changed it, which the estimator follows unless ``--set ekf.speed_hz`` says otherwise).
     """
 
     scenario: Scenario
@@ -131,7 +132,7 @@ class ScenarioRun:
     seed: int
     q1_ml_min: tuple[float, float]
     q2_ml_min: tuple[float, float]
-    nominal_ml_min: float
+    nominal_ml_min: tuple[float, float]
     nominal_speed_hz: float
     machine_file: str = ""
     overrides: tuple[tuple[str, str, object], ...] = ()
@@ -180,16 +181,16 @@ class ScenarioRun:
         return self.fault_time_s - self.fault_duration_s
 
     def starving(self, bearing: int, on_fraction: float = 0.90) -> bool:
-        """Whether bearing 1 or 2 ends below ``on_fraction`` of nominal (the alarm's default threshold)."""
+        """Whether bearing 1 or 2 ends below ``on_fraction`` of its nominal (the alarm's default level)."""
         return self._below(bearing, -1, on_fraction)
 
     def starved_initially(self, bearing: int, on_fraction: float = 0.90) -> bool:
-        """Whether bearing 1 or 2 starts below ``on_fraction`` of nominal (a constant starved run)."""
+        """Whether bearing 1 or 2 starts below ``on_fraction`` of its nominal (a constant starved run)."""
         return self._below(bearing, 0, on_fraction)
 
     def _below(self, bearing: int, end: int, on_fraction: float) -> bool:
         flowrates = self.q1_ml_min if bearing == 1 else self.q2_ml_min
-        return flowrates[end] < on_fraction * self.nominal_ml_min
+        return flowrates[end] < on_fraction * self.nominal_ml_min[bearing - 1]
 
     def plant_parameters(self) -> dict[str, float]:
         """Parameter values of the RotorBearingPlant FMU."""
@@ -212,12 +213,12 @@ class ScenarioRun:
         return {name: value for who, name, value in self.overrides if who == role}
 
     def ekf_parameters(self) -> dict[str, float]:
-        """Parameter values of the OilFlowEKF FMU (initial estimate: nominal, as in the paper)."""
+        """Parameter values of the OilFlowEKF FMU (initial estimates: the nominals, as in the paper)."""
         return {
             "machine_file": self.machine_file,
             "noise_um": self.noise_um,
-            "q_initial_ml_min": self.nominal_ml_min,
-            "q_nominal_ml_min": self.nominal_ml_min,
+            **{f"q{b}_initial_ml_min": q for b, q in enumerate(self.nominal_ml_min, start=1)},
+            **{f"q{b}_nominal_ml_min": q for b, q in enumerate(self.nominal_ml_min, start=1)},
             "preset": "paper",  # the paper's scenarios run its calibrated filter
             **self._operating("ekf"),
             **self._extra("ekf"),
@@ -239,8 +240,9 @@ def make_run(
 ) -> ScenarioRun:
     """Resolve scenario ``name`` into a :class:`ScenarioRun`; ``q1_pct``/``q2_pct`` only for ``constant``.
 
-    machine: the machine (default: the bundled turbine) whose nominal flowrate the percentages refer to
-    and whose nominal speed the scenario runs at (``--set plant.speed_hz=...`` runs it at another speed).
+    machine: the machine (default: the bundled turbine) whose bearings' nominal flowrates the percentages
+    refer to (``q1_pct`` bearing 1's, ``q2_pct`` bearing 2's) and whose nominal speed the scenario runs at
+    (``--set plant.speed_hz=...`` runs it at another speed).
 
     overrides: further FMU parameters, ``{"plant" or "ekf": {name: value}}``; the ones the scenario sets
     (flowrates, fault timing, noise, seed, nominal flowrate) cannot be overridden. The FMU checks names
@@ -291,16 +293,17 @@ def make_run(
         speed_profile if speed_profile is not None else scenario.speed_profile,
         oil_temperature_profile if oil_temperature_profile is not None else scenario.oil_temperature_profile,
     )
-    nominal_ml_min = machine.lubrication.nominal_flowrate_m3_s * ML_MIN_PER_M3_S
-    to_ml_min = nominal_ml_min / 100.0
+    # Python floats: round() of a numpy float rounds otherwise than of a float
+    nominal_ml_min = [float(q) * ML_MIN_PER_M3_S for q in machine.lubrication.nominal_flowrates_m3_s]
+    to_ml_min = [q / 100.0 for q in nominal_ml_min]
     return ScenarioRun(
         scenario,
         float(noise_um),
         float(duration_s),
         int(seed),
-        tuple(round(p * to_ml_min, 6) for p in scenario.q1_pct),
-        tuple(round(p * to_ml_min, 6) for p in scenario.q2_pct),
-        round(nominal_ml_min, 6),
+        tuple(round(p * to_ml_min[0], 6) for p in scenario.q1_pct),
+        tuple(round(p * to_ml_min[1], 6) for p in scenario.q2_pct),
+        tuple(round(q, 6) for q in nominal_ml_min),
         machine.nominal_speed_hz,
         "" if is_default_machine(machine) else str(machine.source_path.resolve()),
         tuple(extra),

@@ -28,10 +28,10 @@ def plot_estimates(run: ScenarioRun, columns: dict[str, np.ndarray], summary: di
     from oilwatch.estimator.alarm_config import AlarmConfig
 
     time_s = columns["time_s"]
-    nominal = run.nominal_ml_min
     on_fraction = float(run.ekf_parameters().get("alarm_on_fraction", AlarmConfig().on_fraction))
     figure, axes = plt.subplots(2, 1, figsize=(9, 6.5), sharex=True, constrained_layout=True)
     for b, ax in zip((1, 2), axes, strict=True):
+        nominal = run.nominal_ml_min[b - 1]
         true, estimate = columns[f"q{b}_true_ml_min"], columns[f"q{b}_est_ml_min"]
         std = columns[f"q{b}_std_ml_min"]
         ax.fill_between(time_s, estimate - 2 * std, estimate + 2 * std, color="C0", alpha=0.25, lw=0,

@@ -6,7 +6,7 @@ at the 1 ms sampling step for ``case.duration_s``:
 
 * plant: both flowrates held at the case's values (``q*_initial_ml_min = q*_final_ml_min``), started in
   the steady orbit of those flowrates, white noise of ``case.noise_um`` seeded from ``case.rng_seed``;
-* estimator: the FMU's defaults (the recommended tuning, initial estimate the machine's nominal flowrate, as
+* estimator: the FMU's defaults (the recommended tuning, initial estimates the bearings' nominal flowrates, as
   the paper) with ``noise_um = case.noise_um``;
 * the estimates after every step (t = dt ... T) are reduced by :func:`oilwatch.study.cases.reduce_record`.
 
@@ -102,8 +102,8 @@ def case_parameters(case: Case) -> dict[str, dict[str, object]]:
     ekf = {
         "noise_um": case.noise_um,
         "machine_file": case.machine_file,
-        "q_initial_ml_min": case.nominal_ml_min,
-        "q_nominal_ml_min": case.nominal_ml_min,
+        **{f"q{b}_initial_ml_min": q for b, q in enumerate(case.nominal_ml_min, start=1)},
+        **{f"q{b}_nominal_ml_min": q for b, q in enumerate(case.nominal_ml_min, start=1)},
         "preset": "paper",  # the paper's Table 6 and Figs. 7-8: its calibrated filter
     }
     return {"plant": plant, "ekf": ekf}
@@ -114,17 +114,20 @@ def case_labels(case: Case) -> dict[str, dict[str, str]]:
     grid point), so that an FMU error names what the user can change (``--seeds``, not ``plant.seed``)."""
     common = {"noise_um": "--noise-um", "machine_file": "--machine"}
     flows = {
-        f"q{b}_{end}_ml_min": f"the study grid's q{b} = {pct:g} % of nominal"
+        f"q{b}_{end}_ml_min": f"the study grid's q{b} = {pct:g} % of its nominal"
         for b, pct in ((1, case.q1_pct), (2, case.q2_pct))
         for end in ("initial", "final")
     }
-    nominal = "the nominal flowrate of --machine"
+    nominal = {
+        f"q{b}_{kind}_ml_min": f"the nominal flowrate of bearing {b} of --machine"
+        for b in (1, 2)
+        for kind in ("initial", "nominal")
+    }
     return {
         "plant": {**common, **flows, "seed": "--seeds"},
         "ekf": {
             **common,
-            "q_initial_ml_min": nominal,
-            "q_nominal_ml_min": nominal,
+            **nominal,
             "preset": "the study's estimator (the paper's calibrated filter)",
         },
     }

@@ -11,7 +11,7 @@ with
 estimator's own
   discrete map, not the truth's), configured by ``EKFConfig.preset("paper")`` with the case's noise level, the
   first sample at t = dt (the plant's first output is its state after one step), initial estimate the paper's
-  (zero states, q = the machine's nominal flowrate);
+  (zero states, each q its bearing's nominal flowrate);
 * the record is reduced with :func:`oilwatch.study.cases.reduce_record` (mean after ``case.discard_s``).
 
 The models are built once per process (a Dask worker keeps them between cases).

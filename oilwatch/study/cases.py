@@ -166,7 +166,7 @@ class SyntheticCase:
         a = self.noise_memory
         innovation = self.noise_std_ml_min(case) * np.sqrt(1.0 - a * a)
         noise = lfilter([1.0], [1.0, -a], innovation * rng.standard_normal((times.size, 2)), axis=0)
-        estimates = settled + (case.nominal_ml_min - settled) * decay + noise
+        estimates = settled + (np.array(case.nominal_ml_min) - settled) * decay + noise
         stds = np.full((times.size, 2), self.noise_std_ml_min(case)) * (1.0 + 20.0 * decay)
         return reduce_record(case, times, estimates, stds, time.perf_counter() - start)
 

@@ -1,9 +1,9 @@
 """The case grid of the constant-flowrate study (the paper's Sec. 3.2.1, Figs. 7-8, Table 6).
 
-q1 and q2 each run from 100 % down to 75 % of the machine's nominal flowrate (its machine file's
-``[lubrication]``; the bundled turbine: the paper's 596.3 ml/min) in steps of ``grid_step_pct``
-(1 % gives 26 x 26 = 676 cases per noise level); every (q1, q2) pair is run at each noise level and with
-each noise seed.
+q1 and q2 each run from 100 % down to 75 % of their bearing's own nominal flowrate (its machine file's
+``[lubrication]`` or the bearing's ``[[bearings.override]]``; the bundled turbine: the paper's 596.3 ml/min)
+in steps of ``grid_step_pct`` (1 % gives 26 x 26 = 676 cases per noise level); every (q1, q2) pair is run at
+each noise level and with each noise seed.
 """
 
 from __future__ import annotations
@@ -22,9 +22,16 @@ from oilwatch.models.validation import InputError, require_positive
 
 
 @cache
-def bundled_nominal_ml_min() -> float:
-    """The bundled turbine's nominal supply flowrate [ml/min] (its machine file)."""
-    return load_machine().lubrication.nominal_flowrate_m3_s * ML_MIN_PER_M3_S
+def bundled_nominal_ml_min() -> tuple[float, float]:
+    """The bundled turbine's nominal supply flowrate of each bearing [ml/min] (its machine file)."""
+    return _nominal_ml_min(load_machine())
+
+
+def _nominal_ml_min(machine: Machine) -> tuple[float, float]:
+    """(bearing 1's, bearing 2's) nominal supply flowrate of ``machine`` [ml/min]: the two the study
+    estimates."""
+    first, second = (float(q) * ML_MIN_PER_M3_S for q in machine.lubrication.nominal_flowrates_m3_s[:2])
+    return first, second
 
 
 HIGH_PCT = 100.0
@@ -35,12 +42,12 @@ SAMPLE_DT_S = 1e-3
 
 @dataclass(frozen=True)
 class Case:
-    """One run of the study: true flowrates (in % of nominal), noise, seed and record length.
+    """One run of the study: true flowrates (each in % of its bearing's nominal), noise, seed, record length.
 
     noise_um: std of the white noise on each displacement channel [um]. seed: index of the noise
     realization (0, 1, ...). duration_s: record length [s]; discard_s: initial part left out of the average.
-    machine_file: the machine ("": the bundled turbine); nominal_ml_min: its nominal flowrate [ml/min], which
-    the percentages refer to.
+    machine_file: the machine ("": the bundled turbine); nominal_ml_min: each bearing's nominal flowrate
+    [ml/min], which its percentage refers to.
     """
 
     q1_pct: float
@@ -50,7 +57,7 @@ class Case:
     duration_s: float = STUDY_DEFAULTS.duration_s
     discard_s: float = STUDY_DEFAULTS.discard_s
     machine_file: str = ""
-    nominal_ml_min: float = field(default_factory=bundled_nominal_ml_min)
+    nominal_ml_min: tuple[float, float] = field(default_factory=bundled_nominal_ml_min)
 
     @property
     def case_id(self) -> str:
@@ -61,19 +68,20 @@ class Case:
     def settings_text(self) -> str:
         """The case in the user's terms: noise, grid point and seed index, as the study's flags name them."""
         return (
-            f"--noise-um {self.noise_um:g}, q1 = {self.q1_pct:g} %, q2 = {self.q2_pct:g} % of nominal, "
+            f"--noise-um {self.noise_um:g}, q1 = {self.q1_pct:g} %, q2 = {self.q2_pct:g} % of each bearing's "
+            "nominal, "
             f"--seeds index {self.seed}"
         )
 
     @property
     def q1_ml_min(self) -> float:
         """True supply flowrate of bearing 1 [ml/min]."""
-        return self.nominal_ml_min * self.q1_pct / 100.0
+        return self.nominal_ml_min[0] * self.q1_pct / 100.0
 
     @property
     def q2_ml_min(self) -> float:
         """True supply flowrate of bearing 2 [ml/min]."""
-        return self.nominal_ml_min * self.q2_pct / 100.0
+        return self.nominal_ml_min[1] * self.q2_pct / 100.0
 
     @property
     def n_samples(self) -> int:
@@ -123,7 +131,7 @@ def make_cases(
     machine_file, nominal = "", bundled_nominal_ml_min()
     if machine is not None and not is_default_machine(machine):
         machine_file = str(machine.source_path.resolve())
-        nominal = machine.lubrication.nominal_flowrate_m3_s * ML_MIN_PER_M3_S
+        nominal = _nominal_ml_min(machine)
     return [
         Case(float(q1), float(q2), noise, seed, duration, float(discard_s), machine_file, nominal)
         for noise in levels

@@ -42,10 +42,10 @@ def plot_error_map(
     noise_um: float,
     path: str | Path,
     note: str = "",
-    nominal_ml_min: float | None = None,
+    nominal_ml_min: tuple[float, float] | None = None,
 ) -> Path:
     """Save the two-panel error map of one noise level to ``path`` (PNG) and return the path; the axes are
-    percentages of ``nominal_ml_min`` (default: the bundled turbine's nominal flowrate).
+    percentages of each bearing's ``nominal_ml_min`` (default: the bundled turbine's nominal flowrates).
 
     Each panel: the |relative error| of one bearing's identified flowrate over (q1 %, q2 %), a colour bar,
     its largest error marked with a circle; the study's worst case (over both bearings) with a star.
@@ -57,7 +57,7 @@ def plot_error_map(
 
     from .grid import bundled_nominal_ml_min
 
-    nominal = round(bundled_nominal_ml_min() if nominal_ml_min is None else nominal_ml_min, 1)
+    nominal = [round(q, 1) for q in (bundled_nominal_ml_min() if nominal_ml_min is None else nominal_ml_min)]
     order = np.argsort(percents)
     levels = np.asarray(percents)[order]
     grid = error_grid(rows, percents)[:, order][:, :, order]
@@ -91,8 +91,8 @@ def plot_error_map(
                 ms=16,
                 label="worst case of the study",
             )
-        axis.set_xlabel(f"q1 [% of {nominal:g} ml/min]")
-        axis.set_ylabel(f"q2 [% of {nominal:g} ml/min]")
+        axis.set_xlabel(f"q1 [% of {nominal[0]:g} ml/min]")
+        axis.set_ylabel(f"q2 [% of {nominal[1]:g} ml/min]")
         axis.set_title(f"identified q{bearing + 1}")
         axis.set_aspect("equal")
         axis.legend(loc="lower left", fontsize=8, framealpha=0.8)
