@@ -1,10 +1,12 @@
-"""Static equilibrium of the journal under a vertical load, and the linearized film coefficients.
+"""Static equilibrium of the journal under a static load, and the linearized film coefficients.
 
-Conventions (team contract, Lund 1987): the load pushes the journal along -y with magnitude
-``load_n``; at equilibrium the film force is F0 = (0, +load_n). Linearized about it,
-F = F0 - K (r - r0) - C r_dot, i.e. K_ij = -dF_i/dx_j and C_ij = -dF_i/dxdot_j with i, j in (x, y).
-The attitude angle is the angle from the load direction (-y) to the journal displacement, positive
-in the direction of rotation.
+Conventions (team contract, Lund 1987): the load pushes the journal with magnitude ``load_n`` along
+the bearing angle ``load_angle_rad`` (the angle convention of :mod:`oilwatch.models.bearing.grid`:
+from the top, +y, in the direction of rotation); the default, pi, is -y (gravity), where the film
+force at equilibrium is F0 = (0, +load_n). Linearized about it, F = F0 - K (r - r0) - C r_dot, i.e.
+K_ij = -dF_i/dx_j and C_ij = -dF_i/dxdot_j with i, j in (x, y) whatever the load direction.
+The attitude angle is the angle from the load direction to the journal displacement, positive in
+the direction of rotation.
 """
 
 from __future__ import annotations
@@ -15,7 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..validation import InputError, require_positive
+from ..validation import InputError, require_finite, require_positive
 from .film import MAX_ECCENTRICITY_RATIO, FilmSolution, solve_film
 from .geometry import JournalBearing
 from .grid import Mesh
@@ -37,6 +39,9 @@ to sit exactly on the flooded threshold (the table's q_t node): see :func:`coeff
 
 GROOVE_SIDES = ("starved", "flooded")
 
+DOWNWARD_LOAD_RAD = math.pi
+"""Bearing angle of a load along -y (gravity): the default load direction."""
+
 
 @dataclass(frozen=True, eq=False)
 class Equilibrium:
@@ -45,7 +50,8 @@ class Equilibrium:
     Attributes: eccentricity_m (2,) journal centre (e_x, e_y) [m]; eccentricity_ratio [-];
     attitude_deg [deg]; supply_pressure_pa groove pressure [Pa]; supply_flow_m3_s [m^3/s];
     side_leakage_m3_s [m^3/s]; regime "starved" or "flooded"; iterations Newton steps;
-    film the film solution at equilibrium.
+    film the film solution at equilibrium; load_angle_rad the bearing angle the load points along
+    [rad] (pi: -y), from which ``attitude_deg`` is measured.
     """
 
     eccentricity_m: np.ndarray
@@ -57,17 +63,39 @@ class Equilibrium:
     regime: str
     iterations: int
     film: FilmSolution = field(repr=False)
+    load_angle_rad: float = DOWNWARD_LOAD_RAD
 
 
-def attitude_angle_deg(eccentricity_m: np.ndarray) -> float:
-    """Angle from the load direction (-y) to the displacement, positive with the rotation [deg]."""
-    angle = math.degrees(math.atan2(eccentricity_m[1], eccentricity_m[0])) + 90.0
+def attitude_angle_deg(eccentricity_m: np.ndarray, load_angle_rad: float = DOWNWARD_LOAD_RAD) -> float:
+    """Angle from the load direction to the displacement, positive with the rotation [deg].
+
+    Parameters
+    ----------
+    eccentricity_m : (2,) journal centre (e_x, e_y) [m].
+    load_angle_rad : bearing angle the load points along [rad]; pi (the default) is -y.
+    """
+    # Measured from -y and turned by the load's offset from -y: the offset is exactly 0.0 for the
+    # default, so a downward load gives today's figure bit for bit.
+    offset = math.degrees(load_angle_rad - DOWNWARD_LOAD_RAD)
+    angle = math.degrees(math.atan2(eccentricity_m[1], eccentricity_m[0])) + 90.0 - offset
     return (angle + 180.0) % 360.0 - 180.0
 
 
-def _initial_guess(bearing: JournalBearing) -> np.ndarray:
-    """A lightly loaded journal: eccentricity ratio 0.1 at an attitude of 60 deg."""
-    angle = math.radians(60.0 - 90.0)
+def film_force_at_equilibrium(load_n: float, load_angle_rad: float = DOWNWARD_LOAD_RAD) -> np.ndarray:
+    """F0 (2,) [N]: the film force that balances ``load_n`` [N] pointing along ``load_angle_rad``.
+
+    The load points along the bearing angle beta, i.e. the unit vector (-sin beta, cos beta); the film
+    pushes back with F0 = load_n (sin beta, -cos beta). Written as the turn of (0, load_n) by
+    beta - pi so that the default is exactly (0, load_n): sin(pi) is 1.2e-16, not 0.
+    """
+    turn = load_angle_rad - DOWNWARD_LOAD_RAD
+    # + 0.0 makes the default's -0.0 a plain 0.0, the (0, load_n) target of a downward load
+    return np.array([-load_n * math.sin(turn) + 0.0, load_n * math.cos(turn)])
+
+
+def _initial_guess(bearing: JournalBearing, load_angle_rad: float) -> np.ndarray:
+    """A lightly loaded journal: eccentricity ratio 0.1 at an attitude of 60 deg from the load."""
+    angle = math.radians(60.0 - 90.0) + (load_angle_rad - DOWNWARD_LOAD_RAD)
     return 0.1 * bearing.clearance_m * np.array([math.cos(angle), math.sin(angle)])
 
 
@@ -82,24 +110,45 @@ def static_equilibrium(
     initial_guess_m: np.ndarray | None = None,
     force_tolerance: float = 1e-9,
     max_iterations: int = 40,
+    load_angle_rad: float = DOWNWARD_LOAD_RAD,
 ) -> Equilibrium:
-    """Journal position where the film carries ``load_n`` [N] (along -y) at ``speed_hz`` [Hz].
+    """Journal position where the film carries ``load_n`` [N] at ``speed_hz`` [Hz].
 
-    Newton's method on (e_x, e_y) with a forward-difference Jacobian taken on the current film's
-    partition (one sparse solve per column, the derivative of the discrete force) and step halving;
-    converged when |F - F0| < force_tolerance * load_n.
+    Parameters
+    ----------
+    bearing, load_n, speed_hz, supply, mesh, squeeze : the bearing, the load's magnitude [N], the
+        speed [Hz], the oil supply, the mesh (production mesh when None) and the squeeze treatment.
+    initial_guess_m : (2,) starting journal centre [m]; eccentricity ratio 0.1 at an attitude of
+        60 deg from the load when None.
+    force_tolerance : convergence when |F - F0| < force_tolerance * load_n.
+    max_iterations : Newton steps before a RuntimeError.
+    load_angle_rad : bearing angle the load on the journal points along [rad] (from the top, +y, in
+        the direction of rotation); pi, the default, is -y (gravity).
+
+    Returns
+    -------
+    Equilibrium, its attitude measured from the load direction.
+
+    Notes
+    -----
+    Newton's method on (e_x, e_y) towards the film force F0 that opposes the load
+    (:func:`film_force_at_equilibrium`), with a forward-difference Jacobian taken on the current
+    film's partition (one sparse solve per column, the derivative of the discrete force) and step
+    halving. Any load direction is solved as it is, on the bearing's own grooves: nothing is rotated,
+    so the film sees the grooves where they are relative to the load.
     """
     load = require_positive("load_n", load_n, "N")
     require_positive("speed_hz", speed_hz, "Hz")
+    load_angle = require_finite("load_angle_rad", load_angle_rad)
     c = bearing.clearance_m
-    target = np.array([0.0, load])
-    e = _initial_guess(bearing) if initial_guess_m is None else np.asarray(initial_guess_m, float)
+    target = film_force_at_equilibrium(load, load_angle)
+    e = _initial_guess(bearing, load_angle) if initial_guess_m is None else np.asarray(initial_guess_m, float)
     film = solve_film(bearing, speed_hz, tuple(e), supply, mesh=mesh, squeeze=squeeze)
     residual = film.force_n - target
     step = 1e-4 * c
     for iteration in range(1, max_iterations + 1):
         if np.linalg.norm(residual) < force_tolerance * load:
-            return _equilibrium(e, film, iteration - 1, c)
+            return _equilibrium(e, film, iteration - 1, c, load_angle)
         jac = np.empty((2, 2))
         for j in range(2):
             de = np.zeros(2)
@@ -148,17 +197,20 @@ def static_equilibrium(
     )
 
 
-def _equilibrium(e: np.ndarray, film: FilmSolution, iterations: int, c: float) -> Equilibrium:
+def _equilibrium(
+    e: np.ndarray, film: FilmSolution, iterations: int, c: float, load_angle_rad: float
+) -> Equilibrium:
     return Equilibrium(
         eccentricity_m=e.copy(),
         eccentricity_ratio=float(np.hypot(*e) / c),
-        attitude_deg=attitude_angle_deg(e),
+        attitude_deg=attitude_angle_deg(e, load_angle_rad),
         supply_pressure_pa=film.supply_pressure_pa,
         supply_flow_m3_s=film.supply_flow_m3_s,
         side_leakage_m3_s=film.side_leakage_m3_s,
         regime=film.regime,
         iterations=iterations,
         film=film,
+        load_angle_rad=load_angle_rad,
     )
 
 
@@ -236,6 +288,10 @@ def coefficients_at(
     central difference is exact. With ``squeeze="everywhere"`` the quasi-steady film is re-solved on
     the held partition (a free re-solve would scatter like the free stiffness).
 
+    Any load direction (``Equilibrium.load_angle_rad``): the steps are along x and y about the
+    equilibrium's own position and film, so K and C are the (x, y)-frame coefficients whichever way
+    the load points; nothing here assumes -y.
+
     On the flooded threshold (groove just full at zero pressure, the table's q_t node) the force
     has a genuine kink in the journal position and velocity: starved on one side, flooded on the
     other, and K, C jump across q_t. There the mean of the two one-sided limits is returned
@@ -303,7 +359,14 @@ def linearized_coefficients(
     *,
     squeeze: str = "full-film",
     step_ratio: float = DISPLACEMENT_STEP_RATIO,
+    load_angle_rad: float = DOWNWARD_LOAD_RAD,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """K (2, 2) [N/m] and C (2, 2) [N s/m] at the static equilibrium (Lund's convention)."""
-    eq = static_equilibrium(bearing, load_n, speed_hz, supply, mesh, squeeze=squeeze)
+    """K (2, 2) [N/m] and C (2, 2) [N s/m] at the static equilibrium (Lund's convention).
+
+    ``load_angle_rad``: the bearing angle the load points along [rad], -y (pi) by default; K and C
+    stay in the (x, y) frame whatever the load direction.
+    """
+    eq = static_equilibrium(
+        bearing, load_n, speed_hz, supply, mesh, squeeze=squeeze, load_angle_rad=load_angle_rad
+    )
     return coefficients_at(bearing, eq, speed_hz, supply, mesh, squeeze=squeeze, step_ratio=step_ratio)
