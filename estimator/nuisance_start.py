@@ -35,7 +35,11 @@ import math
 
 import numpy as np
 
-from .ekf_config import UNBALANCE_RANDOM_WALK_SQRT_S, VISCOSITY_FACTOR_RANDOM_WALK_SQRT_S
+from .ekf_config import (
+    INITIAL_FLOWRATE_STD_FRACTION,
+    UNBALANCE_RANDOM_WALK_SQRT_S,
+    VISCOSITY_FACTOR_RANDOM_WALK_SQRT_S,
+)
 from .measurement import probe_rotation
 
 
@@ -184,9 +188,9 @@ class InformationFloor:
         if config.initial_flowrate_std_m3_s is not None:
             initial_q = np.array(config.initial_flowrate_std_pair())
         elif config.q_nominal_m3_s is not None:
-            initial_q = 0.25 * np.array(config.q_nominal_pair())
+            initial_q = INITIAL_FLOWRATE_STD_FRACTION * np.array(config.q_nominal_pair())
         else:
-            initial_q = np.full(2, 0.25 * float(q0.mean()))
+            initial_q = np.full(2, INITIAL_FLOWRATE_STD_FRACTION * float(q0.mean()))
         prior = np.r_[
             initial_q,
             np.full(2, config.viscosity_factor_prior_std),
