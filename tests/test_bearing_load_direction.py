@@ -6,7 +6,7 @@ References that are not the implementation again:
   seen turned, so the equilibrium must turn by delta, K and C become R K R^T and R C R^T, and the
   supply flow, groove pressure and attitude stay;
 * Ocvirk's short-bearing numbers (REFERENCE.md) for a load that is not along -y;
-* the default (-y) against the figures of the code before ``load_angle_rad`` existed.
+* the default (-y) against the -y solve's figures, pinned (a regression check, not a reference).
 
 Why the invariance tolerances are solver tolerances, not mesh-size ones: the film grid is anchored
 to the first groove (psi = 0 at its upstream edge, ``grid.film_grid``), so turning every groove by
@@ -93,7 +93,7 @@ def normwise(a: np.ndarray, b: np.ndarray) -> float:
 
 @pytest.fixture(scope="module")
 def downward():
-    """Equilibrium, K and C of each case under today's load along -y."""
+    """Equilibrium, K and C of each case under the default load along -y."""
     solved = {}
     for name, (bearing, supply) in CASES.items():
         eq = static_equilibrium(bearing, LOAD_N, SPEED_HZ, supply, MESH)
@@ -177,23 +177,23 @@ def test_short_bearing_attitude_from_a_sideways_load_is_ocvirks():
     assert eq.eccentricity_m[0] > 0.0 and eq.eccentricity_m[1] > 0.0
 
 
-# The flooded flow-fed case computed by the code before load_angle_rad existed (main at 5ca5546,
-# the same 72 x 24 mesh); on this machine the branch reproduces every bit of them, pressure field
-# included. Pinned here to 1e-12 (not bits: another BLAS or SuperLU build may differ in the last bit).
-BEFORE_E_M = [1.3634604008269512e-05, -6.015849780774163e-06]
-BEFORE_ATTITUDE_DEG = 66.19200468524792
-BEFORE_K = [[207001522.85060358, 165634898.35607752], [-127546437.53023627, 66141726.91151527]]
-BEFORE_C = [[534949.9828265809, -218618.16757815148], [-218618.1675781546, 1145260.083502886]]
+# The flooded flow-fed case under a load along -y on the 72 x 24 mesh, as the solver gives it without a
+# load angle: the default must keep giving it. Pinned to 1e-12, not to the bit: another BLAS or SuperLU
+# build may differ in the last bit.
+DOWNWARD_E_M = [1.3634604008269512e-05, -6.015849780774163e-06]
+DOWNWARD_ATTITUDE_DEG = 66.19200468524792
+DOWNWARD_K = [[207001522.85060358, 165634898.35607752], [-127546437.53023627, 66141726.91151527]]
+DOWNWARD_C = [[534949.9828265809, -218618.16757815148], [-218618.1675781546, 1145260.083502886]]
 
 
-def test_the_default_load_is_todays_downward_load(downward):
+def test_the_default_load_is_the_downward_load(downward):
     eq, stiffness, damping = downward["flooded flow-fed"]
-    np.testing.assert_allclose(eq.eccentricity_m, BEFORE_E_M, rtol=1e-12)
-    assert eq.attitude_deg == pytest.approx(BEFORE_ATTITUDE_DEG, rel=1e-12)
-    np.testing.assert_allclose(stiffness, BEFORE_K, rtol=1e-12)
-    np.testing.assert_allclose(damping, BEFORE_C, rtol=1e-12)
+    np.testing.assert_allclose(eq.eccentricity_m, DOWNWARD_E_M, rtol=1e-12)
+    assert eq.attitude_deg == pytest.approx(DOWNWARD_ATTITUDE_DEG, rel=1e-12)
+    np.testing.assert_allclose(stiffness, DOWNWARD_K, rtol=1e-12)
+    np.testing.assert_allclose(damping, DOWNWARD_C, rtol=1e-12)
     assert eq.load_angle_rad == math.pi
-    # The default's Newton target is exactly today's (0, +W), without a -0.0 or a 1e-16 x-part.
+    # The default's Newton target is exactly (0, +W), without a -0.0 or a 1e-16 x-part.
     target = film_force_at_equilibrium(LOAD_N)
     assert target.tobytes() == np.array([0.0, LOAD_N]).tobytes()
     # Naming the default gives the same bits.

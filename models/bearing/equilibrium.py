@@ -75,7 +75,7 @@ def attitude_angle_deg(eccentricity_m: np.ndarray, load_angle_rad: float = DOWNW
     load_angle_rad : bearing angle the load points along [rad]; pi (the default) is -y.
     """
     # Measured from -y and turned by the load's offset from -y: the offset is exactly 0.0 for the
-    # default, so a downward load gives today's figure bit for bit.
+    # default, so a downward load gives the -y figure bit for bit.
     offset = math.degrees(load_angle_rad - DOWNWARD_LOAD_RAD)
     angle = math.degrees(math.atan2(eccentricity_m[1], eccentricity_m[0])) + 90.0 - offset
     return (angle + 180.0) % 360.0 - 180.0
