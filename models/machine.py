@@ -45,6 +45,7 @@ from .machine_sections import (
     read_discs,
     read_lubrication,
     read_oil,
+    read_static_loads,
 )
 from .oil import Oil
 from .validation import InputError, naming_file, read_text_file
@@ -105,6 +106,10 @@ class Machine:
         is the one geometry of a machine whose bearings are all alike.
     load_split : how the weight is shared among bearings: "equal" (the paper: W / n_bearings each)
         or "reactions" (the support reactions of the rotor on rigid supports).
+    static_loads_given_n : each bearing's static load magnitude [N] where its ``[[bearings.override]]``
+        gives one (``static_load_n``: a gear mesh, a belt, a process force), None where it carries its
+        share of the weight; its direction is ``bearings[i].load_angle_rad``. Empty: every bearing carries
+        its share.
     lubrication : nominal supply (each bearing's nominal flowrate: ``lubrication.nominal_flowrates_m3_s``;
         :meth:`shared_nominal_flowrate_m3_s` the one of a machine whose bearings' nominals are alike).
     structural_damping_s : stiffness-proportional rotor damping coefficient beta [s], C = beta K
@@ -139,6 +144,7 @@ class Machine:
     nominal_oil_temperature_c: float | None = None
     dynamic_coefficients: str = DEFAULT_KIND
     reduction_cutoff_hz: float = DEFAULT_REDUCTION_CUTOFF_HZ
+    static_loads_given_n: tuple[float | None, ...] = ()
 
     def __repr__(self) -> str:
         return (
@@ -164,7 +170,8 @@ class Machine:
 
     @property
     def bearings_differ(self) -> bool:
-        """Whether the bearings' geometries are not all the same (``[[bearings.override]]``)."""
+        """Whether the bearings' geometries or load directions are not all the same
+        (``[[bearings.override]]``): each then has tables of its own."""
         return any(b != self.bearings[0] for b in self.bearings[1:])
 
     @property
@@ -178,8 +185,9 @@ class Machine:
         oilwatch) when its bearings differ, since ``feature`` takes one bearing geometry."""
         if self.bearings_differ:
             raise InputError(
-                f"bearings of {self.name} differ ({self.source_path.name} has [[bearings.override]]): "
-                f"{feature} takes one bearing geometry; give the bearings one geometry to run it"
+                f"bearings of {self.name} differ in geometry or load direction ({self.source_path.name} "
+                f"has [[bearings.override]]): {feature} takes one bearing geometry; give the bearings one "
+                "to run it"
             )
         return self.bearings[0]
 
@@ -325,6 +333,7 @@ def machine_from_dict(data: Mapping[str, Any], source_path: Path | str = "<dict>
             "bearings.dynamic_coefficients",
         ),
         reduction_cutoff_hz=cutoff,
+        static_loads_given_n=read_static_loads(data, bearing_nodes),
     )
     return _with_nominal_flowrates(machine)
 

@@ -145,10 +145,19 @@ MACHINE_KEYS: tuple[MachineKey, ...] = (
         "bearings",
         "override",
         "an array of tables, at most one per bearing node",
-        "Per-bearing geometry and nominal flowrate: each [[bearings.override]] gives the keys of "
+        "Per-bearing geometry, load and nominal flowrate: each [[bearings.override]] gives the keys of "
         "bearings.override[] in which one bearing differs from [bearings] and [lubrication] (a drive-end "
-        "bearing of another size, clearance, grooves or supply).",
+        "bearing of another size, clearance, grooves, load or supply).",
         "every bearing has the [bearings] geometry",
+    ),
+    _key(
+        "bearings",
+        "load_angle_deg",
+        "any number",
+        "Direction of each bearing's static load, as a groove's angle (from the top, with the rotation): "
+        "180 is straight down, the weight. Another direction (a gear mesh, a belt, a process force) is "
+        "taken as given: the rotor carries the external force that turns its weight share into it.",
+        "180",
     ),
     _key("bearings.override[]", "node", "one of bearings.nodes", "The bearing the override is for.", "-"),
     _key(
@@ -200,6 +209,21 @@ MACHINE_KEYS: tuple[MachineKey, ...] = (
         "> 0, < its length",
         "Its circumferential groove.",
         "bearings.circumferential_groove_axial_mm",
+    ),
+    _key(
+        "bearings.override[]",
+        "load_angle_deg",
+        "any number",
+        "Direction of its static load (as bearings.load_angle_deg).",
+        "bearings.load_angle_deg",
+    ),
+    _key(
+        "bearings.override[]",
+        "static_load_n",
+        "> 0",
+        "Magnitude of its static load when it is not its share of the weight (a gear mesh, a belt, a "
+        "process force): the rotor carries the external force that makes the load so.",
+        "its share of the weight (bearings.load_split)",
     ),
     _key(
         "bearings.override[]",

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from .bearing.geometry import AxialGroove, JournalBearing
+from .bearing.geometry import DOWNWARD_LOAD_RAD, AxialGroove, JournalBearing
 from .machine_fields import as_node, as_number, frozen_array, read_key, read_real, read_table
 from .oil import DEFAULT_THERMAL_EXPANSION_PER_K, Oil
 from .validation import InputError
@@ -160,11 +160,16 @@ OVERRIDE_KEYS = (
     "groove_axial_mm",
     "grooves",
     "circumferential_groove_axial_mm",
+    "load_angle_deg",
 )
-"""The geometry keys of ``[bearings]`` that a ``[[bearings.override]]`` entry may give for its bearing."""
+"""The keys of ``[bearings]`` that a ``[[bearings.override]]`` entry may give for its bearing: its geometry
+and the direction of its static load."""
 OVERRIDE_SUPPLY_KEY = "nominal_flowrate_ml_min"
 """The key of ``[lubrication]`` that a ``[[bearings.override]]`` entry may give for its bearing: its own
 nominal supply flowrate."""
+OVERRIDE_LOAD_KEY = "static_load_n"
+"""The key only a ``[[bearings.override]]`` entry gives: the magnitude of its bearing's static load, when it
+is not the bearing's share of the weight (a gear mesh, a belt, a process force)."""
 
 
 def read_overrides(
@@ -192,14 +197,26 @@ def read_overrides(
             raise InputError(
                 f"{section}.node = {node}: that bearing has an override already ({overrides[node][0]})"
             )
-        unknown = sorted(set(entry) - {"node", *OVERRIDE_KEYS, OVERRIDE_SUPPLY_KEY})
+        unknown = sorted(set(entry) - {"node", *OVERRIDE_KEYS, OVERRIDE_SUPPLY_KEY, OVERRIDE_LOAD_KEY})
         if unknown:
             raise InputError(
                 f"{section}.{unknown[0]} cannot differ between bearings: an override gives only node, "
-                f"{', '.join(OVERRIDE_KEYS)} and {OVERRIDE_SUPPLY_KEY}"
+                f"{', '.join(OVERRIDE_KEYS)}, {OVERRIDE_SUPPLY_KEY} and {OVERRIDE_LOAD_KEY}"
             )
         overrides[node] = section, {key: value for key, value in entry.items() if key != "node"}
     return overrides
+
+
+def read_static_loads(data: Mapping[str, Any], bearing_nodes: tuple[int, ...]) -> tuple[float | None, ...]:
+    """Each bearing's static load magnitude [N] from its ``[[bearings.override]] static_load_n``, in the order
+    of ``bearing_nodes``; None where the file gives none (the bearing carries its share of the weight)."""
+    overrides = read_overrides(read_table(data, "bearings"), bearing_nodes)
+    loads = []
+    for node in bearing_nodes:
+        section, entry = overrides.get(node, ("", {}))
+        given = OVERRIDE_LOAD_KEY in entry
+        loads.append(read_real(entry, section, OVERRIDE_LOAD_KEY, "N") if given else None)
+    return tuple(loads)
 
 
 def _read_geometry(
@@ -231,6 +248,9 @@ def _read_geometry(
     if "circumferential_groove_axial_mm" in override or "circumferential_groove_axial_mm" in table:
         band_mm = real("circumferential_groove_axial_mm", "mm", high=length * 1e3)
         band = band_mm / 1e3
+    load_angle = DOWNWARD_LOAD_RAD
+    if "load_angle_deg" in override or "load_angle_deg" in table:
+        load_angle = math.radians(real("load_angle_deg", "deg", low=None))
     return JournalBearing(
         radius_m=radius,
         length_m=length,
@@ -241,6 +261,7 @@ def _read_geometry(
         groove_axial_m=grooves[0].axial_m,
         more_grooves=grooves[1:],
         circumferential_groove_m=band,
+        load_angle_rad=load_angle,
     )
 
 

@@ -36,14 +36,13 @@ import numpy as np
 import pytest
 
 from oilwatch.models.bearing.equilibrium import (
-    DOWNWARD_LOAD_RAD,
     attitude_angle_deg,
     coefficients_at,
     film_force_at_equilibrium,
     linearized_coefficients,
     static_equilibrium,
 )
-from oilwatch.models.bearing.geometry import AxialGroove, JournalBearing
+from oilwatch.models.bearing.geometry import DOWNWARD_LOAD_RAD, AxialGroove, JournalBearing
 from oilwatch.models.bearing.grid import Mesh, film_grid
 from oilwatch.models.bearing.supply import ML_MIN_PER_M3_S, SupplyFlow, SupplyPressure
 from oilwatch.models.validation import InputError
@@ -202,6 +201,22 @@ def test_the_default_load_is_the_downward_load(downward):
     assert named.eccentricity_m.tobytes() == eq.eccentricity_m.tobytes()
     assert named.attitude_deg == eq.attitude_deg
     assert named.film.pressure_pa.tobytes() == eq.film.pressure_pa.tobytes()
+
+
+def test_without_an_angle_the_solve_takes_the_bearings_own_load_direction():
+    bearing, supply = CASES["flooded flow-fed"]
+    angle = math.radians(150.0)
+    own = static_equilibrium(
+        dataclasses.replace(bearing, load_angle_rad=angle), LOAD_N, SPEED_HZ, supply, MESH
+    )
+    named = static_equilibrium(bearing, LOAD_N, SPEED_HZ, supply, MESH, load_angle_rad=angle)
+    assert own.load_angle_rad == angle
+    assert own.eccentricity_m.tobytes() == named.eccentricity_m.tobytes()
+    assert own.attitude_deg == named.attitude_deg
+    # an explicit angle still wins over the bearing's
+    turned = dataclasses.replace(bearing, load_angle_rad=angle)
+    down = static_equilibrium(turned, LOAD_N, SPEED_HZ, supply, MESH, load_angle_rad=math.pi)
+    np.testing.assert_allclose(down.eccentricity_m, DOWNWARD_E_M, rtol=1e-12)
 
 
 def test_film_force_opposes_the_load_in_the_bearing_angle_convention():

@@ -5,7 +5,8 @@ editable: the package pip built and installed, as a user's ``pip install``) runs
 empty temporary folder: a second machine file there (the bundled turbine with a 150 um clearance, its oil
 supplied at 40 instead of 30.8 degC, no nominal flowrate: each bearing's is computed at the file's 0.5 bar
 groove pressure with its own geometry and load, and a non-drive-end bearing of its own, shorter, tighter and
-with a smaller groove) goes through ``oilwatch bearing-table --machine M2.toml`` (a table per bearing
+with a smaller groove, whose static load the file gives: 4000 N along 160 deg, a belt's pull beside the
+weight) goes through ``oilwatch bearing-table --machine M2.toml`` (a table per bearing
 geometry) and ``oilwatch demo --machine M2.toml`` (the sudden drop, 100 -> 75 % of each bearing's nominal
 flowrate, through both FMUs built with those tables; its summary.json is the one ``oilwatch run
 sudden-drop`` writes). What the wheel holds is tests/test_wheel.py's.
@@ -32,7 +33,7 @@ pytestmark = pytest.mark.slow
 
 def second_machine(folder) -> str:
     """M2.toml in ``folder``: the turbine with another clearance and oil, nominal flowrate from pressure, and
-    its bearing 2 of its own geometry."""
+    its bearing 2 of its own geometry and static load."""
     text = (REPO_ROOT / "models" / "turbine.toml").read_text(encoding="utf-8")
     text = re.sub(r"(?m)^name = .*$", 'name = "turbine M2 (150 um, oil at 40 degC)"', text)
     text = re.sub(r"(?m)^radial_clearance_um = .*$", "radial_clearance_um = 150.0", text)
@@ -41,8 +42,10 @@ def second_machine(folder) -> str:
     )
     assert supplies == 1
     text = re.sub(r"(?m)^nominal_flowrate_ml_min = .*\n", "", text)
-    # bearing 2 scaled from tests/test_per_bearing.py's (flooded thresholds 1451 and 1365 ml/min)
-    text = text.replace("\n[oil]\n", "\n" + NON_DRIVE_END + "\n[oil]\n", 1)
+    # bearing 2 scaled from tests/test_per_bearing.py's, its load given: the plant carries the external
+    # force that turns its weight share (3273 N down) into it, the tables are solved for it
+    side_load = "load_angle_deg = 160.0\nstatic_load_n = 4000.0\n"
+    text = text.replace("\n[oil]\n", "\n" + NON_DRIVE_END + side_load + "\n[oil]\n", 1)
     (folder / "M2.toml").write_text(text, encoding="utf-8")
     return "M2.toml"
 

@@ -2,7 +2,8 @@
 
 Conventions (team contract, Lund 1987): the load pushes the journal with magnitude ``load_n`` along
 the bearing angle ``load_angle_rad`` (the angle convention of :mod:`oilwatch.models.bearing.grid`:
-from the top, +y, in the direction of rotation); the default, pi, is -y (gravity), where the film
+from the top, +y, in the direction of rotation); by default the bearing's own
+(``JournalBearing.load_angle_rad``, pi, -y, the weight, unless its machine file gives another), where the film
 force at equilibrium is F0 = (0, +load_n). Linearized about it, F = F0 - K (r - r0) - C r_dot, i.e.
 K_ij = -dF_i/dx_j and C_ij = -dF_i/dxdot_j with i, j in (x, y) whatever the load direction.
 The attitude angle is the angle from the load direction to the journal displacement, positive in
@@ -19,7 +20,7 @@ import numpy as np
 
 from ..validation import InputError, require_finite, require_positive
 from .film import MAX_ECCENTRICITY_RATIO, FilmSolution, solve_film
-from .geometry import JournalBearing
+from .geometry import DOWNWARD_LOAD_RAD, JournalBearing
 from .grid import Mesh
 from .supply import Supply, SupplyFlow
 
@@ -38,9 +39,6 @@ THRESHOLD_TOLERANCE = 1.0e-9
 to sit exactly on the flooded threshold (the table's q_t node): see :func:`coefficients_at`."""
 
 GROOVE_SIDES = ("starved", "flooded")
-
-DOWNWARD_LOAD_RAD = math.pi
-"""Bearing angle of a load along -y (gravity): the default load direction."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -110,7 +108,7 @@ def static_equilibrium(
     initial_guess_m: np.ndarray | None = None,
     force_tolerance: float = 1e-9,
     max_iterations: int = 40,
-    load_angle_rad: float = DOWNWARD_LOAD_RAD,
+    load_angle_rad: float | None = None,
 ) -> Equilibrium:
     """Journal position where the film carries ``load_n`` [N] at ``speed_hz`` [Hz].
 
@@ -123,7 +121,8 @@ def static_equilibrium(
     force_tolerance : convergence when |F - F0| < force_tolerance * load_n.
     max_iterations : Newton steps before a RuntimeError.
     load_angle_rad : bearing angle the load on the journal points along [rad] (from the top, +y, in
-        the direction of rotation); pi, the default, is -y (gravity).
+        the direction of rotation); None (the default) takes the bearing's own,
+        ``bearing.load_angle_rad`` (pi, -y, unless its machine file gives another).
 
     Returns
     -------
@@ -139,7 +138,9 @@ def static_equilibrium(
     """
     load = require_positive("load_n", load_n, "N")
     require_positive("speed_hz", speed_hz, "Hz")
-    load_angle = require_finite("load_angle_rad", load_angle_rad)
+    load_angle = require_finite(
+        "load_angle_rad", bearing.load_angle_rad if load_angle_rad is None else load_angle_rad
+    )
     c = bearing.clearance_m
     target = film_force_at_equilibrium(load, load_angle)
     e = _initial_guess(bearing, load_angle) if initial_guess_m is None else np.asarray(initial_guess_m, float)
@@ -359,12 +360,12 @@ def linearized_coefficients(
     *,
     squeeze: str = "full-film",
     step_ratio: float = DISPLACEMENT_STEP_RATIO,
-    load_angle_rad: float = DOWNWARD_LOAD_RAD,
+    load_angle_rad: float | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """K (2, 2) [N/m] and C (2, 2) [N s/m] at the static equilibrium (Lund's convention).
 
-    ``load_angle_rad``: the bearing angle the load points along [rad], -y (pi) by default; K and C
-    stay in the (x, y) frame whatever the load direction.
+    ``load_angle_rad``: the bearing angle the load points along [rad], the bearing's own by default
+    (:func:`static_equilibrium`); K and C stay in the (x, y) frame whatever the load direction.
     """
     eq = static_equilibrium(
         bearing, load_n, speed_hz, supply, mesh, squeeze=squeeze, load_angle_rad=load_angle_rad

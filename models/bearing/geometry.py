@@ -15,6 +15,9 @@ from dataclasses import dataclass, field
 
 from ..validation import InputError, require_finite, require_in_range, require_non_negative, require_positive
 
+DOWNWARD_LOAD_RAD = math.pi
+"""Bearing angle of a load along -y (gravity): the default load direction."""
+
 
 @dataclass(frozen=True)
 class AxialGroove:
@@ -42,6 +45,10 @@ class JournalBearing:
     groove_axial_m : the first groove's extent along the axis [m], centred on the bearing mid-plane.
     more_grooves : the other axial grooves (:class:`AxialGroove`), none for the one-groove bearing.
     circumferential_groove_m : axial width [m] of a full circumferential groove at the mid-plane, 0 for none.
+    load_angle_rad : bearing angle [rad] (the grooves' convention) along which the static load pushes the
+        journal; pi (the default) is -y, the weight. The grooves and the load are both placed in the
+        bearing as installed, and the film sees the grooves where they are relative to the load: this
+        angle is part of what a coefficient table is computed for.
     """
 
     radius_m: float
@@ -53,6 +60,7 @@ class JournalBearing:
     groove_axial_m: float
     more_grooves: tuple[AxialGroove, ...] = field(default=())
     circumferential_groove_m: float = 0.0
+    load_angle_rad: float = DOWNWARD_LOAD_RAD
 
     def __post_init__(self) -> None:
         require_positive("radius_m", self.radius_m, "m")
@@ -76,6 +84,7 @@ class JournalBearing:
             "circumferential_groove_m", self.circumferential_groove_m, 0.0, self.length_m, "m", open_high=True
         )
         _check_no_overlap(self.grooves, self.radius_m)
+        require_finite("load_angle_rad", self.load_angle_rad)
 
     @property
     def groove_span_rad(self) -> float:

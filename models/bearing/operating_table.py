@@ -41,7 +41,8 @@ import numpy as np
 from .. import catmull_rom
 from ..validation import InputError, require_finite, require_positive
 from .coefficient_kinds import QUASI_STATIC, file_suffix
-from .geometry import JournalBearing
+from .equilibrium import attitude_angle_deg
+from .geometry import DOWNWARD_LOAD_RAD, JournalBearing
 from .operating_table_interpolation import TableSlice, interpolate_column, interpolate_point
 from .sommerfeld import N_QUANTITIES, ON_THRESHOLD
 from .supply import ML_MIN_PER_M3_S
@@ -306,7 +307,7 @@ class OperatingTable:
             flooded_threshold_m3_s=q_t,
             eccentricity_m=e,
             eccentricity_ratio=float(math.hypot(*value[0:2])),
-            attitude_deg=_attitude_deg(e),
+            attitude_deg=attitude_angle_deg(e, self.geometry.get("load_angle_rad", DOWNWARD_LOAD_RAD)),
             supply_pressure_pa=max(float(dimensional[10]), 0.0),
             regime="starved" if fraction < 1.0 else "flooded",
             coefficients=_coefficients(dimensional),
@@ -410,6 +411,9 @@ def geometry_mismatch(stored: Mapping[str, Any], bearing: JournalBearing) -> str
         have, want = float(getattr(bearing, key)), float(stored[key])
         if not math.isclose(have, want, rel_tol=1e-9, abs_tol=1e-15):
             return f"{key} = {want:g}, the bearing has {have:g}"
+    want_load, have_load = load_angle_deg(stored), load_angle_deg(dataclasses.asdict(bearing))
+    if not math.isclose(want_load, have_load, rel_tol=1e-9, abs_tol=1e-9):
+        return f"a load along {want_load:g} deg, the bearing's points along {have_load:g} deg"
     want = groove_layout(stored)
     have = groove_layout(dataclasses.asdict(bearing))
     same = want.keys() == have.keys() and all(
@@ -420,9 +424,17 @@ def geometry_mismatch(stored: Mapping[str, Any], bearing: JournalBearing) -> str
     return None
 
 
+def load_angle_deg(geometry: Mapping[str, Any]) -> float:
+    """The bearing angle [deg] the static load points along in a bearing's geometry (a
+    :class:`JournalBearing` as a dict): 180 (-y, the weight) where a table made before it was stored
+    holds none."""
+    return math.degrees(float(geometry.get("load_angle_rad", DOWNWARD_LOAD_RAD)))
+
+
 def groove_layout(geometry: dict) -> dict:
-    """The grooves beyond the first of a bearing's geometry (a :class:`JournalBearing` as a dict), as stored
-    in a table's geometry: empty for the one-groove bearing, so that its tables keep their form."""
+    """The grooves beyond the first and the load's direction of a bearing's geometry (a
+    :class:`JournalBearing` as a dict), as stored in a table's geometry: empty for the one-groove bearing
+    loaded along -y, so that its tables keep their form."""
     more = [
         [float(g[k]) for k in ("angle_rad", "circumferential_m", "axial_m")]
         if isinstance(g, dict)
@@ -435,16 +447,14 @@ def groove_layout(geometry: dict) -> dict:
         layout["more_grooves"] = more
     if band > 0.0:
         layout["circumferential_groove_m"] = band
+    load_angle = float(geometry.get("load_angle_rad", DOWNWARD_LOAD_RAD))
+    if load_angle != DOWNWARD_LOAD_RAD:
+        layout["load_angle_rad"] = load_angle
     return layout
 
 
 def _coefficients(v: np.ndarray) -> BearingCoefficients:
     return BearingCoefficients(v[0:2].copy(), v[2:6].reshape(2, 2).copy(), v[6:10].reshape(2, 2).copy())
-
-
-def _attitude_deg(e: np.ndarray) -> float:
-    angle = math.degrees(math.atan2(e[1], e[0])) + 90.0
-    return (angle + 180.0) % 360.0 - 180.0
 
 
 def operating_table_name(

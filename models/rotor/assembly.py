@@ -22,7 +22,7 @@ import numpy as np
 
 from ..machine import Machine
 from ..machine_sections import Material
-from ..validation import InputError, require_non_negative
+from ..validation import InputError, require_non_negative, require_positive
 from .disc import RigidDisc
 from .timoshenko import (
     element_gravity_load,
@@ -59,8 +59,13 @@ class Rotor:
     gravity_m_s2 : g [m/s^2].
     unbalance_node, unbalance_moment_kg_m, unbalance_phase_rad : m_e and phi of Eqs. 5-6.
     bearing_nodes : nodes carrying a bearing.
-    bearing_static_loads_n : (n_bearings,) static load each bearing carries [N] (upward
-        reaction), by the machine's load split.
+    bearing_static_loads_n : (n_bearings,) magnitude of the static load each bearing carries [N]: its
+        share of the weight by the machine's load split, or the load its machine file gives.
+    bearing_load_angles_rad : (n_bearings,) bearing angle each static load points along [rad] (from the
+        top, with the rotation; pi, -y, for the weight).
+    static_force : the constant load (n_dof,) [N, N m]: ``gravity_force`` plus, at each bearing whose static
+        load is not its share of the weight, the external force (a gear mesh, a belt, a process force) that
+        makes it so: the load vector minus the weight share's.
     """
 
     node_positions_m: np.ndarray
@@ -78,6 +83,8 @@ class Rotor:
     unbalance_phase_rad: float
     bearing_nodes: tuple[int, ...]
     bearing_static_loads_n: np.ndarray
+    bearing_load_angles_rad: np.ndarray
+    static_force: np.ndarray
 
     @classmethod
     def build(
@@ -94,11 +101,16 @@ class Rotor:
         unbalance_phase_rad: float = 0.0,
         bearing_nodes: Sequence[int] = (),
         load_split: str = "equal",
+        static_loads_given_n: Sequence[float | None] = (),
+        load_angles_rad: Sequence[float] = (),
     ) -> Rotor:
         """Assemble a rotor from element lengths/diameters (n_el,) [m], material and discs.
 
         ``load_split`` "equal" gives each bearing W / n_bearings (the paper); "reactions" gives the
-        support reactions of the rotor on rigid supports at ``bearing_nodes``.
+        support reactions of the rotor on rigid supports at ``bearing_nodes``. ``static_loads_given_n``
+        (one per bearing, None: its share) and ``load_angles_rad`` (one per bearing; empty: every load
+        along -y) give a bearing a static load other than its share of the weight; the rotor then carries
+        the external force that makes up the difference at that bearing's node (``static_force``).
         """
         lengths = np.asarray(element_lengths_m, dtype=float)
         diameters = np.asarray(element_diameters_m, dtype=float)
@@ -133,10 +145,13 @@ class Rotor:
         shaft_mass = float(np.sum(material.density_kg_m3 * np.pi * diameters**2 / 4.0 * lengths))
         total_mass = shaft_mass + sum(d.mass_kg for _, d in discs)
         positions = np.concatenate([[0.0], np.cumsum(lengths)])
-        static_loads = _bearing_loads(
-            stiffness, gravity, tuple(bearing_nodes), total_mass * gravity_m_s2, load_split
-        )
-        for array in (positions, mass, stiffness, gyro, gravity, static_loads):
+        weight = total_mass * gravity_m_s2
+        shares = _bearing_loads(stiffness, gravity, tuple(bearing_nodes), weight, load_split)
+        static_loads, angles, external = _given_loads(shares, static_loads_given_n, load_angles_rad)
+        static_force = gravity.copy()
+        for node, force in zip(bearing_nodes, external, strict=True):
+            static_force[DOF_PER_NODE * (node - 1) : DOF_PER_NODE * (node - 1) + 2] += force
+        for array in (positions, mass, stiffness, gyro, gravity, static_loads, angles, static_force):
             array.setflags(write=False)
         damping = beta * stiffness
         damping.setflags(write=False)
@@ -156,6 +171,8 @@ class Rotor:
             unbalance_phase_rad=float(unbalance_phase_rad),
             bearing_nodes=tuple(int(n) for n in bearing_nodes),
             bearing_static_loads_n=static_loads,
+            bearing_load_angles_rad=angles,
+            static_force=static_force,
         )
 
     @classmethod
@@ -186,6 +203,8 @@ class Rotor:
             unbalance_phase_rad=machine.unbalance.phase_rad,
             bearing_nodes=machine.bearing_nodes,
             load_split=machine.load_split,
+            static_loads_given_n=machine.static_loads_given_n,
+            load_angles_rad=[b.load_angle_rad for b in machine.bearings],
         )
 
     def __repr__(self) -> str:
@@ -238,6 +257,28 @@ def _check_node(label: str, node: int, n_nodes: int) -> None:
         raise InputError(f"{label} must be an integer node number, got {node!r}")
     if not 1 <= node <= n_nodes:
         raise InputError(f"{label} = {node} is not a node of this rotor (nodes 1..{n_nodes})")
+
+
+def _given_loads(
+    shares: np.ndarray, given_n: Sequence[float | None], angles_rad: Sequence[float]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(load magnitudes (n_b,) [N], load angles (n_b,) [rad], external forces (n_b, 2) [N]) of bearings
+    whose weight shares are ``shares``: the given magnitudes and angles where there are, the external
+    force at each bearing the load vector minus the weight share's (0, -share)."""
+    n = shares.size
+    given = list(given_n) or [None] * n
+    angles = np.array(angles_rad, dtype=float) if len(angles_rad) else np.full(n, math.pi)
+    if len(given) != n or angles.shape != (n,):
+        raise InputError(f"static loads and load angles: need one per bearing ({n})")
+    loads = np.array([share if g is None else require_positive("static_load_n", g, "N")
+                      for share, g in zip(shares, given, strict=True)], dtype=float)  # fmt: skip
+    if np.any(~np.isfinite(angles)):
+        raise InputError("load angles must be finite")
+    # the load along bearing angle beta is L (-sin beta, cos beta) = L (sin t, -cos t) with t = beta - pi,
+    # written with t so that a load along -y is exactly (0, -L) and its external force exactly zero
+    turn = angles - math.pi
+    external = np.column_stack([loads * np.sin(turn), shares - loads * np.cos(turn)])
+    return loads, angles, external
 
 
 def _bearing_loads(

@@ -69,7 +69,8 @@ def orbit_semi_axes(response: np.ndarray, node: int) -> tuple[float, float]:
 
 
 def static_deflection(rotor: Rotor, bearings: Sequence[LinearBearing]) -> np.ndarray:
-    """Static displacement (n_dof,) [m, rad] under gravity: (K + K_b) r = gravity_force.
+    """Static displacement (n_dof,) [m, rad] under the static load: (K + K_b) r = static_force (the weight
+    and any external force that makes a bearing's static load the machine file's).
 
     Raises :class:`InputError` if the supports do not hold the rotor (singular stiffness).
     """
@@ -78,4 +79,4 @@ def static_deflection(rotor: Rotor, bearings: Sequence[LinearBearing]) -> np.nda
     # A free rotor's K has condition numbers near 1/eps; supported rotors stay below about 1e11.
     if np.linalg.cond(stiffness) > MAX_CONDITION:
         raise InputError("the bearings do not hold the rotor statically (singular stiffness)")
-    return np.linalg.solve(stiffness, rotor.gravity_force)
+    return np.linalg.solve(stiffness, rotor.static_force)

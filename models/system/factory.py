@@ -322,7 +322,7 @@ def rotor_reduction(machine: Machine, rotor: Rotor, cutoff_hz: float | None = No
     and the unbalance force."""
     bearing_dofs = [rotor.dof(node, axis) for node in rotor.bearing_nodes for axis in ("x", "y")]
     unit_unbalance = rotor.unbalance_amplitude(1.0)
-    loads = np.column_stack([rotor.gravity_force, unit_unbalance.real, unit_unbalance.imag])
+    loads = np.column_stack([rotor.static_force, unit_unbalance.real, unit_unbalance.imag])
     cutoff = machine.reduction_cutoff_hz if cutoff_hz is None else cutoff_hz
     return craig_bampton(rotor.mass_matrix, rotor.stiffness_matrix, bearing_dofs, cutoff, loads)
 

@@ -208,7 +208,7 @@ class NewmarkIntegrator:
         else:
             self._refresh_acceleration()
             k_b, c_b, bearing_load = self._substep_blocks(samples[1:])
-            loads = self.system.gravity_force + bearing_load @ self._select + self._harmonic_load(times[1:])
+            loads = self.system.static_force + bearing_load @ self._select + self._harmonic_load(times[1:])
             state = np.ascontiguousarray(self.state[:, None])
             self.state = self._steps(state, loads[:, :, None], k_b, c_b)[:, 0]
         self._last_flowrates = key if steady else None
@@ -227,13 +227,13 @@ class NewmarkIntegrator:
         c = np.zeros((m, 2 * nb, 2 * nb))
         load = np.zeros((m, 2 * nb))
         held = m > 1 and bool((flowrates == flowrates[0]).all())  # e.g. a speed ramp at constant flowrates
-        for b, (table, w) in enumerate(zip(tables, self.system.static_loads_n, strict=True)):
+        for b, (table, f0) in enumerate(zip(tables, self.system.static_film_forces_n, strict=True)):
             rows = table.evaluate_many(flowrates[:1, b] if held else flowrates[:, b])
             rows = np.broadcast_to(rows, (m, rows.shape[1]))
             sl = slice(2 * b, 2 * b + 2)
             k[:, sl, sl] = rows[:, 2:6].reshape(m, 2, 2)
             c[:, sl, sl] = rows[:, 6:10].reshape(m, 2, 2)
-            load[:, sl] = np.array([0.0, w]) + np.einsum("mij,mj->mi", k[:, sl, sl], rows[:, 0:2])
+            load[:, sl] = f0 + np.einsum("mij,mj->mi", k[:, sl, sl], rows[:, 0:2])
         return k, c, load
 
     def _steps(self, state: np.ndarray, loads: np.ndarray, k_b: np.ndarray, c_b: np.ndarray) -> np.ndarray:
@@ -296,7 +296,7 @@ class NewmarkIntegrator:
         """
         n, n2 = self.n, 2 * self.n
         blocks = self._bearing_blocks(flows)
-        constant = self.system.gravity_force + self._select.T @ blocks[2]
+        constant = self.system.static_force + self._select.T @ blocks[2]
         unit = self.system.unit_unbalance_load(flows, self.speed_rad_s)
         cosine, sine = unit.real, -unit.imag
         columns = np.zeros((3 * n, n2 + 3))

@@ -1,7 +1,8 @@
 """The rotor on its two transient p-theta films: nonlinear time integration (the high-fidelity reference).
 
 The reduced rotor (Craig-Bampton, bearing dofs physical, see :mod:`oilwatch.models.system.reduction`) carries
-gravity, the unbalance of Eqs. 5-6 and the film forces of both bearings, each computed by a
+its static load g (the weight and any external force its machine file gives a bearing), the unbalance of
+Eqs. 5-6 and the film forces of both bearings, each computed by a
 :class:`oilwatch.models.bearing.transient.TransientFilm` from the journal's position and the film content of
 the previous steps (no linearization anywhere):
 
@@ -24,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..bearing.equilibrium import coefficients_at, static_equilibrium
+from ..bearing.equilibrium import coefficients_at, film_force_at_equilibrium, static_equilibrium
 from ..bearing.film import solve_film
 from ..bearing.grid import Mesh
 from ..bearing.supply import SupplyFlow
@@ -44,18 +45,21 @@ LOOSE_TOLERANCE_M = 1e-9
 class ReducedRotor:
     """Rotor matrices at one speed in Craig-Bampton coordinates (SI); no bearings.
 
-    mass, damping (C_s + Omega G), stiffness (n, n); gravity (n,); unbalance (n,) complex (load
-    Re(F_u exp(i Omega t))); bearing_maps (n_bearings, 2, n); static_loads_n (n_bearings,);
+    mass, damping (C_s + Omega G), stiffness (n, n); static_force (n,) the weight and any external
+    static force (:attr:`Rotor.static_force`); unbalance (n,) complex (load Re(F_u exp(i Omega t)));
+    bearing_maps (n_bearings, 2, n); static_loads_n (n_bearings,); static_film_forces_n (n_bearings, 2) the
+    film force f0 at each equilibrium;
     speed_hz; rotor the full finite-element rotor; transform (n_dof, n).
     """
 
     mass: np.ndarray
     damping: np.ndarray
     stiffness: np.ndarray
-    gravity: np.ndarray
+    static_force: np.ndarray
     unbalance: np.ndarray
     bearing_maps: np.ndarray
     static_loads_n: np.ndarray
+    static_film_forces_n: np.ndarray
     speed_hz: float
     rotor: Rotor
     transform: np.ndarray
@@ -77,7 +81,13 @@ def reduced_rotor(machine: Machine, speed_hz: float) -> ReducedRotor:
         mass=t.T @ rotor.mass_matrix @ t,
         damping=t.T @ (rotor.damping_matrix + omega * rotor.gyroscopic_matrix) @ t,
         stiffness=t.T @ rotor.stiffness_matrix @ t,
-        gravity=t.T @ rotor.gravity_force,
+        static_force=t.T @ rotor.static_force,
+        static_film_forces_n=np.array(
+            [
+                film_force_at_equilibrium(w, a)
+                for w, a in zip(rotor.bearing_static_loads_n, rotor.bearing_load_angles_rad, strict=True)
+            ]
+        ).reshape(-1, 2),
         unbalance=t.T @ force,
         bearing_maps=maps,
         static_loads_n=np.asarray(rotor.bearing_static_loads_n, dtype=float),
@@ -173,7 +183,7 @@ class NonlinearRotorBearing:
         return self._iteration[beta_film]
 
     def static_state(self, flowrates_m3_s: Sequence[float], time_s: float = 0.0) -> NonlinearState:
-        """Static equilibrium under gravity with steady films at the flowrates (no unbalance)."""
+        """Static equilibrium under the static load with steady films at the flowrates (no unbalance)."""
         r = self.rotor
         inverse = np.linalg.inv(
             r.stiffness
@@ -181,10 +191,10 @@ class NonlinearRotorBearing:
         )
         guess = np.concatenate([eq.eccentricity_m for eq in self.equilibria])
         coords = inverse @ (
-            r.gravity
+            r.static_force
             + self.selector.T
             @ (
-                np.concatenate([np.array([0.0, w]) for w in r.static_loads_n])
+                r.static_film_forces_n.reshape(-1)
                 + block_diagonal([k for k, _ in self.film_coefficients]) @ guess
             )
         )
@@ -205,7 +215,7 @@ class NonlinearRotorBearing:
                 )
             ]
             force = np.concatenate([f.force_n for f in films])
-            residual = r.gravity + self.selector.T @ force - r.stiffness @ coords
+            residual = r.static_force + self.selector.T @ force - r.stiffness @ coords
             step = inverse @ residual
             coords = coords + step
             if np.abs(self.selector @ step).max() < 1e-13:
@@ -239,7 +249,7 @@ class NonlinearRotorBearing:
 
     def external_load(self, time_s: float) -> np.ndarray:
         """Gravity plus the unbalance load at ``time_s`` (n,) [N]."""
-        load = self.rotor.gravity.copy()
+        load = self.rotor.static_force.copy()
         if self.unbalance:
             load += (self.rotor.unbalance * np.exp(1j * self.omega * time_s)).real
         return load

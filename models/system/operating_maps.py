@@ -49,12 +49,12 @@ mu)."""
 class OperatingMaps:
     """Exact maps of ``system`` (reduced or full) with its bearings on the dimensionless ``table``.
 
-    ``system`` supplies the rotor (mass, stiffness, structural damping, gyroscopic matrix, gravity, unbalance
-    force at its own speed), the bearing dofs and each bearing's static load; its flowrate tables are not
-    used. ``table``: one dimensionless table for every bearing, or one per bearing (bearings of another
-    clearance: :meth:`OperatingTable.with_clearance`). ``synchronous_table``: likewise, the table of the
-    synchronous coefficients, for the 1x load of a system with synchronous tables (None: the unbalance force
-    itself).
+    ``system`` supplies the rotor (mass, stiffness, structural damping, gyroscopic matrix, static load,
+    unbalance force at its own speed), the bearing dofs and each bearing's static load; its flowrate
+    tables are not used. ``table``: one dimensionless table for every bearing, or one per bearing (bearings
+    of another clearance: :meth:`OperatingTable.with_clearance`). ``synchronous_table``: likewise, the
+    table of the synchronous coefficients, for the 1x load of a system with synchronous tables (None: the
+    unbalance force itself).
     """
 
     def __init__(
@@ -76,15 +76,16 @@ class OperatingMaps:
         self._structural_damping = system.damping - system.omega_rad_s * system.gyroscopic
         self._reference_omega = system.omega_rad_s
         self._loads = system.static_loads_n
+        self._film_forces = system.static_film_forces_n
         self._mass_lu = lu_factor(system.mass)
         self._slices: dict[tuple[int, float, float, bool], object] = {}  # least recently used first
         # M^-1 of what the block's rows are linear in, once: the rotor's stiffness, structural damping,
-        # gyroscopic matrix and gravity, and each bearing's map P_b^T (a block is then small products)
+        # gyroscopic matrix and static load, and each bearing's map P_b^T (a block is then small products)
         mass_lu = self._mass_lu
         self._minv_stiffness = lu_solve(mass_lu, system.stiffness)
         self._minv_damping = lu_solve(mass_lu, self._structural_damping)
         self._minv_gyroscopic = lu_solve(mass_lu, system.gyroscopic)
-        self._minv_gravity = lu_solve(mass_lu, system.gravity_force)
+        self._minv_static = lu_solve(mass_lu, system.static_force)
         self._minv_map_stack = np.array([lu_solve(mass_lu, p.T) for p in system.bearing_maps])
         self._minv = lu_solve(mass_lu, np.eye(n))
         self._select = system.bearing_maps.reshape(-1, n)
@@ -155,10 +156,8 @@ class OperatingMaps:
             + omega[:, None, None] * self._minv_gyroscopic
             + np.einsum("bia,pbac,bcj->pij", minv_maps, c, maps)
         )
-        loads = np.zeros((count, nb, 2))
-        loads[:, :, 1] = self._loads
-        loads += np.einsum("pbac,pbc->pba", k, e)
-        force = self._minv_gravity + np.einsum("bia,pba->pi", minv_maps, loads)
+        loads = self._film_forces + np.einsum("pbac,pbc->pba", k, e)
+        force = self._minv_static + np.einsum("bia,pba->pi", minv_maps, loads)
         unbalance = self._unbalance_forces(synchronous, omega, k, c)  # (P, n) complex
         block = np.zeros((count, 2 * n + 3, 2 * n + 3))
         block[:, :n, n : 2 * n] = np.eye(n)

@@ -1,12 +1,15 @@
 """The rotor on its two fluid-film bearings: Eqs. 2-10 of the paper, in full or reduced coordinates.
 
 Each bearing's film force on the journal is linearized about the equilibrium ``e0(q)`` that the
-coefficient table gives for the bearing's share of the static load ``W_b`` (Lund's convention, see
+coefficient table gives for the bearing's static load ``W_b`` (Lund's convention, see
 ``oilwatch.models.bearing``)::
 
-    f = f0 - K(q) (r_b - e0(q)) - C(q) dr_b/dt,    f0 = (0, W_b).
+    f = f0 - K(q) (r_b - e0(q)) - C(q) dr_b/dt,    f0 = (0, W_b) for a load along -y,
 
-With the rotor's gravity load g and the unbalance force of Eqs. 5-6 this gives::
+f0 the film force that balances the load along its own direction otherwise
+(:func:`~oilwatch.models.bearing.equilibrium.film_force_at_equilibrium`). With the rotor's constant load g
+(its weight, and the external force at a bearing whose machine file gives its load: ``Rotor.static_force``)
+and the unbalance force of Eqs. 5-6 this gives::
 
     M r'' + (C_s + Omega G + C_b(q)) r' + (K_s + K_b(q)) r
         = g + sum_b P_b^T (f0 + K_b e0) + Re(F_u exp(i Omega t))
@@ -42,6 +45,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy.linalg import lu_factor, lu_solve, solve
 
+from ..bearing.equilibrium import film_force_at_equilibrium
 from ..rotor.assembly import Rotor
 from ..rotor.pedestals import Pedestals
 from ..validation import InputError, require_finite, require_non_negative, require_positive
@@ -129,7 +133,7 @@ class RotorBearingSystem:
         self.damping = (
             transform.T @ (rotor.damping_matrix + self.omega_rad_s * rotor.gyroscopic_matrix) @ transform
         )
-        self.gravity_force = transform.T @ rotor.gravity_force
+        self.static_force = transform.T @ rotor.static_force
         self.gyroscopic = transform.T @ rotor.gyroscopic_matrix @ transform
         moment = rotor.unbalance_moment_kg_m if unbalance_moment_kg_m is None else unbalance_moment_kg_m
         phase = rotor.unbalance_phase_rad if unbalance_phase_rad is None else unbalance_phase_rad
@@ -162,6 +166,13 @@ class RotorBearingSystem:
                 raise InputError("pedestals need the full model (reduced=False)")
             self._append_pedestals(pedestals, len(rotor.bearing_nodes))
         self.static_loads_n = np.asarray(rotor.bearing_static_loads_n, dtype=float)
+        #: (n_bearings, 2) each film's force at its equilibrium, f0, against its static load [N]
+        self.static_film_forces_n = np.array(
+            [
+                film_force_at_equilibrium(load, angle)
+                for load, angle in zip(self.static_loads_n, rotor.bearing_load_angles_rad, strict=True)
+            ]
+        ).reshape(-1, 2)
         self.n_coordinates = self.transform.shape[1]
         self.n_states = 2 * self.n_coordinates
         self._mass_lu = lu_factor(self.mass)
@@ -187,7 +198,7 @@ class RotorBearingSystem:
         self.gyroscopic = grown(self.gyroscopic, none)
         self.transform = grown(self.transform, np.eye(extra))
         pad = np.zeros(extra)
-        self.gravity_force = np.concatenate([self.gravity_force, pad])
+        self.static_force = np.concatenate([self.static_force, pad])
         self.unbalance_force = np.concatenate([self.unbalance_force, pad])
         self.unit_unbalance_force = np.concatenate([self.unit_unbalance_force, pad])
         maps = np.concatenate([self.bearing_maps, np.zeros((*self.bearing_maps.shape[:2], extra))], axis=2)
@@ -220,18 +231,18 @@ class RotorBearingSystem:
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Return ``(M, D, K, f_static)`` at the flowrates.
 
-        ``D`` and ``K`` include the bearings, ``f_static`` (n,) is the constant load (gravity, ``f0`` and
-        ``K_b e0`` terms). The harmonic unbalance load is ``self.unbalance_force`` (complex, (n,)).
+        ``D`` and ``K`` include the bearings, ``f_static`` (n,) is the constant load (``static_force``, ``f0``
+        and ``K_b e0`` terms). The harmonic unbalance load is ``self.unbalance_force`` (complex, (n,)).
         """
         damping = self.damping.copy()
         stiffness = self.stiffness.copy()
-        force = self.gravity_force.copy()
-        for p, state, load in zip(
-            self.bearing_maps, self.bearing_states(flowrates_m3_s), self.static_loads_n, strict=True
+        force = self.static_force.copy()
+        for p, state, f0 in zip(
+            self.bearing_maps, self.bearing_states(flowrates_m3_s), self.static_film_forces_n, strict=True
         ):
             stiffness += p.T @ state.stiffness @ p
             damping += p.T @ state.damping @ p
-            force += p.T @ (np.array([0.0, load]) + state.stiffness @ state.equilibrium_m)
+            force += p.T @ (f0 + state.stiffness @ state.equilibrium_m)
         return self.mass, damping, stiffness, force
 
     def state_space(self, flowrates_m3_s: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
@@ -272,7 +283,7 @@ class RotorBearingSystem:
         raise InputError(f"hold must be 'harmonic' or 'zoh', got {hold!r}")
 
     def static_coordinates(self, flowrates_m3_s: Sequence[float]) -> np.ndarray:
-        """Static coordinates (n,) under gravity and the bearing loads at the flowrates."""
+        """Static coordinates (n,) under the static load and the bearing loads at the flowrates."""
         _, _, stiffness, force = self.second_order(flowrates_m3_s)
         return solve(stiffness, force)
 

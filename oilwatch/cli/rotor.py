@@ -63,6 +63,7 @@ def summary(machine, rotor) -> dict:
         "bearing_nodes": list(rotor.bearing_nodes),
         "load_split": machine.load_split,
         "bearing_static_loads_n": rotor.bearing_static_loads_n.tolist(),
+        "bearing_load_angles_deg": [math.degrees(a) for a in rotor.bearing_load_angles_rad],
         "nominal_speed_hz": machine.nominal_speed_hz,
         "unbalance_node": rotor.unbalance_node,
         "unbalance_iso_grade_mm_s": 1e3 * machine.unbalance.iso_grade_m_s,
@@ -91,9 +92,11 @@ def run(args: argparse.Namespace) -> int:
         f"mass: shaft {info['shaft_mass_kg']:.2f} kg + discs {disc_masses} kg "
         f"= {info['total_mass_kg']:.2f} kg; weight {info['weight_n']:.1f} N"
     )
+    bearings = zip(
+        info["bearing_nodes"], info["bearing_static_loads_n"], info["bearing_load_angles_deg"], strict=True
+    )
     loads = ", ".join(
-        f"node {n}: {w:.1f} N"
-        for n, w in zip(info["bearing_nodes"], info["bearing_static_loads_n"], strict=True)
+        f"node {n}: {w:.1f} N" + ("" if a == 180.0 else f" along {a:g} deg") for n, w, a in bearings
     )
     print(f"bearing static loads ({info['load_split']} split): {loads}")
     print(
