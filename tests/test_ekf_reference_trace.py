@@ -1,11 +1,12 @@
 """The estimator step gives the estimates of the step before it (fixtures/ekf_reference_trace.py).
 
-The stored records were run through the estimator of commit 1f59dcc (with today's synchronous 1x load at
-the instantaneous speed, see the script); today's must agree within 1e-7 of each field's largest value on
-the estimates, their stds and the NIS, and exactly on the counts and flags. Not bit for bit: the trace is
-replayed on other CPUs and other numpy and numba releases, whose roundoff (vector widths, the reassociated
-sums of the fast-math kernels) the filter carries to a few 1e-9 of the flowrate over the ramps case's 3000
-steps; a change of the filter's behaviour moves the estimates by orders of magnitude more.
+The stored records were run through the estimator's step before it was made faster (with the synchronous
+1x load at the instantaneous speed, see the script); the estimator must agree within 1e-7 of each field's
+largest value on the estimates, their stds and the NIS, and exactly on the counts and flags. Not bit for
+bit: the trace is replayed on other CPUs and other numpy and numba releases, whose roundoff (vector
+widths, the reassociated sums of the fast-math kernels) the filter carries to a few 1e-9 of the flowrate
+over the ramps case's 3000 steps; a change of the filter's behaviour moves the estimates by orders of
+magnitude more.
 """
 
 from __future__ import annotations

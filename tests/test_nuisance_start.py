@@ -6,7 +6,7 @@ factors with no baseline, from its usual start (zero dynamic states). Without th
 the unsettled states walk the estimate along the nearly unobservable direction (measured after 1.5 s:
 -14.0 / -11.9 % at a std of 1.9 / 1.7 %); with them it stays put (-0.002 % at 4.4 / 4.2 %, the std the
 record's information allows). Those figures, and the alarm times below, were measured on the operating
-model's first-order correction at its thresholds until session 8 (``first_order``), where the two tests that
+model's first-order correction at its coarser thresholds (``first_order``), where the two tests that
 need the filter without remedies to go wrong still run. The second-order model at its halved thresholds
 (``model``) took part of that walk away (-5.8 / -4.4 % at 3.8 / 3.5 % after 1.5 s: the first-order
 correction's error along the same direction had added to it); its own test is the last one.
@@ -36,10 +36,11 @@ def model():
 
 @pytest.fixture(scope="module")
 def first_order(model):
-    """``model``'s grid and maps with the first-order correction at the thresholds until session 8."""
-    until_session_8 = Recentring(log_viscosity=0.03, flowrate_fraction=0.015, min_interval_steps=200)
+    """``model``'s grid and maps with the first-order correction at coarser thresholds: 1.5 % of flow and 0.03
+    in ln mu."""
+    coarse = Recentring(log_viscosity=0.03, flowrate_fraction=0.015, min_interval_steps=200)
     return OperatingAugmentedModel(
-        model.reference, model.maps, model.oil, model.reference_viscosity_pa_s, until_session_8, ()
+        model.reference, model.maps, model.oil, model.reference_viscosity_pa_s, coarse, ()
     )
 
 

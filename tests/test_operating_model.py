@@ -18,8 +18,8 @@ from oilwatch.models.validation import InputError
 MACHINE = load_machine()
 T0 = MACHINE.nominal_oil_temperature_c
 FLOW, SPEED, LOG_MU = 0.015, 0.02, 0.03
-"""Distances the centre is put away in: fractions of nominal flowrate and speed, and ln mu (the re-centring
-thresholds until session 8: fixed here whatever the model's thresholds)."""
+"""Distances the centre is put away in: fractions of nominal flowrate and speed, and ln mu (the coarser
+re-centring thresholds, fixed here whatever the model's thresholds)."""
 
 
 @pytest.fixture(scope="module")
@@ -137,7 +137,7 @@ def test_bad_operating_point_is_one_clear_error(model):
 def test_second_order_terms_follow_the_exact_map_at_the_hard_limit_from_the_centre(held, first_order):
     """78 Hz, oil +10 degC, flowrates 80 / 90 %, the centre 3 % of flow and 0.06 in ln mu away in each
     bearing's flowrate and viscosity (four of the model's thresholds: as far as the estimate gets before
-    the centre follows it; where noise takes it, README "Session 7"): the static position within 0.06 um
+    the centre follows it, or noise takes it): the static position within 0.06 um
     of the exact map's and the orbit within 0.04 um (measured 0.042 / 0.029 um; at first order 0.288 /
     0.056 um), against 0.14 um per % of flow."""
     q = np.array([0.8, 0.9]) * held.nominal_flowrates_m3_s

@@ -6,9 +6,9 @@ axis pair, :mod:`oilwatch.models.system.operating_correction`; refilled in place
 pairs, the output arrays and one float array ``held`` of what the transition depends on besides its arguments
 (the held operating point, the correction's centre and the re-centring thresholds; layout ``HELD_*``). A
 transition is then one compiled call, :func:`operating_transition`, which also makes the per-step decisions
-(whether the correction applies, whether the centre must move first) that used to be Python. It is a plain
-tuple, not a NamedTuple or a structref: numba types a tuple of arrays on its fast dispatch path and caches the
-functions that take it.
+(whether the correction applies, whether the centre must move first) in compiled code, not Python. It is a
+plain tuple, not a NamedTuple or a structref: numba types a tuple of arrays on its fast dispatch path and
+caches the functions that take it.
 """
 
 from __future__ import annotations
@@ -43,7 +43,7 @@ RECENTRE = -1
 GRID_ONLY = 0
 CORRECTED = 1
 """:func:`operating_transition`'s answers: the centre must first move to the point in ``held[HELD_POINT:]``
-(nothing computed); or the transition is in the output arrays, today's grid map exactly (the reference
+(nothing computed); or the transition is in the output arrays, the grid map exactly (the reference
 point, no factors) or corrected."""
 
 
@@ -116,7 +116,7 @@ def operating_transition(
     Jacobians are another state's, the shadow of :mod:`oilwatch.estimator.nuisance_start`; the state
     Jacobian is the same at every state).
 
-    As the model's docstring: at the reference point without factors today's grid map exactly; else the
+    As the model's docstring: at the reference point without factors the grid map exactly; else the
     correction ``sum_k c_k (A_k s + G_k w)`` with ``c = (1, d, w_ij d_i d_j)``, ``d = (q - q_c, p - p_c)``,
     ``w_ii = 1/2`` and ``w_ij = 1`` over the second-order pairs (``c = 0`` at the reference point: only the
     factor Jacobian), and the centre is due to move when the point is more than

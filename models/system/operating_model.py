@@ -1,6 +1,6 @@
 """The estimator's model at the measured speed and oil temperature, with a viscosity factor per bearing.
 
-:class:`OperatingAugmentedModel` keeps today's exact (q1, q2) grid (``GridAugmentedModel``, built at the
+:class:`OperatingAugmentedModel` keeps the exact (q1, q2) grid (``GridAugmentedModel``, built at the
 machine's nominal speed and viscosity: the reference operating point p0) and adds a re-centred correction for
 the operating point ``p = (speed, ln mu1, ln mu2)``, ``mu_b = mu_oil(T) f_b`` (the machine's oil law at the
 measured temperature times bearing b's viscosity factor), with ``x = (q, p)`` and ``d = x - x_c``::
@@ -20,7 +20,7 @@ every 0.1 s unless it is four thresholds away (a re-centring is one stacked asse
 exponentials of the (2n + 3) block with 14 Frechet derivatives, :mod:`frechet`: about 8 ms of CPU for the
 turbine's 26 states, 3.4 ms at first order). A -40 % viscosity change is thus
 followed by re-centring, never by a step from p0. At p = p0 the correction is not applied at all: at
-constant nominal conditions this is today's model, bit for bit.
+constant nominal conditions this is the grid model, bit for bit.
 
 The unbalance phase is the integral of the measured speed (held over each period, as the plant does), or
 the keyphasor's angle when given (:meth:`set_operating_point`).
@@ -161,7 +161,7 @@ class OperatingAugmentedModel:
                 raise InputError(f"oil_temperature_c must be finite, got {oil_temperature_c!r}")
             log_viscosity = math.log(self.oil.dynamic_viscosity_pa_s(temperature))
             if abs(log_viscosity - self._log_mu0) < SAME_VISCOSITY:
-                log_viscosity = self._log_mu0  # the nominal temperature: today's model exactly
+                log_viscosity = self._log_mu0  # the nominal temperature: the grid model exactly
         if speed != self._speed and self._last_step is not None:
             # the phase goes on from where the previous speed took it
             following = self._last_step + 1
@@ -385,11 +385,11 @@ start (the estimator FMU's warm-up in initialization, then its first steps; ever
 takes them instead of computing them again (a re-centring is milliseconds of CPU)."""
 
 REFERENCE_TABLES = ("flowrate", "dimensionless")
-"""What the exact (q1, q2) grid at p0 is built on: the machine's flowrate table at the nominal speed (today's
-estimator, the plant's ``bearing_table = 0``) or the dimensionless table (the plant's ``bearing_table = 1``),
-which the corrections use. With "flowrate" the two tables' difference near p0 is carried into every operating
-point: mixing the grid's stiffness with the correction's equilibrium shift costs static position at
-+10 degC, so follow large excursions on "dimensionless"."""
+"""What the exact (q1, q2) grid at p0 is built on: the machine's flowrate table at the nominal speed (the
+grid estimator's, the plant's ``bearing_table = 0``) or the dimensionless table (the plant's
+``bearing_table = 1``), which the corrections use. With "flowrate" the two tables' difference near p0 is
+carried into every operating point: mixing the grid's stiffness with the correction's equilibrium shift costs
+static position at +10 degC, so follow large excursions on "dimensionless"."""
 
 
 def build_operating_model(
