@@ -33,18 +33,20 @@ except ModuleNotFoundError:  # Python 3.10, where an FMU may run: it reads its m
     tomllib = None
 
 from .bearing.coefficient_kinds import DEFAULT_KIND, require_kind
-from .bearing.geometry import JournalBearing
+from .bearing.geometry import DOWNWARD_LOAD_RAD, JournalBearing
 from .bearing.supply import ML_MIN_PER_M3_S
 from .machine_fields import as_node, frozen_array, read_key, read_positive_array, read_real, read_table
 from .machine_sections import (
     Disc,
     Lubrication,
     Material,
+    StaticForce,
     Unbalance,
     read_bearings,
     read_discs,
     read_lubrication,
     read_oil,
+    read_static_forces,
     read_static_loads,
 )
 from .oil import Oil
@@ -110,6 +112,9 @@ class Machine:
         gives one (``static_load_n``: a gear mesh, a belt, a process force), None where it carries its
         share of the weight; its direction is ``bearings[i].load_angle_rad``. Empty: every bearing carries
         its share.
+    static_forces : steady forces on the rotor (``[[static_forces]]``: a gear mesh, a belt, a process force);
+        with them each bearing's static load, magnitude and direction, is the statics' (its weight share plus
+        its support reaction to the forces), and ``bearings[i].load_angle_rad`` holds that direction.
     lubrication : nominal supply (each bearing's nominal flowrate: ``lubrication.nominal_flowrates_m3_s``;
         :meth:`shared_nominal_flowrate_m3_s` the one of a machine whose bearings' nominals are alike).
     structural_damping_s : stiffness-proportional rotor damping coefficient beta [s], C = beta K
@@ -145,6 +150,7 @@ class Machine:
     dynamic_coefficients: str = DEFAULT_KIND
     reduction_cutoff_hz: float = DEFAULT_REDUCTION_CUTOFF_HZ
     static_loads_given_n: tuple[float | None, ...] = ()
+    static_forces: tuple[StaticForce, ...] = ()
 
     def __repr__(self) -> str:
         return (
@@ -263,6 +269,28 @@ def _with_nominal_flowrates(machine: Machine) -> Machine:
     return replace(machine, lubrication=lubrication)
 
 
+def _with_static_load_directions(machine: Machine) -> Machine:
+    """``machine`` with each bearing's load direction the statics' when the file gives ``[[static_forces]]``
+    (:attr:`Rotor.bearing_load_angles_rad`, solved with the forces); the file then gives no bearing's load
+    itself."""
+    if not machine.static_forces:
+        return machine
+    given = [i for i, load in enumerate(machine.static_loads_given_n) if load is not None]
+    turned = [i for i, b in enumerate(machine.bearings) if b.load_angle_rad != DOWNWARD_LOAD_RAD]
+    if given or turned:
+        raise InputError(
+            "[[static_forces]] make each bearing's static load the statics': give them, or a bearing's "
+            f"load (static_load_n, load_angle_deg: bearing {(given or turned)[0] + 1}), not both"
+        )
+    from .rotor.assembly import Rotor
+
+    angles = Rotor.from_machine(machine).bearing_load_angles_rad
+    bearings = tuple(
+        replace(b, load_angle_rad=float(a)) for b, a in zip(machine.bearings, angles, strict=True)
+    )
+    return replace(machine, bearings=bearings)
+
+
 def machine_from_dict(data: Mapping[str, Any], source_path: Path | str = "<dict>") -> Machine:
     """Validate a parsed machine file and return the :class:`Machine` in SI units.
 
@@ -334,8 +362,9 @@ def machine_from_dict(data: Mapping[str, Any], source_path: Path | str = "<dict>
         ),
         reduction_cutoff_hz=cutoff,
         static_loads_given_n=read_static_loads(data, bearing_nodes),
+        static_forces=read_static_forces(data, n_nodes),
     )
-    return _with_nominal_flowrates(machine)
+    return _with_nominal_flowrates(_with_static_load_directions(machine))
 
 
 def load_machine(path: str | Path | None = None) -> Machine:

@@ -83,6 +83,23 @@ MACHINE_KEYS: tuple[MachineKey, ...] = (
         "no disc",
     ),
     _key(
+        "static_forces[]",
+        "node",
+        "a node number 1..n",
+        "Node of a steady force on the rotor (a gear mesh at a pinion, a belt on a pulley, a process force): "
+        "each bearing's static load, magnitude and direction, is then its weight share plus its support "
+        "reaction to the forces. Not with a bearing's own static_load_n or load_angle_deg.",
+        "no force",
+    ),
+    _key("static_forces[]", "force_n", "> 0", "Magnitude of the force.", "no force"),
+    _key(
+        "static_forces[]",
+        "angle_deg",
+        "any number",
+        "Direction of the force, as a groove's angle (from the top, with the rotation; 180 is down).",
+        "no force",
+    ),
+    _key(
         "unbalance",
         "iso_grade_mm_s",
         ">= 0",

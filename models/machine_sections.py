@@ -53,6 +53,21 @@ class Disc:
 
 
 @dataclass(frozen=True)
+class StaticForce:
+    """A steady force on the rotor at ``node`` (paper numbering from 1): a gear mesh at a pinion, a belt on a
+    pulley, a process force on an impeller. ``force_n`` [N] along the bearing angle ``angle_rad`` [rad] (the
+    grooves' convention: from the top, +y, in the direction of rotation; pi is down)."""
+
+    node: int
+    force_n: float
+    angle_rad: float
+
+    def vector_n(self) -> tuple[float, float]:
+        """(F_x, F_y) [N]: the force along bearing angle beta is F (-sin beta, cos beta)."""
+        return -self.force_n * math.sin(self.angle_rad), self.force_n * math.cos(self.angle_rad)
+
+
+@dataclass(frozen=True)
 class Unbalance:
     """Residual unbalance by ISO 1940 balance grade: e = grade / Omega_nominal.
 
@@ -96,16 +111,21 @@ def shaft_diameter_at_node(diameters_m: np.ndarray, node: int) -> float:
     return float(max(diameters_m[k] for k in adjacent))
 
 
+def _entries(data: Mapping[str, Any], name: str) -> list[tuple[str, Mapping[str, Any]]]:
+    """The tables of the ``[[name]]`` array (none when absent) with their section names, ``name[i]``."""
+    entries = data.get(name, [])
+    if not isinstance(entries, list):
+        raise InputError(f"[[{name}]] must be an array of tables")
+    for i, entry in enumerate(entries):
+        if not isinstance(entry, Mapping):
+            raise InputError(f"{name}[{i}] must be a table")
+    return [(f"{name}[{i}]", entry) for i, entry in enumerate(entries)]
+
+
 def read_discs(data: Mapping[str, Any], diameters: np.ndarray, n_nodes: int) -> tuple[Disc, ...]:
     """The ``[[discs]]`` array (none when absent); each bore is the shaft diameter at its node."""
-    entries = data.get("discs", [])
-    if not isinstance(entries, list):
-        raise InputError("[[discs]] must be an array of tables")
     discs = []
-    for i, entry in enumerate(entries):
-        section = f"discs[{i}]"
-        if not isinstance(entry, Mapping):
-            raise InputError(f"{section} must be a table")
+    for section, entry in _entries(data, "discs"):
         node = as_node(read_key(entry, section, "node"), f"{section}.node", n_nodes)
         width = read_real(entry, section, "width_mm", "mm") / 1e3
         outer = read_real(entry, section, "outer_diameter_mm", "mm") / 1e3
@@ -117,6 +137,17 @@ def read_discs(data: Mapping[str, Any], diameters: np.ndarray, n_nodes: int) -> 
             )
         discs.append(Disc(node, width, outer, bore))
     return tuple(discs)
+
+
+def read_static_forces(data: Mapping[str, Any], n_nodes: int) -> tuple[StaticForce, ...]:
+    """The ``[[static_forces]]`` array (none when absent)."""
+    forces = []
+    for section, entry in _entries(data, "static_forces"):
+        node = as_node(read_key(entry, section, "node"), f"{section}.node", n_nodes)
+        force = read_real(entry, section, "force_n", "N")
+        angle = math.radians(read_real(entry, section, "angle_deg", "deg", low=None))
+        forces.append(StaticForce(node, force, angle))
+    return tuple(forces)
 
 
 def read_bearings(

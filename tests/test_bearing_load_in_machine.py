@@ -176,3 +176,91 @@ def test_bad_load_values_are_refused_in_one_line(tmp_path, keys, message):
     with pytest.raises(InputError, match=re.escape(message)) as error:
         side_loaded(tmp_path, **keys)
     assert "\n" not in str(error.value)
+
+
+GEAR_NODE, GEAR_FORCE_N, GEAR_ANGLE_DEG = 13, 5000.0, 100.0
+"""A gear mesh force at the central disc, nearly horizontal (towards -x, 10 deg below)."""
+
+
+def with_forces(folder, forces, load_split="reactions", override=""):
+    entries = "".join(
+        f"[[static_forces]]\nnode = {node}\nforce_n = {force}\nangle_deg = {angle}\n\n"
+        for node, force, angle in forces
+    )
+    path = folder / "gear.toml"
+    path.write_text(machine_text(override + "\n" + entries, load_split), encoding="utf-8")
+    return load_machine(path)
+
+
+def test_static_forces_load_the_bearings_by_the_lever_rule(tmp_path):
+    """On two bearings the rotor is statically determinate: each bearing's share of a force is the lever
+    rule's, whatever the shaft's stiffness; its load is its weight share plus that."""
+    machine = with_forces(tmp_path, [(GEAR_NODE, GEAR_FORCE_N, GEAR_ANGLE_DEG)])
+    rotor = Rotor.from_machine(machine)
+    plain = Rotor.from_machine(
+        dataclasses.replace(machine, static_forces=(), bearings=(machine.bearings[0],) * 2)
+    )
+    z = rotor.node_positions_m
+    z1, z2, zf = (z[n - 1] for n in (*rotor.bearing_nodes, GEAR_NODE))
+    beta = math.radians(GEAR_ANGLE_DEG)
+    force = GEAR_FORCE_N * np.array([-math.sin(beta), math.cos(beta)])
+    for b, lever in enumerate(((z2 - zf) / (z2 - z1), (zf - z1) / (z2 - z1))):
+        load = np.array([0.0, -plain.bearing_static_loads_n[b]]) + lever * force
+        assert rotor.bearing_static_loads_n[b] == pytest.approx(np.hypot(*load), rel=1e-9)
+        along = rotor.bearing_static_loads_n[b] * np.array(
+            [-math.sin(rotor.bearing_load_angles_rad[b]), math.cos(rotor.bearing_load_angles_rad[b])]
+        )
+        np.testing.assert_allclose(along, load, rtol=1e-9)
+        # the machine's bearings hold the statics' direction, for their tables
+        assert machine.bearings[b].load_angle_rad == rotor.bearing_load_angles_rad[b]
+    extra = rotor.static_force - rotor.gravity_force  # the force where it acts, nothing at the bearings
+    np.testing.assert_allclose(
+        extra[[rotor.dof(GEAR_NODE, "x"), rotor.dof(GEAR_NODE, "y")]], force, rtol=1e-13
+    )
+    assert np.count_nonzero(extra) == 2
+
+
+def test_a_static_force_at_a_bearing_is_that_bearings_given_load(tmp_path):
+    node = load_machine().bearing_nodes[1]
+    beta = math.radians(SIDE_ANGLE_DEG)
+    share = Rotor.from_machine(with_forces(tmp_path, [])).bearing_static_loads_n[1]  # reactions split
+    side = SIDE_LOAD_N * np.array([-math.sin(beta), math.cos(beta)]) - np.array([0.0, -share])
+    force_n, angle = float(np.hypot(*side)), math.degrees(math.atan2(-side[0], side[1]))
+    forced = Rotor.from_machine(with_forces(tmp_path, [(node, force_n, angle)]))
+    given = Rotor.from_machine(side_loaded(tmp_path))
+    np.testing.assert_allclose(forced.bearing_static_loads_n, given.bearing_static_loads_n, rtol=1e-9)
+    np.testing.assert_allclose(forced.bearing_load_angles_rad, given.bearing_load_angles_rad, rtol=1e-9)
+    np.testing.assert_allclose(forced.static_force, given.static_force, rtol=0, atol=1e-9 * SIDE_LOAD_N)
+
+
+def test_with_static_forces_the_system_holds_each_journal_at_its_tables_equilibrium(tmp_path):
+    machine = with_forces(tmp_path, [(GEAR_NODE, GEAR_FORCE_N, GEAR_ANGLE_DEG)])
+    rotor = Rotor.from_machine(machine)
+    q = tuple(machine.lubrication.nominal_flowrates_m3_s)
+    tables = [
+        compute_table(bearing, load, machine.nominal_speed_hz, [0.8 * qi, qi], MESH)
+        for bearing, load, qi in zip(machine.bearings, rotor.bearing_static_loads_n, q, strict=True)
+    ]
+    system = RotorBearingSystem(rotor, tables, machine.nominal_speed_hz, unbalance_moment_kg_m=0.0)
+    e0 = np.array([t.evaluate(qi).eccentricity_m for t, qi in zip(tables, q, strict=True)])
+    static = np.einsum("bij,j->bi", system.bearing_maps, system.static_coordinates(q))
+    np.testing.assert_allclose(static, e0, rtol=0, atol=1e-9 * machine.bearings[0].clearance_m)
+
+
+@pytest.mark.parametrize(
+    ("forces", "override", "message"),
+    [
+        ([(13, 0.0, 90.0)], "", "static_forces[0].force_n must be > 0 N, got 0"),
+        ([(99, 100.0, 90.0)], "", "static_forces[0].node"),
+        (
+            [(13, 100.0, 90.0)],
+            "[[bearings.override]]\nnode = 20\nstatic_load_n = 4000.0\n",
+            "give them, or a bearing's load (static_load_n, load_angle_deg: bearing 2), not both",
+        ),
+        ([(6, 3272.8248078, 0.0)], "", "bearing 1: the static forces and the weight cancel on it"),
+    ],
+)
+def test_bad_static_forces_are_refused_in_one_line(tmp_path, forces, override, message):
+    with pytest.raises(InputError, match=re.escape(message)) as error:
+        with_forces(tmp_path, forces, "equal", override)
+    assert "\n" not in str(error.value)

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..machine import Machine
-from ..machine_sections import Material
+from ..machine_sections import Material, StaticForce
 from ..validation import InputError, require_non_negative, require_positive
 from .disc import RigidDisc
 from .timoshenko import (
@@ -103,6 +103,7 @@ class Rotor:
         load_split: str = "equal",
         static_loads_given_n: Sequence[float | None] = (),
         load_angles_rad: Sequence[float] = (),
+        static_forces: Sequence[StaticForce] = (),
     ) -> Rotor:
         """Assemble a rotor from element lengths/diameters (n_el,) [m], material and discs.
 
@@ -111,6 +112,9 @@ class Rotor:
         (one per bearing, None: its share) and ``load_angles_rad`` (one per bearing; empty: every load
         along -y) give a bearing a static load other than its share of the weight; the rotor then carries
         the external force that makes up the difference at that bearing's node (``static_force``).
+        ``static_forces`` (not with the two before) are steady forces at rotor nodes; each bearing's load is
+        then its weight share plus its reaction to them on rigid point supports at ``bearing_nodes``, in
+        magnitude and direction (statically determinate on two bearings).
         """
         lengths = np.asarray(element_lengths_m, dtype=float)
         diameters = np.asarray(element_diameters_m, dtype=float)
@@ -147,10 +151,22 @@ class Rotor:
         positions = np.concatenate([[0.0], np.cumsum(lengths)])
         weight = total_mass * gravity_m_s2
         shares = _bearing_loads(stiffness, gravity, tuple(bearing_nodes), weight, load_split)
-        static_loads, angles, external = _given_loads(shares, static_loads_given_n, load_angles_rad)
         static_force = gravity.copy()
-        for node, force in zip(bearing_nodes, external, strict=True):
-            static_force[DOF_PER_NODE * (node - 1) : DOF_PER_NODE * (node - 1) + 2] += force
+        if static_forces:
+            if any(g is not None for g in static_loads_given_n) or len(load_angles_rad):
+                raise InputError("static forces give the bearings' loads: give no bearing load with them")
+            applied = np.zeros(n_dof)
+            for force in static_forces:
+                _check_node("static force node", force.node, n_nodes)
+                applied[DOF_PER_NODE * (force.node - 1) : DOF_PER_NODE * (force.node - 1) + 2] += (
+                    force.vector_n()
+                )
+            static_force += applied
+            static_loads, angles = _statics_loads(stiffness, applied, tuple(bearing_nodes), shares)
+        else:
+            static_loads, angles, external = _given_loads(shares, static_loads_given_n, load_angles_rad)
+            for node, force in zip(bearing_nodes, external, strict=True):
+                static_force[DOF_PER_NODE * (node - 1) : DOF_PER_NODE * (node - 1) + 2] += force
         for array in (positions, mass, stiffness, gyro, gravity, static_loads, angles, static_force):
             array.setflags(write=False)
         damping = beta * stiffness
@@ -203,8 +219,10 @@ class Rotor:
             unbalance_phase_rad=machine.unbalance.phase_rad,
             bearing_nodes=machine.bearing_nodes,
             load_split=machine.load_split,
-            static_loads_given_n=machine.static_loads_given_n,
-            load_angles_rad=[b.load_angle_rad for b in machine.bearings],
+            static_loads_given_n=() if machine.static_forces else machine.static_loads_given_n,
+            # with static forces the directions are the statics' (and the bearings hold them already)
+            load_angles_rad=() if machine.static_forces else [b.load_angle_rad for b in machine.bearings],
+            static_forces=machine.static_forces,
         )
 
     def __repr__(self) -> str:
@@ -281,6 +299,42 @@ def _given_loads(
     return loads, angles, external
 
 
+def _statics_loads(
+    stiffness: np.ndarray, applied: np.ndarray, bearing_nodes: tuple[int, ...], shares: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """(load magnitudes (n_b,) [N], directions (n_b,) [rad]) of bearings carrying their weight ``shares`` and
+    their reactions to the static forces ``applied`` (n_dof,) on rigid point supports at ``bearing_nodes``."""
+    # the journal pushes on its film against the support's reaction
+    loads = -_support_reactions(stiffness, applied, bearing_nodes, "static forces")
+    loads[:, 1] -= shares
+    magnitudes = np.hypot(loads[:, 0], loads[:, 1])
+    for b, magnitude in enumerate(magnitudes):
+        if not magnitude > 1e-9 * max(shares.max(initial=0.0), 1.0):
+            raise InputError(
+                f"bearing {b + 1}: the static forces and the weight cancel on it ({magnitude:.3g} N): a film "
+                "needs a static load"
+            )
+    # along bearing angle beta the load is L (-sin beta, cos beta)
+    angles = np.arctan2(-loads[:, 0], loads[:, 1]) % (2.0 * math.pi)
+    return magnitudes, angles
+
+
+def _support_reactions(
+    stiffness: np.ndarray, load: np.ndarray, bearing_nodes: tuple[int, ...], what: str
+) -> np.ndarray:
+    """(n_b, 2) [N]: the (x, y) forces that rigid point supports at ``bearing_nodes`` exert on the rotor under
+    ``load`` (n_dof,), K_bf r_f - F_b; ``what`` names the load in the error of a rotor they do not hold."""
+    fixed = np.array([DOF_PER_NODE * (n - 1) + j for n in bearing_nodes for j in (0, 1)], dtype=int)
+    free = np.setdiff1d(np.arange(stiffness.shape[0]), fixed)
+    try:
+        r_free = np.linalg.solve(stiffness[np.ix_(free, free)], load[free])
+    except np.linalg.LinAlgError:
+        raise InputError(
+            f"{what}: the supports must hold the rotor statically (at least two bearing nodes)"
+        ) from None
+    return (stiffness[np.ix_(fixed, free)] @ r_free - load[fixed]).reshape(-1, 2)
+
+
 def _bearing_loads(
     stiffness: np.ndarray,
     gravity: np.ndarray,
@@ -295,16 +349,7 @@ def _bearing_loads(
         return np.full(len(bearing_nodes), weight / len(bearing_nodes))
     if load_split != "reactions":
         raise InputError(f"load_split must be 'equal' or 'reactions', got {load_split!r}")
-    fixed = np.array([DOF_PER_NODE * (n - 1) + j for n in bearing_nodes for j in (0, 1)], dtype=int)
-    free = np.setdiff1d(np.arange(stiffness.shape[0]), fixed)
-    try:
-        r_free = np.linalg.solve(stiffness[np.ix_(free, free)], gravity[free])
-    except np.linalg.LinAlgError:
-        raise InputError(
-            "load_split = 'reactions' needs supports that hold the rotor statically "
-            "(at least two bearing nodes)"
-        ) from None
-    reactions = stiffness[np.ix_(fixed, free)] @ r_free - gravity[fixed]
-    if not math.isclose(reactions[1::2].sum(), weight, rel_tol=1e-6):
+    reactions = _support_reactions(stiffness, gravity, bearing_nodes, "load_split = 'reactions'")[:, 1]
+    if not math.isclose(reactions.sum(), weight, rel_tol=1e-6):
         raise InputError("load_split = 'reactions': the supports do not carry the rotor weight")
-    return reactions[1::2].copy()
+    return reactions.copy()
