@@ -223,9 +223,11 @@ def print_result(result: dict, args, setup, how: str) -> int:
         print(json.dumps(result, indent=1))
         return 0
     speed, load, mu = setup["speed_hz"], setup["load_n"], setup["bearing"].viscosity_pa_s
+    angle = math.degrees(setup["bearing"].load_angle_rad)
+    along = "" if angle == 180.0 else f" along {angle:g} deg (the attitude is from it)"
     k, c = result["K_N_per_m"], result["C_Ns_per_m"]
     print(
-        f"bearing at {speed:g} Hz, viscosity {mu:.4g} Pa s, load {load:.1f} N, {how}\n"
+        f"bearing at {speed:g} Hz, viscosity {mu:.4g} Pa s, load {load:.1f} N{along}, {how}\n"
         f"  supply flowrate      {result['q_ml_min']:10.2f} ml/min ({result['regime']})\n"
         f"  groove pressure      {result['supply_pressure_pa'] / 1e5:10.4f} bar\n"
         f"  side leakage         {result['side_leakage_ml_min']:10.2f} ml/min\n"
