@@ -63,6 +63,16 @@ def test_the_compressor_robustness_table_is_its_result_file(tmp_path):
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize(
+    ("folder", "block"), [("model_structure", "robustness"), ("side_load", "robustness-side-load")]
+)
+def test_the_model_structure_robustness_tables_are_their_result_files(folder, block, tmp_path):
+    result = str(REPO / "docs" / "results" / "robustness" / folder / "robustness.json")
+    arguments = ["robustness", "--from-json", result, "--block", block, "--readme"]
+    _regenerated("docs/robustness.md", (block,), tmp_path, lambda copy: main([*arguments, copy]))
+
+
+@pytest.mark.slow
 def test_the_published_table_comparison_is_what_oilwatch_validate_prints(tmp_path):
     _regenerated("docs/validation-bearing.md", ("lund-worst", "ocvirk", "lund-rows"), tmp_path,
                  lambda copy: main(["validate", "bearing-tables", "--readme", copy]))  # fmt: skip

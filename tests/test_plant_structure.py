@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 
@@ -9,12 +10,20 @@ import numpy as np
 import pytest
 
 from oilwatch.models.bearing.equilibrium import coefficients_at, static_equilibrium
-from oilwatch.models.bearing.grid import PRODUCTION_MESH
-from oilwatch.models.bearing.supply import SupplyFlow
+from oilwatch.models.bearing.grid import PRODUCTION_MESH, Mesh
+from oilwatch.models.bearing.supply import SupplyFlow, SupplyPressure
 from oilwatch.models.bearing.table import flooded_threshold
 from oilwatch.models.machine import load_machine
+from oilwatch.models.rotor.assembly import Rotor
+from oilwatch.models.system.coast_down import coast_down_centreline
 from oilwatch.models.system.factory import build_system
-from oilwatch.models.system.structure import PlantStructure, bow_shape, structural_rotor, structural_system
+from oilwatch.models.system.structure import (
+    PlantStructure,
+    bow_shape,
+    structural_machine,
+    structural_rotor,
+    structural_system,
+)
 from oilwatch.models.validation import InputError
 from oilwatch.robustness.cases import PEDESTALS, RUNOUT_RANGE_M, case_by_name, probe_errors
 from oilwatch.robustness.runner import REPORT_SETTINGS, RobustnessRun
@@ -170,6 +179,86 @@ def test_a_one_sided_threshold_plant_has_the_direct_solves_coefficients_beside_q
 def test_a_one_sided_threshold_needs_the_machines_bearing_length():
     with pytest.raises(InputError, match="threshold_one_sided needs length_factor 1"):
         PlantStructure(threshold_one_sided=True, length_factor=1.05)
+
+
+@pytest.mark.parametrize(
+    ("angle_deg", "side"),
+    [(270.0, (1.0, 0.0)), (90.0, (-1.0, 0.0)), (0.0, (0.0, 1.0))],
+    ids=["+x", "-x", "up"],
+)
+def test_a_side_force_is_the_vector_sum_the_plants_bearings_carry(machine, angle_deg, side):
+    """Each bearing's load is its weight share (0, -W_i) plus 0.3 W_i along ``side``, and the plant's rotor
+    carries that as an external force at the bearing's node; 30 % horizontal: 1.044 W_i at 196.7 deg."""
+    structure = PlantStructure(side_load_fraction=0.3, side_load_angle_deg=angle_deg)
+    shares = Rotor.from_machine(machine).bearing_static_loads_n
+    rotor = structural_rotor(machine, structure)
+    angles = rotor.bearing_load_angles_rad
+    loads = rotor.bearing_static_loads_n[:, None] * np.column_stack([-np.sin(angles), np.cos(angles)])
+    expected = shares[:, None] * (np.array([0.0, -1.0]) + 0.3 * np.array(side))
+    np.testing.assert_allclose(loads, expected, rtol=0, atol=1e-12 * shares.max())
+    external = rotor.static_force - rotor.gravity_force
+    for node, share in zip(rotor.bearing_nodes, shares, strict=True):
+        at = [rotor.dof(node, "x"), rotor.dof(node, "y")]
+        np.testing.assert_allclose(external[at], 0.3 * share * np.array(side), rtol=0, atol=1e-9 * share)
+        external[at] = 0.0
+    assert not external.any()  # nowhere else
+    xs, ys = ([rotor.dof(n, a) for n in range(1, rotor.n_nodes + 1)] for a in ("x", "y"))
+    np.testing.assert_allclose(  # the load vectors are the rotor's whole static load
+        [rotor.static_force[xs].sum(), rotor.static_force[ys].sum()],
+        loads.sum(axis=0),
+        rtol=0,
+        atol=1e-12 * shares.sum(),
+    )
+    assert structural_machine(machine, structure).bearings[0].load_angle_rad == angles[0]
+    if angle_deg == 270.0:
+        assert rotor.bearing_static_loads_n / shares == pytest.approx(math.sqrt(1.09), rel=1e-12)
+        assert np.degrees(angles) == pytest.approx(180.0 + math.degrees(math.atan(0.3)), rel=1e-12)
+
+
+def test_the_side_loaded_plants_coast_down_is_the_direct_solve_of_its_turned_load(machine):
+    """The coast-down solves each bearing at the plant's load and direction (a 40 x 10 mesh: a wiring check),
+    which moves the journal by micrometres from the machine's."""
+    mesh, speed = Mesh(40, 10), machine.nominal_speed_hz
+    structure = PlantStructure(side_load_fraction=0.3)
+    temperature = machine.nominal_oil_temperature_c
+    positions = coast_down_centreline(machine, structure, [speed], temperature, mesh=mesh)
+    rotor = structural_rotor(machine, structure)
+    bearing = dataclasses.replace(
+        machine.bearings[0],
+        load_angle_rad=float(rotor.bearing_load_angles_rad[0]),
+        viscosity_pa_s=machine.oil.dynamic_viscosity_pa_s(temperature),
+    )
+    pressure = SupplyPressure(machine.lubrication.nominal_supply_pressure_pa)
+    direct = static_equilibrium(bearing, rotor.bearing_static_loads_n[0], speed, pressure, mesh)
+    np.testing.assert_allclose(positions[0, :2], direct.eccentricity_m, rtol=0, atol=1e-12)
+    own = coast_down_centreline(machine, PlantStructure(), [speed], temperature, mesh=mesh)
+    assert np.linalg.norm(positions[0, :2] - own[0, :2]) > 1e-6
+
+
+def test_a_side_force_at_its_default_leaves_the_machines_plant(machine):
+    for structure in (PlantStructure(), PlantStructure(side_load_angle_deg=90.0)):  # no force: no direction
+        assert structural_machine(machine, structure) is machine
+        assert not structure.solved_tables
+        rotor, own = structural_rotor(machine, structure), Rotor.from_machine(machine)
+        assert np.array_equal(rotor.static_force, own.static_force)
+        assert np.array_equal(rotor.bearing_static_loads_n, own.bearing_static_loads_n)
+    assert PlantStructure(side_load_fraction=0.3).solved_tables  # the machine's tables are for down
+
+
+@pytest.mark.parametrize(
+    ("values", "message"),
+    [
+        ({"side_load_fraction": -0.1}, "side_load_fraction"),
+        ({"side_load_fraction": 1.5}, "side_load_fraction"),
+        ({"side_load_fraction": math.nan}, "side_load_fraction"),
+        ({"side_load_angle_deg": 400.0}, "side_load_angle_deg"),
+        ({"side_load_fraction": 0.3, "threshold_one_sided": True}, "threshold_one_sided needs side_load"),
+    ],
+)
+def test_a_side_force_the_plant_cannot_take_is_refused_in_one_line(values, message):
+    with pytest.raises(InputError, match=message) as raised:
+        PlantStructure(**values)
+    assert "\n" not in str(raised.value)
 
 
 def test_the_statics_split_of_the_turbine_is_its_reactions(machine):

@@ -51,6 +51,15 @@ def test_the_robustness_and_study_tables_come_from_their_json(tmp_path, capsys):
     assert "| 1.00 | - | 0.2 / 0.3 |" in readme.read_text()
     line = "Truth within +-2 std at the end: 1 of 1 rows of the acceptance cases (100 %)"
     assert line in readme.read_text()
+    # a second table on the page has a block of its own name; the first one is left as it was
+    first_block = readme.read_text()
+    readme.write_text(first_block + "<!-- generated robustness-b: x -->\n<!-- /generated robustness-b -->\n")
+    assert (
+        main(["robustness", "--from-json", str(first), "--readme", str(readme), "--block", "robustness-b"])
+        == 0
+    )
+    assert readme.read_text().startswith(first_block)
+    assert "| none | 100/100 | +0.10 / -0.20 |" in readme.read_text().split("robustness-b", 1)[1]
     level = {
         "noise_um": 1.0,
         "n_cases": 4,

@@ -3,12 +3,13 @@
 A condition-monitoring system keeps the machine's coast-downs (and run-ups); their mean probe signals at each
 speed are the shaft-centreline plot. For a coast-down slow enough that the film is quasi-static at every
 speed, the journal sits at its static equilibrium: :func:`coast_down_centreline` solves it directly for the
-plant's bearings (:class:`oilwatch.models.system.structure.PlantStructure`: clearance, length, load split) at
-:data:`NODES` speeds, flooded at the nominal supply pressure, and :func:`coast_down_record` turns it into a
-record at 1 kHz: the speed falling exponentially (a drag torque proportional to the speed: equal time per
-ln N), the positions interpolated in ln N between the solved speeds, read by a measurement chain (offsets,
-scale factors, runout at the rotor angle, noise). What moves the static position relative to the housing
-is only the film and the load: the film model's dynamics, the unbalance, the pedestals and a bow do not.
+plant's bearings (:class:`oilwatch.models.system.structure.PlantStructure`: clearance, length, load split,
+side force) at :data:`NODES` speeds, flooded at the nominal supply pressure, and :func:`coast_down_record`
+turns it into a record at 1 kHz: the speed falling exponentially (a drag torque proportional to the speed:
+equal time per ln N), the positions interpolated in ln N between the solved speeds, read by a measurement
+chain (offsets, scale factors, runout at the rotor angle, noise). What moves the static position relative
+to the housing is only the film and the load (its magnitude and direction): the film model's dynamics, the
+unbalance, the pedestals and a bow do not.
 """
 
 from __future__ import annotations
@@ -23,9 +24,10 @@ from ..bearing.equilibrium import static_equilibrium
 from ..bearing.grid import Mesh
 from ..bearing.supply import SupplyPressure
 from ..machine import Machine
+from ..rotor.assembly import Rotor
 from ..validation import InputError, require_in_range
 from .measurement import MeasurementChain
-from .structure import PlantStructure, structural_bearing, structural_rotor
+from .structure import PlantStructure, structural_bearing, structural_machine
 
 NODES = 24
 """Speeds at which the plant's centreline is solved, uniform in ln N (a step of about 16 % from 3 %)."""
@@ -41,9 +43,9 @@ def coast_down_centreline(
 ) -> np.ndarray:
     """(K, 4) the plant's journal positions (x1, y1, x2, y2) [m] relative to the bearing housings at the
     speeds (K,), flooded at nominal supply pressure: each bearing's static equilibrium with the structure's
-    clearance, length and load split, solved directly (:func:`oilwatch.models.bearing.equilibrium.
-    static_equilibrium` on ``mesh``, the production mesh when None), at the oil law's viscosity at
-    ``oil_temperature_c``."""
+    clearance, length, load split and side force (the load's magnitude and direction), solved directly
+    (:func:`oilwatch.models.bearing.equilibrium.static_equilibrium` on ``mesh``, the production mesh when
+    None), at the oil law's viscosity at ``oil_temperature_c``."""
     pressure = machine.lubrication.nominal_supply_pressure_pa
     if not math.isfinite(pressure):
         raise InputError("a coast-down needs the machine file's nominal_supply_pressure_bar")
@@ -53,13 +55,14 @@ def coast_down_centreline(
         else machine.oil.dynamic_viscosity_pa_s(oil_temperature_c)
     )
     speeds = np.asarray(speeds_hz, dtype=float)
-    loads = structural_rotor(machine, structure).bearing_static_loads_n
+    plant = structural_machine(machine, structure)  # its loads' magnitudes and directions
+    loads = Rotor.from_machine(plant).bearing_static_loads_n
     positions = np.empty((speeds.size, 2 * len(loads)))
     order = np.argsort(speeds)[::-1]  # from speed down: each solve starts from the last one's position
     solved: dict[tuple, np.ndarray] = {}  # bearings of one geometry and load (the equal split) share solves
     for b, load in enumerate(loads):
         bearing = dataclasses.replace(
-            structural_bearing(machine.bearings[b], structure), viscosity_pa_s=viscosity
+            structural_bearing(plant.bearings[b], structure), viscosity_pa_s=viscosity
         )
         key = (bearing, round(float(load), 6))
         if key not in solved:

@@ -20,11 +20,18 @@ plant differs; :func:`structural_system` builds the plant's full-order rotor-bea
   phase relative to the machine's phase;
 * ``pedestals``: a mass, spring and damper under each bearing in x and y
   (:mod:`oilwatch.models.rotor.pedestals`);
+* ``side_load_fraction``, ``side_load_angle_deg``: a steady force at each bearing that the machine file
+  does not give (coupling misalignment, a belt, a process or gear force): a fraction of the bearing's
+  share of the weight along a bearing angle (the grooves' convention: from the top, with the rotation;
+  270 deg is +x, horizontal). Each bearing then carries the vector sum of its machine-file load and this
+  force, in magnitude and direction (:func:`structural_machine`); the rotor carries the external force that
+  makes it so (``Rotor.static_force``). The machine's tables are for its own load direction, so the plant's
+  tables are solved afresh for the turned load (:func:`solved_table`, cached);
 * ``threshold_one_sided``: the film coefficients at each bearing's flooded threshold q_t take their one-sided
   limits, starved below and flooded above, with the jump a direct solve has there; the estimator's
   dimensionless table interpolates one cubic across it, which smooths the jump over the neighbouring cells
-  (2-7 % of the largest K within 1 % of q_t, docs/bearings.md). Needs ``length_factor`` 1 (the solved
-  tables of another length interpolate across q_t);
+  (2-7 % of the largest K within 1 % of q_t, docs/bearings.md). Needs ``length_factor`` 1 and no side load
+  (the solved tables interpolate across q_t);
 * ``bow_m``: a bent shaft. The bow is the shape the shaft takes on rigid point supports at the bearing
   nodes under a uniform lateral load, scaled to ``bow_m`` at its largest between the bearings and turning
   with the shaft at ``bow_phase_rad`` from the keyphasor. Its load on the rotor is K_shaft b (the shaft's
@@ -95,6 +102,16 @@ class PlantStructure:
     bow_phase_rad: float = field(
         default=0.0, metadata=_meta("rad", -2 * math.pi, 2 * math.pi, "phase of the bow from the keyphasor")
     )
+    side_load_fraction: float = field(
+        default=0.0,
+        metadata=_meta("1", 0.0, 1.0, "steady side force at each bearing over its share of the weight"),
+    )
+    side_load_angle_deg: float = field(
+        default=270.0,
+        metadata=_meta(
+            "deg", 0.0, 360.0, "bearing angle of the side force (from the top, with the rotation; 270: +x)"
+        ),
+    )
     threshold_one_sided: bool = False
 
     def __post_init__(self) -> None:
@@ -116,6 +133,11 @@ class PlantStructure:
                 "threshold_one_sided needs length_factor 1: the tables solved for another bearing length "
                 "interpolate across the flooded threshold"
             )
+        if self.threshold_one_sided and self.side_load_fraction > 0.0:
+            raise InputError(
+                "threshold_one_sided needs side_load_fraction 0: the tables solved for the turned load "
+                "interpolate across the flooded threshold"
+            )
         if (self.pedestal_mass_kg > 0.0) != (self.pedestal_stiffness_n_m > 0.0):
             raise InputError("pedestal_mass_kg and pedestal_stiffness_n_m: give both (> 0) or neither")
         for node, share, phase in self.unbalance_discs:
@@ -123,6 +145,12 @@ class PlantStructure:
             require_in_range("unbalance phase", phase, -2 * math.pi, 2 * math.pi, "rad")
             if isinstance(node, bool) or not isinstance(node, int):
                 raise InputError(f"unbalance disc node must be an integer, got {node!r}")
+
+    @property
+    def solved_tables(self) -> bool:
+        """Whether the plant's tables are solved for its bearings (another length, or a load turned by a
+        side force) rather than the machine's tables scaled to its clearance (:class:`ClearanceTable`)."""
+        return self.length_factor != 1.0 or self.side_load_fraction > 0.0
 
     @property
     def pedestals(self) -> Pedestals | None:
@@ -186,11 +214,35 @@ def structural_bearing(bearing: JournalBearing, structure: PlantStructure) -> Jo
     )
 
 
+def structural_machine(machine: Machine, structure: PlantStructure) -> Machine:
+    """The machine file as the plant is: its load split, and each bearing's static load (magnitude in
+    ``static_loads_given_n``, direction in its ``load_angle_rad``) the vector sum of the machine's load and
+    the structure's side force (module docstring). The bearings keep the machine file's clearance and
+    length (:func:`structural_bearing` applies those)."""
+    if structure.load_split is not None and structure.load_split != machine.load_split:
+        machine = dataclasses.replace(machine, load_split=structure.load_split)
+    if structure.side_load_fraction == 0.0:
+        return machine
+    rotor = Rotor.from_machine(machine)
+    shares = Rotor.from_machine(dataclasses.replace(machine, static_loads_given_n=())).bearing_static_loads_n
+    side = math.radians(structure.side_load_angle_deg)
+    loads, bearings = [], []
+    for bearing, load, angle, share in zip(
+        machine.bearings, rotor.bearing_static_loads_n, rotor.bearing_load_angles_rad, shares, strict=True
+    ):
+        # a load L along bearing angle beta is L (-sin beta, cos beta)
+        force = load * np.array([-math.sin(angle), math.cos(angle)])
+        force += structure.side_load_fraction * share * np.array([-math.sin(side), math.cos(side)])
+        loads.append(float(np.hypot(*force)))
+        turned = math.atan2(-force[0], force[1]) % (2.0 * math.pi)
+        bearings.append(dataclasses.replace(bearing, load_angle_rad=turned))
+    return dataclasses.replace(machine, bearings=tuple(bearings), static_loads_given_n=tuple(loads))
+
+
 def structural_rotor(machine: Machine, structure: PlantStructure) -> Rotor:
-    """The machine's rotor with the structure's load split."""
-    if structure.load_split is None or structure.load_split == machine.load_split:
-        return Rotor.from_machine(machine)
-    return Rotor.from_machine(dataclasses.replace(machine, load_split=structure.load_split))
+    """The plant's rotor: the machine's with the structure's load split and side force
+    (:func:`structural_machine`)."""
+    return Rotor.from_machine(structural_machine(machine, structure))
 
 
 def unit_1x_load(rotor: Rotor, structure: PlantStructure, omega_rad_s: float, moment: complex) -> np.ndarray:
@@ -234,12 +286,13 @@ def structural_system(
 ) -> RotorBearingSystem:
     """The plant's full-order rotor-bearing system with the structure (module docstring), at the machine's
     nominal speed and oil temperature; unbalance moment and phase as :class:`RotorBearingSystem`'s."""
-    rotor = structural_rotor(machine, structure)
+    plant = structural_machine(machine, structure)
+    rotor = Rotor.from_machine(plant)
     speed = machine.nominal_speed_hz
     kind = structure.film_coefficients or machine.dynamic_coefficients
     kinds = (QUASI_STATIC,) if kind == QUASI_STATIC else (QUASI_STATIC, kind)
     loads = rotor.bearing_static_loads_n
-    if structure.length_factor == 1.0:
+    if not structure.solved_tables:
         viscosity = machine.bearings[0].viscosity_pa_s  # one oil: every bearing's nominal viscosity
         groups = [
             [
@@ -251,7 +304,7 @@ def structural_system(
             for k in kinds
         ]
     else:
-        groups = [[solved_table(machine, structure, w, k, i) for i, w in enumerate(loads)] for k in kinds]
+        groups = [[solved_table(plant, structure, w, k, i) for i, w in enumerate(loads)] for k in kinds]
     moment = rotor.unbalance_moment_kg_m if unbalance_moment_kg_m is None else unbalance_moment_kg_m
     phase = rotor.unbalance_phase_rad if unbalance_phase_rad is None else unbalance_phase_rad
     omega = 2.0 * math.pi * speed
@@ -273,8 +326,9 @@ def solved_table(
     machine: Machine, structure: PlantStructure, load_n: float, kind: str, bearing_index: int = 0
 ) -> CoefficientTable:
     """The flowrate table of the machine's bearing ``bearing_index`` (from 0) with the structure's clearance
-    and length at ``load_n``, solved at the nominal speed on the production mesh (cached in
-    ``<cache>/tables/structure/``, by geometry, load, speed and kind)."""
+    and length at ``load_n`` along the bearing's ``load_angle_rad`` (``machine``: the plant's,
+    :func:`structural_machine`), solved at the nominal speed on the production mesh (cached in
+    ``<cache>/tables/structure/``, by geometry with the load direction, load, speed and kind)."""
     bearing = structural_bearing(machine.bearings[bearing_index], structure)
     speed = machine.nominal_speed_hz
     key = json.dumps([dataclasses.asdict(bearing), round(load_n, 6), speed, kind, LENGTH_TABLE_POINTS])

@@ -19,11 +19,11 @@ def register(subparsers) -> None:
             "For each discrepancy (probe offsets, unbalance size and phase, viscosity, speed and temperature "
             "ramps, runout, sensitivity, probe mounting angle, probe faults; and the model-structure ones: "
             "film model, bearing clearance and length, unbalance over several discs, flexible pedestals, "
-            "load split, runout without a slow-roll record, a bent shaft, all at once) and truth point "
-            "(100/100 and 80/90 % of nominal), simulate the plant with it (its measurement chain, unbalance, "
-            "film, structure and operating point), run the estimator and print the errors beside the "
-            "filter's own stds, false alarms, detections, flagged probes and the error over the nuisance "
-            "Cramer-Rao bound. Writes DIR/robustness.json (row by row) and DIR/robustness.md."
+            "load split, a side force, runout without a slow-roll record, a bent shaft, all at once) and "
+            "truth point (100/100 and 80/90 % of nominal), simulate the plant with it (its measurement "
+            "chain, unbalance, film, structure and operating point), run the estimator and print the errors "
+            "beside the filter's own stds, false alarms, detections, flagged probes and the error over the "
+            "nuisance Cramer-Rao bound. Writes DIR/robustness.json (row by row) and DIR/robustness.md."
         ),
     )
     add_machine_option(parser)
@@ -82,8 +82,15 @@ def register(subparsers) -> None:
         "--readme",
         default=None,
         metavar="FILE",
-        help="also write the table into FILE between <!-- generated robustness: ... --> and "
-        "<!-- /generated robustness -->",
+        help="also write the table into FILE between <!-- generated BLOCK: ... --> and "
+        "<!-- /generated BLOCK -->",
+    )
+    parser.add_argument(
+        "--block",
+        default="robustness",
+        metavar="BLOCK",
+        help="the name of the --readme block (default: robustness; another name for a second table on "
+        "the page)",
     )
     parser.set_defaults(func=run)
 
@@ -124,7 +131,7 @@ def run(args: argparse.Namespace) -> int:
         table = "\n".join(format_table(_rows_from_json(args.from_json)))
         print(table)
         if args.readme is not None:
-            replace_block(args.readme, "robustness", table, command or "oilwatch robustness --from-json")
+            replace_block(args.readme, args.block, table, command or "oilwatch robustness --from-json")
         return 0
 
     require_in_range("--duration-s", args.duration_s, 1.0, 3600.0, "s")
@@ -175,5 +182,5 @@ def _run_locked(args, cases, out: Path, workers: int, command: str) -> int:
     write_text_atomic(out / "robustness.md", table + "\n")
     print(table)
     if args.readme is not None:
-        replace_block(args.readme, "robustness", table, command or "oilwatch robustness")
+        replace_block(args.readme, args.block, table, command or "oilwatch robustness")
     return 0

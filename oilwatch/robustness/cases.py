@@ -192,6 +192,11 @@ BOW_M = 10e-6
 """A mild bent shaft: 10 um of bow between the bearings (20 um total indicated runout at mid-span), at
 +45 deg from the keyphasor."""
 
+SIDE_LOAD = dict(side_load_fraction=0.3, side_load_angle_deg=270.0)
+"""A steady horizontal force (+x) of 30 % of each bearing's share of the weight that the machine file does not
+give (coupling misalignment, a belt, a process force): the load turned by 16.7 deg from down and 4.4 %
+larger."""
+
 RUNOUT_RANGE_M = (1e-6, 3e-6)
 """1x and 2x runout amplitudes of each probe, drawn from 1-3 um, with no slow-roll record."""
 
@@ -384,6 +389,12 @@ CASES: tuple[Case, ...] = (
         "film coefficients at their one-sided limits on the flooded threshold (the jump); the estimator "
         "interpolates across it",
         structure=PlantStructure(threshold_one_sided=True),
+        **_STRUCTURE,
+    ),
+    Case(
+        "side-load",
+        "a horizontal side force of 30 % of each bearing's weight share that the machine file does not give",
+        structure=PlantStructure(**SIDE_LOAD),
         **_STRUCTURE,
     ),
     Case(
