@@ -213,13 +213,17 @@ def load_runout(path: str | Path) -> SlowRollVectors | None:
 def clearance_document(fits, record: str | None = None) -> dict:
     """The baseline's coast-down part from each bearing's
     :class:`oilwatch.models.bearing.centreline.ClearanceFit` (:mod:`oilwatch.models.system.clearance`):
-    ``clearance_factor`` and ``clearance_factor_std`` (the estimator's model takes the factors), and how well
-    the locus fitted (``coast_down``)."""
+    ``clearance_factor`` and ``clearance_factor_std`` (the estimator's model takes the factors: each
+    bearing's measured one, or 1 where the fit does not explain its centreline,
+    ``ClearanceFit.applied_clearance_factor``), and how well the locus fitted (``coast_down``: the measured
+    factors and whether each fit explains its centreline)."""
     return {
-        "clearance_factor": [f.clearance_factor for f in fits],
+        "clearance_factor": [f.applied_clearance_factor for f in fits],
         "clearance_factor_std": [f.clearance_factor_std for f in fits],
         "coast_down": {
             "record": record,
+            "measured_clearance_factor": [f.clearance_factor for f in fits],
+            "explains_centreline": [f.explains_centreline for f in fits],
             "viscosity_factor": [f.viscosity_factor for f in fits],
             "viscosity_factor_std": [f.viscosity_factor_std for f in fits],
             "residual_rms_um": [f.residual_rms_m * 1e6 for f in fits],

@@ -251,3 +251,35 @@ def test_the_clearance_std_covers_the_spread_of_the_probes_scale_factor_errors()
     shifts = [measured(rng.uniform(-tolerance, tolerance, 4))[:, 0] - exact[:, 0] for _ in range(12)]
     spread = np.sqrt(np.mean(np.square(shifts), axis=0))
     assert np.all((0.6 * spread < term) & (term < 1.6 * spread)), (spread, term)
+
+
+@pytest.mark.parametrize(
+    ("structure", "probe_error", "explained"),
+    [
+        (PlantStructure(), 0.05, True),  # API 670's scale-factor tolerance on every probe, alternating
+        (PlantStructure(side_load_fraction=0.3, side_load_angle_deg=270.0), 0.0, False),
+    ],
+    ids=["probes 5 % off", "an unknown side force"],
+)
+def test_a_centreline_that_is_not_the_files_bearing_keeps_the_files_clearance(
+    structure, probe_error, explained
+):
+    """A side force the machine file does not give turns the locus; the fit makes up for it with a 10 % wider
+    clearance and a film 2.25 x as viscous as the oil supplied, which the estimator's model must not take."""
+    from oilwatch.estimator.baseline import clearance_document
+    from oilwatch.robustness.coast_down import measured_clearances
+
+    errors = (probe_error, -probe_error) * 2
+    chain = MeasurementChain(probes=tuple(ProbeErrors(sensitivity_error=e) for e in errors), noise_std_m=1e-6)
+    fits = measured_clearances(MACHINE, structure, chain, 1, 0.0)
+    document = clearance_document(fits)
+    for b, fit in enumerate(fits):
+        assert fit.explains_centreline is explained
+        if explained:
+            assert fit.viscosity_factor < 1.3 and fit.applied_clearance_factor == fit.clearance_factor
+        else:
+            assert fit.viscosity_factor > 2.0 and abs(fit.clearance_factor - 1.0) > 0.05
+            assert fit.applied_clearance_factor == 1.0
+        assert document["clearance_factor"][b] == fit.applied_clearance_factor
+        assert document["coast_down"]["measured_clearance_factor"][b] == fit.clearance_factor
+        assert document["coast_down"]["explains_centreline"][b] is explained

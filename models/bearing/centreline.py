@@ -57,6 +57,16 @@ CLEARANCE_FACTOR_RANGE = (0.7, 1.4)
 """Clearance factors g the fit searches: a worn or a mis-machined bearing, far beyond a tolerance."""
 VISCOSITY_FACTOR_RANGE = (0.4, 2.5)
 """Film viscosity factors v the fit searches (the oil law's viscosity times v)."""
+MAX_FILM_VISCOSITY_FACTOR = 1.5
+"""The film viscosity factor above which a centreline is not the machine file's bearing under its load.
+
+The film runs hotter than the oil supplied, so its viscosity is at most the oil law's at the supply
+temperature (v <= 1), within the oil grade's tolerance (ISO 3448: +-10 %) and what a bearing of another
+length reads as (v = 1.15 at +5 %). A fit that needs a film half as viscous again as the supply oil is
+making up for a locus that is not this bearing's: a static load the file does not give turns the locus (a
+horizontal force of 30 % of the weight share: v = 2.25 and a clearance 10 % wide on the turbine, v = 1.74
+and 7 % tight on the compressor), which no clearance and film reproduce. Probe scale factors 5 % off read
+v = 1.07, every model-structure case of the robustness runs 0.86-1.22."""
 MIN_SPEED_SPAN = 3.0
 """Highest over lowest speed a centreline must span: below it the locus's arc is too short to tell its
 size from the viscosity's shift along it."""
@@ -254,6 +264,9 @@ class ClearanceFit:
     and its std (the film's viscosity over the oil law's); correlation of g and v; offsets_m (2,) the
     probes' zero offsets (x, y) [m]; residual_rms_m the fit's rms residual [m]; points the centreline's
     points; speed_span the highest over the lowest speed.
+
+    :attr:`explains_centreline` says whether the fit is the machine file's bearing at all
+    (:data:`MAX_FILM_VISCOSITY_FACTOR`); :attr:`applied_clearance_factor` is what the estimator's model takes.
     """
 
     clearance_factor: float
@@ -265,6 +278,18 @@ class ClearanceFit:
     residual_rms_m: float
     points: int
     speed_span: float
+
+    @property
+    def explains_centreline(self) -> bool:
+        """Whether the machine file's bearing, at some clearance and a film no more viscous than
+        :data:`MAX_FILM_VISCOSITY_FACTOR` times the oil law's, explains the centreline."""
+        return self.viscosity_factor <= MAX_FILM_VISCOSITY_FACTOR
+
+    @property
+    def applied_clearance_factor(self) -> float:
+        """The clearance factor the estimator's model takes: the measured one, or 1 (the machine file's
+        clearance) when the fit does not explain the centreline, whose clearance it would only make up."""
+        return self.clearance_factor if self.explains_centreline else 1.0
 
 
 def fit_clearance(

@@ -261,6 +261,14 @@ def _run_locked(args: argparse.Namespace) -> int:
     return 0 if trusted else UNTRUSTED_EXIT_CODE
 
 
+def _not_applied(fit, clearance_um: float) -> str:
+    return (
+        f"; NOT applied (the machine file's {clearance_um:.1f} um kept): a film {fit.viscosity_factor:.2f} x "
+        "the oil law's is more viscous than the oil supplied, so the centreline is not the file's bearing "
+        "under its load (a static load, or a geometry, that the file does not give)"
+    )
+
+
 def coast_down_clearances(args: argparse.Namespace, machine, probes) -> tuple[dict, list[str]]:
     """The baseline's clearance part (:func:`oilwatch.estimator.baseline.clearance_document`) from
     ``--coast-down-record``, read as 'oilwatch estimate' reads a record, and a line per bearing to print
@@ -291,13 +299,11 @@ def coast_down_clearances(args: argparse.Namespace, machine, probes) -> tuple[di
     )
     clearances_um = [bearing.clearance_m * 1e6 for bearing in machine.bearings]
     lines = [
-        (
-            f"baseline: bearing {b} clearance {fit.clearance_factor * c_um:.1f} +- "
-            f"{2 * fit.clearance_factor_std * c_um:.1f} um (2 std; the machine file's {c_um:.1f} um, factor "
-            f"{fit.clearance_factor:.4f}), film {fit.viscosity_factor:.3f} x the oil law's, centreline "
-            f"residual {fit.residual_rms_m * 1e6:.3f} um rms over {fit.points} speed bins "
-            f"({fit.speed_span:.1f}:1)"
-        )
+        f"baseline: bearing {b} clearance {fit.clearance_factor * c_um:.1f} +- "
+        f"{2 * fit.clearance_factor_std * c_um:.1f} um (2 std; the machine file's {c_um:.1f} um, factor "
+        f"{fit.clearance_factor:.4f}), film {fit.viscosity_factor:.3f} x the oil law's, centreline "
+        f"residual {fit.residual_rms_m * 1e6:.3f} um rms over {fit.points} speed bins "
+        f"({fit.speed_span:.1f}:1){'' if fit.explains_centreline else _not_applied(fit, c_um)}"
         for b, (fit, c_um) in enumerate(zip(fits, clearances_um, strict=True), start=1)
     ]
     return clearance_document(fits, str(source)), lines

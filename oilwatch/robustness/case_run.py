@@ -319,7 +319,8 @@ class RobustnessRun:
         return self._other_models[coefficients]
 
     def clearance_factors(self, case: Case) -> tuple[float, ...] | None:
-        """The clearance factors the case's commissioning coast-down measured (None without one)."""
+        """The clearance factors the case's commissioning coast-down gives the estimator's model (None
+        without one; 1 for a bearing whose centreline the fit does not explain, as ``oilwatch baseline``)."""
         if not case.coast_down:
             return None
         if case.name not in self._clearances:
@@ -330,7 +331,7 @@ class RobustnessRun:
                 self.seed,
                 self.probes.scale_factor_std,
             )
-            self._clearances[case.name] = tuple(round(f.clearance_factor, 6) for f in fits)
+            self._clearances[case.name] = tuple(round(f.applied_clearance_factor, 6) for f in fits)
         return self._clearances[case.name]
 
     def case_operating_model(self, case: Case):
