@@ -51,6 +51,36 @@ def test_a_short_run_writes_one_row_per_case_and_point(tmp_path, capsys):
     assert rows[0]["error_pct"] != [123.0, 456.0] and rows[1:] == document["rows"][1:]
 
 
+def test_a_machine_file_is_recorded_by_its_absolute_path(tmp_path, monkeypatch, capsys):
+    """robustness.json's settings name the machine --from-json loads again for the rows' bounds: a file
+    given relative to the run's folder is found from another folder (a bundled machine stays a name)."""
+    import shutil
+
+    import oilwatch.robustness
+    from oilwatch.models.machine import BUNDLED_MACHINES
+
+    run_folder, other = tmp_path / "run", tmp_path / "other"
+    run_folder.mkdir(), other.mkdir()
+    shutil.copy(BUNDLED_MACHINES["turbine"], run_folder / "mine.toml")
+    recorded = []
+
+    def run_robustness(cases, machine_file, **settings):
+        recorded.append(machine_file)
+        return []
+
+    monkeypatch.setattr(oilwatch.robustness, "run_robustness", run_robustness)
+    monkeypatch.chdir(run_folder)
+    for machine in ("mine.toml", "compressor"):
+        assert main(["robustness", "--machine", machine, "--cases", "none", "--out", "rob"]) == 0
+    capsys.readouterr()
+    assert recorded == [str((run_folder / "mine.toml").resolve()), "compressor"]
+    monkeypatch.chdir(other)
+    settings = {"machine_file": recorded[0], "duration_s": 60.0, "noise_um": 1.0, "seed": 1,
+                "offset_prior_um": 25.0, "unbalance_prior": 2.0, "viscosity_prior": 0.1}  # fmt: skip
+    (other / "robustness.json").write_text(json.dumps({"settings": settings, "rows": []}))
+    assert main(["robustness", "--from-json", "robustness.json"]) == 0
+
+
 def test_an_unknown_case_is_named(tmp_path, capsys):
     assert main(["robustness", "--cases", "earthquake", "--out", str(tmp_path)]) == 2
     error = capsys.readouterr().err

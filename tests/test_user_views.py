@@ -44,12 +44,8 @@ def test_two_records_of_one_name_get_two_output_folders(tmp_path):
     assert output_folder_name("-") == "stdin"
 
 
-def test_report_says_yes_no_and_never_instead_of_python_values(tmp_path):
-    from oilwatch.monitoring.report import write_report
-
-    probes = {name: {"offset_um": 0.0, "offset_std_um": 0.0, "status_final": "ok", "flagged_s": 0.0}
-              for name in ("x1", "y1", "x2")}  # fmt: skip
-    probes["y2"] = {"offset_um": 0.0, "offset_std_um": 0.0, "status_final": "dead", "flagged_s": 0.5}
+def _report_summary(**changes) -> dict:
+    """A summary.json as ``oilwatch estimate`` writes it, for report.html, with ``changes`` applied."""
     record = {"source": "r.csv", "format": "csv", "rows": 10, "sample_rate_hz": 1000.0,
               "estimator_rate_hz": 1000.0, "anti_alias_taps": 0, "keyphasor_pulses": 0, "time_shift_s": 0.0,
               "speed_source": "nominal", "gap_count": 0, "missing_samples": 0}  # fmt: skip
@@ -59,15 +55,41 @@ def test_report_says_yes_no_and_never_instead_of_python_values(tmp_path):
         "q1_final_ml_min": 596.0, "q2_final_ml_min": 447.0, "q1_std_final_ml_min": 2.0,
         "q2_std_final_ml_min": 2.0, "duration_s": 1.0, "final_window_s": 0.1, "machine_file": "turbine",
         "estimator": {"model": "grid", "offset_prior_std_um": 0.0}, "realtime_factor": 10.0,
-        "alarms": [{"bearing": 2, "time_s": 0.4, "consistent": True}, {"bearing": 2, "time_s": 0.9,
-                                                                        "consistent": False}],
-        "probes": probes,
+        "alarms": [], "probes": {},
     }  # fmt: skip
-    page = write_report(summary, tmp_path).read_text()
+    return {**summary, **changes}
+
+
+def test_report_says_yes_no_and_never_instead_of_python_values(tmp_path):
+    from oilwatch.monitoring.report import write_report
+
+    probes = {name: {"offset_um": 0.0, "offset_std_um": 0.0, "status_final": "ok", "flagged_s": 0.0}
+              for name in ("x1", "y1", "x2")}  # fmt: skip
+    probes["y2"] = {"offset_um": 0.0, "offset_std_um": 0.0, "status_final": "dead", "flagged_s": 0.5}
+    alarms = [
+        {"bearing": 2, "time_s": 0.4, "consistent": True},
+        {"bearing": 2, "time_s": 0.9, "consistent": False},
+    ]
+    page = write_report(_report_summary(alarms=alarms, probes=probes), tmp_path).read_text()
     shown = page.split("<h2>Summary</h2>")[0]  # summary.json's own dump follows, folded away
     assert "True" not in shown and "False" not in shown
     assert "<td>yes</td>" in page and "<td>no</td>" in page
     assert page.count("<td>never</td>") == 3 and "<td>0.500</td>" in page and "0.000</td>" not in page
+
+
+def test_report_gives_each_bearing_its_own_nominal_flowrate(tmp_path):
+    """A machine whose bearings differ (tests/test_second_machine.py's, 1786.9 / 1678.5 ml/min): each row
+    shows its bearing's nominal beside its percentage; no sentence gives one bearing's as the machine's."""
+    from oilwatch.monitoring.report import write_report
+
+    summary = _report_summary(
+        q1_nominal_ml_min=1786.9, q2_nominal_ml_min=1678.5, q1_final_ml_min=1786.9, q2_final_ml_min=1342.8
+    )
+    shown = write_report(summary, tmp_path).read_text().split("<h2>Summary</h2>")[0]
+    for b, nominal, pct in ((1, "1786.9", "100.00"), (2, "1678.5", "80.00")):
+        row = re.search(rf"<tr><th>bearing {b}</th>.*?</tr>", shown).group(0)
+        assert f"<td>{nominal}</td><td>{pct}</td>" in row
+        assert shown.count(nominal) == 1 + (b == 1)  # its row (bearing 1's flowrate is its nominal too)
 
 
 def test_the_scenario_plot_draws_the_nominal_and_the_alarm_threshold(tmp_path, monkeypatch):

@@ -164,9 +164,14 @@ def _run_locked(args, cases, out: Path, workers: int, command: str) -> int:
 
     from .readme_block import replace_block
 
+    # a bundled machine by name (portable), a file of the user's by its absolute path: robustness.json's
+    # settings name the machine that --from-json and --resume load again, from whichever folder
+    machine_file = (
+        None if args.machine is None else bundled_name(args.machine) or str(Path(args.machine).resolve())
+    )
     rows = run_robustness(
         cases,
-        machine_file=bundled_name(args.machine) or args.machine,  # a bundled machine by name: portable
+        machine_file=machine_file,
         duration_s=args.duration_s,
         noise_um=args.noise_um,
         seed=args.seed,

@@ -54,7 +54,7 @@ def write_report(summary: dict, out_dir: Path) -> Path:
         pct = None if q is None else 100.0 * q / nominal
         rows.append(
             f"<tr><th>bearing {b}</th><td class='{css} text'>{html.escape(verdict)}</td>"
-            f"<td>{_number(q, 1)}</td><td>{_number(pct, 2)}</td>"
+            f"<td>{_number(q, 1)}</td><td>{_number(nominal, 1)}</td><td>{_number(pct, 2)}</td>"
             f"<td>{_number(summary[f'q{b}_std_final_ml_min'], 2)}</td></tr>"
         )
     alarms = (
@@ -115,10 +115,11 @@ def write_report(summary: dict, out_dir: Path) -> Path:
         f"<title>oilwatch estimate: {html.escape(record['source'])}</title><style>{STYLE}</style>"
         "</head><body>"
         f"<h1>Oil supply of {html.escape(record['source'])}</h1>"
-        "<h2>Verdict</h2><table><tr><th></th><th>verdict</th><th>flowrate [ml/min]</th><th>% of nominal</th>"
+        "<h2>Verdict</h2><table><tr><th></th><th>verdict</th><th>flowrate [ml/min]</th>"
+        "<th>nominal [ml/min]</th><th>% of nominal</th>"
         f"<th>std [ml/min]</th></tr>{''.join(rows)}</table>"
-        f"<p>Final values: mean over the last {summary['final_window_s']:.3g} s; nominal {nominal:.1f} "
-        "ml/min.</p>"
+        # each bearing's own nominal is in its row: the bearings of a machine may have different ones
+        f"<p>Final values: mean over the last {summary['final_window_s']:.3g} s.</p>"
         "<h2>Alarms</h2><table><tr><th>bearing</th><th>set [s]</th><th>cleared [s]</th>"
         f"<th>model consistent</th></tr>{alarms}</table>"
         "<h2>Probes</h2><table><tr><th>probe</th><th>zero offset [um] (estimate &plusmn; std)</th>"
