@@ -96,6 +96,8 @@ STRUCTURE_PARAMETERS = (
     ("pedestal_damping_n_s_m", "pedestal_damping_n_s_m", "N.s/m", 1.0),
     ("bow_um", "bow_m", "um", 1e-6),
     ("bow_phase_deg", "bow_phase_rad", "deg", math.pi / 180),
+    ("side_load_fraction", "side_load_fraction", "1", 1.0),
+    ("side_load_angle_deg", "side_load_angle_deg", "deg", 1.0),
 )
 
 SAMPLING_PERIOD_S = 1e-3
