@@ -326,3 +326,51 @@ def test_a_short_pedestal_case_runs_end_to_end_with_the_discrepancy_in_its_recor
         ratio.append(np.abs(2.0 * np.mean((true - true.mean(axis=0)) * phasor[:, None], axis=0)))
     # the exact 1x solve gives 0.69-0.73 of the rigid supports' amplitude
     assert np.all((0.64 < ratio[0] / ratio[1]) & (ratio[0] / ratio[1] < 0.78))
+
+
+@pytest.fixture(scope="module")
+def geared(tmp_path_factory):
+    """The turbine with a 5000 N gear force at its central disc (the bearings' loads the statics')."""
+    from fixtures.venvs import REPO_ROOT
+
+    text = (REPO_ROOT / "models" / "turbine.toml").read_text(encoding="utf-8")
+    path = tmp_path_factory.mktemp("geared") / "geared.toml"
+    path.write_text(text + "\n[[static_forces]]\nnode = 13\nforce_n = 5000.0\nangle_deg = 100.0\n", "utf-8")
+    return load_machine(path)
+
+
+def test_a_side_force_on_a_machine_with_static_forces_adds_to_the_statics_loads(geared):
+    """The plant's bearings carry the statics' loads (weight share and gear reaction) plus the side force: the
+    side force is not lost where the machine's loads come from static forces."""
+    own = Rotor.from_machine(geared)
+    shares = Rotor.from_machine(dataclasses.replace(geared, static_forces=())).bearing_static_loads_n
+    rotor = structural_rotor(geared, PlantStructure(side_load_fraction=0.3))
+
+    def vectors(r):
+        a = r.bearing_load_angles_rad
+        return r.bearing_static_loads_n[:, None] * np.column_stack([-np.sin(a), np.cos(a)])
+
+    expected = vectors(own) + 0.3 * shares[:, None] * np.array([1.0, 0.0])
+    np.testing.assert_allclose(vectors(rotor), expected, rtol=0, atol=1e-9 * shares.max())
+    # the same resultant: the gear force carried at the bearings as its reactions
+    np.testing.assert_allclose(
+        [rotor.static_force[0::4].sum(), rotor.static_force[1::4].sum()],
+        vectors(rotor).sum(axis=0),
+        atol=1e-6,
+    )
+
+
+def test_another_load_split_turns_a_geared_machines_loads_and_needs_solved_tables(geared):
+    """Under the support reactions instead of equal halves the gear machine's loads turn a little: the plant
+    takes its own statics' directions, so the machine's tables (solved at the file's) cannot serve it."""
+    structure = PlantStructure(load_split="reactions")
+    plant = structural_machine(geared, structure)
+    angles = [b.load_angle_rad for b in plant.bearings]
+    assert angles != [b.load_angle_rad for b in geared.bearings]
+    np.testing.assert_allclose(
+        angles, structural_rotor(geared, structure).bearing_load_angles_rad, rtol=1e-12
+    )
+    with pytest.raises(InputError, match="threshold_one_sided needs the machine's load directions") as raised:
+        structural_system(geared, PlantStructure(load_split="reactions", threshold_one_sided=True))
+    assert "\n" not in str(raised.value)
+    assert structural_machine(geared, PlantStructure()) is geared  # nothing turned: the machine's tables

@@ -217,18 +217,22 @@ def structural_bearing(bearing: JournalBearing, structure: PlantStructure) -> Jo
 def structural_machine(machine: Machine, structure: PlantStructure) -> Machine:
     """The machine file as the plant is: its load split, and each bearing's static load (magnitude in
     ``static_loads_given_n``, direction in its ``load_angle_rad``) the vector sum of the machine's load and
-    the structure's side force (module docstring). The bearings keep the machine file's clearance and
-    length (:func:`structural_bearing` applies those)."""
+    the structure's side force (module docstring). A machine with ``static_forces`` whose plant has another
+    load split or a side force gives the plant its bearings' loads, the forces' reactions included, as given
+    loads (the rotor then carries them at the bearings: the journals' statics are the same). The bearings
+    keep the machine file's clearance and length (:func:`structural_bearing` applies those)."""
+    plant = machine
     if structure.load_split is not None and structure.load_split != machine.load_split:
-        machine = dataclasses.replace(machine, load_split=structure.load_split)
-    if structure.side_load_fraction == 0.0:
-        return machine
-    rotor = Rotor.from_machine(machine)
-    shares = Rotor.from_machine(dataclasses.replace(machine, static_loads_given_n=())).bearing_static_loads_n
+        plant = dataclasses.replace(machine, load_split=structure.load_split)
+    if structure.side_load_fraction == 0.0 and (plant is machine or not machine.static_forces):
+        return plant
+    rotor = Rotor.from_machine(plant)
+    weight = dataclasses.replace(plant, static_loads_given_n=(), static_forces=())
+    shares = Rotor.from_machine(weight).bearing_static_loads_n
     side = math.radians(structure.side_load_angle_deg)
     loads, bearings = [], []
     for bearing, load, angle, share in zip(
-        machine.bearings, rotor.bearing_static_loads_n, rotor.bearing_load_angles_rad, shares, strict=True
+        plant.bearings, rotor.bearing_static_loads_n, rotor.bearing_load_angles_rad, shares, strict=True
     ):
         # a load L along bearing angle beta is L (-sin beta, cos beta)
         force = load * np.array([-math.sin(angle), math.cos(angle)])
@@ -236,7 +240,9 @@ def structural_machine(machine: Machine, structure: PlantStructure) -> Machine:
         loads.append(float(np.hypot(*force)))
         turned = math.atan2(-force[0], force[1]) % (2.0 * math.pi)
         bearings.append(dataclasses.replace(bearing, load_angle_rad=turned))
-    return dataclasses.replace(machine, bearings=tuple(bearings), static_loads_given_n=tuple(loads))
+    return dataclasses.replace(
+        plant, bearings=tuple(bearings), static_loads_given_n=tuple(loads), static_forces=()
+    )
 
 
 def structural_rotor(machine: Machine, structure: PlantStructure) -> Rotor:
@@ -292,7 +298,17 @@ def structural_system(
     kind = structure.film_coefficients or machine.dynamic_coefficients
     kinds = (QUASI_STATIC,) if kind == QUASI_STATIC else (QUASI_STATIC, kind)
     loads = rotor.bearing_static_loads_n
-    if not structure.solved_tables:
+    # the machine's tables hold only loads along its bearings' own directions
+    turned = any(
+        p.load_angle_rad != b.load_angle_rad for p, b in zip(plant.bearings, machine.bearings, strict=True)
+    )
+    if turned and structure.threshold_one_sided:
+        raise InputError(
+            "threshold_one_sided needs the machine's load directions: its plant's loads are turned (a side "
+            "force, or static forces under another load split), and the tables solved for them interpolate "
+            "across the flooded threshold"
+        )
+    if not (structure.solved_tables or turned):
         viscosity = machine.bearings[0].viscosity_pa_s  # one oil: every bearing's nominal viscosity
         groups = [
             [
