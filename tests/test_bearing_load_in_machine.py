@@ -144,7 +144,7 @@ def test_a_table_for_the_downward_load_is_refused_for_the_side_loaded_bearing(ma
     )
     stored = dataclasses.asdict(machine.bearings[1])
     assert geometry_mismatch(stored, machine.bearings[1]) is None
-    stored.pop("load_angle_rad")  # a table stored before tables held the direction: downward
+    stored.pop("load_angle_rad")  # a geometry without a direction (the bundled tables'): downward
     assert geometry_mismatch(stored, machine.bearings[0]) is None
 
 

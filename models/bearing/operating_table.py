@@ -426,8 +426,8 @@ def geometry_mismatch(stored: Mapping[str, Any], bearing: JournalBearing) -> str
 
 def load_angle_deg(geometry: Mapping[str, Any]) -> float:
     """The bearing angle [deg] the static load points along in a bearing's geometry (a
-    :class:`JournalBearing` as a dict): 180 (-y, the weight) where a table made before it was stored
-    holds none."""
+    :class:`JournalBearing` as a dict): 180 (-y, the weight) where the geometry holds none (the bundled
+    tables, all loaded downward, do not write it)."""
     return math.degrees(float(geometry.get("load_angle_rad", DOWNWARD_LOAD_RAD)))
 
 
