@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from .bearing.geometry import DOWNWARD_LOAD_RAD, AxialGroove, JournalBearing
+from .bearing.geometry import DOWNWARD_LOAD_RAD, AxialGroove, JournalBearing, load_vector_n
 from .machine_fields import as_node, as_number, frozen_array, read_key, read_real, read_table
 from .oil import DEFAULT_THERMAL_EXPANSION_PER_K, Oil
 from .validation import InputError
@@ -62,9 +62,9 @@ class StaticForce:
     force_n: float
     angle_rad: float
 
-    def vector_n(self) -> tuple[float, float]:
-        """(F_x, F_y) [N]: the force along bearing angle beta is F (-sin beta, cos beta)."""
-        return -self.force_n * math.sin(self.angle_rad), self.force_n * math.cos(self.angle_rad)
+    def vector_n(self) -> np.ndarray:
+        """(F_x, F_y) [N] (:func:`~oilwatch.models.bearing.geometry.load_vector_n`)."""
+        return load_vector_n(self.force_n, self.angle_rad)
 
 
 @dataclass(frozen=True)

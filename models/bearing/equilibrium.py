@@ -91,6 +91,12 @@ def film_force_at_equilibrium(load_n: float, load_angle_rad: float = DOWNWARD_LO
     return np.array([-load_n * math.sin(turn) + 0.0, load_n * math.cos(turn)])
 
 
+def film_forces_at_equilibrium(loads_n, load_angles_rad) -> np.ndarray:
+    """F0 (n, 2) [N] of n bearings (:func:`film_force_at_equilibrium` of each load and its direction)."""
+    forces = [film_force_at_equilibrium(w, a) for w, a in zip(loads_n, load_angles_rad, strict=True)]
+    return np.array(forces).reshape(-1, 2)
+
+
 def _initial_guess(bearing: JournalBearing, load_angle_rad: float) -> np.ndarray:
     """A lightly loaded journal: eccentricity ratio 0.1 at an attitude of 60 deg from the load."""
     angle = math.radians(60.0 - 90.0) + (load_angle_rad - DOWNWARD_LOAD_RAD)

@@ -13,10 +13,25 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from ..validation import InputError, require_finite, require_in_range, require_non_negative, require_positive
 
 DOWNWARD_LOAD_RAD = math.pi
 """Bearing angle of a load along -y (gravity): the default load direction."""
+
+
+def load_vector_n(load_n, angle_rad) -> np.ndarray:
+    """(..., 2) [N]: forces of magnitude ``load_n`` [N] along the bearing angles ``angle_rad`` [rad] (from the
+    top, +y, in the direction of rotation), ``load_n (-sin beta, cos beta)``; scalars or arrays."""
+    return np.stack([-load_n * np.sin(angle_rad), load_n * np.cos(angle_rad)], axis=-1)
+
+
+def load_polar(vector_n) -> tuple[np.ndarray, np.ndarray]:
+    """(magnitudes [N], bearing angles in [0, 2 pi) [rad]) of the forces ``vector_n`` (..., 2) [N]: the
+    inverse of :func:`load_vector_n`."""
+    v = np.asarray(vector_n, dtype=float)
+    return np.hypot(v[..., 0], v[..., 1]), np.arctan2(-v[..., 0], v[..., 1]) % (2.0 * math.pi)
 
 
 @dataclass(frozen=True)

@@ -411,7 +411,7 @@ def geometry_mismatch(stored: Mapping[str, Any], bearing: JournalBearing) -> str
         have, want = float(getattr(bearing, key)), float(stored[key])
         if not math.isclose(have, want, rel_tol=1e-9, abs_tol=1e-15):
             return f"{key} = {want:g}, the bearing has {have:g}"
-    want_load, have_load = load_angle_deg(stored), load_angle_deg(dataclasses.asdict(bearing))
+    want_load, have_load = load_angle_deg(stored), math.degrees(bearing.load_angle_rad)
     if not math.isclose(want_load, have_load, rel_tol=1e-9, abs_tol=1e-9):
         return f"a load along {want_load:g} deg, the bearing's points along {have_load:g} deg"
     want = groove_layout(stored)

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..bearing.geometry import load_polar
 from ..machine import Machine
 from ..machine_sections import Material, StaticForce
 from ..validation import InputError, require_non_negative, require_positive
@@ -307,15 +308,13 @@ def _statics_loads(
     # the journal pushes on its film against the support's reaction
     loads = -_support_reactions(stiffness, applied, bearing_nodes, "static forces")
     loads[:, 1] -= shares
-    magnitudes = np.hypot(loads[:, 0], loads[:, 1])
+    magnitudes, angles = load_polar(loads)
     for b, magnitude in enumerate(magnitudes):
         if not magnitude > 1e-9 * max(shares.max(initial=0.0), 1.0):
             raise InputError(
                 f"bearing {b + 1}: the static forces and the weight cancel on it ({magnitude:.3g} N): a film "
                 "needs a static load"
             )
-    # along bearing angle beta the load is L (-sin beta, cos beta)
-    angles = np.arctan2(-loads[:, 0], loads[:, 1]) % (2.0 * math.pi)
     return magnitudes, angles
 
 

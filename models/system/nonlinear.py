@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..bearing.equilibrium import coefficients_at, film_force_at_equilibrium, static_equilibrium
+from ..bearing.equilibrium import coefficients_at, film_forces_at_equilibrium, static_equilibrium
 from ..bearing.film import solve_film
 from ..bearing.grid import Mesh
 from ..bearing.supply import SupplyFlow
@@ -82,12 +82,9 @@ def reduced_rotor(machine: Machine, speed_hz: float) -> ReducedRotor:
         damping=t.T @ (rotor.damping_matrix + omega * rotor.gyroscopic_matrix) @ t,
         stiffness=t.T @ rotor.stiffness_matrix @ t,
         static_force=t.T @ rotor.static_force,
-        static_film_forces_n=np.array(
-            [
-                film_force_at_equilibrium(w, a)
-                for w, a in zip(rotor.bearing_static_loads_n, rotor.bearing_load_angles_rad, strict=True)
-            ]
-        ).reshape(-1, 2),
+        static_film_forces_n=film_forces_at_equilibrium(
+            rotor.bearing_static_loads_n, rotor.bearing_load_angles_rad
+        ),
         unbalance=t.T @ force,
         bearing_maps=maps,
         static_loads_n=np.asarray(rotor.bearing_static_loads_n, dtype=float),

@@ -45,7 +45,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy.linalg import lu_factor, lu_solve, solve
 
-from ..bearing.equilibrium import film_force_at_equilibrium
+from ..bearing.equilibrium import film_forces_at_equilibrium
 from ..rotor.assembly import Rotor
 from ..rotor.pedestals import Pedestals
 from ..validation import InputError, require_finite, require_non_negative, require_positive
@@ -167,12 +167,9 @@ class RotorBearingSystem:
             self._append_pedestals(pedestals, len(rotor.bearing_nodes))
         self.static_loads_n = np.asarray(rotor.bearing_static_loads_n, dtype=float)
         #: (n_bearings, 2) each film's force at its equilibrium, f0, against its static load [N]
-        self.static_film_forces_n = np.array(
-            [
-                film_force_at_equilibrium(load, angle)
-                for load, angle in zip(self.static_loads_n, rotor.bearing_load_angles_rad, strict=True)
-            ]
-        ).reshape(-1, 2)
+        self.static_film_forces_n = film_forces_at_equilibrium(
+            self.static_loads_n, rotor.bearing_load_angles_rad
+        )
         self.n_coordinates = self.transform.shape[1]
         self.n_states = 2 * self.n_coordinates
         self._mass_lu = lu_factor(self.mass)

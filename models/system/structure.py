@@ -53,7 +53,7 @@ from dataclasses import dataclass, field, fields
 import numpy as np
 
 from ..bearing.coefficient_kinds import COEFFICIENT_KINDS, QUASI_STATIC
-from ..bearing.geometry import JournalBearing
+from ..bearing.geometry import JournalBearing, load_polar, load_vector_n
 from ..bearing.table import CoefficientTable, compute_table, flooded_threshold
 from ..cache import user_cache_dir
 from ..machine import Machine
@@ -229,19 +229,15 @@ def structural_machine(machine: Machine, structure: PlantStructure) -> Machine:
     rotor = Rotor.from_machine(plant)
     weight = dataclasses.replace(plant, static_loads_given_n=(), static_forces=())
     shares = Rotor.from_machine(weight).bearing_static_loads_n
-    side = math.radians(structure.side_load_angle_deg)
-    loads, bearings = [], []
-    for bearing, load, angle, share in zip(
-        plant.bearings, rotor.bearing_static_loads_n, rotor.bearing_load_angles_rad, shares, strict=True
-    ):
-        # a load L along bearing angle beta is L (-sin beta, cos beta)
-        force = load * np.array([-math.sin(angle), math.cos(angle)])
-        force += structure.side_load_fraction * share * np.array([-math.sin(side), math.cos(side)])
-        loads.append(float(np.hypot(*force)))
-        turned = math.atan2(-force[0], force[1]) % (2.0 * math.pi)
-        bearings.append(dataclasses.replace(bearing, load_angle_rad=turned))
+    side = load_vector_n(structure.side_load_fraction * shares, math.radians(structure.side_load_angle_deg))
+    loads, angles = load_polar(
+        load_vector_n(rotor.bearing_static_loads_n, rotor.bearing_load_angles_rad) + side
+    )
+    bearings = tuple(
+        dataclasses.replace(b, load_angle_rad=float(a)) for b, a in zip(plant.bearings, angles, strict=True)
+    )
     return dataclasses.replace(
-        plant, bearings=tuple(bearings), static_loads_given_n=tuple(loads), static_forces=()
+        plant, bearings=bearings, static_loads_given_n=tuple(float(w) for w in loads), static_forces=()
     )
 
 
